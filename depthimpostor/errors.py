@@ -1,0 +1,42 @@
+"""The package's one exception hierarchy.
+
+Every error a user can cause (a bad scene file, a missing model, no usable OpenGL) is a
+`DepthImpostorError`; the CLI prints its message on one line and exits with `exit_code`.
+Anything else escaping is a bug in depthimpostor, not in the input.
+"""
+
+from __future__ import annotations
+
+
+class DepthImpostorError(Exception):
+    """Base class: an error with a message meant for the user, and the CLI exit code."""
+
+    exit_code: int = 1
+
+
+class SceneError(DepthImpostorError):
+    """A scene file (or a value in it) is not what the format expects.
+
+    The message reads `FILE: dotted.path: expected ..., got ...`.
+    """
+
+    exit_code = 2
+
+    def __init__(self, source: str, path: str, message: str) -> None:
+        self.source = source
+        self.path = path
+        self.detail = message
+        location = f"{source}: {path}" if path else source
+        super().__init__(f"{location}: {message}")
+
+
+class ContextError(DepthImpostorError):
+    """No OpenGL context could be created; the message names what was tried and what to install."""
+
+    exit_code = 3
+
+
+class ShaderError(DepthImpostorError):
+    """A GLSL program failed to preprocess, compile or link."""
+
+    exit_code = 4
