@@ -1,0 +1,82 @@
+"""Values shared by Python and GLSL, defined once here and injected into every shader.
+
+`glsl_constants()` turns them into `#define` lines; `depth_image_struct_glsl()` declares the
+std140 record that Python packs with `DEPTH_IMAGE_DTYPE`. No GLSL file spells out any of these.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+
+import numpy as np
+
+
+class Algorithm(IntEnum):
+    """The lecture's two ray/depth-image intersection algorithms."""
+
+    BASIC = 0      # unproject every step and intersect 3-D segments
+    OPTIMIZED = 1  # intersect 2-D segments in OpenGL depth, no unprojection
+
+
+class MaterialKind(IntEnum):
+    DIFFUSE = 0
+    CHECKER = 1
+    MIRROR = 2
+
+
+class LightKind(IntEnum):
+    DIRECTIONAL = 0
+    POINT = 1
+
+
+#: Lights a scene may have; the shading chunk loops over a uniform array of this size.
+MAX_LIGHTS = 8
+#: Analytic planes (floors, walls) a reflected ray is intersected with exactly.
+MAX_ANALYTIC_PLANES = 8
+#: Depth images one mirror may own (one per reflected object): bounds the uniform block,
+#: 64 x 144 bytes = 9 KiB, well under GL's guaranteed 16 KiB.
+MAX_DEPTH_IMAGES_PER_MIRROR = 64
+#: A depth-image sample at or beyond this OpenGL depth is background: nothing was rasterized there.
+BACKGROUND_DEPTH = 1.0
+#: Object id reported for a reflected ray that hit nothing (the environment).
+NO_OBJECT = -1
+
+#: The std140 record of one depth image, as vec4 / ivec4 rows. `eye.w` holds the object id,
+#: `inverse_row*` are the rows of [a b c]^-1 (projection into the camera's (x, y, w)),
+#: `depth_range` is (w_near, w_far, width, height) and `tile` the (x, y) pixel origin of the
+#: image in the atlas.
+DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
+    ("eye", "vec4"),
+    ("a", "vec4"),
+    ("b", "vec4"),
+    ("c", "vec4"),
+    ("inverse_row0", "vec4"),
+    ("inverse_row1", "vec4"),
+    ("inverse_row2", "vec4"),
+    ("depth_range", "vec4"),
+    ("tile", "ivec4"),
+)
+
+DEPTH_IMAGE_DTYPE = np.dtype(
+    [(name, "<i4" if glsl_type.startswith("i") else "<f4", (4,)) for name, glsl_type in DEPTH_IMAGE_FIELDS]
+)
+
+
+def depth_image_struct_glsl() -> str:
+    members = "\n".join(f"    {glsl_type} {name};" for name, glsl_type in DEPTH_IMAGE_FIELDS)
+    return f"struct DepthImage {{\n{members}\n}};\n"
+
+
+def glsl_constants() -> dict[str, str]:
+    """Every shared constant as a GLSL define (name -> value text)."""
+    defines: dict[str, str] = {
+        "MAX_LIGHTS": str(MAX_LIGHTS),
+        "MAX_ANALYTIC_PLANES": str(MAX_ANALYTIC_PLANES),
+        "MAX_DEPTH_IMAGES_PER_MIRROR": str(MAX_DEPTH_IMAGES_PER_MIRROR),
+        "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
+        "NO_OBJECT": str(NO_OBJECT),
+    }
+    for enum in (Algorithm, MaterialKind, LightKind):
+        prefix = {"Algorithm": "ALGORITHM", "MaterialKind": "MATERIAL", "LightKind": "LIGHT"}[enum.__name__]
+        defines.update({f"{prefix}_{member.name}": str(int(member)) for member in enum})
+    return defines

@@ -1,0 +1,133 @@
+"""The one place where OpenGL contexts are made.
+
+Headless rendering uses EGL (Mesa's llvmpipe on a machine without a GPU, the vendor driver on one
+with); where EGL cannot give a context, OSMesa can, through a small ctypes loader that moderngl
+accepts as `create_context(context=...)`. The interactive viewer's glfw window makes its context
+through `create_window_context` here too, so that every context is made, checked and described in
+one module.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+from typing import Literal
+
+import moderngl
+
+from .errors import ContextError
+
+Backend = Literal["auto", "egl", "osmesa"]
+
+#: GL 3.3 core is what the shaders are written against (`#version 330 core`).
+REQUIRED_GL_VERSION = 330
+
+_INSTALL_HINT = (
+    "install Mesa's EGL (Debian/Ubuntu: apt-get install -y libegl1 libegl-mesa0) "
+    "or OSMesa (apt-get install -y libosmesa6)"
+)
+
+# OSMesa attribute names from GL/osmesa.h.
+_OSMESA_FORMAT = 0x22
+_OSMESA_DEPTH_BITS = 0x30
+_OSMESA_STENCIL_BITS = 0x31
+_OSMESA_PROFILE = 0x33
+_OSMESA_CORE_PROFILE = 0x34
+_OSMESA_CONTEXT_MAJOR_VERSION = 0x36
+_OSMESA_CONTEXT_MINOR_VERSION = 0x37
+_GL_RGBA = 0x1908
+_GL_UNSIGNED_BYTE = 0x1401
+
+
+class OSMesaLoader:
+    """A moderngl context loader backed by OSMesa (Mesa's off-screen software renderer).
+
+    moderngl asks a loader for `load_opengl_function(name)` and calls `release()`; the context
+    renders into a tiny client-memory buffer that we never read, since all our drawing goes into
+    framebuffer objects.
+    """
+
+    def __init__(self, major: int = 3, minor: int = 3) -> None:
+        path = ctypes.util.find_library("OSMesa") or "libOSMesa.so.8"
+        self._lib = ctypes.CDLL(path)
+        self._lib.OSMesaCreateContextAttribs.restype = ctypes.c_void_p
+        self._lib.OSMesaCreateContextAttribs.argtypes = [ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
+        self._lib.OSMesaMakeCurrent.argtypes = [
+            ctypes.c_void_p, ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_int,
+        ]
+        self._lib.OSMesaGetProcAddress.restype = ctypes.c_void_p
+        self._lib.OSMesaGetProcAddress.argtypes = [ctypes.c_char_p]
+        self._lib.OSMesaDestroyContext.argtypes = [ctypes.c_void_p]
+        attributes = [
+            _OSMESA_FORMAT, _GL_RGBA,
+            _OSMESA_DEPTH_BITS, 24,
+            _OSMESA_STENCIL_BITS, 8,
+            _OSMESA_PROFILE, _OSMESA_CORE_PROFILE,
+            _OSMESA_CONTEXT_MAJOR_VERSION, major,
+            _OSMESA_CONTEXT_MINOR_VERSION, minor,
+            0,
+        ]
+        self._context = self._lib.OSMesaCreateContextAttribs((ctypes.c_int * len(attributes))(*attributes), None)
+        if not self._context:
+            raise ContextError(f"OSMesa ({path}) could not create a GL {major}.{minor} core context")
+        self._buffer = (ctypes.c_ubyte * 4)()
+        if not self._lib.OSMesaMakeCurrent(self._context, self._buffer, _GL_UNSIGNED_BYTE, 1, 1):
+            raise ContextError("OSMesaMakeCurrent failed")
+
+    def load_opengl_function(self, name: str) -> int:
+        return self._lib.OSMesaGetProcAddress(name.encode()) or 0
+
+    def __enter__(self) -> None:
+        self._lib.OSMesaMakeCurrent(self._context, self._buffer, _GL_UNSIGNED_BYTE, 1, 1)
+
+    def __exit__(self, *args: object) -> None:
+        pass
+
+    def release(self) -> None:
+        if self._context:
+            self._lib.OSMesaDestroyContext(self._context)
+            self._context = None
+
+
+def _egl_context() -> moderngl.Context:
+    return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL_VERSION)
+
+
+def _osmesa_context() -> moderngl.Context:
+    return moderngl.create_context(context=OSMesaLoader(), require=REQUIRED_GL_VERSION)
+
+
+_BACKENDS = {"egl": _egl_context, "osmesa": _osmesa_context}
+
+
+def create_context(backend: Backend | None = None) -> moderngl.Context:
+    """Create a headless GL 3.3+ core context.
+
+    `backend` "auto" (the default, or the DEPTHIMPOSTOR_GL_BACKEND environment variable) tries EGL
+    first and OSMesa second. Raises `ContextError` naming every backend tried, why each failed,
+    and what to install.
+    """
+    choice = backend or os.environ.get("DEPTHIMPOSTOR_GL_BACKEND", "auto")
+    if choice not in ("auto", *_BACKENDS):
+        raise ContextError(f"unknown GL backend {choice!r}; expected one of: auto, {', '.join(_BACKENDS)}")
+    order = list(_BACKENDS) if choice == "auto" else [choice]
+    failures: list[str] = []
+    for name in order:
+        try:
+            ctx = _BACKENDS[name]()
+        except Exception as error:  # each backend fails in its own way (OSError, moderngl.Error, ...)
+            failures.append(f"{name}: {error}".strip())
+            continue
+        ctx.extra = {"backend": name}
+        return ctx
+    raise ContextError(
+        f"no OpenGL {REQUIRED_GL_VERSION // 100}.{REQUIRED_GL_VERSION % 100 // 10} core context could be created "
+        f"(tried {'; '.join(failures)}); {_INSTALL_HINT}"
+    )
+
+
+def describe(ctx: moderngl.Context) -> str:
+    """One line naming the backend, renderer and GL version, for logs and benchmark headers."""
+    backend = (ctx.extra or {}).get("backend", "window")
+    return f"{ctx.info['GL_RENDERER']} ({ctx.info['GL_VERSION']}, {backend})"

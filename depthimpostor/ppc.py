@@ -1,0 +1,263 @@
+"""The planar pinhole camera (PPC) of a depth image, in the lecture's notation.
+
+    C  the eye;
+    a  the vector along an image row, one pixel long;
+    b  the vector along an image column (downwards), one pixel long;
+    c  the vector from the eye to the top-left corner of the image.
+
+A pixel (u, v) is the point P = C + a*u + b*v + c; pixel (i, j) covers [i, i+1] x [j, j+1] and its
+centre is (i + 0.5, j + 0.5). The surface point sampled there is Q = C + (a*u + b*v + c) * w, so
+projecting a point Q is solving [a b c] (u w, v w, w)^T = Q - C, and w is the point's depth in
+units of the image plane's distance (w = 1 on the image plane).
+
+OpenGL depth (the [0, 1] window depth of a standard perspective projection) is, in terms of w,
+d(w) = (1/w_near - 1/w) / (1/w_near - 1/w_far): affine in 1/w and therefore affine in screen
+space along the projection of any 3-D segment, which is what makes the optimized intersection
+(2-D segments in (screen parameter, d)) exact.
+
+The GL matrices rasterize exactly what `project` predicts: window x = u, window y = v (so image
+row 0, the top row, is GL framebuffer row 0, and `fbo.read()` returns rows top to bottom), and
+window depth = d(w).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .constants import DEPTH_IMAGE_DTYPE
+
+Array = NDArray[np.float64]
+
+
+class FrustumFitError(ValueError):
+    """No pinhole frustum from this eye can contain these points (they surround or touch the eye)."""
+
+
+def _unit(vector: Array) -> Array:
+    return vector / np.linalg.norm(vector)
+
+
+def _orthonormal_frame(forward: Array, up_hint: Array) -> tuple[Array, Array, Array]:
+    """(right, down, forward) with `down` as close to -up_hint as forward allows."""
+    forward = _unit(forward)
+    if abs(float(np.dot(_unit(up_hint), forward))) > 0.999:
+        # Looking straight up or down: any perpendicular will do, pick one that is stable.
+        up_hint = np.array([0.0, 0.0, -1.0]) if abs(forward[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    right = _unit(np.cross(forward, up_hint))
+    down = np.cross(forward, right)
+    return right, down, forward
+
+
+@dataclass(frozen=True, eq=False)
+class PPC:
+    C: Array
+    a: Array
+    b: Array
+    c: Array
+    width: int
+    height: int
+    near: float  # distance of the near plane from C along the optical axis, > 0
+    far: float
+
+    # ----------------------------------------------------------------- construction
+    @classmethod
+    def look_at(
+        cls,
+        eye: ArrayLike,
+        target: ArrayLike,
+        up: ArrayLike,
+        fov: float,
+        width: int,
+        height: int,
+        near: float = 0.05,
+        far: float = 200.0,
+    ) -> PPC:
+        """A camera at `eye` looking at `target`; `fov` is the vertical field of view in degrees."""
+        eye_point = np.asarray(eye, dtype=np.float64)
+        right, down, forward = _orthonormal_frame(np.asarray(target, float) - eye_point, np.asarray(up, float))
+        pixel = 2.0 * np.tan(np.radians(fov) / 2.0) / height  # image plane at distance 1
+        a = right * pixel
+        b = down * pixel
+        c = forward - a * (width / 2.0) - b * (height / 2.0)
+        return cls(eye_point, a, b, c, int(width), int(height), float(near), float(far))
+
+    @classmethod
+    def fitted(cls, eye: ArrayLike, points: ArrayLike, center: ArrayLike, width: int, height: int) -> PPC:
+        """The tightest frustum from `eye`, looking at `center`, that contains every point.
+
+        Tight bounds spend every pixel on the object and keep the near/far ratio small, which is
+        what keeps a 32-bit float OpenGL depth precise. Raises FrustumFitError when a point lies
+        at or behind the eye's plane (the object surrounds or touches the eye).
+        """
+        eye_point = np.asarray(eye, dtype=np.float64)
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3) - eye_point
+        right, down, forward = _orthonormal_frame(np.asarray(center, float) - eye_point, np.array([0.0, 1.0, 0.0]))
+        z = pts @ forward
+        extent = float(np.max(np.linalg.norm(pts, axis=1)))
+        # Below this the tangent bounds explode (the object wraps around the eye): no image
+        # plane can hold the projection, so refuse instead of producing a degenerate camera.
+        if extent == 0.0 or float(z.min()) <= 1e-3 * extent:
+            raise FrustumFitError("the points surround or touch the eye; no pinhole frustum contains them")
+        tan_x = (pts @ right) / z
+        tan_y = (pts @ down) / z
+        # One pixel of margin on each side so that silhouette samples are rasterized in full.
+        x0, x1 = float(tan_x.min()), float(tan_x.max())
+        y0, y1 = float(tan_y.min()), float(tan_y.max())
+        span_x = max(x1 - x0, 1e-9) * (1.0 + 2.0 / width)
+        span_y = max(y1 - y0, 1e-9) * (1.0 + 2.0 / height)
+        x0 -= span_x / width
+        y0 -= span_y / height
+        a = right * (span_x / width)
+        b = down * (span_y / height)
+        c = forward + right * x0 + down * y0
+        # The near/far margins keep the closest and farthest vertices off the clip planes.
+        return cls(eye_point, a, b, c, int(width), int(height), float(z.min()) * 0.995, float(z.max()) * 1.005)
+
+    # ----------------------------------------------------------------- derived quantities
+    @cached_property
+    def matrix(self) -> Array:
+        """[a b c] as columns: maps (u w, v w, w) to Q - C."""
+        return np.column_stack([self.a, self.b, self.c])
+
+    @cached_property
+    def inverse(self) -> Array:
+        return np.linalg.inv(self.matrix)
+
+    @cached_property
+    def forward(self) -> Array:
+        """Unit optical axis (a x b points away from the eye, since a goes right and b down)."""
+        return _unit(np.cross(self.a, self.b))
+
+    @cached_property
+    def focal(self) -> float:
+        """Distance from the eye to the image plane along the optical axis."""
+        return float(np.dot(self.c, self.forward))
+
+    @property
+    def w_near(self) -> float:
+        return self.near / self.focal
+
+    @property
+    def w_far(self) -> float:
+        return self.far / self.focal
+
+    # ----------------------------------------------------------------- projection
+    def camera_coordinates(self, points: ArrayLike) -> Array:
+        """(u w, v w, w) of world points, shape (..., 3)."""
+        return (np.asarray(points, dtype=np.float64) - self.C) @ self.inverse.T
+
+    def project(self, points: ArrayLike) -> Array:
+        """(u, v, w) of world points; u and v in pixels, w the depth (1 on the image plane)."""
+        xyz = self.camera_coordinates(points)
+        w = xyz[..., 2]
+        return np.stack([xyz[..., 0] / w, xyz[..., 1] / w, w], axis=-1)
+
+    def unproject(self, u: ArrayLike, v: ArrayLike, w: ArrayLike) -> Array:
+        """Q = C + (a u + b v + c) w."""
+        u, v, w = (np.asarray(x, dtype=np.float64) for x in (u, v, w))
+        return self.C + (u[..., None] * self.a + v[..., None] * self.b + self.c) * w[..., None]
+
+    def ray_direction(self, u: ArrayLike, v: ArrayLike) -> Array:
+        """a u + b v + c: the (unnormalized) direction of the ray through image point (u, v)."""
+        u, v = np.asarray(u, dtype=np.float64), np.asarray(v, dtype=np.float64)
+        return u[..., None] * self.a + v[..., None] * self.b + self.c
+
+    def opengl_depth(self, w: ArrayLike) -> Array:
+        """OpenGL window depth in [0, 1] of a point at depth w (0 on the near plane, 1 on the far)."""
+        w = np.asarray(w, dtype=np.float64)
+        return self.w_far * (w - self.w_near) / (w * (self.w_far - self.w_near))
+
+    def w_from_opengl_depth(self, depth: ArrayLike) -> Array:
+        d = np.asarray(depth, dtype=np.float64)
+        return 1.0 / (1.0 / self.w_near - d * (1.0 / self.w_near - 1.0 / self.w_far))
+
+    # ----------------------------------------------------------------- frustum clipping
+    def clip_ray(self, origins: ArrayLike, directions: ArrayLike) -> tuple[NDArray[np.bool_], Array, Array]:
+        """Clip rays origin + t * direction, t >= 0, to the frustum (near and far planes included).
+
+        Works in camera coordinates (x, y, w) = [a b c]^-1 (Q - C), where the frustum is the
+        intersection of six half-spaces linear in (x, y, w): w >= w_near, w <= w_far, x >= 0,
+        x <= width * w, y >= 0, y <= height * w. Clipping each is a Liang-Barsky step that never
+        divides by w, so rays that start behind the eye or cross its plane are handled before any
+        perspective divide. Returns (inside, t_enter, t_exit).
+        """
+        p0 = self.camera_coordinates(origins)
+        dp = np.asarray(directions, dtype=np.float64) @ self.inverse.T
+        t_enter = np.zeros(p0.shape[:-1])
+        t_exit = np.full(p0.shape[:-1], np.inf)
+        inside = np.ones(p0.shape[:-1], dtype=bool)
+        for value, rate in self._half_spaces(p0, dp):
+            parallel = rate == 0.0
+            inside &= ~(parallel & (value < 0.0))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = -value / rate
+            t_enter = np.where(~parallel & (rate > 0.0), np.maximum(t_enter, t), t_enter)
+            t_exit = np.where(~parallel & (rate < 0.0), np.minimum(t_exit, t), t_exit)
+        inside &= t_enter <= t_exit
+        return inside, t_enter, t_exit
+
+    def _half_spaces(self, p0: Array, dp: Array) -> list[tuple[Array, Array]]:
+        """Each frustum half-space as f(t) = value + rate * t >= 0 along the ray."""
+        x, y, w = p0[..., 0], p0[..., 1], p0[..., 2]
+        dx, dy, dw = dp[..., 0], dp[..., 1], dp[..., 2]
+        return [
+            (w - self.w_near, dw),
+            (self.w_far - w, -dw),
+            (x, dx),
+            (self.width * w - x, self.width * dw - dx),
+            (y, dy),
+            (self.height * w - y, self.height * dw - dy),
+        ]
+
+    # ----------------------------------------------------------------- OpenGL
+    @cached_property
+    def view_matrix(self) -> Array:
+        """World -> eye space (rigid; GL convention: x right, y up, looking down -z)."""
+        right, down, forward = _orthonormal_frame(self.forward, -self.b)
+        rotation = np.stack([right, -down, -forward])
+        view = np.eye(4)
+        view[:3, :3] = rotation
+        view[:3, 3] = -rotation @ self.C
+        return view
+
+    @cached_property
+    def projection_matrix(self) -> Array:
+        """Eye space -> clip space, such that NDC x = 2u/width - 1, y = 2v/height - 1, z = 2d - 1."""
+        # Camera coordinates (x, y, w) from eye-space coordinates: [a b c]^-1 R^T.
+        to_camera = self.inverse @ self.view_matrix[:3, :3].T
+        wn, wf = self.w_near, self.w_far
+        depth_scale = (wf + wn) / (wf - wn)
+        depth_offset = -2.0 * wn * wf / (wf - wn)
+        x_row, y_row, w_row = to_camera
+        projection = np.zeros((4, 4))
+        projection[0, :3] = 2.0 * x_row / self.width - w_row
+        projection[1, :3] = 2.0 * y_row / self.height - w_row
+        projection[2, :3] = depth_scale * w_row
+        projection[2, 3] = depth_offset
+        projection[3, :3] = w_row
+        return projection
+
+    @property
+    def view_projection(self) -> Array:
+        return self.projection_matrix @ self.view_matrix
+
+    def gl_bytes(self, matrix: Array) -> bytes:
+        """A matrix as GL wants it: float32, column-major."""
+        return np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes()
+
+    def depth_image_record(self, object_id: int, tile_origin: tuple[int, int]) -> np.void:
+        """This camera packed as one `DepthImage` std140 record (see constants.DEPTH_IMAGE_FIELDS)."""
+        record = np.zeros((), dtype=DEPTH_IMAGE_DTYPE)
+        record["eye"] = (*self.C, float(object_id))
+        record["a"][:3] = self.a
+        record["b"][:3] = self.b
+        record["c"][:3] = self.c
+        for row in range(3):
+            record[f"inverse_row{row}"][:3] = self.inverse[row]
+        record["depth_range"] = (self.w_near, self.w_far, self.width, self.height)
+        record["tile"] = (tile_origin[0], tile_origin[1], self.width, self.height)
+        return record

@@ -1,0 +1,173 @@
+"""GLSL sources: a tiny `#include` preprocessor, injected defines, a program cache, readable errors.
+
+- `#include "x.glsl"` resolves relative to the including file (or to `shaders/`), is merged once
+  per program, and is wrapped in `#line` directives whose source-string numbers map back to file
+  names, so that a compile error points at the right line of the right file.
+- Defines go in as a prefix right after `#version`; the body is never rewritten.
+- Programs are cached by (vertex, fragment, defines) per context and compiled once.
+- Files under `generated/` are not on disk: Python writes them from `constants.py` so that struct
+  layouts exist in one place.
+"""
+
+from __future__ import annotations
+
+import posixpath
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import moderngl
+
+from .constants import depth_image_struct_glsl, glsl_constants
+from .errors import ShaderError
+from .resources import shaders_dir
+
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+_MAX_INCLUDE_DEPTH = 16
+#: Some drivers (Mesa among them) report source-string 0 whatever `#line L N` said, so the file
+#: number is also encoded in the line number: line = file * stride + line in file.
+_LINE_STRIDE = 10000
+#: Mesa / Intel: `0:12(5): error: ...`; NVIDIA: `0(12) : error C1008: ...`.
+_ERROR_LOCATION = re.compile(r"^\s*(\d+)(?::(\d+)\(\d+\)|\((\d+)\))\s*:?\s*(.*)$")
+
+Defines = Mapping[str, str | int | float]
+
+
+def _line_directive(file_number: int, line: int) -> str:
+    return f"#line {file_number * _LINE_STRIDE + line} {file_number}"
+
+
+def _generated_sources() -> dict[str, str]:
+    return {"generated/depth_image.glsl": depth_image_struct_glsl()}
+
+
+@dataclass
+class PreprocessedSource:
+    text: str
+    files: list[str] = field(default_factory=list)  # source-string number -> file name
+
+
+class ShaderLibrary:
+    """Reads and preprocesses the GLSL files of one shaders/ folder."""
+
+    def __init__(self, root: Path | None = None) -> None:
+        self.root = root or shaders_dir()
+        self.generated = _generated_sources()
+
+    def read(self, name: str) -> str:
+        if name in self.generated:
+            return self.generated[name]
+        path = self.root / name
+        if not path.is_file():
+            raise ShaderError(f"shader file {name!r} not found in {self.root}")
+        return path.read_text(encoding="utf-8")
+
+    def preprocess(self, name: str, defines: Defines) -> PreprocessedSource:
+        lines = self.read(name).splitlines()
+        version_index = next((i for i, line in enumerate(lines) if line.strip()), None)
+        if version_index is None or not lines[version_index].startswith("#version"):
+            raise ShaderError(f"{name}: the first line must be a #version directive")
+        result = PreprocessedSource(text="", files=[name])
+        prefix = [lines[version_index]]
+        prefix += [f"#define {key} {value}" for key, value in {**glsl_constants(), **defines}.items()]
+        body = self._expand(name, lines[version_index + 1 :], version_index + 2, result, included=set(), depth=0)
+        result.text = "\n".join(prefix + [_line_directive(0, version_index + 2)] + body) + "\n"
+        return result
+
+    def _expand(
+        self, name: str, lines: list[str], first_line: int, result: PreprocessedSource, included: set[str], depth: int
+    ) -> list[str]:
+        if depth > _MAX_INCLUDE_DEPTH:
+            raise ShaderError(f"{name}: #include nested deeper than {_MAX_INCLUDE_DEPTH} (a cycle?)")
+        file_number = result.files.index(name)
+        out: list[str] = []
+        for offset, line in enumerate(lines):
+            match = _INCLUDE.match(line)
+            if not match:
+                out.append(line)
+                continue
+            target = self._resolve(name, match.group(1))
+            if target not in included:
+                included.add(target)
+                result.files.append(target)
+                out.append(f"// begin include {target}")
+                out.append(_line_directive(len(result.files) - 1, 1))
+                out += self._expand(target, self.read(target).splitlines(), 1, result, included, depth + 1)
+                out.append(f"// end include {target}")
+            out.append(_line_directive(file_number, first_line + offset + 1))
+        return out
+
+    def _resolve(self, including: str, target: str) -> str:
+        relative = posixpath.normpath(posixpath.join(posixpath.dirname(including), target))
+        for candidate in (relative, posixpath.normpath(target)):
+            if candidate in self.generated or (self.root / candidate).is_file():
+                return candidate
+        raise ShaderError(f"{including}: #include \"{target}\" not found (looked in {Path(including).parent}/ and shaders/)")
+
+
+def _format_compile_error(
+    program: str, defines: Defines, log: str, sources: Mapping[str, PreprocessedSource], library: ShaderLibrary
+) -> str:
+    """Turn a driver's log into 'file:line: message' with the offending lines shown."""
+    report = [f"GLSL program {program!r} failed to build (defines: {dict(defines) or 'none'})"]
+    stage_source = next(iter(sources.values()))
+    for raw in log.splitlines():
+        if raw.strip().lower().endswith("_shader") and raw.strip().split("_")[0] in sources:
+            stage_source = sources[raw.strip().split("_")[0]]
+        match = _ERROR_LOCATION.match(raw)
+        if not match or "error" not in raw.lower():
+            continue
+        file_number, line_number = divmod(int(match.group(2) or match.group(3)), _LINE_STRIDE)
+        files = stage_source.files
+        file_name = files[file_number] if file_number < len(files) else f"<source {file_number}>"
+        report.append(f"{file_name}:{line_number}: {match.group(4).strip()}")
+        try:
+            text = library.read(file_name).splitlines()
+        except ShaderError:
+            continue
+        for number in range(max(1, line_number - 2), min(len(text), line_number + 2) + 1):
+            marker = ">>" if number == line_number else "  "
+            report.append(f"  {marker} {number:4d} | {text[number - 1]}")
+    if len(report) == 1:
+        report.append(log.strip())
+    return "\n".join(report)
+
+
+class ProgramCache:
+    """Compiles each (vertex, fragment, defines) program once per context and owns them."""
+
+    def __init__(self, ctx: moderngl.Context, library: ShaderLibrary | None = None) -> None:
+        self.ctx = ctx
+        self.library = library or ShaderLibrary()
+        self._programs: dict[tuple[str, str, tuple[tuple[str, str], ...]], moderngl.Program] = {}
+
+    def get(self, vertex: str, fragment: str, defines: Defines | None = None) -> moderngl.Program:
+        defines = dict(defines or {})
+        key = (vertex, fragment, tuple(sorted((k, str(v)) for k, v in defines.items())))
+        program = self._programs.get(key)
+        if program is None:
+            program = self._build(vertex, fragment, defines)
+            self._programs[key] = program
+        return program
+
+    @property
+    def variants(self) -> list[tuple[str, str, tuple[tuple[str, str], ...]]]:
+        """The keys of every program compiled so far (for plans, stats and tests)."""
+        return list(self._programs)
+
+    def _build(self, vertex: str, fragment: str, defines: Defines) -> moderngl.Program:
+        sources = {
+            "vertex": self.library.preprocess(vertex, defines),
+            "fragment": self.library.preprocess(fragment, defines),
+        }
+        try:
+            return self.ctx.program(vertex_shader=sources["vertex"].text, fragment_shader=sources["fragment"].text)
+        except moderngl.Error as error:
+            name = f"{vertex} + {fragment}"
+            raise ShaderError(_format_compile_error(name, defines, str(error), sources, self.library)) from None
+
+    def release(self) -> None:
+        for program in self._programs.values():
+            program.release()
+        self._programs.clear()

@@ -1,0 +1,24 @@
+#version 330 core
+// Diffuse and checker objects, for the camera view and for baking depth images (WRITE_DEPTH_IMAGE:
+// the window depth also goes to a 32-bit float attachment, the depth image's Z).
+#include "lib/common.glsl"
+#include "lib/shading.glsl"
+
+uniform Material u_material;
+
+in vec3 v_world_position;
+in vec3 v_local_position;
+in vec3 v_world_normal;
+
+layout(location = 0) out vec4 out_color;
+#if WRITE_DEPTH_IMAGE
+layout(location = 1) out float out_depth;
+#endif
+
+void main() {
+    vec3 normal = safe_normalize(v_world_normal, vec3(0.0, 1.0, 0.0));
+    out_color = vec4(shade(material_albedo(u_material, v_local_position), v_world_position, normal), 1.0);
+#if WRITE_DEPTH_IMAGE
+    out_depth = gl_FragCoord.z;
+#endif
+}

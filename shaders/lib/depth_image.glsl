@@ -1,0 +1,193 @@
+// Ray / depth-image intersection: the lecture's two algorithms, shared by the mirror pass and the
+// GPU ray query. depthimpostor/reference.py implements the same functions with the same names.
+#include "../generated/depth_image.glsl"
+
+uniform sampler2D u_impostor_color;  // atlas of every depth image's colours (RGBA8)
+uniform sampler2D u_impostor_depth;  // atlas of their OpenGL window depths (R32F), 1.0 = background
+
+struct RayHit {
+    bool hit;
+    float t;              // ray parameter: hit point = origin + t * direction
+    vec2 image_position;  // (u, v) in the depth image, pixels
+    vec3 color;
+    float object_id;
+    int samples;          // depth-image samples read
+};
+
+RayHit no_hit(int samples) {
+    return RayHit(false, 0.0, vec2(0.0), vec3(0.0), float(NO_OBJECT), samples);
+}
+
+// (u w, v w, w) of a world-space vector: [a b c]^-1 applied row by row.
+vec3 camera_coordinates(DepthImage image, vec3 world_vector) {
+    return vec3(dot(image.inverse_row0.xyz, world_vector),
+                dot(image.inverse_row1.xyz, world_vector),
+                dot(image.inverse_row2.xyz, world_vector));
+}
+
+float opengl_depth(DepthImage image, float w) {
+    float w_near = image.depth_range.x, w_far = image.depth_range.y;
+    return w_far * (w - w_near) / (w * (w_far - w_near));
+}
+
+float w_from_opengl_depth(DepthImage image, float depth) {
+    float w_near = image.depth_range.x, w_far = image.depth_range.y;
+    return 1.0 / (1.0 / w_near - depth * (1.0 / w_near - 1.0 / w_far));
+}
+
+vec3 unproject(DepthImage image, vec2 s, float w) {
+    return image.eye.xyz + (image.a.xyz * s.x + image.b.xyz * s.y + image.c.xyz) * w;
+}
+
+// The sample under image point s. Clipped endpoints lie on the frustum's sides, where s.x can be
+// exactly width (or a rounding step outside [0, width]): clamp to the image's own texels.
+ivec2 texel_of(DepthImage image, vec2 s) {
+    ivec2 texel = clamp(ivec2(floor(s)), ivec2(0), image.tile.zw - 1);
+    return image.tile.xy + texel;
+}
+
+float sample_depth(DepthImage image, vec2 s) {
+    return texelFetch(u_impostor_depth, texel_of(image, s), 0).r;
+}
+
+vec3 sample_color(DepthImage image, vec2 s) {
+    return texelFetch(u_impostor_color, texel_of(image, s), 0).rgb;
+}
+
+// One Liang-Barsky step: keep the part of the ray where value + rate * t >= 0.
+void clip_half_space(float value, float rate, inout float t_enter, inout float t_exit, inout bool inside) {
+    if (rate == 0.0) {
+        if (value < 0.0) inside = false;
+    } else if (rate > 0.0) {
+        t_enter = max(t_enter, -value / rate);
+    } else {
+        t_exit = min(t_exit, -value / rate);
+    }
+}
+
+// Clip origin + t * direction (t >= 0) to the frustum, in camera coordinates (x, y, w) where every
+// frustum plane is linear: no perspective divide happens before w >= w_near is guaranteed, so a
+// ray that starts behind the eye or crosses its plane is clipped, not mirrored through it.
+bool clip_ray(DepthImage image, vec3 p0, vec3 dp, out float t_enter, out float t_exit) {
+    float width = image.depth_range.z, height = image.depth_range.w;
+    bool inside = true;
+    t_enter = 0.0;
+    t_exit = 3.0e38;  // the frustum is bounded, so some plane always lowers this
+    clip_half_space(p0.z - image.depth_range.x, dp.z, t_enter, t_exit, inside);
+    clip_half_space(image.depth_range.y - p0.z, -dp.z, t_enter, t_exit, inside);
+    clip_half_space(p0.x, dp.x, t_enter, t_exit, inside);
+    clip_half_space(width * p0.z - p0.x, width * dp.z - dp.x, t_enter, t_exit, inside);
+    clip_half_space(p0.y, dp.y, t_enter, t_exit, inside);
+    clip_half_space(height * p0.z - p0.y, height * dp.z - dp.y, t_enter, t_exit, inside);
+    return inside && t_enter <= t_exit;
+}
+
+// The ray parameter of screen parameter sigma along the projected segment a'b'. 1/w, not w, is
+// affine in screen space: 1/w(sigma) = (1 - sigma)/w_a + sigma/w_b, which gives the 3-D parameter
+// lambda = sigma w_a / ((1 - sigma) w_b + sigma w_a); both w are >= w_near > 0 after clipping.
+float ray_parameter(float sigma, float w_a, float w_b, float t_enter, float t_exit) {
+    float lambda = sigma * w_a / ((1.0 - sigma) * w_b + sigma * w_a);
+    return t_enter + lambda * (t_exit - t_enter);
+}
+
+// Do the 2-D segments [(0, ray0), (1, ray1)] and [(0, surface0), (1, surface1)] cross with the ray
+// going from in front of the surface (or on it) to behind it? f = ray depth - surface depth.
+bool segments_cross(float f0, float f1, out float k) {
+    k = f0 == f1 ? 0.0 : f0 / (f0 - f1);
+    return f0 <= 0.0 && f1 >= 0.0;
+}
+
+// The number of steps: one per pixel along the projection's major axis, at least one (a ray
+// through the eye projects to a point), at most what the image can hold.
+int step_count(DepthImage image, vec3 sa, vec3 sb) {
+    float pixels = ceil(max(abs(sb.x - sa.x), abs(sb.y - sa.y)));
+    return clamp(int(pixels), 1, int(max(image.depth_range.z, image.depth_range.w)) + 1);
+}
+
+// The lecture's optimized algorithm: clip, project both ends, step along the projection and
+// intersect 2-D segments in OpenGL depth, which is affine in screen space: no unprojection.
+RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
+    vec3 p0 = camera_coordinates(image, origin - image.eye.xyz);
+    vec3 dp = camera_coordinates(image, direction);
+    float t_enter, t_exit;
+    if (!clip_ray(image, p0, dp, t_enter, t_exit)) return no_hit(0);
+    vec3 pa = p0 + dp * t_enter;
+    vec3 pb = p0 + dp * t_exit;
+    vec3 sa = vec3(pa.xy / pa.z, opengl_depth(image, pa.z));  // a' = (u, v, OpenGL depth)
+    vec3 sb = vec3(pb.xy / pb.z, opengl_depth(image, pb.z));  // b'
+    int steps = step_count(image, sa, sb);
+    vec3 s0 = sa;
+    float z0 = sample_depth(image, s0.xy);
+    for (int i = 0; i < steps; ++i) {
+        vec3 s1 = sa + (sb - sa) * (float(i + 1) / float(steps));
+        float z1 = sample_depth(image, s1.xy);
+        float k;
+        // A background sample has no surface: joining it to its neighbour would make a false one.
+        if (z0 < BACKGROUND_DEPTH && z1 < BACKGROUND_DEPTH && segments_cross(s0.z - z0, s1.z - z1, k)) {
+            vec2 s = s0.xy + (s1.xy - s0.xy) * k;
+            float t = ray_parameter((float(i) + k) / float(steps), pa.z, pb.z, t_enter, t_exit);
+            return RayHit(true, t, s, sample_color(image, s), image.eye.w, i + 2);
+        }
+        s0 = s1;
+        z0 = z1;
+    }
+    return no_hit(steps + 1);
+}
+
+// The lecture's basic algorithm: unproject every step's sample to 3-D and intersect the segment
+// between consecutive samples with the ray (they are coplanar: both lie in the plane through the
+// eye and the ray). Kept as the slower reference point for the optimized version.
+RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
+    vec3 p0 = camera_coordinates(image, origin - image.eye.xyz);
+    vec3 dp = camera_coordinates(image, direction);
+    float t_enter, t_exit;
+    if (!clip_ray(image, p0, dp, t_enter, t_exit)) return no_hit(0);
+    vec3 pa = p0 + dp * t_enter;
+    vec3 pb = p0 + dp * t_exit;
+    vec3 sa = vec3(pa.xy / pa.z, opengl_depth(image, pa.z));
+    vec3 sb = vec3(pb.xy / pb.z, opengl_depth(image, pb.z));
+    vec3 ray_a = origin + direction * t_enter;
+    vec3 ray_ab = direction * (t_exit - t_enter);
+    int steps = step_count(image, sa, sb);
+    vec2 s0 = sa.xy;
+    float z0 = sample_depth(image, s0);
+    vec3 q0 = unproject(image, s0, w_from_opengl_depth(image, z0));
+    for (int i = 0; i < steps; ++i) {
+        float sigma0 = float(i) / float(steps);
+        float sigma1 = float(i + 1) / float(steps);
+        vec2 s1 = sa.xy + (sb.xy - sa.xy) * sigma1;
+        float z1 = sample_depth(image, s1);
+        vec3 q1 = unproject(image, s1, w_from_opengl_depth(image, z1));
+        if (z0 < BACKGROUND_DEPTH && z1 < BACKGROUND_DEPTH) {
+            // Closest approach of the lines q0 + mu (q1 - q0) and ray_a + lambda ray_ab.
+            vec3 d1 = q1 - q0, d2 = ray_ab, r = q0 - ray_a;
+            float aa = dot(d1, d1), bb = dot(d1, d2), cc = dot(d2, d2), dd = dot(d1, r), ee = dot(d2, r);
+            float denominator = aa * cc - bb * bb;
+            float w_ray0 = 1.0 / ((1.0 - sigma0) / pa.z + sigma0 / pb.z);
+            bool in_front_at_start = w_ray0 <= w_from_opengl_depth(image, z0);
+            if (denominator > 1e-12 * aa * cc && in_front_at_start) {
+                float mu = (bb * ee - cc * dd) / denominator;
+                float lambda = (aa * ee - bb * dd) / denominator;
+                if (mu >= 0.0 && mu <= 1.0 && lambda >= 0.0 && lambda <= 1.0) {
+                    vec3 p = ray_a + ray_ab * lambda;
+                    vec3 pc = camera_coordinates(image, p - image.eye.xyz);
+                    vec2 s = pc.xy / pc.z;
+                    float t = t_enter + lambda * (t_exit - t_enter);
+                    return RayHit(true, t, s, sample_color(image, s), image.eye.w, i + 2);
+                }
+            }
+        }
+        s0 = s1;
+        z0 = z1;
+        q0 = q1;
+    }
+    return no_hit(steps + 1);
+}
+
+RayHit intersect_depth_image(DepthImage image, vec3 origin, vec3 direction) {
+#if ALGORITHM == ALGORITHM_BASIC
+    return intersect_basic(image, origin, direction);
+#else
+    return intersect_optimized(image, origin, direction);
+#endif
+}

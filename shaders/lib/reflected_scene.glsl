@@ -1,0 +1,63 @@
+// Everything a reflected ray can hit: this mirror's depth images (one per reflected object),
+// the analytic planes (floors and walls, intersected exactly), and the environment.
+#include "depth_image.glsl"
+#include "shading.glsl"
+#include "environment.glsl"
+
+layout(std140) uniform DepthImages {
+    DepthImage u_depth_images[MAX_DEPTH_IMAGES_PER_MIRROR];
+};
+uniform int u_depth_image_count;
+
+uniform int u_plane_count;
+uniform mat4 u_plane_world_to_local[MAX_ANALYTIC_PLANES];
+uniform vec2 u_plane_half_size[MAX_ANALYTIC_PLANES];
+uniform vec3 u_plane_normal[MAX_ANALYTIC_PLANES];  // world space, unit
+uniform Material u_plane_material[MAX_ANALYTIC_PLANES];
+uniform int u_plane_object_id[MAX_ANALYTIC_PLANES];
+
+// The nearest hit over all depth images of this mirror.
+RayHit nearest_depth_image_hit(vec3 origin, vec3 direction) {
+    RayHit best = no_hit(0);
+    int samples = 0;
+    for (int i = 0; i < u_depth_image_count; ++i) {
+        RayHit candidate = intersect_depth_image(u_depth_images[i], origin, direction);
+        samples += candidate.samples;
+        if (candidate.hit && (!best.hit || candidate.t < best.t)) best = candidate;
+    }
+    best.samples = samples;
+    return best;
+}
+
+// A plane shape is the rectangle |x| <= w/2, |z| <= d/2 of its local y = 0 plane. The local ray
+// keeps the world ray's parameter t because the transform is affine.
+RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
+    RayHit best = no_hit(0);
+    for (int i = 0; i < u_plane_count; ++i) {
+        vec3 o = (u_plane_world_to_local[i] * vec4(origin, 1.0)).xyz;
+        vec3 d = (u_plane_world_to_local[i] * vec4(direction, 0.0)).xyz;
+        // A ray parallel to the plane never meets it; dividing would give +-Inf or NaN.
+        if (abs(d.y) < 1e-12) continue;
+        float t = -o.y / d.y;
+        vec3 p = o + d * t;
+        // t > 0: the ray starts on the mirror, never behind it.
+        if (t > 0.0 && all(lessThanEqual(abs(p.xz), u_plane_half_size[i])) && (!best.hit || t < best.t)) {
+            vec3 albedo = material_albedo(u_plane_material[i], p);
+            vec3 color = shade(albedo, origin + direction * t, u_plane_normal[i]);
+            best = RayHit(true, t, p.xz, color, float(u_plane_object_id[i]), 0);
+        }
+    }
+    return best;
+}
+
+// What the reflected ray origin + t * direction sees: the nearest hit, or the environment.
+RayHit trace_reflected(vec3 origin, vec3 direction) {
+    RayHit hit = nearest_depth_image_hit(origin, direction);
+    RayHit plane = nearest_plane_hit(origin, direction);
+    if (plane.hit && (!hit.hit || plane.t < hit.t)) {
+        plane.samples = hit.samples;
+        hit = plane;
+    }
+    if (!hit.hit) hit.color = environment(direction);
+    return hit;
+}

@@ -1,0 +1,36 @@
+// The one shading model: color = albedo * (ambient + sum of lights' radiance * max(0, N.L)).
+// Diffuse shading does not depend on the viewer, so a depth image baked from a mirror's centre
+// holds exactly the colours a reflected ray should see.
+uniform float u_ambient;
+uniform int u_light_count;
+uniform int u_light_kind[MAX_LIGHTS];
+uniform vec3 u_light_vector[MAX_LIGHTS];    // directional: unit travel direction; point: position
+uniform vec3 u_light_radiance[MAX_LIGHTS];  // color * intensity
+
+struct Material {
+    int kind;       // MATERIAL_DIFFUSE or MATERIAL_CHECKER
+    vec3 color_a;
+    vec3 color_b;
+    float scale;
+};
+
+// The checker is laid out in the object's local XZ plane (the plane shape's own plane): a 3-D
+// checker would flicker on a plane at y = 0, where floor(y / scale) jumps between -1 and 0.
+vec3 material_albedo(Material material, vec3 local_position) {
+    if (material.kind == MATERIAL_CHECKER) {
+        ivec2 cell = ivec2(floor(local_position.xz / material.scale));
+        return ((cell.x + cell.y) & 1) == 0 ? material.color_a : material.color_b;
+    }
+    return material.color_a;
+}
+
+vec3 shade(vec3 albedo, vec3 position, vec3 normal) {
+    vec3 irradiance = vec3(u_ambient);
+    for (int i = 0; i < u_light_count; ++i) {
+        vec3 to_light = u_light_kind[i] == LIGHT_DIRECTIONAL
+            ? -u_light_vector[i]
+            : safe_normalize(u_light_vector[i] - position, normal);
+        irradiance += u_light_radiance[i] * max(0.0, dot(normal, to_light));
+    }
+    return albedo * irradiance;
+}
