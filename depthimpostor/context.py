@@ -131,3 +131,12 @@ def describe(ctx: moderngl.Context) -> str:
     """One line naming the backend, renderer and GL version, for logs and benchmark headers."""
     backend = (ctx.extra or {}).get("backend", "window")
     return f"{ctx.info['GL_RENDERER']} ({ctx.info['GL_VERSION']}, {backend})"
+
+
+def bind_default_framebuffer(ctx: moderngl.Context) -> None:
+    """Bind framebuffer 0 before releasing framebuffers.
+
+    moderngl re-binds the last framebuffer used whenever it creates a new one; if that one has
+    been released, the re-bind raises GL_INVALID_OPERATION. Every release path calls this first.
+    """
+    ctx.detect_framebuffer(0).use()

@@ -1,0 +1,75 @@
+"""Scene objects as triangle meshes, in world space, with the bounds the passes need."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from . import meshes
+from .meshes import Mesh
+from .scene.model import (
+    BoxShape,
+    CylinderShape,
+    MeshShape,
+    PlaneShape,
+    SceneObject,
+    Shape,
+    SphereShape,
+    TorusKnotShape,
+    TorusShape,
+)
+
+
+def mesh_for_shape(shape: Shape) -> Mesh:
+    """The local-space mesh of a shape (procedural, or loaded through trimesh)."""
+    if isinstance(shape, PlaneShape):
+        return meshes.plane(*shape.size)
+    if isinstance(shape, BoxShape):
+        return meshes.box(shape.size)
+    if isinstance(shape, SphereShape):
+        return meshes.sphere(shape.radius)
+    if isinstance(shape, CylinderShape):
+        return meshes.cylinder(shape.radius, shape.height)
+    if isinstance(shape, TorusShape):
+        return meshes.torus(shape.major, shape.minor)
+    if isinstance(shape, TorusKnotShape):
+        return meshes.torus_knot(shape.p, shape.q, shape.radius, shape.tube)
+    if isinstance(shape, MeshShape):
+        return meshes.load_mesh_file(shape.path)
+    raise TypeError(f"no mesh for shape {shape!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class ObjectGeometry:
+    """One scene object's mesh, transform and world-space bounds."""
+
+    index: int  # position in scene.objects: the object id the shaders report
+    object: SceneObject
+    local_mesh: Mesh
+
+    @cached_property
+    def model_matrix(self) -> np.ndarray:
+        return self.object.model_matrix()
+
+    @cached_property
+    def normal_matrix(self) -> np.ndarray:
+        return np.linalg.inv(self.model_matrix[:3, :3]).T
+
+    @cached_property
+    def world_mesh(self) -> Mesh:
+        return self.local_mesh.transformed(self.model_matrix)
+
+    @cached_property
+    def bounding_sphere(self) -> tuple[np.ndarray, float]:
+        return self.world_mesh.bounding_sphere()
+
+    @property
+    def is_analytic_plane(self) -> bool:
+        """Planes that are not mirrors (floors, walls) are intersected exactly, not through impostors."""
+        return isinstance(self.object.shape, PlaneShape) and not self.object.is_mirror
+
+
+def scene_geometry(objects: tuple[SceneObject, ...]) -> list[ObjectGeometry]:
+    return [ObjectGeometry(index, obj, mesh_for_shape(obj.shape)) for index, obj in enumerate(objects)]

@@ -1,0 +1,33 @@
+"""Diffuse (and checker) objects, rasterized with smooth normals.
+
+The same shader draws them into the camera view and into depth images (the variant with
+WRITE_DEPTH_IMAGE also stores the window depth in a 32-bit float attachment), so that a reflected
+object is shaded exactly as the object itself.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry import ObjectGeometry
+from ..scene.model import Scene
+from ..shaders import ProgramCache
+from .meshes import GpuMeshes
+from .uniforms import write_lighting, write_material
+
+
+class DiffusePass:
+    def __init__(
+        self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, *, write_depth_image: bool
+    ) -> None:
+        self.program = programs.get("mesh.vert", "diffuse.frag", {"WRITE_DEPTH_IMAGE": int(write_depth_image)})
+        self.meshes = meshes
+        write_lighting(self.program, scene)
+
+    def draw(self, items: list[ObjectGeometry], view_projection: np.ndarray) -> int:
+        """Draw the objects; returns the number of draw calls."""
+        for item in items:
+            write_material(self.program, "u_material", item.object.material)
+            self.meshes.draw(self.program, item, view_projection)
+        return len(items)
+

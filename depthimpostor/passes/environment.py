@@ -1,0 +1,29 @@
+"""The camera view's background: the environment seen along each pixel's ray."""
+
+from __future__ import annotations
+
+import moderngl
+
+from ..ppc import PPC
+from ..scene.model import Scene
+from ..shaders import ProgramCache
+from .uniforms import write, write_lighting
+
+
+class EnvironmentPass:
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene) -> None:
+        self.ctx = ctx
+        self.program = programs.get("fullscreen.vert", "environment.frag")
+        write_lighting(self.program, scene)
+        self.vertex_array = ctx.vertex_array(self.program, [])
+
+    def draw(self, camera: PPC) -> None:
+        write(self.program, "u_camera_a", tuple(camera.a))
+        write(self.program, "u_camera_b", tuple(camera.b))
+        write(self.program, "u_camera_c", tuple(camera.c))
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
+        self.ctx.enable(moderngl.DEPTH_TEST)
+
+    def release(self) -> None:
+        self.vertex_array.release()

@@ -1,0 +1,99 @@
+"""Writing scene-wide values (lights, environment, materials, planes) into any program that uses them.
+
+A uniform the compiler removed (unused in that variant) is simply absent from the program, so
+each write checks membership first instead of catching errors.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import moderngl
+import numpy as np
+
+from ..constants import MAX_ANALYTIC_PLANES, MAX_LIGHTS, LightKind, MaterialKind
+from ..errors import SceneError
+from ..geometry import ObjectGeometry
+from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, Scene
+
+
+def write(program: moderngl.Program, name: str, data: np.ndarray | bytes | int | float | Sequence[float]) -> None:
+    """Set a uniform if the program has it: numpy arrays as float32/int32 bytes, scalars as values."""
+    if name not in program:
+        return
+    uniform = program[name]
+    if isinstance(data, np.ndarray):
+        dtype = np.int32 if np.issubdtype(data.dtype, np.integer) else np.float32
+        uniform.write(np.ascontiguousarray(data, dtype=dtype).tobytes())
+    elif isinstance(data, bytes):
+        uniform.write(data)
+    else:
+        uniform.value = data
+
+
+def write_matrix(program: moderngl.Program, name: str, matrix: np.ndarray) -> None:
+    """A matrix in GL's column-major float32 layout."""
+    write(program, name, np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes())
+
+
+def write_material(program: moderngl.Program, name: str, material: Material) -> None:
+    if isinstance(material, CheckerMaterial):
+        kind, color_a, color_b, scale = MaterialKind.CHECKER, material.color_a, material.color_b, material.scale
+    elif isinstance(material, DiffuseMaterial):
+        kind, color_a, color_b, scale = MaterialKind.DIFFUSE, material.color, material.color, 1.0
+    else:
+        raise TypeError(f"{material!r} is not a diffuse material")
+    write(program, f"{name}.kind", int(kind))
+    write(program, f"{name}.color_a", tuple(color_a))
+    write(program, f"{name}.color_b", tuple(color_b))
+    write(program, f"{name}.scale", float(scale))
+
+
+def write_lighting(program: moderngl.Program, scene: Scene) -> None:
+    """Ambient, lights and environment: everything the shading and environment chunks read."""
+    if len(scene.lights) > MAX_LIGHTS:
+        raise SceneError(scene.source, "lights", f"expected at most {MAX_LIGHTS} lights, got {len(scene.lights)}")
+    kinds = np.zeros(MAX_LIGHTS, dtype=np.int32)
+    vectors = np.zeros((MAX_LIGHTS, 3))
+    radiance = np.zeros((MAX_LIGHTS, 3))
+    for i, light in enumerate(scene.lights):
+        if light.type == "directional":
+            kinds[i] = LightKind.DIRECTIONAL
+            vectors[i] = np.asarray(light.direction) / np.linalg.norm(light.direction)
+        else:
+            kinds[i] = LightKind.POINT
+            vectors[i] = light.position
+        radiance[i] = np.asarray(light.color) * light.intensity
+    write(program, "u_ambient", float(scene.render.ambient))
+    write(program, "u_light_count", len(scene.lights))
+    write(program, "u_light_kind", kinds)
+    write(program, "u_light_vector", vectors)
+    write(program, "u_light_radiance", radiance)
+    write(program, "u_env_zenith", tuple(scene.environment.zenith))
+    write(program, "u_env_horizon", tuple(scene.environment.horizon))
+    write(program, "u_env_ground", tuple(scene.environment.ground))
+
+
+def write_analytic_planes(program: moderngl.Program, scene: Scene, planes: Sequence[ObjectGeometry]) -> None:
+    if len(planes) > MAX_ANALYTIC_PLANES:
+        raise SceneError(
+            scene.source, "objects", f"expected at most {MAX_ANALYTIC_PLANES} non-mirror planes, got {len(planes)}"
+        )
+    world_to_local = np.zeros((MAX_ANALYTIC_PLANES, 4, 4))
+    half_sizes = np.zeros((MAX_ANALYTIC_PLANES, 2))
+    normals = np.zeros((MAX_ANALYTIC_PLANES, 3))
+    object_ids = np.zeros(MAX_ANALYTIC_PLANES, dtype=np.int32)
+    for i, plane in enumerate(planes):
+        width, depth = plane.object.shape.size  # type: ignore[union-attr]
+        normal = plane.normal_matrix @ np.array([0.0, 1.0, 0.0])
+        world_to_local[i] = np.linalg.inv(plane.model_matrix).T  # column-major for GL
+        half_sizes[i] = (width / 2.0, depth / 2.0)
+        normals[i] = normal / np.linalg.norm(normal)
+        object_ids[i] = plane.index
+        write_material(program, f"u_plane_material[{i}]", plane.object.material)
+    # Arrays of plain types are single uniforms named without an index; write them whole.
+    write(program, "u_plane_count", len(planes))
+    write(program, "u_plane_world_to_local", world_to_local)
+    write(program, "u_plane_half_size", half_sizes)
+    write(program, "u_plane_normal", normals)
+    write(program, "u_plane_object_id", object_ids)

@@ -1,0 +1,136 @@
+"""The renderer: a scene in, a frame out, through the passes the scene calls for.
+
+A scene without mirrors builds no impostor atlas and compiles no reflection shader; depth images
+are baked once and again only when something they depend on changes (never for a camera move).
+The renderer owns every GL object it makes and frees them in `release()`, before the context.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from .constants import Algorithm
+from .context import bind_default_framebuffer
+from .geometry import ObjectGeometry, scene_geometry
+from .passes.diffuse import DiffusePass
+from .passes.environment import EnvironmentPass
+from .passes.impostors import ImpostorPass
+from .passes.meshes import GpuMeshes
+from .passes.mirrors import MirrorPass
+from .ppc import PPC
+from .scene.model import Scene
+from .shaders import ProgramCache
+
+
+@dataclass
+class RenderStats:
+    """Counters of the work done, for tests and `render --stats`."""
+
+    frames: int = 0
+    depth_images_baked: int = 0
+    draw_calls: int = 0
+    last_bake_seconds: float = 0.0
+    last_draw_seconds: float = 0.0
+    draw_seconds: list[float] = field(default_factory=list)
+
+
+def camera_of(scene: Scene, near: float = 0.05, far: float = 500.0) -> PPC:
+    camera = scene.camera
+    width, height = scene.render.size
+    return PPC.look_at(camera.eye, camera.target, camera.up, camera.fov_y, width, height, near, far)
+
+
+class Renderer:
+    def __init__(self, ctx: moderngl.Context, scene: Scene, algorithm: Algorithm = Algorithm.OPTIMIZED) -> None:
+        self.ctx = ctx
+        self.scene = scene
+        self.algorithm = algorithm
+        self.camera = camera_of(scene)
+        self.stats = RenderStats()
+        self.programs = ProgramCache(ctx)
+        geometry = scene_geometry(scene.objects)
+        self.mirrors: list[ObjectGeometry] = [g for g in geometry if g.object.is_mirror]
+        self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
+        self.diffuse_objects = [g for g in geometry if not g.object.is_mirror]
+        self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
+        self.meshes = GpuMeshes(ctx, geometry)
+
+        width, height = scene.render.size
+        self._color = ctx.renderbuffer((width, height), 4)
+        self._depth = ctx.depth_renderbuffer((width, height))
+        self.framebuffer = ctx.framebuffer([self._color], self._depth)
+
+        self.environment = EnvironmentPass(ctx, self.programs, scene)
+        self.diffuse = DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
+        self.impostors: ImpostorPass | None = None
+        self.mirror_pass: MirrorPass | None = None
+        if self.mirrors:
+            baking = DiffusePass(self.programs, scene, self.meshes, write_depth_image=True)
+            self.impostors = ImpostorPass(ctx, scene, baking, self.mirrors, self.reflected_objects)
+            self.mirror_pass = MirrorPass(
+                self.programs, scene, self.meshes, self.impostors, self.analytic_planes, algorithm
+            )
+        self._impostors_baked = False
+
+    # ------------------------------------------------------------------ frames
+    def render(self) -> RenderStats:
+        """Draw one frame into the renderer's framebuffer, baking impostors first if they are stale.
+
+        Times are wall-clock around `ctx.finish()`: GPU time queries under-report on software
+        rasterizers, and a finish makes the time include all the work the frame queued.
+        """
+        self.stats.last_bake_seconds = 0.0
+        if self.impostors is not None and not self._impostors_baked:
+            self.ctx.finish()
+            start = time.perf_counter()
+            self.stats.draw_calls += self.impostors.bake()
+            self.ctx.finish()
+            self.stats.last_bake_seconds = time.perf_counter() - start
+            self.stats.depth_images_baked += len(self.impostors.depth_images)
+            self._impostors_baked = True
+
+        self.ctx.finish()
+        start = time.perf_counter()
+        self.framebuffer.use()
+        self.framebuffer.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        self.environment.draw(self.camera)
+        view_projection = self.camera.view_projection
+        self.stats.draw_calls += self.diffuse.draw(self.diffuse_objects, view_projection)
+        if self.mirror_pass is not None:
+            self.stats.draw_calls += self.mirror_pass.draw(self.mirrors, self.camera, view_projection)
+        self.ctx.finish()
+        self.stats.last_draw_seconds = time.perf_counter() - start
+        self.stats.draw_seconds.append(self.stats.last_draw_seconds)
+        self.stats.frames += 1
+        return self.stats
+
+    def set_camera(self, camera: PPC) -> None:
+        """Move the camera; depth images do not depend on it, so nothing is re-baked."""
+        self.camera = camera
+
+    def read_color(self) -> np.ndarray:
+        """The last frame as (height, width, 3) uint8, top row first."""
+        width, height = self.scene.render.size
+        data = self.framebuffer.read(components=3, alignment=1)
+        return np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3).copy()
+
+    # ------------------------------------------------------------------ lifetime
+    def release(self) -> None:
+        bind_default_framebuffer(self.ctx)
+        if self.impostors is not None:
+            self.impostors.release()
+        self.environment.release()
+        self.meshes.release()
+        self.programs.release()
+        for item in (self.framebuffer, self._color, self._depth):
+            item.release()
+
+    def __enter__(self) -> Renderer:
+        return self
+
+    def __exit__(self, *args: object) -> None:
+        self.release()
