@@ -33,9 +33,12 @@ class RenderStats:
     frames: int = 0
     depth_images_baked: int = 0
     draw_calls: int = 0
-    last_bake_seconds: float = 0.0
-    last_draw_seconds: float = 0.0
-    draw_seconds: list[float] = field(default_factory=list)
+    bake_seconds: list[float] = field(default_factory=list)  # one entry per bake
+    draw_seconds: list[float] = field(default_factory=list)  # one entry per frame
+
+
+def to_uint8(color: np.ndarray) -> np.ndarray:
+    return (np.clip(np.nan_to_num(color, nan=0.0), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
 def camera_of(scene: Scene, near: float = 0.05, far: float = 500.0) -> PPC:
@@ -60,7 +63,9 @@ class Renderer:
         self.meshes = GpuMeshes(ctx, geometry)
 
         width, height = scene.render.size
-        self._color = ctx.renderbuffer((width, height), 4)
+        # Float colour so that a NaN or Inf from a shader survives to be caught by a test,
+        # instead of being clamped into a plausible-looking 8-bit pixel.
+        self._color = ctx.renderbuffer((width, height), 4, dtype="f4")
         self._depth = ctx.depth_renderbuffer((width, height))
         self.framebuffer = ctx.framebuffer([self._color], self._depth)
 
@@ -83,13 +88,12 @@ class Renderer:
         Times are wall-clock around `ctx.finish()`: GPU time queries under-report on software
         rasterizers, and a finish makes the time include all the work the frame queued.
         """
-        self.stats.last_bake_seconds = 0.0
         if self.impostors is not None and not self._impostors_baked:
             self.ctx.finish()
             start = time.perf_counter()
             self.stats.draw_calls += self.impostors.bake()
             self.ctx.finish()
-            self.stats.last_bake_seconds = time.perf_counter() - start
+            self.stats.bake_seconds.append(time.perf_counter() - start)
             self.stats.depth_images_baked += len(self.impostors.depth_images)
             self._impostors_baked = True
 
@@ -103,8 +107,7 @@ class Renderer:
         if self.mirror_pass is not None:
             self.stats.draw_calls += self.mirror_pass.draw(self.mirrors, self.camera, view_projection)
         self.ctx.finish()
-        self.stats.last_draw_seconds = time.perf_counter() - start
-        self.stats.draw_seconds.append(self.stats.last_draw_seconds)
+        self.stats.draw_seconds.append(time.perf_counter() - start)
         self.stats.frames += 1
         return self.stats
 
@@ -112,11 +115,15 @@ class Renderer:
         """Move the camera; depth images do not depend on it, so nothing is re-baked."""
         self.camera = camera
 
-    def read_color(self) -> np.ndarray:
-        """The last frame as (height, width, 3) uint8, top row first."""
+    def read_color_float(self) -> np.ndarray:
+        """The last frame as (height, width, 3) float32, top row first, unclamped."""
         width, height = self.scene.render.size
-        data = self.framebuffer.read(components=3, alignment=1)
-        return np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3).copy()
+        data = self.framebuffer.read(components=3, dtype="f4")
+        return np.frombuffer(data, dtype=np.float32).reshape(height, width, 3).copy()
+
+    def read_color(self) -> np.ndarray:
+        """The last frame as (height, width, 3) uint8, top row first, ready for a PNG."""
+        return to_uint8(self.read_color_float())
 
     # ------------------------------------------------------------------ lifetime
     def release(self) -> None:

@@ -10,7 +10,7 @@ from ..geometry import ObjectGeometry
 from ..ppc import PPC
 from ..scene.model import MirrorMaterial, Scene
 from ..shaders import ProgramCache
-from .impostors import ImpostorPass
+from .impostors import ImpostorAtlas, ImpostorPass
 from .meshes import GpuMeshes
 from .uniforms import write, write_analytic_planes, write_lighting
 
@@ -20,10 +20,10 @@ DEPTH_ATLAS_UNIT = 1
 DEPTH_IMAGES_BINDING = 0
 
 
-def bind_impostors(program: moderngl.Program, impostors: ImpostorPass) -> None:
+def bind_impostors(program: moderngl.Program, atlas: ImpostorAtlas) -> None:
     """Point a program that includes lib/reflected_scene.glsl at the depth-image atlas."""
-    impostors.atlas.color.use(COLOR_ATLAS_UNIT)
-    impostors.atlas.depth.use(DEPTH_ATLAS_UNIT)
+    atlas.color.use(COLOR_ATLAS_UNIT)
+    atlas.depth.use(DEPTH_ATLAS_UNIT)
     write(program, "u_impostor_color", COLOR_ATLAS_UNIT)
     write(program, "u_impostor_depth", DEPTH_ATLAS_UNIT)
     if "DepthImages" in program:
@@ -51,7 +51,7 @@ class MirrorPass:
         write_analytic_planes(self.program, scene, analytic_planes)
 
     def draw(self, mirrors: list[ObjectGeometry], camera: PPC, view_projection: np.ndarray) -> int:
-        bind_impostors(self.program, self.impostors)
+        bind_impostors(self.program, self.impostors.atlas)
         write(self.program, "u_eye", tuple(camera.C))
         for mirror in mirrors:
             material = mirror.object.material

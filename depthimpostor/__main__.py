@@ -1,0 +1,3 @@
+from depthimpostor.cli import main
+
+raise SystemExit(main())

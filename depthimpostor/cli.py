@@ -1,0 +1,89 @@
+"""The `depthimpostor` command line."""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from PIL import Image
+
+from .constants import Algorithm
+from .context import create_context, describe
+from .errors import DepthImpostorError
+from .renderer import Renderer
+from .resources import default_scene_path
+from .scene import Scene, load_scene
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(part) for part in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT such as 960x540, got {text!r}") from None
+    return width, height
+
+
+def _positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text}")
+    return value
+
+
+def _load(args: argparse.Namespace) -> Scene:
+    scene = load_scene(args.scene or default_scene_path())
+    return scene.with_overrides(size=args.size, impostor_resolution=args.impostor_res)
+
+
+def _render(args: argparse.Namespace) -> int:
+    scene = _load(args)
+    ctx = create_context(args.backend)
+    algorithm = Algorithm[args.algorithm.upper()]
+    with Renderer(ctx, scene, algorithm) as renderer:
+        for _ in range(args.frames + 1):  # the first frame bakes the depth images and warms up
+            stats = renderer.render()
+        image = renderer.read_color()
+        timed = stats.draw_seconds[1:]
+        depth_images = len(renderer.impostors.depth_images) if renderer.impostors else 0
+        bake_seconds = sum(stats.bake_seconds)
+    output = Path(args.output)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(image).save(output)
+    print(output)
+    print(
+        f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)}, {algorithm.name.lower()}), "
+        f"bake {1000 * bake_seconds:.1f} ms ({depth_images} depth images of {scene.render.impostor_resolution}^2), "
+        f"{scene.render.size[0]}x{scene.render.size[1]} on {describe(ctx)}"
+    )
+    ctx.release()
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="depthimpostor", description=__doc__)
+    commands = parser.add_subparsers(dest="command", required=True)
+    render = commands.add_parser("render", help="render a scene headless to a PNG")
+    render.add_argument("scene", nargs="?", help="scene file (TOML); the built-in default scene if omitted")
+    render.add_argument("-o", "--output", default="render.png", help="output PNG (default: render.png)")
+    render.add_argument("--size", type=_size, help="output size WxH, overriding the scene's render.size")
+    render.add_argument("--impostor-res", type=int, help="depth-image resolution, overriding the scene's")
+    render.add_argument("--algorithm", choices=["basic", "optimized"], default="optimized",
+                        help="ray/depth-image intersection: the lecture's basic or optimized algorithm")
+    render.add_argument("--frames", type=_positive, default=3, help="frames timed after the first (default 3)")
+    render.add_argument("--backend", choices=["auto", "egl", "osmesa"], default=None,
+                        help="headless GL backend (default: auto, EGL then OSMesa)")
+    render.set_defaults(run=_render)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.run(args)
+    except DepthImpostorError as error:
+        print(f"depthimpostor: {error}", file=sys.stderr)
+        return error.exit_code
+

@@ -1,0 +1,102 @@
+"""The GPU ray query: the mirror shader's own intersection code, run on arrays of rays.
+
+Each ray is one pixel of an off-screen float framebuffer; ray_query.frag includes the same
+lib/reflected_scene.glsl as mirror.frag and returns the fields of `reference.RayHits`, so that
+the GLSL can be tested against the numpy reference on thousands of rays.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import moderngl
+import numpy as np
+
+from .constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm
+from .context import bind_default_framebuffer
+from .passes.impostors import DepthImage, ImpostorAtlas
+from .passes.mirrors import DEPTH_IMAGES_BINDING, bind_impostors, reflection_defines
+from .passes.uniforms import write
+from .reference import RayHits
+from .shaders import ProgramCache
+
+#: Rays per row of the query framebuffer.
+_ROW = 1024
+
+
+class RayQuery:
+    """Intersect rays with a set of depth images (nearest hit wins), on the GPU."""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        programs: ProgramCache,
+        atlas: ImpostorAtlas,
+        images: Sequence[DepthImage],
+        algorithm: Algorithm = Algorithm.OPTIMIZED,
+    ) -> None:
+        if not 0 < len(images) <= MAX_DEPTH_IMAGES_PER_MIRROR:
+            raise ValueError(f"a ray query takes 1 to {MAX_DEPTH_IMAGES_PER_MIRROR} depth images, got {len(images)}")
+        self.ctx = ctx
+        self.atlas = atlas
+        self.image_count = len(images)
+        self.program = programs.get("fullscreen.vert", "ray_query.frag", reflection_defines(algorithm))
+        records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, dtype=DEPTH_IMAGE_DTYPE)
+        for i, image in enumerate(images):
+            records[i] = image.record()
+        self.uniform_buffer = ctx.buffer(records.tobytes())
+        self.vertex_array = ctx.vertex_array(self.program, [])
+
+    def run(self, origins: np.ndarray, directions: np.ndarray) -> RayHits:
+        count = len(origins)
+        width, height = min(count, _ROW), max(1, math.ceil(count / _ROW))
+        padded = width * height
+
+        def texture(rays: np.ndarray) -> moderngl.Texture:
+            data = np.zeros((padded, 4), np.float32)
+            data[:count, :3] = rays
+            result = self.ctx.texture((width, height), 4, data.tobytes(), dtype="f4")
+            result.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            return result
+
+        inputs = [texture(origins), texture(directions)]
+        outputs = [self.ctx.texture((width, height), 4, dtype="f4") for _ in range(3)]
+        framebuffer = self.ctx.framebuffer(outputs)
+        try:
+            framebuffer.use()
+            framebuffer.clear()
+            bind_impostors(self.program, self.atlas)
+            inputs[0].use(2)
+            inputs[1].use(3)
+            write(self.program, "u_ray_origins", 2)
+            write(self.program, "u_ray_directions", 3)
+            write(self.program, "u_depth_image_count", self.image_count)
+            self.uniform_buffer.bind_to_uniform_block(DEPTH_IMAGES_BINDING)
+            self.ctx.disable(moderngl.DEPTH_TEST)
+            self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
+            hit, color, stats = (
+                np.frombuffer(framebuffer.read(components=4, attachment=i, dtype="f4"), np.float32)
+                .reshape(padded, 4)[:count].astype(np.float64)
+                for i in range(3)
+            )
+        finally:
+            bind_default_framebuffer(self.ctx)
+            for item in (framebuffer, *outputs, *inputs):
+                item.release()
+        return RayHits(
+            hit=hit[:, 0] > 0.5,
+            t=hit[:, 1],
+            image_position=hit[:, 2:4],
+            color=color[:, :3],
+            object_id=np.rint(color[:, 3]).astype(np.int64),
+            samples=np.rint(stats[:, 0]).astype(np.int64),
+            # Diagnostics of the reference's float64 march; the GPU does not compute them.
+            conditioning=np.full(count, np.nan),
+            texel_margin=np.full(count, np.nan),
+            depth_margin=np.full(count, np.nan),
+        )
+
+    def release(self) -> None:
+        self.vertex_array.release()
+        self.uniform_buffer.release()

@@ -1,0 +1,248 @@
+"""The numpy reference of the ray / depth-image intersection.
+
+The same algorithms as shaders/lib/depth_image.glsl, with the same function names, vectorized
+over rays and computed in float64, so that the GLSL can be checked against it ray by ray and a
+reader can hold the two side by side. A ray is origin + t * direction, t >= 0.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .constants import BACKGROUND_DEPTH, NO_OBJECT, Algorithm
+from .ppc import PPC
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class DepthImageData:
+    """A depth image read back from the GPU: its camera, colours and OpenGL depths (row v, column u)."""
+
+    camera: PPC
+    color: Array  # (height, width, 3) in [0, 1]
+    depth: NDArray[np.float32]  # (height, width), BACKGROUND_DEPTH where nothing was rasterized
+    object_id: int
+
+
+@dataclass(frozen=True, eq=False)
+class RayHits:
+    """Per-ray results, the fields the GPU ray query returns."""
+
+    hit: NDArray[np.bool_]
+    t: Array
+    image_position: Array  # (n, 2) u, v in the depth image that was hit
+    color: Array  # (n, 3)
+    object_id: NDArray[np.int64]
+    samples: NDArray[np.int64]  # depth-image samples read, summed over images
+    # |f0 - f1| of the step that was hit (inf for a miss): how far the ray's depth changes
+    # against the surface's over the step. k = f0 / (f0 - f1) loses digits in proportion to
+    # 1 / |f0 - f1|, so grazing hits (small values) are where float32 and float64 part ways.
+    conditioning: Array
+    # How close the march came to a decision boundary, over the steps it visited: the smallest
+    # distance of a sample position to a texel edge (pixels), and the smallest |ray depth -
+    # surface depth| (OpenGL depth). Where these are tiny, float32 and float64 may pick another
+    # texel or another step, and the GPU and the reference can legitimately disagree.
+    texel_margin: Array
+    depth_margin: Array
+
+    @classmethod
+    def misses(cls, count: int) -> RayHits:
+        return cls(
+            np.zeros(count, bool), np.zeros(count), np.zeros((count, 2)), np.zeros((count, 3)),
+            np.full(count, NO_OBJECT), np.zeros(count, np.int64), np.full(count, np.inf),
+            np.full(count, np.inf), np.full(count, np.inf),
+        )
+
+
+def texel_of(image: DepthImageData, s: Array) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """(row, column) of the sample under image points s (..., 2), clamped to the image."""
+    height, width = image.depth.shape
+    column = np.clip(np.floor(s[..., 0]), 0, width - 1).astype(np.int64)
+    row = np.clip(np.floor(s[..., 1]), 0, height - 1).astype(np.int64)
+    return row, column
+
+
+def sample_depth(image: DepthImageData, s: Array) -> Array:
+    row, column = texel_of(image, s)
+    return image.depth[row, column].astype(np.float64)
+
+
+def sample_color(image: DepthImageData, s: Array) -> Array:
+    row, column = texel_of(image, s)
+    return image.color[row, column]
+
+
+def step_count(image: DepthImageData, sa: Array, sb: Array) -> NDArray[np.int64]:
+    height, width = image.depth.shape
+    pixels = np.ceil(np.maximum(np.abs(sb[:, 0] - sa[:, 0]), np.abs(sb[:, 1] - sa[:, 1])))
+    return np.clip(pixels, 1, max(width, height) + 1).astype(np.int64)
+
+
+def segments_cross(f0: Array, f1: Array) -> tuple[NDArray[np.bool_], Array]:
+    """Does the ray go from in front of (or on) the surface to behind (or on) it? And where (k)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k = np.where(f0 == f1, 0.0, f0 / (f0 - f1))
+    return (f0 <= 0.0) & (f1 >= 0.0), k
+
+
+def ray_parameter(sigma: Array, w_a: Array, w_b: Array, t_enter: Array, t_exit: Array) -> Array:
+    """t at screen parameter sigma: 1/w is affine in screen space (see the GLSL)."""
+    lam = sigma * w_a / ((1.0 - sigma) * w_b + sigma * w_a)
+    return t_enter + lam * (t_exit - t_enter)
+
+
+@dataclass(frozen=True, eq=False)
+class _ClippedRays:
+    inside: NDArray[np.bool_]
+    t_enter: Array
+    t_exit: Array
+    pa: Array  # camera coordinates (x, y, w) of the clipped ends
+    pb: Array
+    sa: Array  # (u, v, OpenGL depth) of the clipped ends: a' and b'
+    sb: Array
+
+
+def _clip_and_project(image: DepthImageData, origins: Array, directions: Array) -> _ClippedRays:
+    camera = image.camera
+    inside, t_enter, t_exit = camera.clip_ray(origins, directions)
+    t_exit = np.where(inside, t_exit, 0.0)
+    t_enter = np.where(inside, t_enter, 0.0)
+    p0 = camera.camera_coordinates(origins)
+    dp = directions @ camera.inverse.T
+    pa = p0 + dp * t_enter[:, None]
+    pb = p0 + dp * t_exit[:, None]
+    # Rays outside the frustum get a harmless w so that nothing below divides by zero.
+    wa = np.where(inside, pa[:, 2], 1.0)
+    wb = np.where(inside, pb[:, 2], 1.0)
+    sa = np.stack([pa[:, 0] / wa, pa[:, 1] / wa, camera.opengl_depth(wa)], axis=1)
+    sb = np.stack([pb[:, 0] / wb, pb[:, 1] / wb, camera.opengl_depth(wb)], axis=1)
+    return _ClippedRays(inside, t_enter, t_exit, pa, pb, sa, sb)
+
+
+def intersect_optimized(image: DepthImageData, origins: Array, directions: Array) -> RayHits:
+    """The lecture's optimized algorithm: 2-D segments in (screen parameter, OpenGL depth)."""
+    origins, directions = np.asarray(origins, float), np.asarray(directions, float)
+    rays = _clip_and_project(image, origins, directions)
+    result = RayHits.misses(len(origins))
+    steps = np.where(rays.inside, step_count(image, rays.sa, rays.sb), 0)
+    result.samples[:] = np.where(rays.inside, steps + 1, 0)
+    active = rays.inside.copy()
+    s0 = rays.sa.copy()
+    z0 = sample_depth(image, s0[:, :2])
+    _track_margins(result, active, s0, z0)
+    for i in range(int(steps.max(initial=0))):
+        active &= i < steps
+        if not active.any():
+            break
+        s1 = rays.sa + (rays.sb - rays.sa) * ((i + 1) / np.maximum(steps, 1))[:, None]
+        z1 = sample_depth(image, s1[:, :2])
+        _track_margins(result, active, s1, z1)
+        cross, k = segments_cross(s0[:, 2] - z0, s1[:, 2] - z1)
+        new_hit = active & (z0 < BACKGROUND_DEPTH) & (z1 < BACKGROUND_DEPTH) & cross
+        if new_hit.any():
+            s = s0[:, :2] + (s1[:, :2] - s0[:, :2]) * k[:, None]
+            sigma = (i + k) / np.maximum(steps, 1)
+            t = ray_parameter(sigma, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
+            _record(result, new_hit, t, s, sample_color(image, s), image.object_id, i + 2)
+            result.conditioning[new_hit] = np.abs((s0[:, 2] - z0) - (s1[:, 2] - z1))[new_hit]
+            active &= ~new_hit
+        s0, z0 = s1, z1
+    return result
+
+
+def intersect_basic(image: DepthImageData, origins: Array, directions: Array) -> RayHits:
+    """The lecture's basic algorithm: unproject each step and intersect 3-D segments with the ray."""
+    origins, directions = np.asarray(origins, float), np.asarray(directions, float)
+    camera = image.camera
+    rays = _clip_and_project(image, origins, directions)
+    result = RayHits.misses(len(origins))
+    steps = np.where(rays.inside, step_count(image, rays.sa, rays.sb), 0)
+    result.samples[:] = np.where(rays.inside, steps + 1, 0)
+    ray_a = origins + directions * rays.t_enter[:, None]
+    ray_ab = directions * (rays.t_exit - rays.t_enter)[:, None]
+    wa = np.where(rays.inside, rays.pa[:, 2], 1.0)
+    wb = np.where(rays.inside, rays.pb[:, 2], 1.0)
+    active = rays.inside.copy()
+    s0 = rays.sa[:, :2].copy()
+    z0 = sample_depth(image, s0)
+    q0 = camera.unproject(s0[:, 0], s0[:, 1], camera.w_from_opengl_depth(z0))
+    for i in range(int(steps.max(initial=0))):
+        active &= i < steps
+        if not active.any():
+            break
+        safe_steps = np.maximum(steps, 1)
+        sigma0 = i / safe_steps
+        s1 = rays.sa[:, :2] + (rays.sb[:, :2] - rays.sa[:, :2]) * ((i + 1) / safe_steps)[:, None]
+        z1 = sample_depth(image, s1)
+        q1 = camera.unproject(s1[:, 0], s1[:, 1], camera.w_from_opengl_depth(z1))
+        d1, d2, r = q1 - q0, ray_ab, q0 - ray_a
+        aa, bb, cc = _dot(d1, d1), _dot(d1, d2), _dot(d2, d2)
+        dd, ee = _dot(d1, r), _dot(d2, r)
+        denominator = aa * cc - bb * bb
+        w_ray0 = 1.0 / ((1.0 - sigma0) / wa + sigma0 / wb)
+        in_front_at_start = w_ray0 <= camera.w_from_opengl_depth(z0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mu = (bb * ee - cc * dd) / denominator
+            lam = (aa * ee - bb * dd) / denominator
+        new_hit = (
+            active & (z0 < BACKGROUND_DEPTH) & (z1 < BACKGROUND_DEPTH) & (denominator > 1e-12 * aa * cc)
+            & in_front_at_start & (mu >= 0) & (mu <= 1) & (lam >= 0) & (lam <= 1)
+        )
+        if new_hit.any():
+            lam = np.where(new_hit, lam, 0.0)
+            p = ray_a + ray_ab * lam[:, None]
+            s = camera.project(np.where(new_hit[:, None], p, camera.C + camera.c))[:, :2]
+            t = rays.t_enter + lam * (rays.t_exit - rays.t_enter)
+            _record(result, new_hit, t, s, sample_color(image, s), image.object_id, i + 2)
+            active &= ~new_hit
+        s0, z0, q0 = s1, z1, q1
+    return result
+
+
+def _track_margins(result: RayHits, active: NDArray[np.bool_], s: Array, z: Array) -> None:
+    texel = np.min(np.abs(s[:, :2] - np.round(s[:, :2])), axis=1)
+    depth = np.where(z < BACKGROUND_DEPTH, np.abs(s[:, 2] - z), np.inf)
+    result.texel_margin[active] = np.minimum(result.texel_margin, texel)[active]
+    result.depth_margin[active] = np.minimum(result.depth_margin, depth)[active]
+
+
+def _dot(x: Array, y: Array) -> Array:
+    return np.einsum("ij,ij->i", x, y)
+
+
+def _record(result: RayHits, mask: NDArray[np.bool_], t: Array, s: Array, color: Array, object_id: int, samples: int) -> None:
+    result.hit[mask] = True
+    result.t[mask] = t[mask]
+    result.image_position[mask] = s[mask]
+    result.color[mask] = color[mask]
+    result.object_id[mask] = object_id
+    result.samples[mask] = samples
+
+
+def intersect_depth_image(image: DepthImageData, origins: Array, directions: Array, algorithm: Algorithm) -> RayHits:
+    if algorithm == Algorithm.BASIC:
+        return intersect_basic(image, origins, directions)
+    return intersect_optimized(image, origins, directions)
+
+
+def nearest_depth_image_hit(
+    images: Sequence[DepthImageData], origins: Array, directions: Array, algorithm: Algorithm = Algorithm.OPTIMIZED
+) -> RayHits:
+    """The nearest hit over several depth images, as the mirror shader keeps it."""
+    best = RayHits.misses(len(origins))
+    samples = np.zeros(len(origins), np.int64)
+    for image in images:
+        candidate = intersect_depth_image(image, origins, directions, algorithm)
+        samples += candidate.samples
+        closer = candidate.hit & (~best.hit | (candidate.t < best.t))
+        _record(best, closer, candidate.t, candidate.image_position, candidate.color, image.object_id, 0)
+        best.conditioning[closer] = candidate.conditioning[closer]
+        best.texel_margin[:] = np.minimum(best.texel_margin, candidate.texel_margin)
+        best.depth_margin[:] = np.minimum(best.depth_margin, candidate.depth_margin)
+    best.samples[:] = samples
+    return best

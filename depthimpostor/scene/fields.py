@@ -1,0 +1,211 @@
+"""Readers for scene-file values: each knows what it expects, so every error can say so.
+
+A `Reader` checks one value and says what it expects; an `At` carries the file and the dotted path
+of that value; a `Table` checks a TOML table's keys and reads its fields; a `Variant` is one `type`
+of a table. Messages read `FILE: dotted.path: expected ..., got ...`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Generic, TypeVar, cast
+
+from depthimpostor.errors import SceneError
+
+T = TypeVar("T")
+Vec3 = tuple[float, float, float]
+
+
+def show(value: Any) -> str:
+    """A value as TOML would write it, short enough for a one-line message."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, str):
+        text = json.dumps(value)
+    elif isinstance(value, Mapping):
+        text = "{" + ", ".join(f"{k} = {show(v)}" for k, v in value.items()) + "}"
+    elif isinstance(value, (list, tuple)):
+        text = "[" + ", ".join(show(v) for v in value) + "]"
+    else:
+        text = str(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """A closed interval, or half-open at the bottom; its `str` is how messages describe it."""
+
+    lo: float = -math.inf
+    hi: float = math.inf
+    open_lo: bool = False
+
+    def __contains__(self, x: float) -> bool:
+        return (x > self.lo if self.open_lo else x >= self.lo) and x <= self.hi
+
+    def __str__(self) -> str:
+        if self.hi == math.inf:
+            return "" if self.lo == -math.inf else f" {'>' if self.open_lo else '>='} {self.lo:g}"
+        return f" in {'(' if self.open_lo else '['}{self.lo:g}, {self.hi:g}]"
+
+
+ANY, UNIT, NON_NEGATIVE, POSITIVE = Bounds(), Bounds(0, 1), Bounds(0), Bounds(0, open_lo=True)
+
+
+@dataclass(frozen=True)
+class Reader(Generic[T]):
+    """Turns one TOML value into a T, or None when it does not fit; `expected` says what fits."""
+
+    expected: str
+    parse: Callable[[Any], T | None]
+
+
+def _is_number(v: Any) -> bool:
+    # bool is a subclass of int in Python, but `true` is not a number in a scene file; TOML also
+    # allows inf and nan, which would poison every matrix they reach.
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _is_integer(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def number(bounds: Bounds = ANY) -> Reader[float]:
+    return Reader(f"a number{bounds}", lambda v: float(v) if _is_number(v) and v in bounds else None)
+
+
+def integer(bounds: Bounds = ANY) -> Reader[int]:
+    return Reader(f"an integer{bounds}", lambda v: v if _is_integer(v) and v in bounds else None)
+
+
+def numbers(n: int, bounds: Bounds = ANY, nonzero: bool = False) -> Reader[tuple[float, ...]]:
+    def parse(v: Any) -> tuple[float, ...] | None:
+        fits = isinstance(v, (list, tuple)) and len(v) == n and all(_is_number(x) and x in bounds for x in v)
+        return tuple(float(x) for x in v) if fits and (any(v) or not nonzero) else None
+
+    return Reader(f"{n} numbers{bounds}" + (", not all zero" if nonzero else ""), parse)
+
+
+def integers(n: int, bounds: Bounds = ANY) -> Reader[tuple[int, ...]]:
+    def parse(v: Any) -> tuple[int, ...] | None:
+        fits = isinstance(v, (list, tuple)) and len(v) == n and all(_is_integer(x) and x in bounds for x in v)
+        return tuple(v) if fits else None
+
+    return Reader(f"{n} integers{bounds}", parse)
+
+
+def vec3(bounds: Bounds = ANY, nonzero: bool = False) -> Reader[Vec3]:
+    return cast(Reader[Vec3], numbers(3, bounds, nonzero))
+
+
+def number_or_vec3(bounds: Bounds) -> Reader[Vec3]:
+    """One number for all three components, or three numbers (a scale)."""
+    one, three = number(bounds), vec3(bounds)
+
+    def parse(v: Any) -> Vec3 | None:
+        s = one.parse(v)
+        return (s, s, s) if s is not None else three.parse(v)
+
+    return Reader(f"{one.expected} or {three.expected}", parse)
+
+
+def choice(options: Sequence[str]) -> Reader[str]:
+    return Reader(f"one of: {', '.join(options)}", lambda v: v if isinstance(v, str) and v in options else None)
+
+
+NAME = Reader("a non-empty string", lambda v: v if isinstance(v, str) and v.strip() else None)
+SIZE = cast(Reader[tuple[int, int]], integers(2, Bounds(1, 16384)))
+RESOLUTION = integer(Bounds(4, 4096))
+
+
+@dataclass(frozen=True)
+class At:
+    """Where a value sits: the file (or "command line"), the dotted path in it, and the folder that
+    relative model paths start from."""
+
+    source: str
+    path: str
+    base_dir: Path = Path()
+
+    def key(self, name: str) -> At:
+        return dataclasses.replace(self, path=f"{self.path}.{name}" if self.path else name)
+
+    def index(self, i: int) -> At:
+        return dataclasses.replace(self, path=f"{self.path}[{i}]")
+
+    def error(self, message: str) -> SceneError:
+        return SceneError(self.source, self.path, message)
+
+    def read(self, value: Any, reader: Reader[T]) -> T:
+        parsed = reader.parse(value)
+        if parsed is None:
+            raise self.error(f"expected {reader.expected}, got {show(value)}")
+        return parsed
+
+
+@dataclass(frozen=True)
+class Variant(Generic[T]):
+    """One `type` of a table: the fields it may have besides `type`, and how to build it."""
+
+    fields: tuple[str, ...]
+    build: Callable[[Table], T]
+
+
+class Table:
+    """A TOML table at a known place; `fields` (None: any) are the keys it may have."""
+
+    def __init__(self, value: Any, at: At, fields: Sequence[str] | None) -> None:
+        if not isinstance(value, Mapping):
+            raise at.error(f"expected a table, got {show(value)}")
+        # Checked before any field is read, so that a misspelt key is reported as itself rather
+        # than as the required field it was meant to be.
+        unknown = [k for k in value if k not in fields] if fields is not None else []
+        if unknown:
+            raise at.error(f"unknown field {json.dumps(unknown[0])}; expected one of: {', '.join(fields or ())}")
+        self.data: Mapping[str, Any] = value
+        self.at = at
+
+    def req(self, key: str, reader: Reader[T]) -> T:
+        if key not in self.data:
+            raise self.at.key(key).error(f"missing required field; expected {reader.expected}")
+        return self.at.key(key).read(self.data[key], reader)
+
+    def opt(self, key: str, reader: Reader[T], default: T) -> T:
+        return self.at.key(key).read(self.data[key], reader) if key in self.data else default
+
+    def section(self, key: str, fields: Sequence[str]) -> Table:
+        """The sub-table at `key` (empty when absent, so that every field takes its default)."""
+        return Table(self.data.get(key, {}), self.at.key(key), fields)
+
+    def variant(self, key: str, variants: Mapping[str, Variant[T]], default: T | None = None,
+                default_type: str | None = None) -> T:
+        """The sub-table at `key` built by the variant its `type` names; `default` when it is absent."""
+        if key in self.data:
+            return read_variant(self.data[key], self.at.key(key), variants, default_type)
+        if default is None:
+            kinds = choice(list(variants)).expected
+            raise self.at.key(key).error(f"missing required field; expected a table with type = {kinds}")
+        return default
+
+    def array(self, key: str, at_least: int = 0, at_most: int | None = None) -> list[tuple[Any, At]]:
+        """The values of the array of tables `[[key]]` (empty when absent), each with its place."""
+        at, value = self.at.key(key), self.data.get(key, [])
+        if not isinstance(value, list):
+            raise at.error(f"expected an array of tables ([[{key}]]), got {show(value)}")
+        if len(value) < at_least:
+            raise at.error(f"expected at least {at_least} [[{key}]] table(s), got {len(value)}")
+        if at_most is not None and len(value) > at_most:
+            raise at.error(f"expected at most {at_most} [[{key}]] tables, got {len(value)}")
+        return [(v, at.index(i)) for i, v in enumerate(value)]
+
+
+def read_variant(value: Any, at: At, variants: Mapping[str, Variant[T]], default_type: str | None = None) -> T:
+    """A table built by the variant its `type` names (`default_type` when it names none)."""
+    kinds = choice(list(variants))
+    head = Table(value, at, None)
+    kind = head.req("type", kinds) if default_type is None else head.opt("type", kinds, default_type)
+    return variants[kind].build(Table(value, at, ("type", *variants[kind].fields)))

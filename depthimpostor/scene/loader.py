@@ -1,0 +1,195 @@
+"""Scene files to `Scene`: the format, as tables of variants and sections, plus the file-level checks."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, cast
+
+import numpy as np
+
+from depthimpostor.constants import MAX_LIGHTS
+from depthimpostor.errors import SceneError
+from depthimpostor.scene import fields as f
+from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, At, Table, Variant, Vec3, read_variant, show
+from depthimpostor.scene.model import (
+    ZERO, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial, Environment, Light, Material,
+    MeshShape, MirrorMaterial, PlaneShape, RenderSettings, Scene, SceneObject, Shape, SphereShape,
+    TorusKnotShape, TorusShape,
+)
+
+MODEL_PATH_VARIABLE = "DEPTHIMPOSTOR_MODEL_PATH"
+MODEL_SUFFIXES = (".obj", ".ply", ".glb", ".gltf")
+
+_COLOR, _RADIANCE, _POINT = f.vec3(f.UNIT), f.vec3(f.NON_NEGATIVE), f.vec3()
+_DIRECTION = f.vec3(nonzero=True)
+_LENGTH = f.number(f.POSITIVE)
+_PLANE_SIZE = cast(f.Reader[tuple[float, float]], f.numbers(2, f.POSITIVE))
+
+
+def _torus(t: Table) -> TorusShape:
+    major, minor = t.req("major", _LENGTH), t.req("minor", _LENGTH)
+    if minor >= major:  # the tube would pass through the axis: a self-intersecting spindle torus
+        raise t.at.key("minor").error(f"expected a number less than major ({major:g}), got {minor:g}")
+    return TorusShape(major, minor)
+
+
+def _torus_knot(t: Table) -> TorusKnotShape:
+    p, q = t.req("p", f.integer(f.POSITIVE)), t.req("q", f.integer(f.POSITIVE))
+    if math.gcd(p, q) != 1:  # with a common factor the curve is a link, traced more than once
+        raise t.at.key("q").error(f"expected an integer coprime with p ({p}), got {q}")
+    return TorusKnotShape(p, q, t.req("radius", _LENGTH), t.req("tube", _LENGTH))
+
+
+def model_folders(base_dir: Path) -> list[Path]:
+    """Where a relative model path is looked for, in order: the scene's folder, then $DEPTHIMPOSTOR_MODEL_PATH."""
+    listed = os.environ.get(MODEL_PATH_VARIABLE, "").split(os.pathsep)
+    return [base_dir, *(Path(folder) for folder in listed if folder)]
+
+
+def _mesh(t: Table) -> MeshShape:
+    at, written = t.at.key("path"), t.req("path", NAME)
+    if Path(written).suffix.lower() not in MODEL_SUFFIXES:
+        raise at.error(f"expected a path to a {', '.join(MODEL_SUFFIXES)} file, got {json.dumps(written)}")
+    folders = model_folders(t.at.base_dir)
+    for folder in folders:
+        candidate = folder / Path(written).expanduser()  # joining an absolute path ignores the folder
+        if candidate.is_file():
+            return MeshShape(candidate.resolve(), written)
+    searched = ", ".join(str(folder.resolve()) for folder in folders)
+    raise at.error(f"expected an existing model file, got {json.dumps(written)}: not found in the scene's "
+                   f"folder or ${MODEL_PATH_VARIABLE} (searched: {searched})")
+
+
+_SHAPES: dict[str, Variant[Shape]] = {
+    "plane": Variant(("size",), lambda t: PlaneShape(t.req("size", _PLANE_SIZE))),
+    "box": Variant(("size",), lambda t: BoxShape(t.req("size", f.vec3(f.POSITIVE)))),
+    "sphere": Variant(("radius",), lambda t: SphereShape(t.req("radius", _LENGTH))),
+    "cylinder": Variant(("radius", "height"),
+                        lambda t: CylinderShape(t.req("radius", _LENGTH), t.req("height", _LENGTH))),
+    "torus": Variant(("major", "minor"), _torus),
+    "torus_knot": Variant(("p", "q", "radius", "tube"), _torus_knot),
+    "mesh": Variant(("path",), _mesh),
+}
+
+_MATERIALS: dict[str, Variant[Material]] = {
+    "diffuse": Variant(("color",), lambda t: DiffuseMaterial(t.req("color", _COLOR))),
+    "checker": Variant(("color_a", "color_b", "scale"), lambda t: CheckerMaterial(
+        t.req("color_a", _COLOR), t.req("color_b", _COLOR), t.opt("scale", _LENGTH, 1.0))),
+    "mirror": Variant(("tint",), lambda t: MirrorMaterial(t.opt("tint", _COLOR, MirrorMaterial().tint))),
+}
+
+
+def _light(t: Table, kind: str, direction: Vec3 = ZERO, position: Vec3 = ZERO) -> Light:
+    d = Light(kind)
+    return Light(kind, direction, position, color=t.opt("color", _RADIANCE, d.color),
+                 intensity=t.opt("intensity", f.number(f.NON_NEGATIVE), d.intensity))
+
+
+_LIGHTS: dict[str, Variant[Light]] = {
+    "directional": Variant(("direction", "color", "intensity"),
+                           lambda t: _light(t, "directional", direction=t.req("direction", _DIRECTION))),
+    "point": Variant(("position", "color", "intensity"),
+                     lambda t: _light(t, "point", position=t.req("position", _POINT))),
+}
+
+
+def _gradient(t: Table) -> Environment:
+    d = Environment()
+    horizon = t.opt("horizon", _RADIANCE, d.horizon)
+    return Environment("gradient", horizon, t.opt("zenith", _RADIANCE, d.zenith), horizon,
+                       t.opt("ground", _RADIANCE, d.ground))
+
+
+def _constant(t: Table) -> Environment:
+    color = t.req("color", _RADIANCE)
+    return Environment("constant", color, color, color, color)
+
+
+_ENVIRONMENTS: dict[str, Variant[Environment]] = {
+    "gradient": Variant(("zenith", "horizon", "ground"), _gradient),
+    "constant": Variant(("color",), _constant),
+}
+
+
+def _render(t: Table) -> RenderSettings:
+    d = RenderSettings()
+    return RenderSettings(size=t.opt("size", SIZE, d.size),
+                          impostor_resolution=t.opt("impostor_resolution", RESOLUTION, d.impostor_resolution),
+                          ambient=t.opt("ambient", f.number(f.UNIT), d.ambient))
+
+
+def _camera(t: Table) -> Camera:
+    d = Camera()
+    camera = Camera(eye=t.opt("eye", _POINT, d.eye), target=t.opt("target", _POINT, d.target),
+                    up=t.opt("up", _DIRECTION, d.up),
+                    fov_y=t.opt("fov_y", f.number(f.Bounds(0, 179, open_lo=True)), d.fov_y))
+    view = np.subtract(camera.target, camera.eye)
+    if not np.any(view):
+        raise t.at.key("target").error(f"expected a point other than camera.eye, got {show(camera.target)}")
+    # The camera's right vector is normalize(cross(view, up)). Below this sine (about 0.06 degrees
+    # off parallel) that cross product is mostly rounding error, and at zero it normalizes to NaN.
+    sine = np.linalg.norm(np.cross(view / np.linalg.norm(view), np.divide(camera.up, np.linalg.norm(camera.up))))
+    if sine < 1e-3:
+        raise t.at.key("up").error(f"expected a vector not parallel to the view direction "
+                                   f"(target - eye = {show(view.tolist())}), got {show(camera.up)}")
+    return camera
+
+
+def _object(t: Table) -> SceneObject:
+    return SceneObject(name=t.req("name", NAME), shape=t.variant("shape", _SHAPES),
+                       material=t.variant("material", _MATERIALS, default=DiffuseMaterial()),
+                       position=t.opt("position", _POINT, SceneObject.position),
+                       rotation=t.opt("rotation", _POINT, SceneObject.rotation),
+                       scale=t.opt("scale", f.number_or_vec3(f.POSITIVE), SceneObject.scale))
+
+
+def _objects(top: Table) -> tuple[SceneObject, ...]:
+    objects: list[SceneObject] = []
+    index_of: dict[str, int] = {}
+    for i, (value, at) in enumerate(top.array("objects", at_least=1)):
+        obj = _object(Table(value, at, ("name", "shape", "material", "position", "rotation", "scale")))
+        if obj.name in index_of:
+            raise at.key("name").error(f"expected a name no other object has, got {json.dumps(obj.name)} "
+                                       f"(already used by objects[{index_of[obj.name]}])")
+        index_of[obj.name] = i
+        objects.append(obj)
+    return tuple(objects)
+
+
+def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
+    """Validate already-parsed TOML data; `source` names it in errors, `base_dir` anchors model paths."""
+    top = Table(data, At(source, "", Path(base_dir)), ("render", "camera", "environment", "lights", "objects"))
+    return Scene(
+        source=source,
+        render=_render(top.section("render", ("size", "impostor_resolution", "ambient"))),
+        camera=_camera(top.section("camera", ("eye", "target", "up", "fov_y"))),
+        environment=top.variant("environment", _ENVIRONMENTS, default=Environment(), default_type="gradient"),
+        # The shading chunk loops over a fixed-size uniform array of lights.
+        lights=tuple(read_variant(value, at, _LIGHTS) for value, at in top.array("lights", at_most=MAX_LIGHTS)),
+        objects=_objects(top),
+    )
+
+
+def load_scene(path: str | os.PathLike[str]) -> Scene:
+    """Read and validate a scene file; every problem is a SceneError naming the file and the field."""
+    source = os.fspath(path)
+    try:
+        text = Path(source).read_bytes().decode("utf-8")
+    except IsADirectoryError as err:
+        raise SceneError(source, "", "expected a scene file, got a directory") from err
+    except FileNotFoundError as err:
+        raise SceneError(source, "", "no such file") from err
+    except OSError as err:
+        raise SceneError(source, "", f"cannot read the file: {err.strerror or err}") from err
+    except UnicodeDecodeError as err:
+        raise SceneError(source, "", f"expected UTF-8 text, got an undecodable byte at offset {err.start}") from err
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(source, "", f"invalid TOML: {err}") from err
+    return parse_scene(data, source, Path(source).resolve().parent)

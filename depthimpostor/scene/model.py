@@ -1,0 +1,187 @@
+"""The validated scene: frozen dataclasses, defaults as the file format states them.
+
+The defaults here are the only copy: the loader reads a missing field's value from these classes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from depthimpostor.scene.fields import RESOLUTION, SIZE, At, Vec3
+
+ZERO: Vec3 = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    size: tuple[int, int] = (960, 540)  # output width, height in pixels
+    impostor_resolution: int = 256  # depth-image width and height
+    # color = albedo * (ambient + sum of lights' intensity * color * max(0, N.L))
+    ambient: float = 0.15
+
+
+@dataclass(frozen=True)
+class Camera:
+    eye: Vec3 = (0.0, 1.6, 5.0)
+    target: Vec3 = (0.0, 0.6, 0.0)
+    up: Vec3 = (0.0, 1.0, 0.0)
+    fov_y: float = 45.0  # vertical, degrees
+
+
+@dataclass(frozen=True)
+class Environment:
+    """What a reflected ray that hits nothing sees.
+
+    A "gradient" blends zenith, horizon and ground (`color` is its horizon); a "constant" one has
+    zenith = horizon = ground = color, so a shader can treat both alike.
+    """
+
+    type: str = "gradient"
+    color: Vec3 = (0.9, 0.9, 0.95)
+    zenith: Vec3 = (0.35, 0.55, 0.9)
+    horizon: Vec3 = (0.9, 0.9, 0.95)
+    ground: Vec3 = (0.3, 0.28, 0.25)
+
+
+@dataclass(frozen=True)
+class Light:
+    """A "directional" light (`direction` is where it travels) or a "point" light at `position`.
+
+    The vector a type does not use is (0, 0, 0).
+    """
+
+    type: str
+    direction: Vec3 = ZERO
+    position: Vec3 = ZERO
+    color: Vec3 = (1.0, 1.0, 1.0)
+    intensity: float = 1.0
+
+
+@dataclass(frozen=True)
+class PlaneShape:
+    size: tuple[float, float]  # width along local X, depth along local Z; the plane faces +Y
+
+
+@dataclass(frozen=True)
+class BoxShape:
+    size: Vec3
+
+
+@dataclass(frozen=True)
+class SphereShape:
+    radius: float
+
+
+@dataclass(frozen=True)
+class CylinderShape:
+    radius: float
+    height: float
+
+
+@dataclass(frozen=True)
+class TorusShape:
+    major: float
+    minor: float
+
+
+@dataclass(frozen=True)
+class TorusKnotShape:
+    p: int
+    q: int
+    radius: float
+    tube: float
+
+
+@dataclass(frozen=True)
+class MeshShape:
+    path: Path  # resolved and absolute
+    written: str  # as written in the scene file, for messages
+
+
+Shape = PlaneShape | BoxShape | SphereShape | CylinderShape | TorusShape | TorusKnotShape | MeshShape
+
+
+@dataclass(frozen=True)
+class DiffuseMaterial:
+    color: Vec3 = (0.8, 0.8, 0.8)
+
+
+@dataclass(frozen=True)
+class CheckerMaterial:
+    color_a: Vec3
+    color_b: Vec3
+    scale: float = 1.0  # the side of one square, in world units
+
+
+@dataclass(frozen=True)
+class MirrorMaterial:
+    tint: Vec3 = (1.0, 1.0, 1.0)
+
+
+Material = DiffuseMaterial | CheckerMaterial | MirrorMaterial
+
+
+def axis_rotation(axis: int, degrees: float) -> np.ndarray:
+    """The right-handed 3x3 rotation about X, Y or Z (0, 1, 2) for column vectors: X by 90 takes +Y to +Z."""
+    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    i, j = ((1, 2), (2, 0), (0, 1))[axis]  # the plane the rotation turns, in right-handed order
+    r = np.eye(3)
+    r[i, i], r[i, j], r[j, i], r[j, j] = c, -s, s, c
+    return r
+
+
+@dataclass(frozen=True)
+class SceneObject:
+    name: str
+    shape: Shape
+    material: Material = DiffuseMaterial()
+    position: Vec3 = ZERO
+    rotation: Vec3 = ZERO  # degrees about X, then Y, then Z
+    scale: Vec3 = (1.0, 1.0, 1.0)
+
+    @property
+    def is_mirror(self) -> bool:
+        return isinstance(self.material, MirrorMaterial)
+
+    def model_matrix(self) -> np.ndarray:
+        """Local to world, 4x4 float64 for column vectors: T @ Rz @ Ry @ Rx @ S, so scale acts first."""
+        rx, ry, rz = self.rotation
+        m = np.eye(4)
+        m[:3, :3] = axis_rotation(2, rz) @ axis_rotation(1, ry) @ axis_rotation(0, rx) @ np.diag(self.scale)
+        m[:3, 3] = self.position
+        return m
+
+
+@dataclass(frozen=True)
+class Scene:
+    source: str  # the file it came from, for messages
+    render: RenderSettings
+    camera: Camera
+    environment: Environment
+    lights: tuple[Light, ...]
+    objects: tuple[SceneObject, ...]
+
+    @property
+    def mirrors(self) -> tuple[SceneObject, ...]:
+        return tuple(o for o in self.objects if o.is_mirror)
+
+    @property
+    def non_mirrors(self) -> tuple[SceneObject, ...]:
+        return tuple(o for o in self.objects if not o.is_mirror)
+
+    def with_overrides(self, size: tuple[int, int] | None = None,
+                       impostor_resolution: int | None = None) -> Scene:
+        """This scene with render settings from the command line, checked as strictly as the file's."""
+        at = At("command line", "")
+        render = self.render
+        if size is not None:
+            render = dataclasses.replace(render, size=at.key("--size").read(size, SIZE))
+        if impostor_resolution is not None:
+            resolution = at.key("--impostor-res").read(impostor_resolution, RESOLUTION)
+            render = dataclasses.replace(render, impostor_resolution=resolution)
+        return dataclasses.replace(self, render=render)
