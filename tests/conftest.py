@@ -1,0 +1,59 @@
+"""Shared fixtures: one GL context for the whole session, GL errors checked after every test,
+and the test models found through DEPTHIMPOSTOR_MODEL_PATH (or a procedural stand-in)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import moderngl
+import numpy as np
+import pytest
+import trimesh
+
+from depthimpostor.context import create_context
+
+SHARED_MODELS = Path(__file__).resolve().parents[2] / "shared" / "data" / "models"
+PROJECT_ROOT = Path(__file__).resolve().parents[1]
+SCENES = PROJECT_ROOT / "scenes"
+
+
+@pytest.fixture(scope="session")
+def ctx() -> Iterator[moderngl.Context]:
+    context = create_context()
+    yield context
+    context.release()
+
+
+@pytest.fixture(autouse=True)
+def no_gl_errors(request: pytest.FixtureRequest) -> Iterator[None]:
+    """Fail any test that leaves a GL error behind (only for tests that use the context)."""
+    if "ctx" not in request.fixturenames:
+        yield
+        return
+    context: moderngl.Context = request.getfixturevalue("ctx")
+    assert context.error == "GL_NO_ERROR", "a GL error was pending before the test"
+    yield
+    assert context.error == "GL_NO_ERROR"
+
+
+@pytest.fixture(scope="session")
+def model_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The folder holding stanford-bunny.obj: the shared test models, or a procedural stand-in."""
+    if (SHARED_MODELS / "stanford-bunny.obj").is_file():
+        return SHARED_MODELS
+    folder = tmp_path_factory.mktemp("models")
+    stand_in = trimesh.creation.icosphere(subdivisions=3, radius=0.08)
+    stand_in.apply_translation([0.0, 0.1, 0.0])
+    stand_in.export(folder / "stanford-bunny.obj")
+    return folder
+
+
+@pytest.fixture(autouse=True)
+def _models_on_path(monkeypatch: pytest.MonkeyPatch, model_path: Path) -> None:
+    monkeypatch.setenv("DEPTHIMPOSTOR_MODEL_PATH", str(model_path))
+
+
+def assert_finite(image: np.ndarray) -> None:
+    bad = ~np.isfinite(image)
+    assert not bad.any(), f"{int(bad.sum())} NaN or Inf values in the image"
