@@ -44,7 +44,8 @@ class RayHits:
     # 1 / |f0 - f1|, so grazing hits (small values) are where float32 and float64 part ways.
     conditioning: Array
     # How close the march came to a decision boundary, over the steps it visited: the smallest
-    # distance of a sample position to a texel edge (pixels), and the smallest |ray depth -
+    # distance of a sample position to a texel edge, or of the projected length to an integer
+    # (pixels: both pick samples), and the smallest |ray depth -
     # surface depth| (OpenGL depth). Where these are tiny, float32 and float64 may pick another
     # texel or another step, and the GPU and the reference can legitimately disagree.
     texel_margin: Array
@@ -132,6 +133,9 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
     steps = np.where(rays.inside, step_count(image, rays.sa, rays.sb), 0)
     result.samples[:] = np.where(rays.inside, steps + 1, 0)
     active = rays.inside.copy()
+    # The step count is a decision too: ceil() of a length within rounding of an integer.
+    length = np.maximum(np.abs(rays.sb[:, 0] - rays.sa[:, 0]), np.abs(rays.sb[:, 1] - rays.sa[:, 1]))
+    result.texel_margin[active] = np.abs(length - np.round(length))[active]
     s0 = rays.sa.copy()
     z0 = sample_depth(image, s0[:, :2])
     _track_margins(result, active, s0, z0)
