@@ -98,7 +98,7 @@ def ray_parameter(sigma: Array, w_a: Array, w_b: Array, t_enter: Array, t_exit: 
 
 
 @dataclass(frozen=True, eq=False)
-class _ClippedRays:
+class ClippedRays:
     inside: NDArray[np.bool_]
     t_enter: Array
     t_exit: Array
@@ -108,7 +108,7 @@ class _ClippedRays:
     sb: Array
 
 
-def _clip_and_project(image: DepthImageData, origins: Array, directions: Array) -> _ClippedRays:
+def clip_and_project(image: DepthImageData, origins: Array, directions: Array) -> ClippedRays:
     camera = image.camera
     inside, t_enter, t_exit = camera.clip_ray(origins, directions)
     t_exit = np.where(inside, t_exit, 0.0)
@@ -122,13 +122,13 @@ def _clip_and_project(image: DepthImageData, origins: Array, directions: Array) 
     wb = np.where(inside, pb[:, 2], 1.0)
     sa = np.stack([pa[:, 0] / wa, pa[:, 1] / wa, camera.opengl_depth(wa)], axis=1)
     sb = np.stack([pb[:, 0] / wb, pb[:, 1] / wb, camera.opengl_depth(wb)], axis=1)
-    return _ClippedRays(inside, t_enter, t_exit, pa, pb, sa, sb)
+    return ClippedRays(inside, t_enter, t_exit, pa, pb, sa, sb)
 
 
 def intersect_optimized(image: DepthImageData, origins: Array, directions: Array) -> RayHits:
     """The lecture's optimized algorithm: 2-D segments in (screen parameter, OpenGL depth)."""
     origins, directions = np.asarray(origins, float), np.asarray(directions, float)
-    rays = _clip_and_project(image, origins, directions)
+    rays = clip_and_project(image, origins, directions)
     result = RayHits.misses(len(origins))
     steps = np.where(rays.inside, step_count(image, rays.sa, rays.sb), 0)
     result.samples[:] = np.where(rays.inside, steps + 1, 0)
@@ -163,7 +163,7 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
     """The lecture's basic algorithm: unproject each step and intersect 3-D segments with the ray."""
     origins, directions = np.asarray(origins, float), np.asarray(directions, float)
     camera = image.camera
-    rays = _clip_and_project(image, origins, directions)
+    rays = clip_and_project(image, origins, directions)
     result = RayHits.misses(len(origins))
     steps = np.where(rays.inside, step_count(image, rays.sa, rays.sb), 0)
     result.samples[:] = np.where(rays.inside, steps + 1, 0)

@@ -55,7 +55,8 @@ class MirrorPass:
         write(self.program, "u_eye", tuple(camera.C))
         for mirror in mirrors:
             material = mirror.object.material
-            assert isinstance(material, MirrorMaterial)  # the renderer sorts objects by material
+            if not isinstance(material, MirrorMaterial):
+                raise TypeError(f"object {mirror.object.name!r} is not a mirror")
             images = self.impostors.images_by_mirror[mirror.index]
             self.impostors.uniform_buffers[mirror.index].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
             write(self.program, "u_depth_image_count", len(images))

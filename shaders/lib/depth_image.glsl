@@ -90,6 +90,28 @@ float ray_parameter(float sigma, float w_a, float w_b, float t_enter, float t_ex
     return t_enter + lambda * (t_exit - t_enter);
 }
 
+// A ray clipped to the frustum: its parameter range, the camera coordinates (x, y, w) of its ends,
+// and their projections a' and b' as (u, v, OpenGL depth).
+struct ClippedRay {
+    float t_enter;
+    float t_exit;
+    vec3 pa;
+    vec3 pb;
+    vec3 sa;
+    vec3 sb;
+};
+
+bool clip_and_project(DepthImage image, vec3 origin, vec3 direction, out ClippedRay ray) {
+    vec3 p0 = camera_coordinates(image, origin - image.eye.xyz);
+    vec3 dp = camera_coordinates(image, direction);
+    if (!clip_ray(image, p0, dp, ray.t_enter, ray.t_exit)) return false;
+    ray.pa = p0 + dp * ray.t_enter;
+    ray.pb = p0 + dp * ray.t_exit;
+    ray.sa = vec3(ray.pa.xy / ray.pa.z, opengl_depth(image, ray.pa.z));
+    ray.sb = vec3(ray.pb.xy / ray.pb.z, opengl_depth(image, ray.pb.z));
+    return true;
+}
+
 // Do the 2-D segments [(0, ray0), (1, ray1)] and [(0, surface0), (1, surface1)] cross with the ray
 // going from in front of the surface (or on it) to behind it? f = ray depth - surface depth.
 bool segments_cross(float f0, float f1, out float k) {
@@ -107,14 +129,9 @@ int step_count(DepthImage image, vec3 sa, vec3 sb) {
 // The lecture's optimized algorithm: clip, project both ends, step along the projection and
 // intersect 2-D segments in OpenGL depth, which is affine in screen space: no unprojection.
 RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
-    vec3 p0 = camera_coordinates(image, origin - image.eye.xyz);
-    vec3 dp = camera_coordinates(image, direction);
-    float t_enter, t_exit;
-    if (!clip_ray(image, p0, dp, t_enter, t_exit)) return no_hit(0);
-    vec3 pa = p0 + dp * t_enter;
-    vec3 pb = p0 + dp * t_exit;
-    vec3 sa = vec3(pa.xy / pa.z, opengl_depth(image, pa.z));  // a' = (u, v, OpenGL depth)
-    vec3 sb = vec3(pb.xy / pb.z, opengl_depth(image, pb.z));  // b'
+    ClippedRay ray;
+    if (!clip_and_project(image, origin, direction, ray)) return no_hit(0);
+    vec3 sa = ray.sa, sb = ray.sb;
     int steps = step_count(image, sa, sb);
     vec3 s0 = sa;
     float z0 = sample_depth(image, s0.xy);
@@ -125,7 +142,7 @@ RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
         // A background sample has no surface: joining it to its neighbour would make a false one.
         if (z0 < BACKGROUND_DEPTH && z1 < BACKGROUND_DEPTH && segments_cross(s0.z - z0, s1.z - z1, k)) {
             vec2 s = s0.xy + (s1.xy - s0.xy) * k;
-            float t = ray_parameter((float(i) + k) / float(steps), pa.z, pb.z, t_enter, t_exit);
+            float t = ray_parameter((float(i) + k) / float(steps), ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
             return RayHit(true, t, s, sample_color(image, s), image.eye.w, i + 2);
         }
         s0 = s1;
@@ -138,16 +155,11 @@ RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
 // between consecutive samples with the ray (they are coplanar: both lie in the plane through the
 // eye and the ray). Kept as the slower reference point for the optimized version.
 RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
-    vec3 p0 = camera_coordinates(image, origin - image.eye.xyz);
-    vec3 dp = camera_coordinates(image, direction);
-    float t_enter, t_exit;
-    if (!clip_ray(image, p0, dp, t_enter, t_exit)) return no_hit(0);
-    vec3 pa = p0 + dp * t_enter;
-    vec3 pb = p0 + dp * t_exit;
-    vec3 sa = vec3(pa.xy / pa.z, opengl_depth(image, pa.z));
-    vec3 sb = vec3(pb.xy / pb.z, opengl_depth(image, pb.z));
-    vec3 ray_a = origin + direction * t_enter;
-    vec3 ray_ab = direction * (t_exit - t_enter);
+    ClippedRay ray;
+    if (!clip_and_project(image, origin, direction, ray)) return no_hit(0);
+    vec3 sa = ray.sa, sb = ray.sb;
+    vec3 ray_a = origin + direction * ray.t_enter;
+    vec3 ray_ab = direction * (ray.t_exit - ray.t_enter);
     int steps = step_count(image, sa, sb);
     vec2 s0 = sa.xy;
     float z0 = sample_depth(image, s0);
@@ -163,7 +175,7 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
             vec3 d1 = q1 - q0, d2 = ray_ab, r = q0 - ray_a;
             float aa = dot(d1, d1), bb = dot(d1, d2), cc = dot(d2, d2), dd = dot(d1, r), ee = dot(d2, r);
             float denominator = aa * cc - bb * bb;
-            float w_ray0 = 1.0 / ((1.0 - sigma0) / pa.z + sigma0 / pb.z);
+            float w_ray0 = 1.0 / ((1.0 - sigma0) / ray.pa.z + sigma0 / ray.pb.z);
             bool in_front_at_start = w_ray0 <= w_from_opengl_depth(image, z0);
             if (denominator > 1e-12 * aa * cc && in_front_at_start) {
                 float mu = (bb * ee - cc * dd) / denominator;
@@ -172,7 +184,7 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
                     vec3 p = ray_a + ray_ab * lambda;
                     vec3 pc = camera_coordinates(image, p - image.eye.xyz);
                     vec2 s = pc.xy / pc.z;
-                    float t = t_enter + lambda * (t_exit - t_enter);
+                    float t = ray.t_enter + lambda * (ray.t_exit - ray.t_enter);
                     return RayHit(true, t, s, sample_color(image, s), image.eye.w, i + 2);
                 }
             }
