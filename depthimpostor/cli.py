@@ -41,14 +41,18 @@ def _load(args: argparse.Namespace) -> Scene:
 def _render(args: argparse.Namespace) -> int:
     scene = _load(args)
     ctx = create_context(args.backend)
+    renderer_name = describe(ctx)
     algorithm = Algorithm[args.algorithm.upper()]
-    with Renderer(ctx, scene, algorithm) as renderer:
-        for _ in range(args.frames + 1):  # the first frame bakes the depth images and warms up
-            stats = renderer.render()
-        image = renderer.read_color()
-        timed = stats.draw_seconds[1:]
-        depth_images = len(renderer.impostors.depth_images) if renderer.impostors else 0
-        bake_seconds = sum(stats.bake_seconds)
+    try:
+        with Renderer(ctx, scene, algorithm) as renderer:
+            for _ in range(args.frames + 1):  # the first frame bakes the depth images and warms up
+                stats = renderer.render()
+            image = renderer.read_color()
+            depth_images = len(renderer.impostors.depth_images) if renderer.impostors else 0
+    finally:
+        ctx.release()
+    timed = stats.draw_seconds[1:]
+    bake_seconds = sum(stats.bake_seconds)
     output = Path(args.output)
     output.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(image).save(output)
@@ -56,9 +60,8 @@ def _render(args: argparse.Namespace) -> int:
     print(
         f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)}, {algorithm.name.lower()}), "
         f"bake {1000 * bake_seconds:.1f} ms ({depth_images} depth images of {scene.render.impostor_resolution}^2), "
-        f"{scene.render.size[0]}x{scene.render.size[1]} on {describe(ctx)}"
+        f"{scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}"
     )
-    ctx.release()
     return 0
 
 
