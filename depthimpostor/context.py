@@ -2,8 +2,8 @@
 
 Headless rendering uses EGL (Mesa's llvmpipe on a machine without a GPU, the vendor driver on one
 with); where EGL cannot give a context, OSMesa can, through a small ctypes loader that moderngl
-accepts as `create_context(context=...)`. The interactive viewer's glfw window makes its context
-through `create_window_context` here too, so that every context is made, checked and described in
+accepts as `create_context(context=...)`. The interactive viewer's glfw window (issue 5, not yet
+written) is to make its context here too, so that every context is made, checked and described in
 one module.
 """
 
