@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from .constants import Algorithm
+from .constants import NO_OBJECT, Algorithm
 from .context import bind_default_framebuffer
 from .geometry import ObjectGeometry, scene_geometry
 from .passes.diffuse import DiffusePass
@@ -47,8 +47,27 @@ def camera_of(scene: Scene, near: float = 0.05, far: float = 500.0) -> PPC:
     return PPC.look_at(camera.eye, camera.target, camera.up, camera.fov_y, width, height, near, far)
 
 
+@dataclass(frozen=True)
+class ReflectionData:
+    """Per pixel of the last frame (top row first): what each mirror pixel's reflected ray hit."""
+
+    mirror_mask: np.ndarray  # (h, w) bool
+    origin: np.ndarray  # (h, w, 3) the reflected ray's origin on the mirror
+    direction: np.ndarray  # (h, w, 3) unit reflected direction
+    object_id: np.ndarray  # (h, w) int, NO_OBJECT for the environment (and outside mirrors)
+    hit_position: np.ndarray  # (h, w, 3) world position of the hit (meaningless where no hit)
+
+
 class Renderer:
-    def __init__(self, ctx: moderngl.Context, scene: Scene, algorithm: Algorithm = Algorithm.OPTIMIZED) -> None:
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        scene: Scene,
+        algorithm: Algorithm = Algorithm.OPTIMIZED,
+        reflection_data: bool = False,
+    ) -> None:
+        """`reflection_data` adds float outputs of each mirror pixel's reflected ray and hit (for
+        comparisons with the truth); without it neither the attachments nor the variant exist."""
         self.ctx = ctx
         self.scene = scene
         self.algorithm = algorithm
@@ -67,7 +86,17 @@ class Renderer:
         # instead of being clamped into a plausible-looking 8-bit pixel.
         self._color = ctx.renderbuffer((width, height), 4, dtype="f4")
         self._depth = ctx.depth_renderbuffer((width, height))
-        self.framebuffer = ctx.framebuffer([self._color], self._depth)
+        self._reflection_outputs = [
+            ctx.renderbuffer((width, height), 4, dtype="f4") for _ in range(3 if reflection_data else 0)
+        ]
+        self.framebuffer = ctx.framebuffer([self._color, *self._reflection_outputs], self._depth)
+        # Passes with one output draw through a framebuffer with the colour alone: GL leaves
+        # attachments a shader does not write undefined. Diffuse objects are drawn before mirrors,
+        # so a mirror fragment that passes the depth test is the visible one and its extra
+        # outputs stay consistent with the colour.
+        self._color_only = (
+            ctx.framebuffer([self._color], self._depth) if self._reflection_outputs else self.framebuffer
+        )
 
         self.environment = EnvironmentPass(ctx, self.programs, scene)
         self.diffuse = DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
@@ -77,7 +106,7 @@ class Renderer:
             baking = DiffusePass(self.programs, scene, self.meshes, write_depth_image=True)
             self.impostors = ImpostorPass(ctx, scene, baking, self.mirrors, self.reflected_objects)
             self.mirror_pass = MirrorPass(
-                self.programs, scene, self.meshes, self.impostors, self.analytic_planes, algorithm
+                self.programs, scene, self.meshes, self.impostors, self.analytic_planes, algorithm, reflection_data
             )
         self._impostors_baked = False
 
@@ -100,11 +129,13 @@ class Renderer:
         self.ctx.finish()
         start = time.perf_counter()
         self.framebuffer.use()
-        self.framebuffer.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        self.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self._color_only.use()
         self.environment.draw(self.camera)
         view_projection = self.camera.view_projection
         self.stats.draw_calls += self.diffuse.draw(self.diffuse_objects, view_projection)
         if self.mirror_pass is not None:
+            self.framebuffer.use()
             self.stats.draw_calls += self.mirror_pass.draw(self.mirrors, self.camera, view_projection)
         self.ctx.finish()
         self.stats.draw_seconds.append(time.perf_counter() - start)
@@ -125,6 +156,20 @@ class Renderer:
         """The last frame as (height, width, 3) uint8, top row first, ready for a PNG."""
         return to_uint8(self.read_color_float())
 
+    def read_reflection_data(self) -> ReflectionData:
+        if not self._reflection_outputs:
+            raise ValueError("this renderer was made without reflection_data=True")
+        width, height = self.scene.render.size
+
+        def attachment(index: int) -> np.ndarray:
+            data = self.framebuffer.read(components=4, attachment=index, dtype="f4")
+            return np.frombuffer(data, np.float32).reshape(height, width, 4).astype(np.float64)
+
+        origin, direction, hit = attachment(1), attachment(2), attachment(3)
+        mask = origin[..., 3] > 0.5
+        object_id = np.where(mask, np.rint(direction[..., 3]), NO_OBJECT).astype(np.int64)
+        return ReflectionData(mask, origin[..., :3], direction[..., :3], object_id, hit[..., :3])
+
     # ------------------------------------------------------------------ lifetime
     def release(self) -> None:
         bind_default_framebuffer(self.ctx)
@@ -133,7 +178,9 @@ class Renderer:
         self.environment.release()
         self.meshes.release()
         self.programs.release()
-        for item in (self.framebuffer, self._color, self._depth):
+        if self._color_only is not self.framebuffer:
+            self._color_only.release()
+        for item in (self.framebuffer, self._color, self._depth, *self._reflection_outputs):
             item.release()
 
     def __enter__(self) -> Renderer:

@@ -11,13 +11,25 @@ in vec3 v_world_position;
 in vec3 v_local_position;
 in vec3 v_world_normal;
 
-out vec4 out_color;
+layout(location = 0) out vec4 out_color;
+#ifdef WRITE_REFLECTION_DATA
+// For comparisons against the ray-traced truth: the reflected ray and what it hit.
+layout(location = 1) out vec4 out_ray_origin;     // (origin, 1): 1 marks a mirror pixel
+layout(location = 2) out vec4 out_ray_direction;  // (unit direction, object id hit or NO_OBJECT)
+layout(location = 3) out vec4 out_hit_position;   // (world position of the hit, 1 if hit)
+#endif
 
 void main() {
     vec3 view = safe_normalize(v_world_position - u_eye, vec3(0.0, 0.0, -1.0));
     vec3 normal = safe_normalize(v_world_normal, -view);
     // A mirror seen from behind (a planar mirror's back) reflects on that side too.
     normal = faceforward(normal, view, normal);
-    RayHit hit = trace_reflected(v_world_position, reflect(view, normal));
+    vec3 direction = reflect(view, normal);
+    RayHit hit = trace_reflected(v_world_position, direction);
     out_color = vec4(u_tint * hit.color, 1.0);
+#ifdef WRITE_REFLECTION_DATA
+    out_ray_origin = vec4(v_world_position, 1.0);
+    out_ray_direction = vec4(direction, hit.hit ? hit.object_id : float(NO_OBJECT));
+    out_hit_position = vec4(v_world_position + direction * hit.t, hit.hit ? 1.0 : 0.0);
+#endif
 }

@@ -30,8 +30,11 @@ def bind_impostors(program: moderngl.Program, atlas: ImpostorAtlas) -> None:
         program["DepthImages"].binding = DEPTH_IMAGES_BINDING
 
 
-def reflection_defines(algorithm: Algorithm) -> dict[str, int]:
-    return {"ALGORITHM": int(algorithm)}
+def reflection_defines(algorithm: Algorithm, write_reflection_data: bool = False) -> dict[str, int]:
+    defines = {"ALGORITHM": int(algorithm)}
+    if write_reflection_data:
+        defines["WRITE_REFLECTION_DATA"] = 1
+    return defines
 
 
 class MirrorPass:
@@ -43,8 +46,10 @@ class MirrorPass:
         impostors: ImpostorPass,
         analytic_planes: list[ObjectGeometry],
         algorithm: Algorithm,
+        write_reflection_data: bool = False,
     ) -> None:
-        self.program = programs.get("mesh.vert", "mirror.frag", reflection_defines(algorithm))
+        defines = reflection_defines(algorithm, write_reflection_data)
+        self.program = programs.get("mesh.vert", "mirror.frag", defines)
         self.meshes = meshes
         self.impostors = impostors
         write_lighting(self.program, scene)
