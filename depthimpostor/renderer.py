@@ -52,6 +52,7 @@ class ReflectionData:
     """Per pixel of the last frame (top row first): what each mirror pixel's reflected ray hit."""
 
     mirror_mask: np.ndarray  # (h, w) bool
+    mirror_id: np.ndarray  # (h, w) int: the object id of the mirror seen there, NO_OBJECT elsewhere
     origin: np.ndarray  # (h, w, 3) the reflected ray's origin on the mirror
     direction: np.ndarray  # (h, w, 3) unit reflected direction
     object_id: np.ndarray  # (h, w) int, NO_OBJECT for the environment (and outside mirrors)
@@ -75,6 +76,7 @@ class Renderer:
         self.stats = RenderStats()
         self.programs = ProgramCache(ctx)
         geometry = scene_geometry(scene.objects)
+        self.geometry = geometry
         self.mirrors: list[ObjectGeometry] = [g for g in geometry if g.object.is_mirror]
         self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
         self.diffuse_objects = [g for g in geometry if not g.object.is_mirror]
@@ -167,8 +169,9 @@ class Renderer:
 
         origin, direction, hit = attachment(1), attachment(2), attachment(3)
         mask = origin[..., 3] > 0.5
+        mirror_id = np.where(mask, np.rint(origin[..., 3]) - 1, NO_OBJECT).astype(np.int64)
         object_id = np.where(mask, np.rint(direction[..., 3]), NO_OBJECT).astype(np.int64)
-        return ReflectionData(mask, origin[..., :3], direction[..., :3], object_id, hit[..., :3])
+        return ReflectionData(mask, mirror_id, origin[..., :3], direction[..., :3], object_id, hit[..., :3])
 
     # ------------------------------------------------------------------ lifetime
     def release(self) -> None:

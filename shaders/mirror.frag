@@ -14,7 +14,8 @@ in vec3 v_world_normal;
 layout(location = 0) out vec4 out_color;
 #ifdef WRITE_REFLECTION_DATA
 // For comparisons against the ray-traced truth: the reflected ray and what it hit.
-layout(location = 1) out vec4 out_ray_origin;     // (origin, 1): 1 marks a mirror pixel
+layout(location = 1) out vec4 out_ray_origin;     // (origin, mirror's object id + 1): 0 outside mirrors
+uniform int u_mirror_id;
 layout(location = 2) out vec4 out_ray_direction;  // (unit direction, object id hit or NO_OBJECT)
 layout(location = 3) out vec4 out_hit_position;   // (world position of the hit, 1 if hit)
 #endif
@@ -28,7 +29,7 @@ void main() {
     RayHit hit = trace_reflected(v_world_position, direction);
     out_color = vec4(u_tint * hit.color, 1.0);
 #ifdef WRITE_REFLECTION_DATA
-    out_ray_origin = vec4(v_world_position, 1.0);
+    out_ray_origin = vec4(v_world_position, float(u_mirror_id + 1));
     out_ray_direction = vec4(direction, hit.hit ? hit.object_id : float(NO_OBJECT));
     out_hit_position = vec4(v_world_position + direction * hit.t, hit.hit ? 1.0 : 0.0);
 #endif

@@ -66,5 +66,6 @@ class MirrorPass:
             self.impostors.uniform_buffers[mirror.index].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
             write(self.program, "u_depth_image_count", len(images))
             write(self.program, "u_tint", tuple(material.tint))
+            write(self.program, "u_mirror_id", mirror.index)
             self.meshes.draw(self.program, mirror, view_projection)
         return len(mirrors)

@@ -1,0 +1,169 @@
+"""How far a render is from the truth, per mirror pixel: colour, object and geometry.
+
+Figures, over the mirror pixels of one frame:
+- colour RMSE and PSNR of the displayed (clamped) colours;
+- the share of pixels whose reflected ray hit another object than the truth's (the environment
+  counting as an object);
+- the geometric error where both hit the same depth-image object: the distance between the two
+  hit points as a fraction of that object's bounding-sphere radius (median, 95th percentile, max).
+  Analytic planes are exact by construction and are left out of this figure.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from .constants import NO_OBJECT
+from .renderer import Renderer, to_uint8
+from .scene.model import MirrorMaterial
+from .truth import TruthTracer
+
+WORST_PIXELS = 8
+
+
+@dataclass(frozen=True)
+class Figures:
+    mirror_pixels: int
+    color_rmse: float
+    psnr_db: float
+    wrong_object_share: float
+    geometric_pixels: int
+    geometric_error_median: float
+    geometric_error_p95: float
+    geometric_error_max: float
+    worst_pixels: list[dict[str, object]] = field(default_factory=list)
+
+
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    render: np.ndarray  # (h, w, 3) displayed colours in [0, 1]
+    truth: np.ndarray
+    mirror_mask: np.ndarray
+    geometric_error: np.ndarray  # (h, w), NaN where not measured
+    figures: Figures
+
+
+def truth_frame(renderer: Renderer) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(truth image, mirror mask, truth object ids, truth hit positions) for the last frame."""
+    data = renderer.read_reflection_data()
+    image = np.clip(renderer.read_color_float(), 0.0, 1.0)
+    mask = data.mirror_mask
+    tracer = TruthTracer(renderer.scene, renderer.geometry)
+    hits = tracer.trace(data.origin[mask], data.direction[mask])
+    tints = np.zeros((len(renderer.scene.objects), 3))
+    for mirror in renderer.mirrors:
+        assert_mirror = mirror.object.material
+        if isinstance(assert_mirror, MirrorMaterial):
+            tints[mirror.index] = assert_mirror.tint
+    truth = image.copy()
+    truth[mask] = np.clip(tints[data.mirror_id[mask]] * hits.color, 0.0, 1.0)
+    object_id = np.full(mask.shape, NO_OBJECT, np.int64)
+    object_id[mask] = hits.object_id
+    position = np.zeros(mask.shape + (3,))
+    position[mask] = hits.position
+    return truth, mask, object_id, position
+
+
+def compare(renderer: Renderer) -> Comparison:
+    """Compare the renderer's last frame (made with reflection_data=True) with the truth."""
+    truth, mask, truth_object, truth_position = truth_frame(renderer)
+    data = renderer.read_reflection_data()
+    render = np.clip(renderer.read_color_float(), 0.0, 1.0)
+    count = int(mask.sum())
+    squared = ((render - truth) ** 2)[mask]
+    rmse = float(np.sqrt(squared.mean())) if count else 0.0
+    wrong = (data.object_id != truth_object) & mask
+
+    radius = {g.index: g.bounding_sphere[1] for g in renderer.reflected_objects}
+    measured = mask & (data.object_id == truth_object) & np.isin(truth_object, list(radius))
+    geometric = np.full(mask.shape, np.nan)
+    if measured.any():
+        radii = np.vectorize(radius.get)(truth_object[measured])
+        geometric[measured] = np.linalg.norm(data.hit_position[measured] - truth_position[measured], axis=1) / radii
+    values = geometric[measured]
+
+    color_error = np.abs(render - truth).max(axis=2)
+    worst = _worst_pixels(mask, wrong, geometric, color_error, data.object_id, truth_object)
+    figures = Figures(
+        mirror_pixels=count,
+        color_rmse=rmse,
+        psnr_db=float(20 * math.log10(1.0 / rmse)) if rmse > 0 else float("inf"),
+        wrong_object_share=float(wrong.sum() / count) if count else 0.0,
+        geometric_pixels=int(measured.sum()),
+        geometric_error_median=float(np.median(values)) if len(values) else 0.0,
+        geometric_error_p95=float(np.percentile(values, 95)) if len(values) else 0.0,
+        geometric_error_max=float(values.max()) if len(values) else 0.0,
+        worst_pixels=worst,
+    )
+    return Comparison(render, truth, mask, geometric, figures)
+
+
+def _worst_pixels(
+    mask: np.ndarray, wrong: np.ndarray, geometric: np.ndarray, color_error: np.ndarray,
+    render_object: np.ndarray, truth_object: np.ndarray,
+) -> list[dict[str, object]]:
+    """The pixels to look at first: wrong objects, then the largest geometric and colour errors."""
+    rows: list[dict[str, object]] = []
+    score = np.where(mask, color_error, -1.0) + np.where(wrong, 10.0, 0.0) + np.nan_to_num(geometric, nan=0.0)
+    for flat in np.argsort(score, axis=None)[::-1][:WORST_PIXELS]:
+        y, x = np.unravel_index(flat, mask.shape)
+        if not mask[y, x]:
+            break
+        rows.append({
+            "x": int(x), "y": int(y),
+            "object": int(render_object[y, x]), "truth_object": int(truth_object[y, x]),
+            "color_error": round(float(color_error[y, x]), 4),
+            "geometric_error": None if np.isnan(geometric[y, x]) else round(float(geometric[y, x]), 4),
+        })
+    return rows
+
+
+def heat_map(comparison: Comparison, limit: float = 0.25) -> np.ndarray:
+    """Per-pixel colour error inside the mirrors, black -> red -> yellow -> white at `limit`;
+    the rest of the frame in dim grey for context."""
+    error = np.clip(np.abs(comparison.render - comparison.truth).max(axis=2) / limit, 0.0, 1.0)
+    heat = np.stack([np.clip(3 * error, 0, 1), np.clip(3 * error - 1, 0, 1), np.clip(3 * error - 2, 0, 1)], axis=2)
+    context = comparison.render.mean(axis=2, keepdims=True) * 0.35
+    return np.where(comparison.mirror_mask[..., None], heat, context)
+
+
+def write_report(comparison: Comparison, folder: Path, settings: dict[str, object]) -> list[Path]:
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = {
+        "render.png": comparison.render, "truth.png": comparison.truth, "difference.png": heat_map(comparison),
+    }
+    written = []
+    for name, image in paths.items():
+        Image.fromarray(to_uint8(image)).save(folder / name)
+        written.append(folder / name)
+    report = {"settings": settings, "figures": asdict(comparison.figures)}
+    (folder / "report.json").write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    written.append(folder / "report.json")
+    return written
+
+
+def format_table(figures: Figures) -> str:
+    rows = [
+        ("mirror pixels", f"{figures.mirror_pixels}"),
+        ("colour RMSE", f"{figures.color_rmse:.4f}"),
+        ("PSNR", f"{figures.psnr_db:.2f} dB"),
+        ("wrong object", f"{100 * figures.wrong_object_share:.3f} % of mirror pixels"),
+        ("geometric error, median", f"{100 * figures.geometric_error_median:.3f} % of the object's radius"),
+        ("geometric error, 95th pct", f"{100 * figures.geometric_error_p95:.3f} %"),
+        ("geometric error, max", f"{100 * figures.geometric_error_max:.3f} %"),
+        ("pixels measured (geometry)", f"{figures.geometric_pixels}"),
+    ]
+    width = max(len(name) for name, _ in rows)
+    lines = [f"{name:<{width}}  {value}" for name, value in rows]
+    lines.append("worst pixels (x, y: object / truth object, colour error, geometric error):")
+    lines += [
+        f"  {p['x']:>4}, {p['y']:>4}: {p['object']} / {p['truth_object']}, {p['color_error']}, {p['geometric_error']}"
+        for p in figures.worst_pixels
+    ]
+    return "\n".join(lines)

@@ -1,0 +1,146 @@
+"""Ray-traced truth: each mirror pixel's reflected ray traced against the real triangles.
+
+Primary visibility comes from the rasterizer's own frame (the renderer's reflection outputs give
+each mirror pixel's reflected ray), so that outside the mirrors the truth *is* the render and
+inside them only the approximation differs. The reflected rays are traced on the CPU with Embree
+(embreex) against the same world-space meshes the renderer draws, the analytic planes are
+intersected as in the shader, and hits are shaded with the same model as shaders/lib/shading.glsl
+(albedo * (ambient + lights), smooth normals interpolated from the same vertex normals).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from embreex import rtcore_scene
+from embreex.mesh_construction import TriangleMesh
+
+from .constants import NO_OBJECT
+from .geometry import ObjectGeometry
+from .scene.model import CheckerMaterial, DiffuseMaterial, Material, Scene
+
+Array = np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class TruthHits:
+    hit: Array  # (n,) bool
+    t: Array  # (n,)
+    position: Array  # (n, 3)
+    object_id: Array  # (n,) int, NO_OBJECT for the environment
+    color: Array  # (n, 3), the environment's where nothing was hit
+
+
+def environment(scene: Scene, directions: Array) -> Array:
+    """shaders/lib/environment.glsl in numpy."""
+    env = scene.environment
+    norm = np.linalg.norm(directions, axis=1, keepdims=True)
+    y = np.clip(np.where(norm > 1e-20, directions / np.maximum(norm, 1e-300), [0.0, 1.0, 0.0])[:, 1], -1.0, 1.0)
+    up = np.asarray(env.horizon) + (np.asarray(env.zenith) - env.horizon) * np.clip(y, 0, None)[:, None]
+    down = np.asarray(env.horizon) + (np.asarray(env.ground) - env.horizon) * np.clip(-y, 0, None)[:, None]
+    return np.where((y >= 0.0)[:, None], up, down)
+
+
+def material_albedo(material: Material, local_positions: Array) -> Array:
+    """shaders/lib/shading.glsl's material_albedo in numpy (checker in the local XZ plane)."""
+    if isinstance(material, CheckerMaterial):
+        cell = np.floor(local_positions[:, [0, 2]] / material.scale).astype(np.int64)
+        even = ((cell[:, 0] + cell[:, 1]) & 1) == 0
+        return np.where(even[:, None], material.color_a, material.color_b)
+    if isinstance(material, DiffuseMaterial):
+        return np.broadcast_to(np.asarray(material.color, float), local_positions.shape).copy()
+    raise TypeError(f"{material!r} is not a diffuse material")
+
+
+def shade(scene: Scene, albedo: Array, positions: Array, normals: Array) -> Array:
+    """shaders/lib/shading.glsl's shade in numpy."""
+    irradiance = np.full(len(positions), scene.render.ambient, dtype=float)[:, None] * np.ones(3)
+    for light in scene.lights:
+        if light.type == "directional":
+            to_light = -np.asarray(light.direction, float) / np.linalg.norm(light.direction)
+            to_light = np.broadcast_to(to_light, positions.shape)
+        else:
+            offset = np.asarray(light.position, float) - positions
+            length = np.linalg.norm(offset, axis=1, keepdims=True)
+            to_light = np.where(length > 1e-20, offset / np.maximum(length, 1e-300), normals)
+        cosine = np.clip(np.einsum("ij,ij->i", normals, to_light), 0.0, None)
+        irradiance += np.asarray(light.color, float) * light.intensity * cosine[:, None]
+    return albedo * irradiance
+
+
+class TruthTracer:
+    """Traces rays against the scene's diffuse meshes (Embree) and analytic planes (exactly)."""
+
+    def __init__(self, scene: Scene, geometry: Sequence[ObjectGeometry]) -> None:
+        self.scene = scene
+        self.meshes = [g for g in geometry if not g.object.is_mirror and not g.is_analytic_plane]
+        self.planes = [g for g in geometry if g.is_analytic_plane]
+        self._embree = rtcore_scene.EmbreeScene()
+        for item in self.meshes:  # geomID = position in self.meshes
+            mesh = item.world_mesh
+            TriangleMesh(self._embree, np.ascontiguousarray(mesh.positions[mesh.indices], dtype=np.float32))
+
+    def trace(self, origins: Array, directions: Array) -> TruthHits:
+        count = len(origins)
+        hit = np.zeros(count, bool)
+        t = np.full(count, np.inf)
+        object_id = np.full(count, NO_OBJECT, np.int64)
+        position = np.zeros((count, 3))
+        normal = np.zeros((count, 3))
+        albedo = np.zeros((count, 3))
+        if self.meshes and count:
+            self._trace_meshes(origins, directions, hit, t, object_id, normal, albedo)
+        self._trace_planes(origins, directions, hit, t, object_id, normal, albedo)
+        position[hit] = origins[hit] + directions[hit] * t[hit, None]
+        color = environment(self.scene, directions)
+        if hit.any():
+            color[hit] = shade(self.scene, albedo[hit], position[hit], normal[hit])
+        return TruthHits(hit, np.where(hit, t, 0.0), position, object_id, color)
+
+    def _trace_meshes(self, origins: Array, directions: Array, hit: Array, t: Array,
+                      object_id: Array, normal: Array, albedo: Array) -> None:
+        result = self._embree.run(
+            np.ascontiguousarray(origins, np.float32), np.ascontiguousarray(directions, np.float32), output=1
+        )
+        geometry_id = result["geomID"]
+        for index, item in enumerate(self.meshes):
+            mask = geometry_id == index
+            if not mask.any():
+                continue
+            mesh = item.world_mesh
+            triangles = mesh.indices[result["primID"][mask]]
+            u, v = result["u"][mask, None], result["v"][mask, None]
+            smooth = (1 - u - v) * mesh.normals[triangles[:, 0]] + u * mesh.normals[triangles[:, 1]] \
+                + v * mesh.normals[triangles[:, 2]]
+            smooth /= np.maximum(np.linalg.norm(smooth, axis=1, keepdims=True), 1e-20)
+            hit[mask] = True
+            t[mask] = result["tfar"][mask]
+            object_id[mask] = item.index
+            normal[mask] = smooth
+            points = origins[mask] + directions[mask] * t[mask, None]
+            local = (np.linalg.inv(item.model_matrix) @ np.c_[points, np.ones(len(points))].T).T[:, :3]
+            albedo[mask] = material_albedo(item.object.material, local)
+
+    def _trace_planes(self, origins: Array, directions: Array, hit: Array, t: Array,
+                      object_id: Array, normal: Array, albedo: Array) -> None:
+        """The shader's nearest_plane_hit: the rectangle |x| <= w/2, |z| <= d/2 of local y = 0."""
+        for item in self.planes:
+            world_to_local = np.linalg.inv(item.model_matrix)
+            o = origins @ world_to_local[:3, :3].T + world_to_local[:3, 3]
+            d = directions @ world_to_local[:3, :3].T
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t_plane = np.where(np.abs(d[:, 1]) < 1e-12, np.inf, -o[:, 1] / d[:, 1])
+            local = o + d * np.where(np.isfinite(t_plane), t_plane, 0.0)[:, None]
+            half = np.asarray(item.object.shape.size) / 2.0  # type: ignore[union-attr]
+            inside = (np.abs(local[:, 0]) <= half[0]) & (np.abs(local[:, 2]) <= half[1])
+            closer = (t_plane > 0.0) & np.isfinite(t_plane) & inside & (t_plane < t)
+            if not closer.any():
+                continue
+            plane_normal = item.normal_matrix @ np.array([0.0, 1.0, 0.0])
+            hit[closer] = True
+            t[closer] = t_plane[closer]
+            object_id[closer] = item.index
+            normal[closer] = plane_normal / np.linalg.norm(plane_normal)
+            albedo[closer] = material_albedo(item.object.material, local[closer])
