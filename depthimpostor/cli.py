@@ -13,7 +13,8 @@ from PIL import Image
 from .constants import Algorithm
 from .context import create_context, describe
 from .errors import DepthImpostorError
-from .renderer import Renderer
+from .compare import Comparison, compare, format_table, write_report
+from .renderer import Renderer, to_uint8
 from .resources import default_scene_path
 from .scene import Scene, load_scene
 
@@ -65,20 +66,70 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _compare_frame(args: argparse.Namespace) -> tuple[Scene, Comparison]:
+    scene = _load(args)
+    algorithm = Algorithm[getattr(args, "algorithm", "optimized").upper()]
+    ctx = create_context(args.backend)
+    try:
+        with Renderer(ctx, scene, algorithm, reflection_data=True) as renderer:
+            renderer.render()
+            return scene, compare(renderer)
+    finally:
+        ctx.release()
+
+
+def _truth(args: argparse.Namespace) -> int:
+    _, comparison = _compare_frame(args)
+    output = Path(args.output)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(to_uint8(comparison.truth)).save(output)
+    print(output)
+    return 0
+
+
+def _compare(args: argparse.Namespace) -> int:
+    scene, comparison = _compare_frame(args)
+    settings = {
+        "scene": scene.source,
+        "size": list(scene.render.size),
+        "impostor_resolution": scene.render.impostor_resolution,
+        "algorithm": args.algorithm,
+    }
+    for path in write_report(comparison, Path(args.output), settings):
+        print(path)
+    print(format_table(comparison.figures))
+    return 0
+
+
+def _scene_arguments(command: argparse.ArgumentParser) -> None:
+    command.add_argument("scene", nargs="?", help="scene file (TOML); the built-in default scene if omitted")
+    command.add_argument("--size", type=_size, help="output size WxH, overriding the scene's render.size")
+    command.add_argument("--impostor-res", type=int, help="depth-image resolution, overriding the scene's")
+    command.add_argument("--backend", choices=["auto", "egl", "osmesa"], default=None,
+                         help="headless GL backend (default: auto, EGL then OSMesa)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="depthimpostor", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
     render = commands.add_parser("render", help="render a scene headless to a PNG")
-    render.add_argument("scene", nargs="?", help="scene file (TOML); the built-in default scene if omitted")
+    _scene_arguments(render)
     render.add_argument("-o", "--output", default="render.png", help="output PNG (default: render.png)")
-    render.add_argument("--size", type=_size, help="output size WxH, overriding the scene's render.size")
-    render.add_argument("--impostor-res", type=int, help="depth-image resolution, overriding the scene's")
     render.add_argument("--algorithm", choices=["basic", "optimized"], default="optimized",
                         help="ray/depth-image intersection: the lecture's basic or optimized algorithm")
     render.add_argument("--frames", type=_positive, default=3, help="frames timed after the first (default 3)")
-    render.add_argument("--backend", choices=["auto", "egl", "osmesa"], default=None,
-                        help="headless GL backend (default: auto, EGL then OSMesa)")
     render.set_defaults(run=_render)
+
+    truth = commands.add_parser("truth", help="ray-trace the mirrors' reflections against the real triangles")
+    _scene_arguments(truth)
+    truth.add_argument("-o", "--output", default="truth.png", help="output PNG (default: truth.png)")
+    truth.set_defaults(run=_truth)
+
+    comparison = commands.add_parser("compare", help="render and truth side by side, with error figures")
+    _scene_arguments(comparison)
+    comparison.add_argument("-o", "--output", default="report", help="output folder (default: report/)")
+    comparison.add_argument("--algorithm", choices=["basic", "optimized"], default="optimized")
+    comparison.set_defaults(run=_compare)
     return parser
 
 
