@@ -20,7 +20,7 @@ import numpy as np
 from PIL import Image
 
 from .constants import NO_OBJECT
-from .renderer import Renderer, to_uint8
+from .renderer import ReflectionData, Renderer, to_uint8
 from .scene.model import MirrorMaterial
 from .truth import TruthTracer
 
@@ -49,32 +49,34 @@ class Comparison:
     figures: Figures
 
 
-def truth_frame(renderer: Renderer) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(truth image, mirror mask, truth object ids, truth hit positions) for the last frame."""
-    data = renderer.read_reflection_data()
-    image = np.clip(renderer.read_color_float(), 0.0, 1.0)
+def truth_frame(
+    renderer: Renderer, data: ReflectionData, image: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(truth image, truth object ids, truth hit positions) for the last frame, whose reflection
+    outputs and displayed colours are `data` and `image`."""
     mask = data.mirror_mask
     tracer = TruthTracer(renderer.scene, renderer.geometry)
     hits = tracer.trace(data.origin[mask], data.direction[mask])
     tints = np.zeros((len(renderer.scene.objects), 3))
     for mirror in renderer.mirrors:
-        assert_mirror = mirror.object.material
-        if isinstance(assert_mirror, MirrorMaterial):
-            tints[mirror.index] = assert_mirror.tint
+        material = mirror.object.material
+        if isinstance(material, MirrorMaterial):
+            tints[mirror.index] = material.tint
     truth = image.copy()
     truth[mask] = np.clip(tints[data.mirror_id[mask]] * hits.color, 0.0, 1.0)
     object_id = np.full(mask.shape, NO_OBJECT, np.int64)
     object_id[mask] = hits.object_id
     position = np.zeros(mask.shape + (3,))
     position[mask] = hits.position
-    return truth, mask, object_id, position
+    return truth, object_id, position
 
 
 def compare(renderer: Renderer) -> Comparison:
     """Compare the renderer's last frame (made with reflection_data=True) with the truth."""
-    truth, mask, truth_object, truth_position = truth_frame(renderer)
     data = renderer.read_reflection_data()
     render = np.clip(renderer.read_color_float(), 0.0, 1.0)
+    truth, truth_object, truth_position = truth_frame(renderer, data, render)
+    mask = data.mirror_mask
     count = int(mask.sum())
     squared = ((render - truth) ** 2)[mask]
     rmse = float(np.sqrt(squared.mean())) if count else 0.0
