@@ -55,7 +55,7 @@ def truth_frame(
     """(truth image, truth object ids, truth hit positions) for the last frame, whose reflection
     outputs and displayed colours are `data` and `image`."""
     mask = data.mirror_mask
-    tracer = TruthTracer(renderer.scene, renderer.geometry)
+    tracer = TruthTracer(renderer.scene, renderer.reflected_objects, renderer.analytic_planes)
     hits = tracer.trace(data.origin[mask], data.direction[mask])
     tints = np.zeros((len(renderer.scene.objects), 3))
     for mirror in renderer.mirrors:

@@ -28,7 +28,7 @@ from .shaders import ProgramCache
 
 @dataclass
 class RenderStats:
-    """Counters of the work done, for tests and `render --stats`."""
+    """Counters of the work done (tests read them; the CLI prints the timings)."""
 
     frames: int = 0
     depth_images_baked: int = 0
@@ -76,12 +76,11 @@ class Renderer:
         self.stats = RenderStats()
         self.programs = ProgramCache(ctx)
         geometry = scene_geometry(scene.objects)
-        self.geometry = geometry
         self.mirrors: list[ObjectGeometry] = [g for g in geometry if g.object.is_mirror]
         self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
         self.diffuse_objects = [g for g in geometry if not g.object.is_mirror]
         self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
-        self.meshes = GpuMeshes(ctx, geometry)
+        self.meshes = GpuMeshes(ctx)
 
         width, height = scene.render.size
         # Float colour so that a NaN or Inf from a shader survives to be caught by a test,

@@ -71,12 +71,15 @@ def shade(scene: Scene, albedo: Array, positions: Array, normals: Array) -> Arra
 
 
 class TruthTracer:
-    """Traces rays against the scene's diffuse meshes (Embree) and analytic planes (exactly)."""
+    """Traces rays against the scene's reflected meshes (Embree) and analytic planes (exactly):
+    the same two lists the renderer splits the scene into (`reflected_objects`, `analytic_planes`)."""
 
-    def __init__(self, scene: Scene, geometry: Sequence[ObjectGeometry]) -> None:
+    def __init__(
+        self, scene: Scene, meshes: Sequence[ObjectGeometry], planes: Sequence[ObjectGeometry]
+    ) -> None:
         self.scene = scene
-        self.meshes = [g for g in geometry if not g.object.is_mirror and not g.is_analytic_plane]
-        self.planes = [g for g in geometry if g.is_analytic_plane]
+        self.meshes = list(meshes)
+        self.planes = list(planes)
         self._embree = rtcore_scene.EmbreeScene()
         for item in self.meshes:  # geomID = position in self.meshes
             mesh = item.world_mesh

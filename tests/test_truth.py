@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -25,7 +26,7 @@ def test_truth_shades_like_the_rasterizer(ctx: moderngl.Context) -> None:
     the same meshes, normals, materials, lights and environment. Only silhouette pixels (where
     the pixel centre and the rasterizer's coverage can disagree) may differ."""
     scene = load_scene(SCENES / "default.toml").with_overrides(size=(240, 135))
-    scene = type(scene)(scene.source, scene.render, scene.camera, scene.environment, scene.lights, scene.non_mirrors)
+    scene = dataclasses.replace(scene, objects=scene.non_mirrors)
     with Renderer(ctx, scene) as renderer:
         renderer.render()
         raster = np.clip(renderer.read_color_float(), 0, 1)
@@ -33,7 +34,8 @@ def test_truth_shades_like_the_rasterizer(ctx: moderngl.Context) -> None:
         v, u = np.mgrid[0 : scene.render.size[1], 0 : scene.render.size[0]] + 0.5
         directions = camera.ray_direction(u.ravel(), v.ravel())
         origins = np.broadcast_to(camera.C, directions.shape)
-        traced = TruthTracer(scene, renderer.geometry).trace(origins, directions)
+        tracer = TruthTracer(scene, renderer.reflected_objects, renderer.analytic_planes)
+        traced = tracer.trace(origins, directions)
     truth = np.clip(traced.color, 0, 1).reshape(raster.shape)
     differs = np.abs(truth - raster).max(axis=2) > 2 / 255
     assert differs.mean() < 0.02, f"{differs.mean():.3%} of pixels differ"

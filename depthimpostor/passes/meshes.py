@@ -10,11 +10,11 @@ from .uniforms import write_matrix
 
 
 class GpuMeshes:
-    """Owns the vertex/index buffers of every object and the vertex arrays that bind them."""
+    """Owns the vertex/index buffers of the objects drawn (made on first draw) and the vertex
+    arrays that bind them."""
 
-    def __init__(self, ctx: moderngl.Context, geometry: list[ObjectGeometry]) -> None:
+    def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
-        self.geometry = geometry
         self._buffers: dict[int, tuple[moderngl.Buffer, moderngl.Buffer]] = {}
         self._vertex_arrays: dict[tuple[int, int], moderngl.VertexArray] = {}
 
