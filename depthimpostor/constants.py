@@ -34,17 +34,29 @@ MAX_LIGHTS = 8
 #: Analytic planes (floors, walls) a reflected ray is intersected with exactly.
 MAX_ANALYTIC_PLANES = 8
 #: Depth images one mirror may own (one per reflected object): bounds the uniform block,
-#: 64 x 144 bytes = 9 KiB, well under GL's guaranteed 16 KiB.
+#: 64 x 160 bytes = 10 KiB, well under GL's guaranteed 16 KiB.
 MAX_DEPTH_IMAGES_PER_MIRROR = 64
 #: A depth-image sample at or beyond this OpenGL depth is background: nothing was rasterized there.
 BACKGROUND_DEPTH = 1.0
 #: Object id reported for a reflected ray that hit nothing (the environment).
 NO_OBJECT = -1
+#: The steepest surface (tangent of the angle between its normal and the line of sight) that
+#: two neighbouring depth-image samples may still be joined across. A steeper step in depth is
+#: taken for a depth discontinuity (a silhouette over something farther away), and joining it
+#: would make a "rubber sheet" that reflected rays hit where nothing is. tan(86.4 deg) = 16: a
+#: sphere loses only the last ~0.2 % of its radius at the silhouette to this rule.
+MAX_SURFACE_SLOPE = 16.0
+#: The ray counts as touching the surface where their OpenGL depths differ by at most this (8
+#: float32 steps of depths in [0.5, 1]). Both are rounded float32 values: without a tolerance, a
+#: ray lying in a surface sees the sign of (ray - surface) flip at random from pixel to pixel,
+#: and "first front-to-back crossing" lands anywhere along it (flicker as the camera moves).
+CONTACT_DEPTH_TOLERANCE = 2.0**-21
 
 #: The std140 record of one depth image, as vec4 / ivec4 rows. `eye.w` holds the object id,
 #: `inverse_row*` are the rows of [a b c]^-1 (projection into the camera's (x, y, w)),
-#: `depth_range` is (w_near, w_far, width, height) and `tile` the (x, y) pixel origin of the
-#: image in the atlas.
+#: `depth_range` is (w_near, w_far, width, height), `tile` the (x, y) pixel origin of the image
+#: in the atlas and its size; `surface` is (the largest relative change in w per texel of
+#: distance that still joins two samples, 1/w_near, 1/w_near - 1/w_far).
 DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
     ("eye", "vec4"),
     ("a", "vec4"),
@@ -55,6 +67,7 @@ DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
     ("inverse_row2", "vec4"),
     ("depth_range", "vec4"),
     ("tile", "ivec4"),
+    ("surface", "vec4"),
 )
 
 DEPTH_IMAGE_DTYPE = np.dtype(
@@ -75,6 +88,7 @@ def glsl_constants() -> dict[str, str]:
         "MAX_DEPTH_IMAGES_PER_MIRROR": str(MAX_DEPTH_IMAGES_PER_MIRROR),
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
         "NO_OBJECT": str(NO_OBJECT),
+        "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",
     }
     for enum in (Algorithm, MaterialKind, LightKind):
         prefix = {"Algorithm": "ALGORITHM", "MaterialKind": "MATERIAL", "LightKind": "LIGHT"}[enum.__name__]

@@ -28,7 +28,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .constants import DEPTH_IMAGE_DTYPE
+from .constants import DEPTH_IMAGE_DTYPE, MAX_SURFACE_SLOPE
 
 Array = NDArray[np.float64]
 
@@ -137,6 +137,14 @@ class PPC:
         """Distance from the eye to the image plane along the optical axis."""
         return float(np.dot(self.c, self.forward))
 
+    @cached_property
+    def max_relative_depth_step(self) -> float:
+        """The largest |w1 - w0| / min(w0, w1) between samples one texel apart that still belong to
+        one surface: a surface at angle theta to the line of sight changes w by about
+        tan(theta) * (pixel size / focal) per pixel, and MAX_SURFACE_SLOPE bounds tan(theta)."""
+        pixel_angle = max(float(np.linalg.norm(self.a)), float(np.linalg.norm(self.b))) / self.focal
+        return MAX_SURFACE_SLOPE * pixel_angle
+
     @property
     def w_near(self) -> float:
         return self.near / self.focal
@@ -187,10 +195,29 @@ class PPC:
         """
         p0 = self.camera_coordinates(origins)
         dp = np.asarray(directions, dtype=np.float64) @ self.inverse.T
+        return self._clip(p0, dp, self._half_spaces(p0, dp))
+
+    def clip_ray_loosely(self, origins: ArrayLike, directions: ArrayLike, pixels: float) -> NDArray[np.bool_]:
+        """Would the ray meet the frustum grown by `pixels` on every side (and by the same share of
+        w_near and w_far at its ends)? Rays that miss the frustum but meet this one pass within
+        rounding of its boundary, where float32 may clip them in."""
+        p0 = self.camera_coordinates(origins)
+        dp = np.asarray(directions, dtype=np.float64) @ self.inverse.T
+        w, dw = p0[..., 2], dp[..., 2]
+        near, far, *sides = self._half_spaces(p0, dp)
+        # u >= -pixels is x + pixels * w >= 0, and likewise for the other three sides.
+        half_spaces = [(value + pixels * w, rate + pixels * dw) for value, rate in sides]
+        grow = pixels / max(self.width, self.height)
+        half_spaces += [(w - self.w_near * (1.0 - grow), dw), (self.w_far * (1.0 + grow) - w, -dw)]
+        return self._clip(p0, dp, half_spaces)[0]
+
+    @staticmethod
+    def _clip(p0: Array, dp: Array, half_spaces: list[tuple[Array, Array]]) -> tuple[NDArray[np.bool_], Array, Array]:
         t_enter = np.zeros(p0.shape[:-1])
         t_exit = np.full(p0.shape[:-1], np.inf)
-        inside = np.ones(p0.shape[:-1], dtype=bool)
-        for value, rate in self._half_spaces(p0, dp):
+        # A zero direction is no ray (and inf * 0 below would be NaN).
+        inside = np.any(dp != 0.0, axis=-1)
+        for value, rate in half_spaces:
             parallel = rate == 0.0
             inside &= ~(parallel & (value < 0.0))
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -260,4 +287,7 @@ class PPC:
             record[f"inverse_row{row}"][:3] = self.inverse[row]
         record["depth_range"] = (self.w_near, self.w_far, self.width, self.height)
         record["tile"] = (tile_origin[0], tile_origin[1], self.width, self.height)
+        # (max relative depth step, 1/w_near, 1/w_near - 1/w_far): 1/w = y - OpenGL depth * z.
+        inverse_near, inverse_far = 1.0 / self.w_near, 1.0 / self.w_far
+        record["surface"] = (self.max_relative_depth_step, inverse_near, inverse_near - inverse_far, 0.0)
         return record

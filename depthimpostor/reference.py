@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .constants import BACKGROUND_DEPTH, NO_OBJECT, Algorithm
+from .constants import BACKGROUND_DEPTH, CONTACT_DEPTH_TOLERANCE, NO_OBJECT, Algorithm
 from .ppc import PPC
 
 Array = NDArray[np.float64]
@@ -44,10 +44,11 @@ class RayHits:
     # 1 / |f0 - f1|, so grazing hits (small values) are where float32 and float64 part ways.
     conditioning: Array
     # How close the march came to a decision boundary, over the steps it visited: the smallest
-    # distance of a sample position to a texel edge, or of the projected length to an integer
-    # (pixels: both pick samples), and the smallest |ray depth -
-    # surface depth| (OpenGL depth). Where these are tiny, float32 and float64 may pick another
-    # texel or another step, and the GPU and the reference can legitimately disagree.
+    # distance of a sample position to a texel edge, of the projected length to an integer, or
+    # of the ray to the frustum it missed (pixels: all pick samples), and the smallest distance
+    # of |ray depth - surface depth| to the contact tolerance or of a depth step to the largest
+    # that joins two samples (OpenGL depth). Where these are tiny, float32 and float64 may decide
+    # otherwise, and the GPU and the reference can legitimately disagree.
     texel_margin: Array
     depth_margin: Array
 
@@ -85,10 +86,35 @@ def step_count(image: DepthImageData, sa: Array, sb: Array) -> NDArray[np.int64]
 
 
 def segments_cross(f0: Array, f1: Array) -> tuple[NDArray[np.bool_], Array]:
-    """Does the ray go from in front of (or on) the surface to behind (or on) it? And where (k)."""
+    """Does the ray go from in front of the surface to behind it, touching within
+    CONTACT_DEPTH_TOLERANCE counting as both? And where along the step (k, clamped to [0, 1])."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        k = np.where(f0 == f1, 0.0, f0 / (f0 - f1))
-    return (f0 <= 0.0) & (f1 >= 0.0), k
+        k = np.where(f0 == f1, 0.0, np.clip(f0 / (f0 - f1), 0.0, 1.0))
+    return (f0 <= CONTACT_DEPTH_TOLERANCE) & (f1 >= -CONTACT_DEPTH_TOLERANCE), k
+
+
+def inverse_w(image: DepthImageData, depth: Array) -> Array:
+    """1/w of an OpenGL depth: affine in it (the GLSL reads the coefficients from the record)."""
+    camera = image.camera
+    return 1.0 / camera.w_near - depth * (1.0 / camera.w_near - 1.0 / camera.w_far)
+
+
+def connection_slack(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> Array:
+    """How far the depth step between two samples is under the largest one surface may make, in
+    OpenGL depth: >= 0 joins them (see samples_connected in the GLSL), < 0 is a discontinuity."""
+    row0, column0 = texel_of(image, s0)
+    row1, column1 = texel_of(image, s1)
+    texels = np.hypot(row1 - row0, column1 - column0)
+    inverse_w0, inverse_w1 = inverse_w(image, z0), inverse_w(image, z1)
+    allowed = image.camera.max_relative_depth_step * texels * np.minimum(inverse_w0, inverse_w1)
+    depth_per_inverse_w = 1.0 / (1.0 / image.camera.w_near - 1.0 / image.camera.w_far)
+    return (allowed - np.abs(inverse_w1 - inverse_w0)) * depth_per_inverse_w
+
+
+def samples_connected(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> NDArray[np.bool_]:
+    """Are two neighbouring samples one surface (neither background, no depth discontinuity)?"""
+    background = (z0 >= BACKGROUND_DEPTH) | (z1 >= BACKGROUND_DEPTH)
+    return ~background & (connection_slack(image, s0, s1, z0, z1) >= 0.0)
 
 
 def ray_parameter(sigma: Array, w_a: Array, w_b: Array, t_enter: Array, t_exit: Array) -> Array:
@@ -136,6 +162,9 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
     # The step count is a decision too: ceil() of a length within rounding of an integer.
     length = np.maximum(np.abs(rays.sb[:, 0] - rays.sa[:, 0]), np.abs(rays.sb[:, 1] - rays.sa[:, 1]))
     result.texel_margin[active] = np.abs(length - np.round(length))[active]
+    # A ray that passes within rounding of the frustum may be clipped in by float32.
+    near_miss = ~rays.inside & image.camera.clip_ray_loosely(origins, directions, 1e-3)
+    result.texel_margin[near_miss] = 0.0
     s0 = rays.sa.copy()
     z0 = sample_depth(image, s0[:, :2])
     _track_margins(result, active, s0, z0)
@@ -146,8 +175,10 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
         s1 = rays.sa + (rays.sb - rays.sa) * ((i + 1) / np.maximum(steps, 1))[:, None]
         z1 = sample_depth(image, s1[:, :2])
         _track_margins(result, active, s1, z1)
+        slack = connection_slack(image, s0[:, :2], s1[:, :2], z0, z1)
+        _track_connection(result, active, slack, z0, z1)
         cross, k = segments_cross(s0[:, 2] - z0, s1[:, 2] - z1)
-        new_hit = active & (z0 < BACKGROUND_DEPTH) & (z1 < BACKGROUND_DEPTH) & cross
+        new_hit = active & samples_connected(image, s0[:, :2], s1[:, :2], z0, z1) & cross
         if new_hit.any():
             s = s0[:, :2] + (s1[:, :2] - s0[:, :2]) * k[:, None]
             sigma = (i + k) / np.maximum(steps, 1)
@@ -194,7 +225,7 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
             mu = (bb * ee - cc * dd) / denominator
             lam = (aa * ee - bb * dd) / denominator
         new_hit = (
-            active & (z0 < BACKGROUND_DEPTH) & (z1 < BACKGROUND_DEPTH) & (denominator > 1e-12 * aa * cc)
+            active & samples_connected(image, s0, s1, z0, z1) & (denominator > 1e-12 * aa * cc)
             & in_front_at_start & (mu >= 0) & (mu <= 1) & (lam >= 0) & (lam <= 1)
         )
         if new_hit.any():
@@ -210,9 +241,18 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
 
 def _track_margins(result: RayHits, active: NDArray[np.bool_], s: Array, z: Array) -> None:
     texel = np.min(np.abs(s[:, :2] - np.round(s[:, :2])), axis=1)
-    depth = np.where(z < BACKGROUND_DEPTH, np.abs(s[:, 2] - z), np.inf)
+    # The crossing test's decisions sit at f = +-CONTACT_DEPTH_TOLERANCE.
+    f = s[:, 2] - z
+    depth = np.where(z < BACKGROUND_DEPTH, np.abs(np.abs(f) - CONTACT_DEPTH_TOLERANCE), np.inf)
     result.texel_margin[active] = np.minimum(result.texel_margin, texel)[active]
     result.depth_margin[active] = np.minimum(result.depth_margin, depth)[active]
+
+
+def _track_connection(result: RayHits, active: NDArray[np.bool_], slack: Array, z0: Array, z1: Array) -> None:
+    """The join-or-not decision between samples is a depth decision too: record how close it was."""
+    surface = (z0 < BACKGROUND_DEPTH) & (z1 < BACKGROUND_DEPTH)
+    closeness = np.where(surface, np.abs(slack), np.inf)
+    result.depth_margin[active] = np.minimum(result.depth_margin, closeness)[active]
 
 
 def _dot(x: Array, y: Array) -> Array:

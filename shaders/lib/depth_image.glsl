@@ -70,7 +70,9 @@ void clip_half_space(float value, float rate, inout float t_enter, inout float t
 // ray that starts behind the eye or crosses its plane is clipped, not mirrored through it.
 bool clip_ray(DepthImage image, vec3 p0, vec3 dp, out float t_enter, out float t_exit) {
     float width = image.depth_range.z, height = image.depth_range.w;
-    bool inside = true;
+    // A zero direction is no ray: every rate below is 0, nothing would lower t_exit, and the
+    // "clipped" ray would be the point p0 stretched to t = 3e38 (NaN in the float64 reference).
+    bool inside = dp != vec3(0.0);
     t_enter = 0.0;
     t_exit = 3.0e38;  // the frustum is bounded, so some plane always lowers this
     clip_half_space(p0.z - image.depth_range.x, dp.z, t_enter, t_exit, inside);
@@ -113,14 +115,33 @@ bool clip_and_project(DepthImage image, vec3 origin, vec3 direction, out Clipped
 }
 
 // Do the 2-D segments [(0, ray0), (1, ray1)] and [(0, surface0), (1, surface1)] cross with the ray
-// going from in front of the surface (or on it) to behind it? f = ray depth - surface depth.
+// going from in front of the surface to behind it? f = ray depth - surface depth; k in [0, 1] is
+// where along the step. Both depths are rounded float32 values, so "on the surface" is a band of
+// CONTACT_DEPTH_TOLERANCE: without it, a ray lying in a surface sees the sign of f flip at random
+// and its first crossing lands anywhere along it. A ray touching the surface inside the band
+// hits at the end of the step nearest to it (k clamped), so k never leaves [0, 1].
 bool segments_cross(float f0, float f1, out float k) {
-    k = f0 == f1 ? 0.0 : f0 / (f0 - f1);
-    return f0 <= 0.0 && f1 >= 0.0;
+    k = f0 == f1 ? 0.0 : clamp(f0 / (f0 - f1), 0.0, 1.0);
+    return f0 <= CONTACT_DEPTH_TOLERANCE && f1 >= -CONTACT_DEPTH_TOLERANCE;
 }
 
-// The number of steps: one per pixel along the projection's major axis, at least one (a ray
-// through the eye projects to a point), at most what the image can hold.
+// Are two neighbouring samples one surface? Background (nothing rasterized) ends a surface, and
+// a jump in depth steeper than MAX_SURFACE_SLOPE is a silhouette in front of something farther:
+// the segment joining the two would be a "rubber sheet" over empty space, which a ray passing
+// behind the silhouette would hit. 1/w is affine in OpenGL depth (surface.y - z * surface.z),
+// and |w1 - w0| / min(w0, w1) = |1/w0 - 1/w1| / min(1/w0, 1/w1): no division needed.
+bool samples_connected(DepthImage image, vec2 s0, vec2 s1, float z0, float z1) {
+    if (z0 >= BACKGROUND_DEPTH || z1 >= BACKGROUND_DEPTH) return false;
+    float texels = length(vec2(texel_of(image, s1) - texel_of(image, s0)));
+    float inverse_w0 = image.surface.y - z0 * image.surface.z;
+    float inverse_w1 = image.surface.y - z1 * image.surface.z;
+    return abs(inverse_w1 - inverse_w0) <= image.surface.x * texels * min(inverse_w0, inverse_w1);
+}
+
+// The number of steps: one per pixel along the projection's major axis, at most what the image
+// can hold, and at least one. A ray through the eye projects to a point: ceil() gives 0 steps and
+// the march would read nothing and miss; one step from a' to b' (one texel) compares the ray's
+// depth at both ends with that texel's, which is the exact intersection with the surface there.
 int step_count(DepthImage image, vec3 sa, vec3 sb) {
     float pixels = ceil(max(abs(sb.x - sa.x), abs(sb.y - sa.y)));
     return clamp(int(pixels), 1, int(max(image.depth_range.z, image.depth_range.w)) + 1);
@@ -139,8 +160,7 @@ RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
         vec3 s1 = sa + (sb - sa) * (float(i + 1) / float(steps));
         float z1 = sample_depth(image, s1.xy);
         float k;
-        // A background sample has no surface: joining it to its neighbour would make a false one.
-        if (z0 < BACKGROUND_DEPTH && z1 < BACKGROUND_DEPTH && segments_cross(s0.z - z0, s1.z - z1, k)) {
+        if (samples_connected(image, s0.xy, s1.xy, z0, z1) && segments_cross(s0.z - z0, s1.z - z1, k)) {
             vec2 s = s0.xy + (s1.xy - s0.xy) * k;
             float t = ray_parameter((float(i) + k) / float(steps), ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
             return RayHit(true, t, s, sample_color(image, s), image.eye.w, i + 2);
@@ -170,7 +190,7 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
         vec2 s1 = sa.xy + (sb.xy - sa.xy) * sigma1;
         float z1 = sample_depth(image, s1);
         vec3 q1 = unproject(image, s1, w_from_opengl_depth(image, z1));
-        if (z0 < BACKGROUND_DEPTH && z1 < BACKGROUND_DEPTH) {
+        if (samples_connected(image, s0, s1, z0, z1)) {
             // Closest approach of the lines q0 + mu (q1 - q0) and ray_a + lambda ray_ab.
             vec3 d1 = q1 - q0, d2 = ray_ab, r = q0 - ray_a;
             float aa = dot(d1, d1), bb = dot(d1, d2), cc = dot(d2, d2), dd = dot(d1, r), ee = dot(d2, r);
