@@ -9,20 +9,29 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Protocol
 
 import moderngl
 import numpy as np
 
 from .constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm
 from .context import bind_default_framebuffer
-from .passes.impostors import DepthImage, ImpostorAtlas
+from .passes.impostors import ImpostorAtlas
 from .passes.mirrors import DEPTH_IMAGES_BINDING, bind_impostors, reflection_defines
 from .passes.uniforms import write
-from .reference import RayHits
+from .reference import DepthImageData, RayHits
 from .shaders import ProgramCache
 
 #: Rays per row of the query framebuffer.
 _ROW = 1024
+#: Texture units of the ray inputs (after the atlas's).
+_ORIGINS_UNIT = 2
+_DIRECTIONS_UNIT = 3
+
+
+class HasRecord(Protocol):
+    def record(self) -> np.void: ...
 
 
 class RayQuery:
@@ -33,9 +42,10 @@ class RayQuery:
         ctx: moderngl.Context,
         programs: ProgramCache,
         atlas: ImpostorAtlas,
-        images: Sequence[DepthImage],
+        images: Sequence[HasRecord],
         algorithm: Algorithm = Algorithm.OPTIMIZED,
     ) -> None:
+        """`images` are the atlas's depth images to intersect (anything with a std140 `record()`)."""
         if not 0 < len(images) <= MAX_DEPTH_IMAGES_PER_MIRROR:
             raise ValueError(f"a ray query takes 1 to {MAX_DEPTH_IMAGES_PER_MIRROR} depth images, got {len(images)}")
         self.ctx = ctx
@@ -67,10 +77,10 @@ class RayQuery:
             framebuffer.use()
             framebuffer.clear()
             bind_impostors(self.program, self.atlas)
-            inputs[0].use(2)
-            inputs[1].use(3)
-            write(self.program, "u_ray_origins", 2)
-            write(self.program, "u_ray_directions", 3)
+            inputs[0].use(_ORIGINS_UNIT)
+            inputs[1].use(_DIRECTIONS_UNIT)
+            write(self.program, "u_ray_origins", _ORIGINS_UNIT)
+            write(self.program, "u_ray_directions", _DIRECTIONS_UNIT)
             write(self.program, "u_depth_image_count", self.image_count)
             self.uniform_buffer.bind_to_uniform_block(DEPTH_IMAGES_BINDING)
             self.ctx.disable(moderngl.DEPTH_TEST)
@@ -100,3 +110,38 @@ class RayQuery:
     def release(self) -> None:
         self.vertex_array.release()
         self.uniform_buffer.release()
+
+
+@dataclass(frozen=True)
+class _UploadedImage:
+    data: DepthImageData
+    tile_origin: tuple[int, int]
+
+    def record(self) -> np.void:
+        return self.data.camera.depth_image_record(self.data.object_id, self.tile_origin)
+
+
+def query_depth_images(
+    ctx: moderngl.Context,
+    programs: ProgramCache,
+    images: Sequence[DepthImageData],
+    origins: np.ndarray,
+    directions: np.ndarray,
+    algorithm: Algorithm = Algorithm.OPTIMIZED,
+) -> RayHits:
+    """Intersect rays with depth images given as data (hand-made or read back) on the GPU: the
+    images go into an atlas of their own, so the GLSL sees exactly the texels the reference sees."""
+    resolution = max(max(image.depth.shape) for image in images)
+    atlas = ImpostorAtlas(ctx, len(images), resolution)
+    query = None
+    try:
+        uploaded = []
+        for slot, image in enumerate(images):
+            atlas.write(atlas.tile_origin(slot), image)
+            uploaded.append(_UploadedImage(image, atlas.tile_origin(slot)))
+        query = RayQuery(ctx, programs, atlas, uploaded, algorithm)
+        return query.run(np.asarray(origins, float), np.asarray(directions, float))
+    finally:
+        if query is not None:
+            query.release()
+        atlas.release()

@@ -27,6 +27,13 @@ class DepthImageData:
     color: Array  # (height, width, 3) in [0, 1]
     depth: NDArray[np.float32]  # (height, width), BACKGROUND_DEPTH where nothing was rasterized
     object_id: int
+    # The nearest back face behind each sample (BACKGROUND_DEPTH where there is none); None for
+    # a surface with nothing behind it (as thin as it looks).
+    back_depth: NDArray[np.float32] | None = None
+
+    @property
+    def back_layer(self) -> NDArray[np.float32]:
+        return self.depth if self.back_depth is None else self.back_depth
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,9 +76,17 @@ def texel_of(image: DepthImageData, s: Array) -> tuple[NDArray[np.int64], NDArra
     return row, column
 
 
-def sample_depth(image: DepthImageData, s: Array) -> Array:
+def sample_layers(image: DepthImageData, s: Array) -> Array:
+    """(visible surface, back of its solid run) under s, (..., 2): see the GLSL."""
     row, column = texel_of(image, s)
-    return image.depth[row, column].astype(np.float64)
+    front = image.depth[row, column].astype(np.float64)
+    back = image.back_layer[row, column].astype(np.float64)
+    return np.stack([front, np.where(back >= BACKGROUND_DEPTH, front, np.maximum(front, back))], axis=-1)
+
+
+def inside_solid(r: Array, layers: Array) -> NDArray[np.bool_]:
+    front, back = layers[..., 0], layers[..., 1]
+    return (front < BACKGROUND_DEPTH) & (r >= front - CONTACT_DEPTH_TOLERANCE) & (r <= back + CONTACT_DEPTH_TOLERANCE)
 
 
 def sample_color(image: DepthImageData, s: Array) -> Array:
@@ -166,25 +181,31 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
     near_miss = ~rays.inside & image.camera.clip_ray_loosely(origins, directions, 1e-3)
     result.texel_margin[near_miss] = 0.0
     s0 = rays.sa.copy()
-    z0 = sample_depth(image, s0[:, :2])
+    z0 = sample_layers(image, s0[:, :2])
     _track_margins(result, active, s0, z0)
+    starts_inside = active & inside_solid(s0[:, 2], z0)
+    _record(result, starts_inside, rays.t_enter, s0[:, :2], sample_color(image, s0[:, :2]), image.object_id, 1)
+    active &= ~starts_inside
     for i in range(int(steps.max(initial=0))):
         active &= i < steps
         if not active.any():
             break
         s1 = rays.sa + (rays.sb - rays.sa) * ((i + 1) / np.maximum(steps, 1))[:, None]
-        z1 = sample_depth(image, s1[:, :2])
+        z1 = sample_layers(image, s1[:, :2])
         _track_margins(result, active, s1, z1)
-        slack = connection_slack(image, s0[:, :2], s1[:, :2], z0, z1)
-        _track_connection(result, active, slack, z0, z1)
-        cross, k = segments_cross(s0[:, 2] - z0, s1[:, 2] - z1)
-        new_hit = active & samples_connected(image, s0[:, :2], s1[:, :2], z0, z1) & cross
+        slack = connection_slack(image, s0[:, :2], s1[:, :2], z0[:, 0], z1[:, 0])
+        _track_connection(result, active, slack, z0[:, 0], z1[:, 0])
+        cross, k = segments_cross(s0[:, 2] - z0[:, 0], s1[:, 2] - z1[:, 0])
+        through_surface = samples_connected(image, s0[:, :2], s1[:, :2], z0[:, 0], z1[:, 0]) & cross
+        k = np.where(through_surface, k, 1.0)
+        new_hit = active & (through_surface | inside_solid(s1[:, 2], z1))
         if new_hit.any():
             s = s0[:, :2] + (s1[:, :2] - s0[:, :2]) * k[:, None]
             sigma = (i + k) / np.maximum(steps, 1)
             t = ray_parameter(sigma, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
             _record(result, new_hit, t, s, sample_color(image, s), image.object_id, i + 2)
-            result.conditioning[new_hit] = np.abs((s0[:, 2] - z0) - (s1[:, 2] - z1))[new_hit]
+            surface_hit = new_hit & through_surface
+            result.conditioning[surface_hit] = np.abs((s0[:, 2] - z0[:, 0]) - (s1[:, 2] - z1[:, 0]))[surface_hit]
             active &= ~new_hit
         s0, z0 = s1, z1
     return result
@@ -204,46 +225,57 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
     wb = np.where(rays.inside, rays.pb[:, 2], 1.0)
     active = rays.inside.copy()
     s0 = rays.sa[:, :2].copy()
-    z0 = sample_depth(image, s0)
-    q0 = camera.unproject(s0[:, 0], s0[:, 1], camera.w_from_opengl_depth(z0))
+    z0 = sample_layers(image, s0)
+    starts_inside = active & inside_solid(rays.sa[:, 2], z0)
+    _record(result, starts_inside, rays.t_enter, s0, sample_color(image, s0), image.object_id, 1)
+    active &= ~starts_inside
+    q0 = camera.unproject(s0[:, 0], s0[:, 1], camera.w_from_opengl_depth(z0[:, 0]))
     for i in range(int(steps.max(initial=0))):
         active &= i < steps
         if not active.any():
             break
         safe_steps = np.maximum(steps, 1)
         sigma0 = i / safe_steps
-        s1 = rays.sa[:, :2] + (rays.sb[:, :2] - rays.sa[:, :2]) * ((i + 1) / safe_steps)[:, None]
-        z1 = sample_depth(image, s1)
-        q1 = camera.unproject(s1[:, 0], s1[:, 1], camera.w_from_opengl_depth(z1))
+        sigma1 = (i + 1) / safe_steps
+        s1 = rays.sa[:, :2] + (rays.sb[:, :2] - rays.sa[:, :2]) * sigma1[:, None]
+        z1 = sample_layers(image, s1)
+        q1 = camera.unproject(s1[:, 0], s1[:, 1], camera.w_from_opengl_depth(z1[:, 0]))
         d1, d2, r = q1 - q0, ray_ab, q0 - ray_a
         aa, bb, cc = _dot(d1, d1), _dot(d1, d2), _dot(d2, d2)
         dd, ee = _dot(d1, r), _dot(d2, r)
         denominator = aa * cc - bb * bb
         w_ray0 = 1.0 / ((1.0 - sigma0) / wa + sigma0 / wb)
-        in_front_at_start = w_ray0 <= camera.w_from_opengl_depth(z0)
+        in_front_at_start = w_ray0 <= camera.w_from_opengl_depth(z0[:, 0])
         with np.errstate(divide="ignore", invalid="ignore"):
             mu = (bb * ee - cc * dd) / denominator
             lam = (aa * ee - bb * dd) / denominator
-        new_hit = (
-            active & samples_connected(image, s0, s1, z0, z1) & (denominator > 1e-12 * aa * cc)
+        surface_hit = (
+            active & samples_connected(image, s0, s1, z0[:, 0], z1[:, 0]) & (denominator > 1e-12 * aa * cc)
             & in_front_at_start & (mu >= 0) & (mu <= 1) & (lam >= 0) & (lam <= 1)
         )
-        if new_hit.any():
-            lam = np.where(new_hit, lam, 0.0)
+        if surface_hit.any():
+            lam = np.where(surface_hit, lam, 0.0)
             p = ray_a + ray_ab * lam[:, None]
-            s = camera.project(np.where(new_hit[:, None], p, camera.C + camera.c))[:, :2]
+            s = camera.project(np.where(surface_hit[:, None], p, camera.C + camera.c))[:, :2]
             t = rays.t_enter + lam * (rays.t_exit - rays.t_enter)
-            _record(result, new_hit, t, s, sample_color(image, s), image.object_id, i + 2)
-            active &= ~new_hit
+            _record(result, surface_hit, t, s, sample_color(image, s), image.object_id, i + 2)
+            active &= ~surface_hit
+        r1 = rays.sa[:, 2] + (rays.sb[:, 2] - rays.sa[:, 2]) * sigma1
+        entered = active & inside_solid(r1, z1)
+        if entered.any():
+            t = ray_parameter(sigma1, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
+            _record(result, entered, t, s1, sample_color(image, s1), image.object_id, i + 2)
+            active &= ~entered
         s0, z0, q0 = s1, z1, q1
     return result
 
 
-def _track_margins(result: RayHits, active: NDArray[np.bool_], s: Array, z: Array) -> None:
+def _track_margins(result: RayHits, active: NDArray[np.bool_], s: Array, layers: Array) -> None:
     texel = np.min(np.abs(s[:, :2] - np.round(s[:, :2])), axis=1)
-    # The crossing test's decisions sit at f = +-CONTACT_DEPTH_TOLERANCE.
-    f = s[:, 2] - z
-    depth = np.where(z < BACKGROUND_DEPTH, np.abs(np.abs(f) - CONTACT_DEPTH_TOLERANCE), np.inf)
+    # The crossing and inside tests decide at ray depth = surface or back face +- the tolerance.
+    r, front, back = s[:, 2], layers[:, 0], layers[:, 1]
+    edges = np.stack([front - CONTACT_DEPTH_TOLERANCE, front + CONTACT_DEPTH_TOLERANCE, back + CONTACT_DEPTH_TOLERANCE])
+    depth = np.where(front < BACKGROUND_DEPTH, np.min(np.abs(r - edges), axis=0), np.inf)
     result.texel_margin[active] = np.minimum(result.texel_margin, texel)[active]
     result.depth_margin[active] = np.minimum(result.depth_margin, depth)[active]
 

@@ -104,8 +104,7 @@ class Renderer:
         self.impostors: ImpostorPass | None = None
         self.mirror_pass: MirrorPass | None = None
         if self.mirrors:
-            baking = DiffusePass(self.programs, scene, self.meshes, write_depth_image=True)
-            self.impostors = ImpostorPass(ctx, scene, baking, self.mirrors, self.reflected_objects)
+            self.impostors = ImpostorPass(ctx, self.programs, scene, self.meshes, self.mirrors, self.reflected_objects)
             self.mirror_pass = MirrorPass(
                 self.programs, scene, self.meshes, self.impostors, self.analytic_planes, algorithm, reflection_data
             )

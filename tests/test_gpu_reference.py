@@ -31,8 +31,7 @@ def baked(ctx: moderngl.Context) -> Iterator[Renderer]:
 
 def image_data(renderer: Renderer, image: DepthImage) -> reference.DepthImageData:
     assert renderer.impostors is not None
-    color, depth = renderer.impostors.atlas.read(image)
-    return reference.DepthImageData(image.camera, color, depth, image.target.index)
+    return renderer.impostors.atlas.read(image)
 
 
 def random_rays(image: DepthImage, seed: int) -> tuple[np.ndarray, np.ndarray]:

@@ -2,8 +2,14 @@
 
 Each (mirror, object) pair gets a depth image whose frustum is fitted to that object alone, so
 that all of the image's pixels and all of its depth precision go to it. All depth images live in
-one atlas pair (RGBA8 colour, R32F OpenGL depth), one tile each; each mirror gets a uniform
-buffer listing its own depth images, which is all the mirror shader needs.
+one atlas pair (RGBA8 colour; RG32F OpenGL depths of the visible surface and of the nearest back
+face behind it), one tile each; each mirror gets a uniform buffer listing its own depth images,
+which is all the mirror shader needs.
+
+The back layer costs a second, depth-only draw per image. Without it the depth image knows the
+surface but not what lies behind it, and a ray passing behind a silhouette must either be joined
+to it by a false "rubber sheet" or fall through the object's hidden side (a hole): see the README's
+"Numerical robustness".
 """
 
 from __future__ import annotations
@@ -19,8 +25,11 @@ from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PE
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
+from ..reference import DepthImageData
 from ..scene.model import Scene
+from ..shaders import ProgramCache
 from .diffuse import DiffusePass
+from .meshes import GpuMeshes
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,6 +47,12 @@ class DepthImage:
 
     def record(self) -> np.void:
         return self.camera.depth_image_record(self.target.index, self.tile_origin)
+
+
+#: The face GL culls to keep the back faces. A depth image's projection puts image row 0 (the top)
+#: at window y = 0, a mirror image of GL's usual y-up window: counter-clockwise outward faces
+#: arrive clockwise, so GL's "front" faces are the back ones and culling GL's "back" keeps them.
+BAKE_CULLS_FRONT_FACES = "back"
 
 
 def mirror_centre(mirror: ObjectGeometry) -> np.ndarray:
@@ -84,7 +99,7 @@ class ImpostorAtlas:
         self.columns = columns
         self.resolution = resolution
         self.color = ctx.texture(size, 4, dtype="f1")
-        self.depth = ctx.texture(size, 1, dtype="f4")
+        self.depth = ctx.texture(size, 2, dtype="f4")  # (visible surface, nearest back face)
         for texture in (self.color, self.depth):
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._depth_buffer = ctx.depth_renderbuffer(size)
@@ -98,18 +113,32 @@ class ImpostorAtlas:
     def bytes(self) -> int:
         """GPU memory of the depth images: colour, float depth and the depth buffer used to bake."""
         width, height = self.size
-        return width * height * (4 + 4 + 4)
+        return width * height * (4 + 8 + 4)
 
     def tile_origin(self, slot: int) -> tuple[int, int]:
         return (slot % self.columns) * self.resolution, (slot // self.columns) * self.resolution
 
-    def read(self, image: DepthImage) -> tuple[np.ndarray, np.ndarray]:
-        """(colour (h, w, 3) float in [0, 1], OpenGL depth (h, w) float32) of one depth image, row v."""
+    def read(self, image: DepthImage) -> DepthImageData:
+        """One depth image as the numpy reference takes it (rows top to bottom, colour in [0, 1])."""
         viewport = image.tile
-        color = np.frombuffer(self.framebuffer.read(viewport=viewport, components=4, attachment=0), np.uint8)
-        depth = np.frombuffer(self.framebuffer.read(viewport=viewport, components=1, attachment=1, dtype="f4"), np.float32)
         height, width = viewport[3], viewport[2]
-        return color.reshape(height, width, 4)[..., :3] / 255.0, depth.reshape(height, width).copy()
+        color = np.frombuffer(self.framebuffer.read(viewport=viewport, components=4, attachment=0), np.uint8)
+        layers = np.frombuffer(
+            self.framebuffer.read(viewport=viewport, components=2, attachment=1, dtype="f4"), np.float32
+        ).reshape(height, width, 2)
+        return DepthImageData(
+            image.camera, color.reshape(height, width, 4)[..., :3] / 255.0, layers[..., 0].copy(),
+            image.target.index, layers[..., 1].copy(),
+        )
+
+    def write(self, tile_origin: tuple[int, int], data: DepthImageData) -> None:
+        """Store a depth image made elsewhere (tests build exact ones by hand)."""
+        height, width = data.depth.shape
+        viewport = (*tile_origin, width, height)
+        rgba = np.concatenate([np.rint(np.clip(data.color, 0, 1) * 255), np.full((height, width, 1), 255)], axis=2)
+        self.color.write(np.ascontiguousarray(rgba, np.uint8).tobytes(), viewport=viewport)
+        layers = np.stack([data.depth, data.back_layer], axis=2)
+        self.depth.write(np.ascontiguousarray(layers, np.float32).tobytes(), viewport=viewport)
 
     def release(self) -> None:
         bind_default_framebuffer(self.ctx)
@@ -123,14 +152,17 @@ class ImpostorPass:
     def __init__(
         self,
         ctx: moderngl.Context,
+        programs: ProgramCache,
         scene: Scene,
-        diffuse: DiffusePass,
+        meshes: GpuMeshes,
         mirrors: list[ObjectGeometry],
         reflected: list[ObjectGeometry],
     ) -> None:
         self.ctx = ctx
         self.scene = scene
-        self.diffuse = diffuse
+        self.meshes = meshes
+        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=True)
+        self.back_faces = programs.get("mesh.vert", "back_depth.frag")
         resolution = scene.render.impostor_resolution
         if len(reflected) > MAX_DEPTH_IMAGES_PER_MIRROR:
             raise SceneError(
@@ -167,14 +199,31 @@ class ImpostorPass:
         framebuffer = self.atlas.framebuffer
         framebuffer.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
+        everything = ((True,) * 4, (True,) * 4)
         draws = 0
-        for image in self.depth_images:
-            # Cleared colour alpha 0 marks "nothing here"; the red channel clears the R32F depth
-            # attachment to BACKGROUND_DEPTH, the same value the depth buffer clears to.
-            framebuffer.clear(BACKGROUND_DEPTH, 1.0, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
-            framebuffer.viewport = image.tile
-            draws += self.diffuse.draw([image.target], image.camera.view_projection)
-            self.bakes += 1
+        try:
+            for image in self.depth_images:
+                framebuffer.viewport = image.tile
+                # Cleared colour alpha 0 marks "nothing here"; both depth layers clear to
+                # BACKGROUND_DEPTH, the value the depth buffer clears to.
+                framebuffer.color_mask = everything
+                framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
+                # The visible surface: colour and the R layer.
+                framebuffer.color_mask = ((True,) * 4, (True, False, False, False))
+                draws += self.diffuse.draw([image.target], image.camera.view_projection)
+                # The nearest back face: the G layer alone, against a fresh depth buffer.
+                framebuffer.color_mask = ((False,) * 4, (False,) * 4)
+                framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=image.tile)
+                framebuffer.color_mask = ((False,) * 4, (False, True, False, False))
+                self.ctx.enable(moderngl.CULL_FACE)
+                self.ctx.cull_face = BAKE_CULLS_FRONT_FACES
+                self.meshes.draw(self.back_faces, image.target, image.camera.view_projection)
+                self.ctx.disable(moderngl.CULL_FACE)
+                draws += 1
+                self.bakes += 1
+        finally:
+            framebuffer.color_mask = everything
+            self.ctx.disable(moderngl.CULL_FACE)
         return draws
 
     def release(self) -> None:

@@ -32,8 +32,12 @@ class GpuMeshes:
         key = (item.index, program.glo)
         if key not in self._vertex_arrays:
             vertices, indices = self._buffers_of(item)
+            # An attribute the shader does not read is compiled away; skip its bytes instead.
+            layout = [("3f", name) if name in program else ("12x", None) for name in ("in_position", "in_normal")]
+            fmt = " ".join(kind for kind, _ in layout)
+            names = [name for _, name in layout if name is not None]
             self._vertex_arrays[key] = self.ctx.vertex_array(
-                program, [(vertices, "3f 3f", "in_position", "in_normal")], index_buffer=indices, index_element_size=4
+                program, [(vertices, fmt, *names)], index_buffer=indices, index_element_size=4
             )
         write_matrix(program, "u_model", item.model_matrix)
         write_matrix(program, "u_normal_matrix", item.normal_matrix)

@@ -3,7 +3,9 @@
 #include "../generated/depth_image.glsl"
 
 uniform sampler2D u_impostor_color;  // atlas of every depth image's colours (RGBA8)
-uniform sampler2D u_impostor_depth;  // atlas of their OpenGL window depths (R32F), 1.0 = background
+// Atlas of their OpenGL window depths (RG32F): the visible surface, and the nearest back face
+// behind it (the far end of the object's first solid run along the eye ray); 1.0 = nothing.
+uniform sampler2D u_impostor_depth;
 
 struct RayHit {
     bool hit;
@@ -46,8 +48,11 @@ ivec2 texel_of(DepthImage image, vec2 s) {
     return image.tile.xy + texel;
 }
 
-float sample_depth(DepthImage image, vec2 s) {
-    return texelFetch(u_impostor_depth, texel_of(image, s), 0).r;
+// (visible surface, back of its solid run) under s. Where no back face was drawn (an open
+// surface) the object is taken to be as thin as it looks: no false solid behind it.
+vec2 sample_layers(DepthImage image, vec2 s) {
+    vec2 layers = texelFetch(u_impostor_depth, texel_of(image, s), 0).rg;
+    return vec2(layers.x, layers.y >= BACKGROUND_DEPTH ? layers.x : max(layers.x, layers.y));
 }
 
 vec3 sample_color(DepthImage image, vec2 s) {
@@ -147,23 +152,46 @@ int step_count(DepthImage image, vec3 sa, vec3 sb) {
     return clamp(int(pixels), 1, int(max(image.depth_range.z, image.depth_range.w)) + 1);
 }
 
+// Is the ray, at OpenGL depth r, inside the object's first solid run at this sample (between
+// the visible surface and the back face behind it, touching included)?
+bool inside_solid(float r, vec2 layers) {
+    return layers.x < BACKGROUND_DEPTH && r >= layers.x - CONTACT_DEPTH_TOLERANCE
+        && r <= layers.y + CONTACT_DEPTH_TOLERANCE;
+}
+
+RayHit hit_at(DepthImage image, float t, vec2 s, int samples) {
+    return RayHit(true, t, s, sample_color(image, s), image.eye.w, samples);
+}
+
 // The lecture's optimized algorithm: clip, project both ends, step along the projection and
 // intersect 2-D segments in OpenGL depth, which is affine in screen space: no unprojection.
+//
+// A step hits in one of two ways. Through the visible surface: the 2-D segment intersection,
+// between samples of one surface (samples_connected). Or into the object through a side the
+// eye cannot see (behind a silhouette, or from behind): the ray is inside the solid run at s1
+// without crossing the visible surface, and the hit is put at s1, within one step of where it
+// entered. A ray that passes behind the solid run (behind a thin foreground) is inside nothing
+// and goes on to what lies behind, as the truth does.
 RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
     ClippedRay ray;
     if (!clip_and_project(image, origin, direction, ray)) return no_hit(0);
     vec3 sa = ray.sa, sb = ray.sb;
     int steps = step_count(image, sa, sb);
     vec3 s0 = sa;
-    float z0 = sample_depth(image, s0.xy);
+    vec2 z0 = sample_layers(image, s0.xy);
+    // A ray that starts inside the object (one that touches the mirror) hits where it starts.
+    if (inside_solid(s0.z, z0)) return hit_at(image, ray.t_enter, s0.xy, 1);
     for (int i = 0; i < steps; ++i) {
         vec3 s1 = sa + (sb - sa) * (float(i + 1) / float(steps));
-        float z1 = sample_depth(image, s1.xy);
+        vec2 z1 = sample_layers(image, s1.xy);
         float k;
-        if (samples_connected(image, s0.xy, s1.xy, z0, z1) && segments_cross(s0.z - z0, s1.z - z1, k)) {
+        bool through_surface = samples_connected(image, s0.xy, s1.xy, z0.x, z1.x)
+            && segments_cross(s0.z - z0.x, s1.z - z1.x, k);
+        if (through_surface || inside_solid(s1.z, z1)) {
+            if (!through_surface) k = 1.0;
             vec2 s = s0.xy + (s1.xy - s0.xy) * k;
             float t = ray_parameter((float(i) + k) / float(steps), ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
-            return RayHit(true, t, s, sample_color(image, s), image.eye.w, i + 2);
+            return hit_at(image, t, s, i + 2);
         }
         s0 = s1;
         z0 = z1;
@@ -173,7 +201,8 @@ RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
 
 // The lecture's basic algorithm: unproject every step's sample to 3-D and intersect the segment
 // between consecutive samples with the ray (they are coplanar: both lie in the plane through the
-// eye and the ray). Kept as the slower reference point for the optimized version.
+// eye and the ray). Kept as the slower reference point for the optimized version; it enters the
+// solid run through hidden sides by the same rule.
 RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
     ClippedRay ray;
     if (!clip_and_project(image, origin, direction, ray)) return no_hit(0);
@@ -182,32 +211,36 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
     vec3 ray_ab = direction * (ray.t_exit - ray.t_enter);
     int steps = step_count(image, sa, sb);
     vec2 s0 = sa.xy;
-    float z0 = sample_depth(image, s0);
-    vec3 q0 = unproject(image, s0, w_from_opengl_depth(image, z0));
+    vec2 z0 = sample_layers(image, s0);
+    if (inside_solid(sa.z, z0)) return hit_at(image, ray.t_enter, s0, 1);
+    vec3 q0 = unproject(image, s0, w_from_opengl_depth(image, z0.x));
     for (int i = 0; i < steps; ++i) {
         float sigma0 = float(i) / float(steps);
         float sigma1 = float(i + 1) / float(steps);
         vec2 s1 = sa.xy + (sb.xy - sa.xy) * sigma1;
-        float z1 = sample_depth(image, s1);
-        vec3 q1 = unproject(image, s1, w_from_opengl_depth(image, z1));
-        if (samples_connected(image, s0, s1, z0, z1)) {
+        vec2 z1 = sample_layers(image, s1);
+        vec3 q1 = unproject(image, s1, w_from_opengl_depth(image, z1.x));
+        if (samples_connected(image, s0, s1, z0.x, z1.x)) {
             // Closest approach of the lines q0 + mu (q1 - q0) and ray_a + lambda ray_ab.
             vec3 d1 = q1 - q0, d2 = ray_ab, r = q0 - ray_a;
             float aa = dot(d1, d1), bb = dot(d1, d2), cc = dot(d2, d2), dd = dot(d1, r), ee = dot(d2, r);
             float denominator = aa * cc - bb * bb;
             float w_ray0 = 1.0 / ((1.0 - sigma0) / ray.pa.z + sigma0 / ray.pb.z);
-            bool in_front_at_start = w_ray0 <= w_from_opengl_depth(image, z0);
+            bool in_front_at_start = w_ray0 <= w_from_opengl_depth(image, z0.x);
             if (denominator > 1e-12 * aa * cc && in_front_at_start) {
                 float mu = (bb * ee - cc * dd) / denominator;
                 float lambda = (aa * ee - bb * dd) / denominator;
                 if (mu >= 0.0 && mu <= 1.0 && lambda >= 0.0 && lambda <= 1.0) {
                     vec3 p = ray_a + ray_ab * lambda;
                     vec3 pc = camera_coordinates(image, p - image.eye.xyz);
-                    vec2 s = pc.xy / pc.z;
                     float t = ray.t_enter + lambda * (ray.t_exit - ray.t_enter);
-                    return RayHit(true, t, s, sample_color(image, s), image.eye.w, i + 2);
+                    return hit_at(image, t, pc.xy / pc.z, i + 2);
                 }
             }
+        }
+        if (inside_solid(sa.z + (sb.z - sa.z) * sigma1, z1)) {
+            float t = ray_parameter(sigma1, ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
+            return hit_at(image, t, s1, i + 2);
         }
         s0 = s1;
         z0 = z1;
