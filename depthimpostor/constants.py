@@ -52,6 +52,12 @@ MAX_SURFACE_SLOPE = 16.0
 #: and "first front-to-back crossing" lands anywhere along it (flicker as the camera moves).
 CONTACT_DEPTH_TOLERANCE = 2.0**-21
 
+#: Rays are clipped to the frustum grown by this many pixels on each side (and by this share of
+#: a pixel's angle at the near and far planes): a ray that runs along a side plane, an edge or a
+#: corner is then inside whatever the last bit of rounding says, and GPU and reference agree. Its
+#: samples beyond the border read the border texel (texel_of clamps).
+CLIP_TOLERANCE_PIXELS = 1e-4
+
 #: The std140 record of one depth image, as vec4 / ivec4 rows. `eye.w` holds the object id,
 #: `inverse_row*` are the rows of [a b c]^-1 (projection into the camera's (x, y, w)),
 #: `depth_range` is (w_near, w_far, width, height), `tile` the (x, y) pixel origin of the image
@@ -89,6 +95,7 @@ def glsl_constants() -> dict[str, str]:
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
         "NO_OBJECT": str(NO_OBJECT),
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",
+        "CLIP_TOLERANCE_PIXELS": f"{CLIP_TOLERANCE_PIXELS!r}",
     }
     for enum in (Algorithm, MaterialKind, LightKind):
         prefix = {"Algorithm": "ALGORITHM", "MaterialKind": "MATERIAL", "LightKind": "LIGHT"}[enum.__name__]

@@ -193,14 +193,13 @@ class PPC:
         divides by w, so rays that start behind the eye or cross its plane are handled before any
         perspective divide. Returns (inside, t_enter, t_exit).
         """
-        p0 = self.camera_coordinates(origins)
-        dp = np.asarray(directions, dtype=np.float64) @ self.inverse.T
-        return self._clip(p0, dp, self._half_spaces(p0, dp))
+        return self.clip_ray_grown(origins, directions, 0.0)
 
-    def clip_ray_loosely(self, origins: ArrayLike, directions: ArrayLike, pixels: float) -> NDArray[np.bool_]:
-        """Would the ray meet the frustum grown by `pixels` on every side (and by the same share of
-        w_near and w_far at its ends)? Rays that miss the frustum but meet this one pass within
-        rounding of its boundary, where float32 may clip them in."""
+    def clip_ray_grown(
+        self, origins: ArrayLike, directions: ArrayLike, pixels: float
+    ) -> tuple[NDArray[np.bool_], Array, Array]:
+        """clip_ray against the frustum grown by `pixels` on every side (and by the same share of
+        w_near and w_far at its ends)."""
         p0 = self.camera_coordinates(origins)
         dp = np.asarray(directions, dtype=np.float64) @ self.inverse.T
         w, dw = p0[..., 2], dp[..., 2]
@@ -209,7 +208,7 @@ class PPC:
         half_spaces = [(value + pixels * w, rate + pixels * dw) for value, rate in sides]
         grow = pixels / max(self.width, self.height)
         half_spaces += [(w - self.w_near * (1.0 - grow), dw), (self.w_far * (1.0 + grow) - w, -dw)]
-        return self._clip(p0, dp, half_spaces)[0]
+        return self._clip(p0, dp, half_spaces)
 
     @staticmethod
     def _clip(p0: Array, dp: Array, half_spaces: list[tuple[Array, Array]]) -> tuple[NDArray[np.bool_], Array, Array]:

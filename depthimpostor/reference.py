@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .constants import BACKGROUND_DEPTH, CONTACT_DEPTH_TOLERANCE, NO_OBJECT, Algorithm
+from .constants import BACKGROUND_DEPTH, CLIP_TOLERANCE_PIXELS, CONTACT_DEPTH_TOLERANCE, NO_OBJECT, Algorithm
 from .ppc import PPC
 
 Array = NDArray[np.float64]
@@ -151,18 +151,17 @@ class ClippedRays:
 
 def clip_and_project(image: DepthImageData, origins: Array, directions: Array) -> ClippedRays:
     camera = image.camera
-    inside, t_enter, t_exit = camera.clip_ray(origins, directions)
+    # Grown as the GLSL grows it: rays along a side are inside whatever the rounding.
+    inside, t_enter, t_exit = camera.clip_ray_grown(origins, directions, CLIP_TOLERANCE_PIXELS)
     t_exit = np.where(inside, t_exit, 0.0)
     t_enter = np.where(inside, t_enter, 0.0)
     p0 = camera.camera_coordinates(origins)
     dp = directions @ camera.inverse.T
-    pa = p0 + dp * t_enter[:, None]
-    pb = p0 + dp * t_exit[:, None]
-    # Rays outside the frustum get a harmless w so that nothing below divides by zero.
-    wa = np.where(inside, pa[:, 2], 1.0)
-    wb = np.where(inside, pb[:, 2], 1.0)
-    sa = np.stack([pa[:, 0] / wa, pa[:, 1] / wa, camera.opengl_depth(wa)], axis=1)
-    sb = np.stack([pb[:, 0] / wb, pb[:, 1] / wb, camera.opengl_depth(wb)], axis=1)
+    # Rays outside the frustum get harmless ends so that nothing below divides by zero.
+    pa = np.where(inside[:, None], p0 + dp * t_enter[:, None], [0.0, 0.0, 1.0])
+    pb = np.where(inside[:, None], p0 + dp * t_exit[:, None], [0.0, 0.0, 1.0])
+    sa = np.stack([pa[:, 0] / pa[:, 2], pa[:, 1] / pa[:, 2], camera.opengl_depth(pa[:, 2])], axis=1)
+    sb = np.stack([pb[:, 0] / pb[:, 2], pb[:, 1] / pb[:, 2], camera.opengl_depth(pb[:, 2])], axis=1)
     return ClippedRays(inside, t_enter, t_exit, pa, pb, sa, sb)
 
 
@@ -178,7 +177,7 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
     length = np.maximum(np.abs(rays.sb[:, 0] - rays.sa[:, 0]), np.abs(rays.sb[:, 1] - rays.sa[:, 1]))
     result.texel_margin[active] = np.abs(length - np.round(length))[active]
     # A ray that passes within rounding of the frustum may be clipped in by float32.
-    near_miss = ~rays.inside & image.camera.clip_ray_loosely(origins, directions, 1e-3)
+    near_miss = ~rays.inside & image.camera.clip_ray_grown(origins, directions, 1e-3)[0]
     result.texel_margin[near_miss] = 0.0
     s0 = rays.sa.copy()
     z0 = sample_layers(image, s0[:, :2])
@@ -249,9 +248,13 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
         with np.errstate(divide="ignore", invalid="ignore"):
             mu = (bb * ee - cc * dd) / denominator
             lam = (aa * ee - bb * dd) / denominator
+        connected = active & samples_connected(image, s0, s1, z0[:, 0], z1[:, 0])
+        row0, column0 = texel_of(image, s0)
+        row1, column1 = texel_of(image, s1)
+        one_texel = (row0 == row1) & (column0 == column1)
+        regular = ~one_texel & (denominator > 1e-5 * aa * cc)  # see the GLSL
         surface_hit = (
-            active & samples_connected(image, s0, s1, z0[:, 0], z1[:, 0]) & (denominator > 1e-12 * aa * cc)
-            & in_front_at_start & (mu >= 0) & (mu <= 1) & (lam >= 0) & (lam <= 1)
+            connected & regular & in_front_at_start & (mu >= 0) & (mu <= 1) & (lam >= 0) & (lam <= 1)
         )
         if surface_hit.any():
             lam = np.where(surface_hit, lam, 0.0)
@@ -260,7 +263,16 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
             t = rays.t_enter + lam * (rays.t_exit - rays.t_enter)
             _record(result, surface_hit, t, s, sample_color(image, s), image.object_id, i + 2)
             active &= ~surface_hit
+        # A point-like or ray-parallel 3-D segment: the 2-D intersection in depth (see the GLSL).
+        r0 = rays.sa[:, 2] + (rays.sb[:, 2] - rays.sa[:, 2]) * sigma0
         r1 = rays.sa[:, 2] + (rays.sb[:, 2] - rays.sa[:, 2]) * sigma1
+        cross, k = segments_cross(r0 - z0[:, 0], r1 - z1[:, 0])
+        degenerate_hit = active & connected & ~regular & cross
+        if degenerate_hit.any():
+            t = ray_parameter(sigma0 + (sigma1 - sigma0) * k, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
+            s = s0 + (s1 - s0) * k[:, None]
+            _record(result, degenerate_hit, t, s, sample_color(image, s), image.object_id, i + 2)
+            active &= ~degenerate_hit
         entered = active & inside_solid(r1, z1)
         if entered.any():
             t = ray_parameter(sigma1, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)

@@ -80,12 +80,14 @@ bool clip_ray(DepthImage image, vec3 p0, vec3 dp, out float t_enter, out float t
     bool inside = dp != vec3(0.0);
     t_enter = 0.0;
     t_exit = 3.0e38;  // the frustum is bounded, so some plane always lowers this
-    clip_half_space(p0.z - image.depth_range.x, dp.z, t_enter, t_exit, inside);
-    clip_half_space(image.depth_range.y - p0.z, -dp.z, t_enter, t_exit, inside);
-    clip_half_space(p0.x, dp.x, t_enter, t_exit, inside);
-    clip_half_space(width * p0.z - p0.x, width * dp.z - dp.x, t_enter, t_exit, inside);
-    clip_half_space(p0.y, dp.y, t_enter, t_exit, inside);
-    clip_half_space(height * p0.z - p0.y, height * dp.z - dp.y, t_enter, t_exit, inside);
+    // Grown by CLIP_TOLERANCE_PIXELS: u >= -g is x + g w >= 0, and so on (see constants.py).
+    float g = CLIP_TOLERANCE_PIXELS, depth_growth = g / max(width, height);
+    clip_half_space(p0.z - image.depth_range.x * (1.0 - depth_growth), dp.z, t_enter, t_exit, inside);
+    clip_half_space(image.depth_range.y * (1.0 + depth_growth) - p0.z, -dp.z, t_enter, t_exit, inside);
+    clip_half_space(p0.x + g * p0.z, dp.x + g * dp.z, t_enter, t_exit, inside);
+    clip_half_space((width + g) * p0.z - p0.x, (width + g) * dp.z - dp.x, t_enter, t_exit, inside);
+    clip_half_space(p0.y + g * p0.z, dp.y + g * dp.z, t_enter, t_exit, inside);
+    clip_half_space((height + g) * p0.z - p0.y, (height + g) * dp.z - dp.y, t_enter, t_exit, inside);
     return inside && t_enter <= t_exit;
 }
 
@@ -227,14 +229,27 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
             float denominator = aa * cc - bb * bb;
             float w_ray0 = 1.0 / ((1.0 - sigma0) / ray.pa.z + sigma0 / ray.pb.z);
             bool in_front_at_start = w_ray0 <= w_from_opengl_depth(image, z0.x);
-            if (denominator > 1e-12 * aa * cc && in_front_at_start) {
+            // Where the closest approach is ill-conditioned the intersection is the 2-D one in
+            // depth (the same point in exact arithmetic), which stays well defined: when both
+            // samples come from one texel (a ray through the eye projects to one: q0 and q1 then
+            // differ by rounding alone, in no meaningful direction), and when the lines are
+            // nearly parallel (a ray lying in the surface): aa cc - bb^2 = aa cc sin^2(angle), and
+            // below 1e-5 (0.2 degrees) float32 rounding, relative 1e-7 of aa cc, is a visible part.
+            bool one_texel = texel_of(image, s0) == texel_of(image, s1);
+            if (!one_texel && denominator > 1e-5 * aa * cc) {
                 float mu = (bb * ee - cc * dd) / denominator;
                 float lambda = (aa * ee - bb * dd) / denominator;
-                if (mu >= 0.0 && mu <= 1.0 && lambda >= 0.0 && lambda <= 1.0) {
+                if (in_front_at_start && mu >= 0.0 && mu <= 1.0 && lambda >= 0.0 && lambda <= 1.0) {
                     vec3 p = ray_a + ray_ab * lambda;
                     vec3 pc = camera_coordinates(image, p - image.eye.xyz);
                     float t = ray.t_enter + lambda * (ray.t_exit - ray.t_enter);
                     return hit_at(image, t, pc.xy / pc.z, i + 2);
+                }
+            } else {
+                float k;
+                if (segments_cross(sa.z + (sb.z - sa.z) * sigma0 - z0.x, sa.z + (sb.z - sa.z) * sigma1 - z1.x, k)) {
+                    float t = ray_parameter(sigma0 + (sigma1 - sigma0) * k, ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
+                    return hit_at(image, t, s0 + (s1 - s0) * k, i + 2);
                 }
             }
         }
