@@ -41,9 +41,21 @@ def to_uint8(color: np.ndarray) -> np.ndarray:
     return (np.clip(np.nan_to_num(color, nan=0.0), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
-def camera_of(scene: Scene, near: float = 0.05, far: float = 500.0) -> PPC:
+#: The camera's near plane is at least this share of its far plane: a 24-bit depth buffer then
+#: resolves w^2 / (near 2^24), about 1e-3 of the scene's size at its far end.
+NEAR_FAR_RATIO = 1e-3
+
+
+def camera_of(scene: Scene) -> PPC:
+    """The scene's camera, its near and far planes fitted to the scene's bounds: fixed planes
+    would clip a scene a thousand times smaller (or larger) than the one they were picked for."""
     camera = scene.camera
     width, height = scene.render.size
+    eye = np.asarray(camera.eye, float)
+    spheres = [g.bounding_sphere for g in scene_geometry(scene.objects)]
+    far = max((float(np.linalg.norm(centre - eye)) + radius for centre, radius in spheres), default=1.0) * 1.01
+    nearest = min((float(np.linalg.norm(centre - eye)) - radius for centre, radius in spheres), default=far)
+    near = max(far * NEAR_FAR_RATIO, nearest * 0.9)
     return PPC.look_at(camera.eye, camera.target, camera.up, camera.fov_y, width, height, near, far)
 
 
