@@ -52,6 +52,10 @@ MAX_SURFACE_SLOPE = 16.0
 #: and "first front-to-back crossing" lands anywhere along it (flicker as the camera moves).
 CONTACT_DEPTH_TOLERANCE = 2.0**-21
 
+#: The basic algorithm's closest approach of two lines divides by aa cc - bb^2 = aa cc sin^2 of
+#: their angle. Below this share of aa cc (0.2 degrees) float32 rounding, relative 1e-7 of aa cc,
+#: is a visible part of it, and the 2-D intersection in depth is used instead.
+MIN_LINES_SINE_SQUARED = 1e-5
 #: Rays are clipped to the frustum grown by this many pixels on each side (and by this share of
 #: a pixel's angle at the near and far planes): a ray that runs along a side plane, an edge or a
 #: corner is then inside whatever the last bit of rounding says, and GPU and reference agree. Its
@@ -96,6 +100,7 @@ def glsl_constants() -> dict[str, str]:
         "NO_OBJECT": str(NO_OBJECT),
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",
         "CLIP_TOLERANCE_PIXELS": f"{CLIP_TOLERANCE_PIXELS!r}",
+        "MIN_LINES_SINE_SQUARED": f"{MIN_LINES_SINE_SQUARED!r}",
     }
     for enum in (Algorithm, MaterialKind, LightKind):
         prefix = {"Algorithm": "ALGORITHM", "MaterialKind": "MATERIAL", "LightKind": "LIGHT"}[enum.__name__]

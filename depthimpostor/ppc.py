@@ -203,7 +203,7 @@ class PPC:
         p0 = self.camera_coordinates(origins)
         dp = np.asarray(directions, dtype=np.float64) @ self.inverse.T
         w, dw = p0[..., 2], dp[..., 2]
-        near, far, *sides = self._half_spaces(p0, dp)
+        _near, _far, *sides = self._half_spaces(p0, dp)
         # u >= -pixels is x + pixels * w >= 0, and likewise for the other three sides.
         half_spaces = [(value + pixels * w, rate + pixels * dw) for value, rate in sides]
         grow = pixels / max(self.width, self.height)

@@ -13,7 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .constants import BACKGROUND_DEPTH, CLIP_TOLERANCE_PIXELS, CONTACT_DEPTH_TOLERANCE, NO_OBJECT, Algorithm
+from .constants import (
+    BACKGROUND_DEPTH, CLIP_TOLERANCE_PIXELS, CONTACT_DEPTH_TOLERANCE, MIN_LINES_SINE_SQUARED, NO_OBJECT, Algorithm,
+)
 from .ppc import PPC
 
 Array = NDArray[np.float64]
@@ -252,7 +254,7 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
         row0, column0 = texel_of(image, s0)
         row1, column1 = texel_of(image, s1)
         one_texel = (row0 == row1) & (column0 == column1)
-        regular = ~one_texel & (denominator > 1e-5 * aa * cc)  # see the GLSL
+        regular = ~one_texel & (denominator > MIN_LINES_SINE_SQUARED * aa * cc)  # see the GLSL
         surface_hit = (
             connected & regular & in_front_at_start & (mu >= 0) & (mu <= 1) & (lam >= 0) & (lam <= 1)
         )

@@ -233,10 +233,9 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
             // depth (the same point in exact arithmetic), which stays well defined: when both
             // samples come from one texel (a ray through the eye projects to one: q0 and q1 then
             // differ by rounding alone, in no meaningful direction), and when the lines are
-            // nearly parallel (a ray lying in the surface): aa cc - bb^2 = aa cc sin^2(angle), and
-            // below 1e-5 (0.2 degrees) float32 rounding, relative 1e-7 of aa cc, is a visible part.
+            // nearly parallel (a ray lying in the surface; see MIN_LINES_SINE_SQUARED).
             bool one_texel = texel_of(image, s0) == texel_of(image, s1);
-            if (!one_texel && denominator > 1e-5 * aa * cc) {
+            if (!one_texel && denominator > MIN_LINES_SINE_SQUARED * aa * cc) {
                 float mu = (bb * ee - cc * dd) / denominator;
                 float lambda = (aa * ee - bb * dd) / denominator;
                 if (in_front_at_start && mu >= 0.0 && mu <= 1.0 && lambda >= 0.0 && lambda <= 1.0) {
