@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import synthetic
-from depthimpostor.constants import CONTACT_DEPTH_TOLERANCE, Algorithm
+from depthimpostor.constants import CONTACT_DEPTH_TOLERANCE, MAX_SURFACE_SLOPE, Algorithm
 from depthimpostor.shaders import ProgramCache
 
 ALGORITHMS = pytest.mark.parametrize("algorithm", list(Algorithm), ids=lambda a: a.name.lower())
@@ -63,7 +63,7 @@ def test_ray_nearly_through_the_eye_stays_continuous(ctx, programs, algorithm) -
     cam, image = fronto_plane()
     u, v = np.full(7, 20.3), np.full(7, 30.7)
     direction = cam.ray_direction(u, v)
-    tilt = 10.0 ** -np.arange(3, 10)[:, None] * cam.a / np.linalg.norm(cam.a) * np.linalg.norm(cam.a)
+    tilt = 10.0 ** -np.arange(3, 10)[:, None] * cam.a  # a is one pixel: moves the vanishing point 1e-k px
     origins = direction * 2.0
     gpu, expected = synthetic.both(ctx, programs, [image], origins, direction + tilt, algorithm)
     check(gpu, expected, True, 3.0, rtol=1e-3)
@@ -159,7 +159,8 @@ def test_grazing_rays_hit_within_one_texel_of_the_surface(ctx, programs, algorit
     origins = hits_at - directions * 0.6
     gpu, expected = synthetic.both(ctx, programs, [image], origins, directions, algorithm)
     check(gpu, expected, True)
-    texel_depth = 5.0 * cam.max_relative_depth_step / 16.0 * np.tan(np.radians(60)) * 2.0  # two texels of the plane's slope
+    pixel_angle = cam.max_relative_depth_step / MAX_SURFACE_SLOPE
+    texel_depth = 5.0 * pixel_angle * np.tan(np.radians(60)) * 2.0  # what the plane spans over two texels
     for result in (gpu, expected):
         points = origins + directions * result.t[:, None]
         assert np.abs((points - point) @ normal).max() < texel_depth
