@@ -46,13 +46,14 @@ def to_uint8(color: np.ndarray) -> np.ndarray:
 NEAR_FAR_RATIO = 1e-3
 
 
-def camera_of(scene: Scene) -> PPC:
+def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC:
     """The scene's camera, its near and far planes fitted to the scene's bounds: fixed planes
-    would clip a scene a thousand times smaller (or larger) than the one they were picked for."""
+    would clip a scene a thousand times smaller (or larger) than the one they were picked for.
+    `geometry` is the scene's, when the caller has already built it."""
     camera = scene.camera
     width, height = scene.render.size
     eye = np.asarray(camera.eye, float)
-    spheres = [g.bounding_sphere for g in scene_geometry(scene.objects)]
+    spheres = [g.bounding_sphere for g in (geometry if geometry is not None else scene_geometry(scene.objects))]
     far = max((float(np.linalg.norm(centre - eye)) + radius for centre, radius in spheres), default=1.0) * 1.01
     nearest = min((float(np.linalg.norm(centre - eye)) - radius for centre, radius in spheres), default=far)
     near = max(far * NEAR_FAR_RATIO, nearest * 0.9)
@@ -84,10 +85,10 @@ class Renderer:
         self.ctx = ctx
         self.scene = scene
         self.algorithm = algorithm
-        self.camera = camera_of(scene)
         self.stats = RenderStats()
         self.programs = ProgramCache(ctx)
         geometry = scene_geometry(scene.objects)
+        self.camera = camera_of(scene, geometry)
         self.mirrors: list[ObjectGeometry] = [g for g in geometry if g.object.is_mirror]
         self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
         self.diffuse_objects = [g for g in geometry if not g.object.is_mirror]
