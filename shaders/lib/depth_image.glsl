@@ -48,10 +48,11 @@ ivec2 texel_of(DepthImage image, vec2 s) {
     return image.tile.xy + texel;
 }
 
-// (visible surface, back of its solid run) under s. Where no back face was drawn (an open
-// surface) the object is taken to be as thin as it looks: no false solid behind it.
-vec2 sample_layers(DepthImage image, vec2 s) {
-    vec2 layers = texelFetch(u_impostor_depth, texel_of(image, s), 0).rg;
+// (visible surface, back of its solid run) at an atlas texel (reference.sample_layers). Where
+// no back face was drawn (an open surface) the object is taken to be as thin as it looks: no
+// false solid behind it.
+vec2 layers_at(ivec2 texel) {
+    vec2 layers = texelFetch(u_impostor_depth, texel, 0).rg;
     return vec2(layers.x, layers.y >= BACKGROUND_DEPTH ? layers.x : max(layers.x, layers.y));
 }
 
@@ -137,9 +138,10 @@ bool segments_cross(float f0, float f1, out float k) {
 // the segment joining the two would be a "rubber sheet" over empty space, which a ray passing
 // behind the silhouette would hit. 1/w is affine in OpenGL depth (surface.y - z * surface.z),
 // and |w1 - w0| / min(w0, w1) = |1/w0 - 1/w1| / min(1/w0, 1/w1): no division needed.
-bool samples_connected(DepthImage image, vec2 s0, vec2 s1, float z0, float z1) {
+// The marches pass the samples' texels (texel_of), which they have already computed.
+bool samples_connected(DepthImage image, ivec2 texel0, ivec2 texel1, float z0, float z1) {
     if (z0 >= BACKGROUND_DEPTH || z1 >= BACKGROUND_DEPTH) return false;
-    float texels = length(vec2(texel_of(image, s1) - texel_of(image, s0)));
+    float texels = length(vec2(texel1 - texel0));
     float inverse_w0 = image.surface.y - z0 * image.surface.z;
     float inverse_w1 = image.surface.y - z1 * image.surface.z;
     return abs(inverse_w1 - inverse_w0) <= image.surface.x * texels * min(inverse_w0, inverse_w1);
@@ -180,14 +182,16 @@ RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
     vec3 sa = ray.sa, sb = ray.sb;
     int steps = step_count(image, sa, sb);
     vec3 s0 = sa;
-    vec2 z0 = sample_layers(image, s0.xy);
+    ivec2 texel0 = texel_of(image, s0.xy);
+    vec2 z0 = layers_at(texel0);
     // A ray that starts inside the object (one that touches the mirror) hits where it starts.
     if (inside_solid(s0.z, z0)) return hit_at(image, ray.t_enter, s0.xy, 1);
     for (int i = 0; i < steps; ++i) {
         vec3 s1 = sa + (sb - sa) * (float(i + 1) / float(steps));
-        vec2 z1 = sample_layers(image, s1.xy);
+        ivec2 texel1 = texel_of(image, s1.xy);
+        vec2 z1 = layers_at(texel1);
         float k;
-        bool through_surface = samples_connected(image, s0.xy, s1.xy, z0.x, z1.x)
+        bool through_surface = samples_connected(image, texel0, texel1, z0.x, z1.x)
             && segments_cross(s0.z - z0.x, s1.z - z1.x, k);
         if (through_surface || inside_solid(s1.z, z1)) {
             if (!through_surface) k = 1.0;
@@ -196,6 +200,7 @@ RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
             return hit_at(image, t, s, i + 2);
         }
         s0 = s1;
+        texel0 = texel1;
         z0 = z1;
     }
     return no_hit(steps + 1);
@@ -213,16 +218,18 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
     vec3 ray_ab = direction * (ray.t_exit - ray.t_enter);
     int steps = step_count(image, sa, sb);
     vec2 s0 = sa.xy;
-    vec2 z0 = sample_layers(image, s0);
+    ivec2 texel0 = texel_of(image, s0);
+    vec2 z0 = layers_at(texel0);
     if (inside_solid(sa.z, z0)) return hit_at(image, ray.t_enter, s0, 1);
     vec3 q0 = unproject(image, s0, w_from_opengl_depth(image, z0.x));
     for (int i = 0; i < steps; ++i) {
         float sigma0 = float(i) / float(steps);
         float sigma1 = float(i + 1) / float(steps);
         vec2 s1 = sa.xy + (sb.xy - sa.xy) * sigma1;
-        vec2 z1 = sample_layers(image, s1);
+        ivec2 texel1 = texel_of(image, s1);
+        vec2 z1 = layers_at(texel1);
         vec3 q1 = unproject(image, s1, w_from_opengl_depth(image, z1.x));
-        if (samples_connected(image, s0, s1, z0.x, z1.x)) {
+        if (samples_connected(image, texel0, texel1, z0.x, z1.x)) {
             // Closest approach of the lines q0 + mu (q1 - q0) and ray_a + lambda ray_ab.
             vec3 d1 = q1 - q0, d2 = ray_ab, r = q0 - ray_a;
             float aa = dot(d1, d1), bb = dot(d1, d2), cc = dot(d2, d2), dd = dot(d1, r), ee = dot(d2, r);
@@ -234,8 +241,7 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
             // samples come from one texel (a ray through the eye projects to one: q0 and q1 then
             // differ by rounding alone, in no meaningful direction), and when the lines are
             // nearly parallel (a ray lying in the surface; see MIN_LINES_SINE_SQUARED).
-            bool one_texel = texel_of(image, s0) == texel_of(image, s1);
-            if (!one_texel && denominator > MIN_LINES_SINE_SQUARED * aa * cc) {
+            if (texel0 != texel1 && denominator > MIN_LINES_SINE_SQUARED * aa * cc) {
                 float mu = (bb * ee - cc * dd) / denominator;
                 float lambda = (aa * ee - bb * dd) / denominator;
                 if (in_front_at_start && mu >= 0.0 && mu <= 1.0 && lambda >= 0.0 && lambda <= 1.0) {
@@ -257,6 +263,7 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
             return hit_at(image, t, s1, i + 2);
         }
         s0 = s1;
+        texel0 = texel1;
         z0 = z1;
         q0 = q1;
     }
