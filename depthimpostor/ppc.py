@@ -179,9 +179,13 @@ class PPC:
         w = np.asarray(w, dtype=np.float64)
         return self.w_far * (w - self.w_near) / (w * (self.w_far - self.w_near))
 
-    def w_from_opengl_depth(self, depth: ArrayLike) -> Array:
+    def inverse_w_from_opengl_depth(self, depth: ArrayLike) -> Array:
+        """1/w of an OpenGL depth: affine in it, 1/w_near - d (1/w_near - 1/w_far)."""
         d = np.asarray(depth, dtype=np.float64)
-        return 1.0 / (1.0 / self.w_near - d * (1.0 / self.w_near - 1.0 / self.w_far))
+        return 1.0 / self.w_near - d * (1.0 / self.w_near - 1.0 / self.w_far)
+
+    def w_from_opengl_depth(self, depth: ArrayLike) -> Array:
+        return 1.0 / self.inverse_w_from_opengl_depth(depth)
 
     # ----------------------------------------------------------------- frustum clipping
     def clip_ray(self, origins: ArrayLike, directions: ArrayLike) -> tuple[NDArray[np.bool_], Array, Array]:
@@ -202,13 +206,7 @@ class PPC:
         w_near and w_far at its ends)."""
         p0 = self.camera_coordinates(origins)
         dp = np.asarray(directions, dtype=np.float64) @ self.inverse.T
-        w, dw = p0[..., 2], dp[..., 2]
-        _near, _far, *sides = self._half_spaces(p0, dp)
-        # u >= -pixels is x + pixels * w >= 0, and likewise for the other three sides.
-        half_spaces = [(value + pixels * w, rate + pixels * dw) for value, rate in sides]
-        grow = pixels / max(self.width, self.height)
-        half_spaces += [(w - self.w_near * (1.0 - grow), dw), (self.w_far * (1.0 + grow) - w, -dw)]
-        return self._clip(p0, dp, half_spaces)
+        return self._clip(p0, dp, self._half_spaces(p0, dp, pixels))
 
     @staticmethod
     def _clip(p0: Array, dp: Array, half_spaces: list[tuple[Array, Array]]) -> tuple[NDArray[np.bool_], Array, Array]:
@@ -226,17 +224,20 @@ class PPC:
         inside &= t_enter <= t_exit
         return inside, t_enter, t_exit
 
-    def _half_spaces(self, p0: Array, dp: Array) -> list[tuple[Array, Array]]:
-        """Each frustum half-space as f(t) = value + rate * t >= 0 along the ray."""
+    def _half_spaces(self, p0: Array, dp: Array, pixels: float = 0.0) -> list[tuple[Array, Array]]:
+        """Each half-space of the frustum grown by `pixels` as f(t) = value + rate * t >= 0 along
+        the ray: u >= -pixels is x + pixels * w >= 0, and likewise for the other sides; the near
+        and far planes move out by the same share of the image's size."""
         x, y, w = p0[..., 0], p0[..., 1], p0[..., 2]
         dx, dy, dw = dp[..., 0], dp[..., 1], dp[..., 2]
+        grow = pixels / max(self.width, self.height)
         return [
-            (w - self.w_near, dw),
-            (self.w_far - w, -dw),
-            (x, dx),
-            (self.width * w - x, self.width * dw - dx),
-            (y, dy),
-            (self.height * w - y, self.height * dw - dy),
+            (w - self.w_near * (1.0 - grow), dw),
+            (self.w_far * (1.0 + grow) - w, -dw),
+            (x + pixels * w, dx + pixels * dw),
+            ((self.width + pixels) * w - x, (self.width + pixels) * dw - dx),
+            (y + pixels * w, dy + pixels * dw),
+            ((self.height + pixels) * w - y, (self.height + pixels) * dw - dy),
         ]
 
     # ----------------------------------------------------------------- OpenGL

@@ -110,19 +110,14 @@ def segments_cross(f0: Array, f1: Array) -> tuple[NDArray[np.bool_], Array]:
     return (f0 <= CONTACT_DEPTH_TOLERANCE) & (f1 >= -CONTACT_DEPTH_TOLERANCE), k
 
 
-def inverse_w(image: DepthImageData, depth: Array) -> Array:
-    """1/w of an OpenGL depth: affine in it (the GLSL reads the coefficients from the record)."""
-    camera = image.camera
-    return 1.0 / camera.w_near - depth * (1.0 / camera.w_near - 1.0 / camera.w_far)
-
-
 def connection_slack(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> Array:
     """How far the depth step between two samples is under the largest one surface may make, in
     OpenGL depth: >= 0 joins them (see samples_connected in the GLSL), < 0 is a discontinuity."""
     row0, column0 = texel_of(image, s0)
     row1, column1 = texel_of(image, s1)
     texels = np.hypot(row1 - row0, column1 - column0)
-    inverse_w0, inverse_w1 = inverse_w(image, z0), inverse_w(image, z1)
+    inverse_w0 = image.camera.inverse_w_from_opengl_depth(z0)
+    inverse_w1 = image.camera.inverse_w_from_opengl_depth(z1)
     allowed = image.camera.max_relative_depth_step * texels * np.minimum(inverse_w0, inverse_w1)
     depth_per_inverse_w = 1.0 / (1.0 / image.camera.w_near - 1.0 / image.camera.w_far)
     return (allowed - np.abs(inverse_w1 - inverse_w0)) * depth_per_inverse_w
