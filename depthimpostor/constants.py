@@ -18,6 +18,13 @@ class Algorithm(IntEnum):
     OPTIMIZED = 1  # intersect 2-D segments in OpenGL depth, no unprojection
 
 
+class Method(IntEnum):
+    """How reflected geometry is stood in for. Issue 6 adds the lecture's other approximations
+    (cube map, billboard, simplified geometry) and ray tracing; the viewer cycles through these."""
+
+    DEPTH = 0  # depth-image impostors
+
+
 class MaterialKind(IntEnum):
     DIFFUSE = 0
     CHECKER = 1

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from .constants import NO_OBJECT, Algorithm
+from .constants import NO_OBJECT, Algorithm, Method
 from .context import bind_default_framebuffer
 from .geometry import ObjectGeometry, scene_geometry
 from .passes.diffuse import DiffusePass
@@ -21,9 +21,10 @@ from .passes.environment import EnvironmentPass
 from .passes.impostors import ImpostorPass
 from .passes.meshes import GpuMeshes
 from .passes.mirrors import MirrorPass
+from .passes.samples import SamplesPass
 from .ppc import PPC
 from .scene.model import Scene
-from .shaders import ProgramCache
+from .shaders import ProgramCache, ShaderLibrary
 
 
 @dataclass
@@ -46,18 +47,41 @@ def to_uint8(color: np.ndarray) -> np.ndarray:
 NEAR_FAR_RATIO = 1e-3
 
 
-def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC:
-    """The scene's camera, its near and far planes fitted to the scene's bounds: fixed planes
-    would clip a scene a thousand times smaller (or larger) than the one they were picked for.
-    `geometry` is the scene's, when the caller has already built it."""
-    camera = scene.camera
-    width, height = scene.render.size
-    eye = np.asarray(camera.eye, float)
-    spheres = [g.bounding_sphere for g in (geometry if geometry is not None else scene_geometry(scene.objects))]
-    far = max((float(np.linalg.norm(centre - eye)) + radius for centre, radius in spheres), default=1.0) * 1.01
-    nearest = min((float(np.linalg.norm(centre - eye)) - radius for centre, radius in spheres), default=far)
+@dataclass(frozen=True)
+class CameraView:
+    """Where a camera stands and looks: what a viewer moves. The frame's size and the near and
+    far planes are the renderer's to fit."""
+
+    eye: tuple[float, float, float]
+    target: tuple[float, float, float]
+    up: tuple[float, float, float]
+    fov_y: float  # vertical, degrees
+
+    @classmethod
+    def of_scene(cls, scene: Scene) -> CameraView:
+        camera = scene.camera
+        return cls(camera.eye, camera.target, camera.up, camera.fov_y)
+
+
+Sphere = tuple[np.ndarray, float]
+
+
+def fitted_camera(view: CameraView, size: tuple[int, int], bounds: list[Sphere]) -> PPC:
+    """The camera of `view`, its near and far planes fitted to the scene's bounding spheres: fixed
+    planes would clip a scene a thousand times smaller (or larger) than the one they were picked
+    for, and a moving eye changes what is near and far."""
+    eye = np.asarray(view.eye, float)
+    far = max((float(np.linalg.norm(centre - eye)) + radius for centre, radius in bounds), default=1.0) * 1.01
+    nearest = min((float(np.linalg.norm(centre - eye)) - radius for centre, radius in bounds), default=far)
     near = max(far * NEAR_FAR_RATIO, nearest * 0.9)
-    return PPC.look_at(camera.eye, camera.target, camera.up, camera.fov_y, width, height, near, far)
+    return PPC.look_at(view.eye, view.target, view.up, view.fov_y, size[0], size[1], near, far)
+
+
+def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC:
+    """The scene's own camera, fitted to its bounds. `geometry` is the scene's, when the caller
+    has already built it."""
+    spheres = [g.bounding_sphere for g in (geometry if geometry is not None else scene_geometry(scene.objects))]
+    return fitted_camera(CameraView.of_scene(scene), scene.render.size, spheres)
 
 
 @dataclass(frozen=True)
@@ -79,49 +103,129 @@ class Renderer:
         scene: Scene,
         algorithm: Algorithm = Algorithm.OPTIMIZED,
         reflection_data: bool = False,
+        shaders: ShaderLibrary | None = None,
     ) -> None:
         """`reflection_data` adds float outputs of each mirror pixel's reflected ray and hit (for
-        comparisons with the truth); without it neither the attachments nor the variant exist."""
+        comparisons with the truth); without it neither the attachments nor the variant exist.
+        `shaders` reads the GLSL from another folder (the viewer's `--shaders`)."""
         self.ctx = ctx
         self.scene = scene
         self.algorithm = algorithm
+        self.method = Method.DEPTH
+        self.show_samples = False
+        self.reflection_data = reflection_data
         self.stats = RenderStats()
-        self.programs = ProgramCache(ctx)
+        self.programs = ProgramCache(ctx, shaders)
         geometry = scene_geometry(scene.objects)
-        self.camera = camera_of(scene, geometry)
+        self.bounds: list[Sphere] = [g.bounding_sphere for g in geometry]
+        self.view = CameraView.of_scene(scene)
+        self.camera = fitted_camera(self.view, scene.render.size, self.bounds)
         self.mirrors: list[ObjectGeometry] = [g for g in geometry if g.object.is_mirror]
         self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
         self.diffuse_objects = [g for g in geometry if not g.object.is_mirror]
         self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
         self.meshes = GpuMeshes(ctx)
+        self._make_targets(scene.render.size)
+        self._build_passes()
 
-        width, height = scene.render.size
+    def _make_targets(self, size: tuple[int, int]) -> None:
+        ctx = self.ctx
         # Float colour so that a NaN or Inf from a shader survives to be caught by a test,
         # instead of being clamped into a plausible-looking 8-bit pixel.
-        self._color = ctx.renderbuffer((width, height), 4, dtype="f4")
-        self._depth = ctx.depth_renderbuffer((width, height))
-        self._reflection_outputs = [
-            ctx.renderbuffer((width, height), 4, dtype="f4") for _ in range(3 if reflection_data else 0)
-        ]
+        self._color = ctx.renderbuffer(size, 4, dtype="f4")
+        self._depth = ctx.depth_renderbuffer(size)
+        self._reflection_outputs = [ctx.renderbuffer(size, 4, dtype="f4") for _ in range(3 if self.reflection_data else 0)]
         self.framebuffer = ctx.framebuffer([self._color, *self._reflection_outputs], self._depth)
         # Passes with one output draw through a framebuffer with the colour alone: GL leaves
         # attachments a shader does not write undefined. Diffuse objects are drawn before mirrors,
         # so a mirror fragment that passes the depth test is the visible one and its extra
         # outputs stay consistent with the colour.
-        self._color_only = (
+        self.color_framebuffer = (
             ctx.framebuffer([self._color], self._depth) if self._reflection_outputs else self.framebuffer
         )
 
+    def _build_passes(self) -> None:
+        """The passes the scene and settings call for, their programs from the cache."""
+        ctx, scene = self.ctx, self.scene
         self.environment = EnvironmentPass(ctx, self.programs, scene)
         self.diffuse = DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
         self.impostors: ImpostorPass | None = None
         self.mirror_pass: MirrorPass | None = None
+        self.samples: SamplesPass | None = None
         if self.mirrors:
             self.impostors = ImpostorPass(ctx, self.programs, scene, self.meshes, self.mirrors, self.reflected_objects)
-            self.mirror_pass = MirrorPass(
-                self.programs, scene, self.meshes, self.impostors, self.analytic_planes, algorithm, reflection_data
-            )
+            self.mirror_pass = self._mirror_pass(self.impostors)
+            if self.show_samples:
+                self.samples = SamplesPass(ctx, self.programs)
         self._impostors_baked = False
+
+    def _mirror_pass(self, impostors: ImpostorPass) -> MirrorPass:
+        return MirrorPass(
+            self.programs, self.scene, self.meshes, impostors, self.analytic_planes, self.algorithm,
+            self.reflection_data,
+        )
+
+    # ------------------------------------------------------------------ settings
+    def look_at(self, view: CameraView) -> None:
+        """Move the camera; depth images do not depend on it, so nothing is re-baked."""
+        self.view = view
+        self.camera = fitted_camera(view, self.scene.render.size, self.bounds)
+
+    def set_camera(self, camera: PPC) -> None:
+        """Use this exact camera (tests); nothing is re-baked, and a resize re-fits `self.view`."""
+        self.camera = camera
+
+    def resize(self, size: tuple[int, int]) -> None:
+        """Render frames of another size; depth images do not depend on it."""
+        if size == self.scene.render.size:
+            return
+        scene = self.scene.with_overrides(size=size)
+        self._release_targets()
+        self.scene = scene
+        self._make_targets(size)
+        self.look_at(self.view)
+
+    def set_algorithm(self, algorithm: Algorithm) -> None:
+        """Intersect with another algorithm: another mirror variant, the same depth images."""
+        self.algorithm = algorithm
+        if self.impostors is not None:
+            self.mirror_pass = self._mirror_pass(self.impostors)
+
+    def set_impostor_resolution(self, resolution: int) -> None:
+        """Re-plan and re-bake the depth images (all of them share the resolution, so all change).
+
+        The new atlas is made before the old one goes: a resolution this GL cannot hold raises
+        SceneError and leaves the renderer as it was.
+        """
+        scene = self.scene.with_overrides(impostor_resolution=resolution)
+        if self.impostors is None:
+            self.scene = scene
+            return
+        impostors = ImpostorPass(self.ctx, self.programs, scene, self.meshes, self.mirrors, self.reflected_objects)
+        self.impostors.release()
+        self.scene, self.impostors = scene, impostors
+        self.mirror_pass = self._mirror_pass(impostors)
+        self._impostors_baked = False
+
+    def set_show_samples(self, show: bool) -> None:
+        """Show each reflected object as its depth images' samples (the lecture's sample
+        visualization) instead of its triangles; the samples' program is made on first use."""
+        self.show_samples = show
+        if show and self.samples is None and self.impostors is not None:
+            self.samples = SamplesPass(self.ctx, self.programs)
+
+    def reload_shaders(self) -> None:
+        """Compile every program again from the files as they are now, and re-bake.
+
+        All programs are built before any is replaced: a file that no longer compiles raises
+        ShaderError and leaves the renderer drawing with the last good programs.
+        """
+        fresh = self.programs.reloaded()
+        self._release_passes()
+        self.meshes.forget_vertex_arrays()
+        self.programs.release()
+        self.programs = fresh
+        self._build_passes()
 
     # ------------------------------------------------------------------ frames
     def render(self) -> RenderStats:
@@ -143,10 +247,15 @@ class Renderer:
         start = time.perf_counter()
         self.framebuffer.use()
         self.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        self._color_only.use()
+        self.color_framebuffer.use()
         self.environment.draw(self.camera)
         view_projection = self.camera.view_projection
-        self.stats.draw_calls += self.diffuse.draw(self.diffuse_objects, view_projection)
+        if self.show_samples and self.samples is not None and self.impostors is not None:
+            drawn = [g for g in self.diffuse_objects if g.is_analytic_plane]
+            self.stats.draw_calls += self.samples.draw(self.impostors, self.camera)
+        else:
+            drawn = self.diffuse_objects
+        self.stats.draw_calls += self.diffuse.draw(drawn, view_projection)
         if self.mirror_pass is not None:
             self.framebuffer.use()
             self.stats.draw_calls += self.mirror_pass.draw(self.mirrors, self.camera, view_projection)
@@ -154,10 +263,6 @@ class Renderer:
         self.stats.draw_seconds.append(time.perf_counter() - start)
         self.stats.frames += 1
         return self.stats
-
-    def set_camera(self, camera: PPC) -> None:
-        """Move the camera; depth images do not depend on it, so nothing is re-baked."""
-        self.camera = camera
 
     def read_color_float(self) -> np.ndarray:
         """The last frame as (height, width, 3) float32, top row first, unclamped."""
@@ -185,17 +290,24 @@ class Renderer:
         return ReflectionData(mask, mirror_id, origin[..., :3], direction[..., :3], object_id, hit[..., :3])
 
     # ------------------------------------------------------------------ lifetime
-    def release(self) -> None:
+    def _release_targets(self) -> None:
         bind_default_framebuffer(self.ctx)
-        if self.impostors is not None:
-            self.impostors.release()
-        self.environment.release()
-        self.meshes.release()
-        self.programs.release()
-        if self._color_only is not self.framebuffer:
-            self._color_only.release()
+        if self.color_framebuffer is not self.framebuffer:
+            self.color_framebuffer.release()
         for item in (self.framebuffer, self._color, self._depth, *self._reflection_outputs):
             item.release()
+
+    def _release_passes(self) -> None:
+        bind_default_framebuffer(self.ctx)
+        for owner in (self.impostors, self.environment, self.samples):
+            if owner is not None:
+                owner.release()
+
+    def release(self) -> None:
+        self._release_passes()
+        self.meshes.release()
+        self.programs.release()
+        self._release_targets()
 
     def __enter__(self) -> Renderer:
         return self

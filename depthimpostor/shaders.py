@@ -156,6 +156,18 @@ class ProgramCache:
         """The keys of every program compiled so far (for plans, stats and tests)."""
         return list(self._programs)
 
+    def reloaded(self) -> ProgramCache:
+        """A new cache holding every program of this one, compiled from the files as they are
+        now. Raises ShaderError (and leaves this cache as it is) if any of them fails."""
+        fresh = ProgramCache(self.ctx, ShaderLibrary(self.library.root))
+        try:
+            for vertex, fragment, defines in self._programs:
+                fresh.get(vertex, fragment, dict(defines))
+        except ShaderError:
+            fresh.release()
+            raise
+        return fresh
+
     def _build(self, vertex: str, fragment: str, defines: Defines) -> moderngl.Program:
         sources = {
             "vertex": self.library.preprocess(vertex, defines),

@@ -44,11 +44,16 @@ class GpuMeshes:
         write_matrix(program, "u_view_projection", view_projection)
         self._vertex_arrays[key].render(moderngl.TRIANGLES)
 
-    def release(self) -> None:
+    def forget_vertex_arrays(self) -> None:
+        """Release the vertex arrays (before the programs they were made for go: a new program
+        may be given a released one's GL name, and must not find its vertex array)."""
         for vertex_array in self._vertex_arrays.values():
             vertex_array.release()
+        self._vertex_arrays.clear()
+
+    def release(self) -> None:
+        self.forget_vertex_arrays()
         for vertices, indices in self._buffers.values():
             vertices.release()
             indices.release()
-        self._vertex_arrays.clear()
         self._buffers.clear()

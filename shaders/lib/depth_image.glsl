@@ -2,6 +2,12 @@
 // GPU ray query. depthimpostor/reference.py implements the same functions with the same names.
 #include "../generated/depth_image.glsl"
 
+// One mirror's depth images (one per reflected object), from its uniform buffer.
+layout(std140) uniform DepthImages {
+    DepthImage u_depth_images[MAX_DEPTH_IMAGES_PER_MIRROR];
+};
+uniform int u_depth_image_count;
+
 uniform sampler2D u_impostor_color;  // atlas of every depth image's colours (RGBA8)
 // Atlas of their OpenGL window depths (RG32F): the visible surface, and the nearest back face
 // behind it (the far end of the object's first solid run along the eye ray); 1.0 = nothing.

@@ -4,11 +4,6 @@
 #include "shading.glsl"
 #include "environment.glsl"
 
-layout(std140) uniform DepthImages {
-    DepthImage u_depth_images[MAX_DEPTH_IMAGES_PER_MIRROR];
-};
-uniform int u_depth_image_count;
-
 uniform int u_plane_count;
 uniform mat4 u_plane_world_to_local[MAX_ANALYTIC_PLANES];
 uniform vec2 u_plane_half_size[MAX_ANALYTIC_PLANES];

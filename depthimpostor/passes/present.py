@@ -1,0 +1,29 @@
+"""Putting a finished frame in the window: rows flipped (frames here keep row 0 at the top, a
+window's row 0 is its bottom), pixels copied one to one."""
+
+from __future__ import annotations
+
+import moderngl
+
+from ..shaders import ProgramCache
+from .uniforms import write
+
+_FRAME_UNIT = 0
+
+
+class PresentPass:
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache) -> None:
+        self.ctx = ctx
+        self.program = programs.get("fullscreen.vert", "present.frag")
+        self.vertex_array = ctx.vertex_array(self.program, [])
+
+    def draw(self, frame: moderngl.Texture) -> None:
+        """Draw `frame` over the whole bound framebuffer (which must be the frame's size)."""
+        frame.use(_FRAME_UNIT)
+        write(self.program, "u_frame", _FRAME_UNIT)
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
+        self.ctx.enable(moderngl.DEPTH_TEST)
+
+    def release(self) -> None:
+        self.vertex_array.release()

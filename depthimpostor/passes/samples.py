@@ -1,0 +1,44 @@
+"""The lecture's sample visualization: every depth image drawn as the cloud of its samples.
+
+Each sample is unprojected in the vertex shader from the atlas (no CPU readback) and drawn as a
+point sprite the size of the surface it covers, so that what the mirror shader intersects can be
+looked at from any side.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from ..ppc import PPC
+from ..shaders import ProgramCache
+from .impostors import ImpostorPass
+from .mirrors import DEPTH_IMAGES_BINDING, bind_impostors
+from .uniforms import write, write_matrix
+
+
+class SamplesPass:
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache) -> None:
+        self.ctx = ctx
+        self.program = programs.get("samples.vert", "samples.frag")
+        # Every vertex comes from gl_VertexID: the vertex array has no buffers.
+        self.vertex_array = ctx.vertex_array(self.program, [])
+
+    def draw(self, impostors: ImpostorPass, camera: PPC) -> int:
+        """Draw every depth image's samples into the bound framebuffer; returns the draw calls."""
+        bind_impostors(self.program, impostors.atlas)
+        write_matrix(self.program, "u_view_projection", camera.view_projection)
+        write(self.program, "u_pixel_size", float(np.linalg.norm(camera.b)))
+        self.ctx.enable(moderngl.PROGRAM_POINT_SIZE)
+        draws = 0
+        for mirror_index, images in impostors.images_by_mirror.items():
+            impostors.uniform_buffers[mirror_index].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
+            for index, image in enumerate(images):
+                write(self.program, "u_image_index", index)
+                self.vertex_array.render(moderngl.POINTS, vertices=image.camera.width * image.camera.height)
+                draws += 1
+        self.ctx.disable(moderngl.PROGRAM_POINT_SIZE)
+        return draws
+
+    def release(self) -> None:
+        self.vertex_array.release()

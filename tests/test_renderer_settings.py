@@ -1,0 +1,145 @@
+"""What the viewer changes between frames, each doing only the work it calls for: a camera move
+or a resize re-bakes nothing, another algorithm swaps one shader variant, another resolution
+re-bakes every depth image, a shader reload keeps the last good programs when the new ones do
+not compile. After each change the frame equals a fresh renderer made with that setting."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import moderngl
+import numpy as np
+import pytest
+
+from conftest import PROJECT_ROOT, SCENES, assert_finite
+from depthimpostor.constants import Algorithm
+from depthimpostor.errors import SceneError, ShaderError
+from depthimpostor.renderer import CameraView, Renderer
+from depthimpostor.scene import Scene, load_scene
+from depthimpostor.shaders import ShaderLibrary
+
+SIZE = (160, 90)
+
+
+@pytest.fixture(scope="module")
+def scene() -> Scene:
+    return load_scene(SCENES / "default.toml").with_overrides(size=SIZE, impostor_resolution=64)
+
+
+def fresh_frame(ctx: moderngl.Context, scene: Scene, algorithm: Algorithm = Algorithm.OPTIMIZED,
+                view: CameraView | None = None) -> np.ndarray:
+    with Renderer(ctx, scene, algorithm) as renderer:
+        if view is not None:
+            renderer.look_at(view)
+        renderer.render()
+        return renderer.read_color_float()
+
+
+def assert_same_frame(actual: np.ndarray, expected: np.ndarray) -> None:
+    assert_finite(actual)
+    # The same GL, the same programs and the same inputs: the same pixels.
+    np.testing.assert_allclose(actual, expected, atol=1e-6)
+
+
+def test_camera_moves_and_resizes_re_bake_nothing(ctx: moderngl.Context, scene: Scene) -> None:
+    orbit = CameraView((3.5, 2.0, 3.0), scene.camera.target, scene.camera.up, 50.0)
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        baked = renderer.stats.depth_images_baked
+        assert baked == 5
+        renderer.look_at(orbit)
+        renderer.render()
+        moved = renderer.read_color_float()
+        renderer.resize((96, 72))
+        renderer.render()
+        resized = renderer.read_color_float()
+        assert renderer.stats.depth_images_baked == baked
+    assert_same_frame(moved, fresh_frame(ctx, scene, view=orbit))
+    assert_same_frame(resized, fresh_frame(ctx, scene.with_overrides(size=(96, 72)), view=orbit))
+    assert resized.shape == (72, 96, 3)
+
+
+def test_algorithm_switch_changes_the_variant_not_the_depth_images(ctx: moderngl.Context, scene: Scene) -> None:
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        renderer.set_algorithm(Algorithm.BASIC)
+        renderer.render()
+        assert renderer.stats.depth_images_baked == 5
+        frame = renderer.read_color_float()
+        mirror_variants = {d for _, fragment, d in renderer.programs.variants if fragment == "mirror.frag"}
+        assert mirror_variants == {(("ALGORITHM", str(int(a))),) for a in Algorithm}
+    assert_same_frame(frame, fresh_frame(ctx, scene, Algorithm.BASIC))
+
+
+def test_resolution_change_re_bakes_every_depth_image_once(ctx: moderngl.Context, scene: Scene) -> None:
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        renderer.set_impostor_resolution(128)
+        for _ in range(2):
+            renderer.render()
+        assert renderer.stats.depth_images_baked == 5 + 5
+        assert renderer.impostors is not None and renderer.impostors.atlas.resolution == 128
+        frame = renderer.read_color_float()
+    assert_same_frame(frame, fresh_frame(ctx, scene.with_overrides(impostor_resolution=128)))
+
+
+def test_a_resolution_this_gl_cannot_hold_changes_nothing(ctx: moderngl.Context) -> None:
+    scene = load_scene(SCENES / "lecture_8x9.toml").with_overrides(size=(64, 36), impostor_resolution=16)
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        before = renderer.read_color_float()
+        with pytest.raises(SceneError, match="over this GL's limit"):
+            renderer.set_impostor_resolution(4096)  # 72 tiles of 4096^2: no GL holds that atlas
+        renderer.render()
+        assert renderer.scene.render.impostor_resolution == 16
+        assert renderer.stats.depth_images_baked == 72
+        assert_same_frame(renderer.read_color_float(), before)
+
+
+def test_shader_reload_keeps_the_last_good_programs(ctx: moderngl.Context, scene: Scene, tmp_path: Path) -> None:
+    shaders = tmp_path / "shaders"
+    shutil.copytree(PROJECT_ROOT / "shaders", shaders)
+    mirror = shaders / "mirror.frag"
+    original = mirror.read_text()
+    with Renderer(ctx, scene, shaders=ShaderLibrary(shaders)) as renderer:
+        renderer.render()
+        good = renderer.read_color_float()
+
+        mirror.write_text(original.replace("out_color = vec4(u_tint * hit.color, 1.0);", "out_color = vec4(u_tint"))
+        with pytest.raises(ShaderError, match=r"mirror\.frag"):
+            renderer.reload_shaders()
+        renderer.render()
+        assert_same_frame(renderer.read_color_float(), good)
+        assert renderer.stats.depth_images_baked == 5
+
+        mirror.write_text(original.replace("vec4(u_tint * hit.color, 1.0)", "vec4(0.5 * u_tint * hit.color, 1.0)"))
+        renderer.reload_shaders()
+        renderer.render()
+        halved = renderer.read_color_float()
+        # The shaders that bake may have changed too: every depth image is baked again.
+        assert renderer.stats.depth_images_baked == 10
+    changed = np.abs(halved - good).max(axis=2) > 1e-6
+    assert 0.02 < changed.mean() < 0.5, "only the mirror's pixels change"
+    np.testing.assert_allclose(halved[changed], 0.5 * good[changed], atol=1e-5)
+
+
+def test_sample_view_shows_the_depth_images_instead_of_the_objects(ctx: moderngl.Context, scene: Scene) -> None:
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        objects = renderer.read_color_float()
+        assert not any(vertex == "samples.vert" for vertex, _, _ in renderer.programs.variants)
+        renderer.set_show_samples(True)
+        draws = renderer.stats.draw_calls
+        renderer.render()
+        samples = renderer.read_color_float()
+        # One points draw per depth image replaces the four reflected objects' meshes.
+        assert renderer.stats.draw_calls - draws == 5 + 1 + 1  # samples, the floor, the mirror
+        renderer.set_show_samples(False)
+        renderer.render()
+        assert_same_frame(renderer.read_color_float(), objects)
+        assert renderer.stats.depth_images_baked == 5
+    assert_finite(samples)
+    differs = np.abs(samples - objects).max(axis=2) > 0.05
+    # The objects' sides that face the camera are not in the mirror's depth images: they change.
+    assert 0.01 < differs.mean() < 0.3
