@@ -101,10 +101,29 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def _scene_arguments(command: argparse.ArgumentParser) -> None:
+def _view(args: argparse.Namespace) -> int:
+    from .viewer import ViewerOptions, run_viewer  # glfw is loaded for the window alone
+    from .viewer.keys import parse_key_script
+
+    options = ViewerOptions(
+        scene=_load(args),
+        algorithm=Algorithm[args.algorithm.upper()],
+        frames=args.frames,
+        keys=tuple(parse_key_script(args.keys or "")),
+        screenshot=args.screenshot,
+        window_screenshot=args.window_screenshot,
+        report=args.report,
+        shaders=args.shaders,
+    )
+    return run_viewer(options)
+
+
+def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) -> None:
     command.add_argument("scene", nargs="?", help="scene file (TOML); the built-in default scene if omitted")
     command.add_argument("--size", type=_size, help="output size WxH, overriding the scene's render.size")
     command.add_argument("--impostor-res", type=int, help="depth-image resolution, overriding the scene's")
+    if not headless:
+        return
     command.add_argument("--backend", choices=["auto", "egl", "osmesa"], default=None,
                          help="headless GL backend (default: auto, EGL then OSMesa)")
 
@@ -130,6 +149,17 @@ def build_parser() -> argparse.ArgumentParser:
     comparison.add_argument("-o", "--output", default="report", help="output folder (default: report/)")
     comparison.add_argument("--algorithm", choices=["basic", "optimized"], default="optimized")
     comparison.set_defaults(run=_compare)
+
+    view = commands.add_parser("view", help="fly around a scene in a window (keys: H in the window)")
+    _scene_arguments(view, headless=False)
+    view.add_argument("--algorithm", choices=["basic", "optimized"], default="optimized")
+    view.add_argument("--frames", type=_positive, help="quit after this many frames")
+    view.add_argument("--keys", help='scripted key presses, one per frame, e.g. "right*6 ] wait p escape"')
+    view.add_argument("--screenshot", type=Path, help="save the last frame (without the overlay) here at exit")
+    view.add_argument("--window-screenshot", type=Path, help="save the last frame as the window shows it")
+    view.add_argument("--report", type=Path, help="write a JSON report of the session (frames, bakes, keys, GL errors)")
+    view.add_argument("--shaders", type=Path, help="read the GLSL from this folder (edit a copy, reload with R)")
+    view.set_defaults(run=_view)
     return parser
 
 

@@ -2,9 +2,8 @@
 
 Headless rendering uses EGL (Mesa's llvmpipe on a machine without a GPU, the vendor driver on one
 with); where EGL cannot give a context, OSMesa can, through a small ctypes loader that moderngl
-accepts as `create_context(context=...)`. The interactive viewer's glfw window (issue 5, not yet
-written) is to make its context here too, so that every context is made, checked and described in
-one module.
+accepts as `create_context(context=...)`. The interactive viewer's glfw window makes its context
+here too (`create_window`), so that every context is made, checked and described in one module.
 """
 
 from __future__ import annotations
@@ -12,7 +11,8 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import os
-from typing import Literal
+from dataclasses import dataclass
+from typing import Any, Literal
 
 import moderngl
 
@@ -125,6 +125,60 @@ def create_context(backend: Backend | None = None) -> moderngl.Context:
         f"no OpenGL {REQUIRED_GL_VERSION // 100}.{REQUIRED_GL_VERSION % 100 // 10} core context could be created "
         f"(tried {'; '.join(failures)}); {_INSTALL_HINT}"
     )
+
+
+_WINDOW_HINT = (
+    "a window needs an X server: set DISPLAY, or run under Xvfb "
+    "(apt-get install -y xvfb; xvfb-run -a depthimpostor view ...)"
+)
+
+
+@dataclass
+class Window:
+    """A glfw window and the moderngl context of its GL 3.3 core context."""
+
+    handle: Any  # glfw's window pointer
+    ctx: moderngl.Context
+
+    def release(self) -> None:
+        import glfw
+
+        self.ctx.release()
+        glfw.destroy_window(self.handle)
+        glfw.terminate()
+
+
+def create_window(title: str, size: tuple[int, int]) -> Window:
+    """Open a window of `size` screen units (its framebuffer may have more pixels on a HiDPI
+    screen) with a current GL 3.3+ core context. Raises ContextError saying what is missing."""
+    import glfw  # only the viewer needs it; headless rendering must not depend on a display
+
+    glfw.ERROR_REPORTING = "raise"
+    try:
+        if not glfw.init():
+            raise glfw.GLFWError("glfwInit failed")
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, REQUIRED_GL_VERSION // 100)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, REQUIRED_GL_VERSION % 100 // 10)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        glfw.window_hint(glfw.SCALE_TO_MONITOR, True)
+        handle = glfw.create_window(size[0], size[1], title, None, None)
+        glfw.make_context_current(handle)
+    except glfw.GLFWError as error:
+        glfw.terminate()
+        display = os.environ.get("DISPLAY")
+        raise ContextError(f"no window could be opened (DISPLAY={display!r}: {error}); {_WINDOW_HINT}") from None
+    # From here on a glfw error is reported, not raised: a failed cursor or title change is no
+    # reason to lose the window.
+    glfw.ERROR_REPORTING = "warn"
+    try:
+        ctx = moderngl.create_context(require=REQUIRED_GL_VERSION)
+    except Exception as error:  # moderngl.Error, or a GL too old for `require`
+        glfw.destroy_window(handle)
+        glfw.terminate()
+        raise ContextError(f"the window's OpenGL context is not usable: {error}") from None
+    ctx.extra = {"backend": "glfw"}
+    return Window(handle, ctx)
 
 
 def describe(ctx: moderngl.Context) -> str:

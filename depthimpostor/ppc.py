@@ -41,7 +41,7 @@ def _unit(vector: Array) -> Array:
     return vector / np.linalg.norm(vector)
 
 
-def _orthonormal_frame(forward: Array, up_hint: Array) -> tuple[Array, Array, Array]:
+def orthonormal_frame(forward: Array, up_hint: Array) -> tuple[Array, Array, Array]:
     """(right, down, forward) with `down` as close to -up_hint as forward allows."""
     forward = _unit(forward)
     if abs(float(np.dot(_unit(up_hint), forward))) > 0.999:
@@ -78,7 +78,7 @@ class PPC:
     ) -> PPC:
         """A camera at `eye` looking at `target`; `fov` is the vertical field of view in degrees."""
         eye_point = np.asarray(eye, dtype=np.float64)
-        right, down, forward = _orthonormal_frame(np.asarray(target, float) - eye_point, np.asarray(up, float))
+        right, down, forward = orthonormal_frame(np.asarray(target, float) - eye_point, np.asarray(up, float))
         pixel = 2.0 * np.tan(np.radians(fov) / 2.0) / height  # image plane at distance 1
         a = right * pixel
         b = down * pixel
@@ -95,7 +95,7 @@ class PPC:
         """
         eye_point = np.asarray(eye, dtype=np.float64)
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 3) - eye_point
-        right, down, forward = _orthonormal_frame(np.asarray(center, float) - eye_point, np.array([0.0, 1.0, 0.0]))
+        right, down, forward = orthonormal_frame(np.asarray(center, float) - eye_point, np.array([0.0, 1.0, 0.0]))
         z = pts @ forward
         extent = float(np.max(np.linalg.norm(pts, axis=1)))
         # Below this the tangent bounds explode (the object wraps around the eye): no image
@@ -244,7 +244,7 @@ class PPC:
     @cached_property
     def view_matrix(self) -> Array:
         """World -> eye space (rigid; GL convention: x right, y up, looking down -z)."""
-        right, down, forward = _orthonormal_frame(self.forward, -self.b)
+        right, down, forward = orthonormal_frame(self.forward, -self.b)
         rotation = np.stack([right, -down, -forward])
         view = np.eye(4)
         view[:3, :3] = rotation

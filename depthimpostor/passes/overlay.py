@@ -23,6 +23,8 @@ Anchor = Literal["top-left", "top-right", "centre"]
 PANEL_PADDING = 6
 PANEL_COLOR = (0.0, 0.0, 0.0, 0.62)
 TEXT_COLOR = (1.0, 1.0, 1.0, 1.0)
+#: Pixels between a tab-separated first column and the rest of its line.
+COLUMN_GAP = 16
 #: Floats per vertex: position (2), atlas texel (2), colour (4).
 _VERTEX_FLOATS = 8
 _GLYPHS_UNIT = 0
@@ -30,7 +32,7 @@ _GLYPHS_UNIT = 0
 
 @dataclass(frozen=True)
 class Panel:
-    lines: tuple[str, ...]
+    lines: tuple[str, ...]  # a tab in a line starts its second column, aligned across the panel
     anchor: Anchor = "top-left"
 
 
@@ -44,18 +46,31 @@ def _quad(
     return [[x + i * width, y + j * height, tx + i * tw, ty + j * th, *color] for i, j in corners]
 
 
+def _tab_stop(lines: tuple[str, ...], atlas: GlyphAtlas) -> float:
+    """Where text after a tab starts: past the widest text before one, so columns line up."""
+    firsts = [line.split("\t")[0] for line in lines if "\t" in line]
+    return max((atlas.text_width(first) for first in firsts), default=0.0) + COLUMN_GAP
+
+
+def _line_width(line: str, atlas: GlyphAtlas, tab_stop: float) -> float:
+    first, tab, rest = line.partition("\t")
+    return tab_stop + atlas.text_width(rest) if tab else atlas.text_width(first)
+
+
 def layout(panels: list[Panel], atlas: GlyphAtlas, size: tuple[int, int]) -> np.ndarray:
     """The vertices of every panel's background and glyphs, (n, 8) float32, in frame pixels."""
     cell_width, line_height = atlas.cell_size
     solid_x, solid_y = atlas.cells[SOLID]
     vertices: list[list[float]] = []
     for panel in panels:
-        width = max((atlas.text_width(line) for line in panel.lines), default=0.0) + 2 * PANEL_PADDING
+        tab_stop = _tab_stop(panel.lines, atlas)
+        width = max((_line_width(line, atlas, tab_stop) for line in panel.lines), default=0.0) + 2 * PANEL_PADDING
         height = len(panel.lines) * line_height + 2 * PANEL_PADDING
         x0 = {"top-left": PANEL_PADDING, "top-right": size[0] - PANEL_PADDING - width,
               "centre": (size[0] - width) / 2}[panel.anchor]
         y0 = PANEL_PADDING if panel.anchor != "centre" else (size[1] - height) / 2
-        x0, y0 = round(x0), round(y0)
+        # A panel larger than the frame keeps its top-left corner in view.
+        x0, y0 = round(max(x0, PANEL_PADDING)), round(max(y0, PANEL_PADDING))
         # The solid cell is sampled at its centre texel, stretched over the panel.
         solid_centre = (solid_x + cell_width / 2, solid_y + line_height / 2)
         vertices += _quad((x0, y0), (width, height), solid_centre, (0.0, 0.0), PANEL_COLOR)
@@ -63,6 +78,9 @@ def layout(panels: list[Panel], atlas: GlyphAtlas, size: tuple[int, int]) -> np.
             pen = float(x0 + PANEL_PADDING)
             top = y0 + PANEL_PADDING + row * line_height
             for character in line:
+                if character == "\t":
+                    pen = float(x0 + PANEL_PADDING) + tab_stop
+                    continue
                 glyph = atlas.glyph(character)
                 if character != " ":
                     tx, ty = atlas.cells[glyph]

@@ -1,0 +1,433 @@
+"""The interactive viewer: the renderer's frames in a glfw window, with the overlay on top.
+
+Each frame: the renderer draws the scene (the same passes and shaders as `render`) into its own
+float framebuffer at the window's framebuffer size; the frame is copied into an 8-bit frame
+texture, the overlay is blended over it, and the result is put in the window. Screenshots are the
+renderer's frame (no overlay); `--window-screenshot` is the composed frame, as the window shows it.
+
+Nothing is re-baked for a camera move, a resize or an algorithm switch; a resolution change
+re-bakes the depth images, a shader reload re-bakes with the new programs (see Renderer).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import statistics
+import sys
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import glfw
+import numpy as np
+from PIL import Image
+
+from ..constants import Algorithm, Method
+from ..context import Window, bind_default_framebuffer, create_window, describe
+from ..errors import SceneError, ShaderError
+from ..passes.overlay import OverlayPass, Panel
+from ..passes.present import PresentPass
+from ..renderer import CameraView, Renderer
+from ..scene.model import Scene
+from ..shaders import ProgramCache, ShaderLibrary
+from .keys import ACTIONS_BY_KEY, FLY_KEYS, KEY_CODES, TURN_STEP_DEGREES, Action, KeyPress, help_lines, key_name
+from .navigation import Navigation
+
+#: Frames the overlay's median frame time and fps are taken over.
+TIMING_WINDOW = 60
+#: Overlay text height in screen units (times the monitor's content scale, in pixels).
+FONT_SIZE = 14
+#: Mouse orbit: a drag across the whole window width turns the view all the way round.
+ORBIT_DEGREES_PER_WINDOW_WIDTH = 360.0
+#: Fly mode: degrees of look per screen unit the mouse moves.
+LOOK_DEGREES_PER_UNIT = 0.15
+#: A fly step never covers more than this many seconds of motion (a stalled frame must not fling
+#: the camera across the scene).
+MAX_FLY_SECONDS = 0.1
+#: Seconds a status message stays in the overlay.
+MESSAGE_SECONDS = 4.0
+#: Depth-image resolutions the resolution keys step through.
+RESOLUTION_STEPS = tuple(2**k for k in range(3, 13))  # 8 .. 4096
+METHOD_LABELS = {Method.DEPTH: "depth-image impostors"}
+
+
+@dataclass(frozen=True)
+class ViewerOptions:
+    scene: Scene
+    algorithm: Algorithm = Algorithm.OPTIMIZED
+    frames: int | None = None  # quit after this many frames
+    keys: tuple[KeyPress, ...] = ()
+    screenshot: Path | None = None  # the last frame, without the overlay, at exit
+    window_screenshot: Path | None = None  # the last frame as the window showed it
+    report: Path | None = None  # JSON: frames, bakes, key events, GL errors
+    shaders: Path | None = None
+    screenshot_dir: Path = Path(".")
+
+
+def next_resolution(current: int, up: bool) -> int:
+    """The next step of RESOLUTION_STEPS above (or below) `current`; `current` at the end."""
+    if up:
+        return next((r for r in RESOLUTION_STEPS if r > current), current)
+    return next((r for r in reversed(RESOLUTION_STEPS) if r < current), current)
+
+
+def save_numbered(image: np.ndarray, directory: Path, stem: str) -> Path:
+    """Save as STEM-0001.png, -0002, ...: the first number whose file does not exist; the file is
+    created exclusively, so a screenshot never overwrites one, even from another viewer."""
+    directory.mkdir(parents=True, exist_ok=True)
+    for number in itertools.count(1):
+        path = directory / f"{stem}-{number:04d}.png"
+        try:
+            with path.open("xb") as file:
+                Image.fromarray(image).save(file, format="PNG")
+            return path
+        except FileExistsError:
+            continue
+    raise AssertionError("unreachable")
+
+
+def _scene_radius(renderer: Renderer) -> float:
+    if not renderer.bounds:
+        return 1.0
+    centres = np.array([centre for centre, _ in renderer.bounds])
+    middle = centres.mean(axis=0)
+    return max(float(np.linalg.norm(centre - middle)) + radius for centre, radius in renderer.bounds)
+
+
+@dataclass
+class SessionLog:
+    """What happened, for `--report` and the closing summary."""
+
+    baked_after_frame: list[int] = field(default_factory=list)  # depth images baked so far, per frame
+    events: list[dict[str, Any]] = field(default_factory=list)
+    gl_errors: list[dict[str, Any]] = field(default_factory=list)
+    screenshots: list[str] = field(default_factory=list)
+
+
+class Viewer:
+    def __init__(self, window: Window, options: ViewerOptions) -> None:
+        self.window = window
+        self.ctx = window.ctx
+        self.options = options
+        self.frame_size: tuple[int, int] = glfw.get_framebuffer_size(window.handle)
+        library = ShaderLibrary(options.shaders) if options.shaders else None
+        scene = options.scene.with_overrides(size=self.frame_size)
+        self.renderer = Renderer(self.ctx, scene, options.algorithm, shaders=library)
+        # The viewer's own programs (overlay, present): the renderer's are its to replace.
+        self.programs = ProgramCache(self.ctx, library)
+        self.font_pixels = round(FONT_SIZE * max(glfw.get_window_content_scale(window.handle)))
+        self._make_viewer_passes()
+        self._make_frame_target()
+        self.navigation = Navigation(CameraView.of_scene(scene), _scene_radius(self.renderer))
+        self.log = SessionLog()
+        self.frames = 0
+        self.held: set[int] = set()
+        self.buttons: set[int] = set()
+        self.cursor: tuple[float, float] | None = None
+        self.show_help = False
+        self.screenshot_requested = False
+        self.message: tuple[str, float] | None = None
+        self.frame_intervals: deque[float] = deque(maxlen=TIMING_WINDOW)
+        self._install_callbacks()
+
+    # ------------------------------------------------------------------ GL objects
+    def _make_viewer_passes(self) -> None:
+        self.overlay = OverlayPass(self.ctx, self.programs, self.font_pixels)
+        self.present = PresentPass(self.ctx, self.programs)
+
+    def _make_frame_target(self) -> None:
+        self.frame_texture = self.ctx.texture(self.frame_size, 4)
+        self.frame_framebuffer = self.ctx.framebuffer([self.frame_texture])
+
+    def _release_frame_target(self) -> None:
+        bind_default_framebuffer(self.ctx)
+        self.frame_framebuffer.release()
+        self.frame_texture.release()
+
+    def release(self) -> None:
+        self._release_frame_target()
+        self.overlay.release()
+        self.present.release()
+        self.programs.release()
+        self.renderer.release()
+
+    # ------------------------------------------------------------------ input
+    def _install_callbacks(self) -> None:
+        handle = self.window.handle
+        glfw.set_key_callback(handle, lambda _w, key, _scancode, action, mods: self.on_key(key, action, mods))
+        glfw.set_cursor_pos_callback(handle, lambda _w, x, y: self.on_cursor(x, y))
+        glfw.set_mouse_button_callback(handle, lambda _w, button, action, _mods: self.on_button(button, action))
+        glfw.set_scroll_callback(handle, lambda _w, _dx, dy: self.navigation.zoom(dy))
+        glfw.set_framebuffer_size_callback(handle, lambda _w, width, height: self.on_resize((width, height)))
+
+    def on_key(self, key: int, action: int, mods: int) -> None:
+        if action == glfw.PRESS:
+            self.held.add(key)
+        elif action == glfw.RELEASE:
+            self.held.discard(key)
+            return
+        binding = ACTIONS_BY_KEY.get(key)
+        if binding is None or (action == glfw.REPEAT and not binding.repeats):
+            return
+        message = self.perform(binding.action)
+        self.log.events.append(
+            {"frame": self.frames, "key": key_name(key), "action": binding.action.name.lower(), "message": message}
+        )
+        if message:
+            self.say(message)
+
+    def on_button(self, button: int, action: int) -> None:
+        if action == glfw.PRESS:
+            self.buttons.add(button)
+        else:
+            self.buttons.discard(button)
+
+    def on_cursor(self, x: float, y: float) -> None:
+        previous, self.cursor = self.cursor, (x, y)
+        if previous is None:
+            return
+        dx, dy = x - previous[0], y - previous[1]
+        # Mouse motion is in screen units (the window's size), not framebuffer pixels: the two
+        # differ on HiDPI screens, and a drag must turn the view as far on either.
+        width, height = glfw.get_window_size(self.window.handle)
+        if self.navigation.flying:
+            self.navigation.turn(-dx * LOOK_DEGREES_PER_UNIT, -dy * LOOK_DEGREES_PER_UNIT)
+        elif glfw.MOUSE_BUTTON_LEFT in self.buttons:
+            degrees = ORBIT_DEGREES_PER_WINDOW_WIDTH / max(width, 1)
+            self.navigation.turn(-dx * degrees, dy * degrees)
+        elif self.buttons & {glfw.MOUSE_BUTTON_RIGHT, glfw.MOUSE_BUTTON_MIDDLE}:
+            self.navigation.pan(dx, dy, max(height, 1))
+
+    def on_resize(self, size: tuple[int, int]) -> None:
+        if size == self.frame_size or 0 in size:
+            return  # a minimized window keeps its last frame target
+        self.frame_size = size
+        self.renderer.resize(size)
+        self._release_frame_target()
+        self._make_frame_target()
+
+    def say(self, message: str) -> None:
+        print(message, flush=True)
+        self.message = (message, time.perf_counter())
+
+    # ------------------------------------------------------------------ actions
+    def perform(self, action: Action) -> str | None:
+        """Carry out a bound action; returns what to tell the user, if anything."""
+        navigation, renderer = self.navigation, self.renderer
+        turns = {
+            Action.TURN_LEFT: (TURN_STEP_DEGREES, 0.0), Action.TURN_RIGHT: (-TURN_STEP_DEGREES, 0.0),
+            Action.TURN_UP: (0.0, TURN_STEP_DEGREES), Action.TURN_DOWN: (0.0, -TURN_STEP_DEGREES),
+        }
+        if action in turns:
+            navigation.turn(*turns[action])
+        elif action in (Action.ZOOM_IN, Action.ZOOM_OUT):
+            navigation.zoom(1.0 if action == Action.ZOOM_IN else -1.0)
+        elif action == Action.TOGGLE_FLY:
+            navigation.toggle_fly()
+            self._capture_cursor(navigation.flying)
+            return "fly mode: W A S D move, Q E down/up, the mouse looks" if navigation.flying else "orbit mode"
+        elif action == Action.HOME:
+            navigation.reset()
+            self._capture_cursor(False)
+            return "back to the scene's camera"
+        elif action == Action.NEXT_ALGORITHM:
+            algorithms = list(Algorithm)
+            renderer.set_algorithm(algorithms[(algorithms.index(renderer.algorithm) + 1) % len(algorithms)])
+            return f"algorithm: {renderer.algorithm.name.lower()}"
+        elif action == Action.NEXT_METHOD:
+            methods = list(Method)
+            if len(methods) == 1:
+                return f"{METHOD_LABELS[renderer.method]} are the only method so far"
+            renderer.method = methods[(methods.index(renderer.method) + 1) % len(methods)]
+            return f"method: {METHOD_LABELS[renderer.method]}"
+        elif action in (Action.RESOLUTION_UP, Action.RESOLUTION_DOWN):
+            return self._change_resolution(action == Action.RESOLUTION_UP)
+        elif action == Action.TOGGLE_SAMPLES:
+            if renderer.impostors is None:
+                return "this scene has no depth images (no mirror)"
+            renderer.set_show_samples(not renderer.show_samples)
+            return "showing depth-image samples" if renderer.show_samples else "showing objects"
+        elif action == Action.RELOAD_SHADERS:
+            return self.reload_shaders()
+        elif action == Action.SCREENSHOT:
+            self.screenshot_requested = True  # taken from the next frame
+        elif action == Action.TOGGLE_HELP:
+            self.show_help = not self.show_help
+        elif action == Action.QUIT:
+            glfw.set_window_should_close(self.window.handle, True)
+        return None
+
+    def _capture_cursor(self, captured: bool) -> None:
+        # Flying looks around with unbounded mouse motion: glfw hides the cursor and keeps it in
+        # the window. The next motion is measured from wherever the cursor is then.
+        mode = glfw.CURSOR_DISABLED if captured else glfw.CURSOR_NORMAL
+        glfw.set_input_mode(self.window.handle, glfw.CURSOR, mode)
+        self.cursor = None
+
+    def _change_resolution(self, up: bool) -> str:
+        current = self.renderer.scene.render.impostor_resolution
+        resolution = next_resolution(current, up)
+        if resolution == current:
+            return f"depth images stay at {current}x{current}: the end of the range"
+        try:
+            self.renderer.set_impostor_resolution(resolution)
+        except SceneError as error:
+            return f"depth images stay at {current}x{current}: {error.detail}"
+        count = len(self.renderer.impostors.depth_images) if self.renderer.impostors else 0
+        return f"depth images {current}x{current} -> {resolution}x{resolution} (re-baking {count})"
+
+    def reload_shaders(self) -> str:
+        try:
+            fresh = self.programs.reloaded()
+            try:
+                self.renderer.reload_shaders()
+            except ShaderError:
+                fresh.release()
+                raise
+        except ShaderError as error:
+            print(error, file=sys.stderr, flush=True)
+            return "shader reload failed (the error is in the terminal); drawing with the last good shaders"
+        self.overlay.release()
+        self.present.release()
+        self.programs.release()
+        self.programs = fresh
+        self._make_viewer_passes()
+        return "shaders reloaded"
+
+    def _fly(self, seconds: float) -> None:
+        axes = {"forward": 0.0, "right": 0.0, "lift": 0.0}
+        for key, axis, sign in FLY_KEYS:
+            if KEY_CODES[key] in self.held:
+                axes[axis] += sign
+        fast = bool(self.held & {glfw.KEY_LEFT_SHIFT, glfw.KEY_RIGHT_SHIFT})
+        if any(axes.values()):
+            self.navigation.fly(axes["forward"], axes["right"], axes["lift"], min(seconds, MAX_FLY_SECONDS), fast)
+
+    # ------------------------------------------------------------------ frames
+    def panels(self) -> list[Panel]:
+        renderer = self.renderer
+        width, height = self.frame_size
+        draws = list(itertools.islice(reversed(renderer.stats.draw_seconds), TIMING_WINDOW))
+        frame_ms = 1000.0 * statistics.median(draws) if draws else float("nan")
+        fps = 1.0 / statistics.median(self.frame_intervals) if self.frame_intervals else float("nan")
+        lines = [
+            f"{METHOD_LABELS[renderer.method]}, {renderer.algorithm.name.lower()}",
+            f"{width}x{height} | {frame_ms:.1f} ms (median of {len(draws)}) | {fps:.1f} fps",
+        ]
+        if renderer.impostors is not None:
+            resolution = renderer.impostors.atlas.resolution
+            bake_ms = 1000.0 * renderer.stats.bake_seconds[-1] if renderer.stats.bake_seconds else 0.0
+            lines.append(
+                f"{len(renderer.impostors.depth_images)} depth images {resolution}x{resolution} | "
+                f"{renderer.impostors.atlas.bytes / 2**20:.1f} MiB | bake {bake_ms:.0f} ms"
+            )
+        else:
+            lines.append("no depth images (no mirror)")
+        mode = "fly" if self.navigation.flying else "orbit"
+        lines.append(f"{mode}{' | samples view' if renderer.show_samples else ''} | H: help")
+        if self.message and time.perf_counter() - self.message[1] < MESSAGE_SECONDS:
+            lines.append(self.message[0])
+        panels = [Panel(tuple(lines))]
+        if self.show_help:
+            panels.append(Panel(tuple(help_lines()), "centre"))
+        return panels
+
+    def draw_frame(self) -> None:
+        renderer = self.renderer
+        renderer.look_at(self.navigation.view())
+        renderer.render()
+        if self.screenshot_requested:
+            self.screenshot_requested = False
+            path = save_numbered(renderer.read_color(), self.options.screenshot_dir, Path(renderer.scene.source).stem)
+            self.log.screenshots.append(str(path))
+            self.say(f"screenshot {path}")
+        self.ctx.copy_framebuffer(self.frame_framebuffer, renderer.color_framebuffer)
+        self.frame_framebuffer.use()
+        self.overlay.draw(self.panels(), self.frame_size)
+        screen = self.ctx.detect_framebuffer(0)
+        screen.use()
+        self.ctx.viewport = (0, 0, *self.frame_size)
+        self.present.draw(self.frame_texture)
+        error = self.ctx.error
+        if error != "GL_NO_ERROR":
+            self.log.gl_errors.append({"frame": self.frames, "error": error})
+            print(f"depthimpostor view: {error} in frame {self.frames}", file=sys.stderr, flush=True)
+        glfw.swap_buffers(self.window.handle)
+
+    def run(self) -> int:
+        """The event loop; returns the exit status (1 if any GL error was raised)."""
+        handle = self.window.handle
+        script = deque(self.options.keys)
+        last = time.perf_counter()
+        while not glfw.window_should_close(handle):
+            glfw.poll_events()
+            now = time.perf_counter()
+            if self.frames:
+                self.frame_intervals.append(now - last)
+            seconds, last = now - last, now
+            # A scripted key is held for one frame: pressed before it is drawn, released after,
+            # so that fly keys move the camera as a real press would.
+            press = script.popleft() if script else None
+            if press is not None and press.key is not None:
+                self.on_key(press.key, glfw.PRESS, press.mods)
+            if self.navigation.flying:
+                self._fly(seconds)
+            if not glfw.window_should_close(handle) and 0 not in self.frame_size:
+                self.draw_frame()
+                self.frames += 1
+                self.log.baked_after_frame.append(self.renderer.stats.depth_images_baked)
+            if press is not None and press.key is not None:
+                self.on_key(press.key, glfw.RELEASE, press.mods)
+            if self.options.frames is not None and self.frames >= self.options.frames:
+                break
+        if script:
+            print(f"depthimpostor view: {len(script)} scripted keys were not pressed (--frames ended first)",
+                  file=sys.stderr)
+        self._finish()
+        return 1 if self.log.gl_errors else 0
+
+    def _finish(self) -> None:
+        renderer = self.renderer
+        if self.options.screenshot is not None and self.frames:
+            self.options.screenshot.parent.mkdir(parents=True, exist_ok=True)
+            Image.fromarray(renderer.read_color()).save(self.options.screenshot)
+        if self.options.window_screenshot is not None and self.frames:
+            width, height = self.frame_size
+            pixels = np.frombuffer(self.frame_framebuffer.read(components=3), np.uint8).reshape(height, width, 3)
+            self.options.window_screenshot.parent.mkdir(parents=True, exist_ok=True)
+            Image.fromarray(pixels).save(self.options.window_screenshot)
+        draws = renderer.stats.draw_seconds
+        summary = {
+            "renderer": describe(self.ctx),
+            "scene": renderer.scene.source,
+            "frames": self.frames,
+            "frame_ms_median": 1000.0 * statistics.median(draws) if draws else None,
+            "depth_images_baked": renderer.stats.depth_images_baked,
+            "baked_after_frame": self.log.baked_after_frame,
+            "events": self.log.events,
+            "gl_errors": self.log.gl_errors,
+            "screenshots": self.log.screenshots,
+        }
+        if self.options.report is not None:
+            self.options.report.parent.mkdir(parents=True, exist_ok=True)
+            self.options.report.write_text(json.dumps(summary, indent=2))
+        median = f"{summary['frame_ms_median']:.1f} ms" if draws else "-"
+        print(
+            f"{self.frames} frames, median frame {median}, {renderer.stats.depth_images_baked} depth images baked, "
+            f"{len(self.log.gl_errors) or 'no'} GL errors, on {summary['renderer']}"
+        )
+
+
+def run_viewer(options: ViewerOptions) -> int:
+    window = create_window(f"depthimpostor: {Path(options.scene.source).name}", options.scene.render.size)
+    try:
+        viewer = Viewer(window, options)
+        try:
+            return viewer.run()
+        finally:
+            viewer.release()
+    finally:
+        window.release()

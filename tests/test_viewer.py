@@ -1,0 +1,193 @@
+"""The real viewer window, driven by scripted keys under Xvfb.
+
+Where Xvfb is not installed the window tests skip and say so; with CI=true they fail instead,
+since CI (.ci/run) installs it. The viewer runs as `python -m depthimpostor view`, what a user
+types, in its own process with its own X display.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import select
+import shutil
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import moderngl
+import numpy as np
+import pytest
+from PIL import Image
+
+from conftest import PROJECT_ROOT, SCENES
+from depthimpostor.constants import NO_OBJECT
+from depthimpostor.passes.overlay import PANEL_PADDING
+from depthimpostor.renderer import Renderer
+from depthimpostor.scene import Scene, load_scene
+
+SIZE = (480, 270)
+DEFAULT_SCENE = SCENES / "default.toml"
+
+
+def _no_window(reason: str) -> None:
+    if os.environ.get("CI") == "true":
+        pytest.fail(f"{reason}; CI must be able to open the viewer's window (.ci/run installs xvfb)")
+    pytest.skip(reason)
+
+
+@pytest.fixture(scope="module")
+def display() -> Iterator[str]:
+    """A private Xvfb server; its display name (":N", chosen by Xvfb itself)."""
+    xvfb = shutil.which("Xvfb")
+    if xvfb is None:
+        _no_window("no X server for the viewer's window: Xvfb is not installed (apt-get install -y xvfb)")
+    read_end, write_end = os.pipe()
+    server = subprocess.Popen(
+        [xvfb, "-displayfd", str(write_end), "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
+        pass_fds=(write_end,), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    )
+    os.close(write_end)
+    ready, _, _ = select.select([read_end], [], [], 20.0)
+    number = os.read(read_end, 64).decode().strip() if ready else ""
+    os.close(read_end)
+    if not number:
+        server.kill()
+        _no_window(f"Xvfb did not start: {server.communicate()[1].decode(errors='replace').strip()[-300:]}")
+    yield f":{number}"
+    server.terminate()
+    server.wait(timeout=10)
+
+
+def run_view(args: list[str], cwd: Path, display: str | None) -> subprocess.CompletedProcess[str]:
+    env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    if display is not None:
+        env["DISPLAY"] = display
+    env["PYTHONPATH"] = str(PROJECT_ROOT)
+    return subprocess.run([sys.executable, "-m", "depthimpostor", "view", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+def view_session(display: str, tmp_path: Path, keys: str, frames: int, *extra: str) -> dict[str, Any]:
+    args = [str(DEFAULT_SCENE), "--size", f"{SIZE[0]}x{SIZE[1]}", "--frames", str(frames), "--keys", keys,
+            "--screenshot", "last.png", "--window-screenshot", "window.png", "--report", "report.json", *extra]
+    done = run_view(args, tmp_path, display)
+    assert done.returncode == 0, f"viewer failed ({done.returncode}):\n{done.stdout}\n{done.stderr}"
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["gl_errors"] == []
+    assert "GL_" not in done.stderr, done.stderr
+    report["stdout"] = done.stdout
+    return report
+
+
+def png(path: Path) -> np.ndarray:
+    return np.asarray(Image.open(path).convert("RGB")).astype(np.int16)
+
+
+def headless(ctx: moderngl.Context, scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The frame `render` makes, its mirror mask, and the object each mirror pixel reflects."""
+    with Renderer(ctx, scene, reflection_data=True) as renderer:
+        renderer.render()
+        data = renderer.read_reflection_data()
+        return renderer.read_color().astype(np.int16), data.mirror_mask, data.object_id
+
+
+def events_of(report: dict[str, Any], action: str) -> list[int]:
+    return [event["frame"] for event in report["events"] if event["action"] == action]
+
+
+def new_bakes(report: dict[str, Any], frame: int) -> int:
+    baked = report["baked_after_frame"]
+    return baked[frame] - (baked[frame - 1] if frame else 0)
+
+
+def test_window_shows_the_scene_and_re_bakes_only_for_resolution(
+    ctx: moderngl.Context, display: str, tmp_path: Path
+) -> None:
+    report = view_session(display, tmp_path, "wait right*4 ] up*2 down*2 left*4 p", 15)
+    assert report["frames"] == 15
+
+    # Orbiting re-bakes nothing; the resolution key re-bakes the five depth images, once.
+    assert new_bakes(report, 0) == 5
+    for frame in events_of(report, "turn_right") + events_of(report, "turn_left") + events_of(report, "turn_up"):
+        assert new_bakes(report, frame) == 0, f"an orbit step re-baked depth images (frame {frame})"
+    [resolution_frame] = events_of(report, "resolution_up")
+    assert new_bakes(report, resolution_frame) == 5
+    assert report["depth_images_baked"] == 10
+
+    # Back at the scene's camera, the screenshot is the frame `render` makes at that resolution.
+    scene = load_scene(DEFAULT_SCENE).with_overrides(size=SIZE, impostor_resolution=512)
+    expected, mirror, reflected = headless(ctx, scene)
+    shot = png(tmp_path / "last.png")
+    assert shot.shape == expected.shape
+    close = np.abs(shot - expected).max(axis=2) <= 2
+    assert close.mean() > 0.999, f"{(~close).mean():.2%} of the screenshot differs from the headless render"
+
+    # The mirror shows the reflected objects: the pixels whose rays hit them show their colours.
+    objects = scene.objects
+    hits_objects = mirror & (reflected != NO_OBJECT)
+    hits_objects &= np.isin(reflected, [i for i, o in enumerate(objects) if o.shape.__class__.__name__ != "PlaneShape"])
+    assert hits_objects.sum() > 0.02 * mirror.sum()
+    saturation = shot.max(axis=2) - shot.min(axis=2)
+    assert np.median(saturation[hits_objects]) > 60, "reflected objects are coloured, not sky or floor grey"
+
+    # The overlay is in the window, never in the screenshot; elsewhere the two are the same.
+    window = png(tmp_path / "window.png")
+    differs = np.abs(window - shot).max(axis=2) > 2
+    rows, columns = np.nonzero(differs)
+    top, bottom, left, right = rows.min(), rows.max(), columns.min(), columns.max()
+    assert (top, left) == (PANEL_PADDING, PANEL_PADDING), "the overlay's panel starts at the top-left corner"
+    assert differs[top : bottom + 1, left : right + 1].mean() > 0.5, "the overlay is one dark panel"
+    assert bottom < SIZE[1] - 40 and right < SIZE[0] - 40, "the overlay leaves the rest of the frame alone"
+
+    # P saved a numbered screenshot in the working folder.
+    [numbered] = report["screenshots"]
+    assert Path(numbered).name == "default-0001.png"
+    assert png(tmp_path / numbered).shape == expected.shape
+
+
+def test_every_control_runs_without_gl_errors(ctx: moderngl.Context, display: str, tmp_path: Path) -> None:
+    shaders = tmp_path / "shaders"
+    shutil.copytree(PROJECT_ROOT / "shaders", shaders)
+    keys = "tab v m f w*2 d e shift+w right up home page_up page_down [ r h f1 tab v f12 wait"
+    report = view_session(display, tmp_path, keys, 26, "--shaders", str(shaders))
+    done = {event["action"] for event in report["events"]}
+    assert done == {
+        "next_algorithm", "toggle_samples", "next_method", "toggle_fly", "turn_right", "turn_up", "home",
+        "zoom_in", "zoom_out", "resolution_down", "reload_shaders", "toggle_help", "screenshot",
+    }
+    messages = {event["action"]: event["message"] for event in report["events"]}
+    assert messages["reload_shaders"] == "shaders reloaded"
+    # A reload re-bakes with the new programs; the halved resolution re-baked before it.
+    assert new_bakes(report, events_of(report, "reload_shaders")[0]) == 5
+    assert report["depth_images_baked"] == 15
+    # Every setting toggled back, zoom undone, the camera home: the frame `render` makes.
+    expected, _, _ = headless(ctx, load_scene(DEFAULT_SCENE).with_overrides(size=SIZE, impostor_resolution=128))
+    close = np.abs(png(tmp_path / "last.png") - expected).max(axis=2) <= 2
+    assert close.mean() > 0.999
+
+
+def test_fly_keys_move_the_camera(display: str, tmp_path: Path) -> None:
+    (tmp_path / "home").mkdir()
+    (tmp_path / "flown").mkdir()
+    view_session(display, tmp_path / "home", "wait", 2)
+    view_session(display, tmp_path / "flown", "f w*4", 5)
+    home, flown = png(tmp_path / "home" / "last.png"), png(tmp_path / "flown" / "last.png")
+    assert (np.abs(home - flown).max(axis=2) > 8).mean() > 0.2
+
+
+def test_without_an_x_server_the_viewer_says_what_to_install(tmp_path: Path) -> None:
+    done = run_view(["--frames", "1"], tmp_path, display=None)
+    assert done.returncode == 3
+    assert "xvfb" in done.stderr.lower() and "Traceback" not in done.stderr
+
+
+def test_bad_key_scripts_and_scenes_are_refused_before_a_window_opens(tmp_path: Path) -> None:
+    done = run_view(["--keys", "right nosuchkey"], tmp_path, display=None)
+    assert done.returncode == 2 and "--keys: token 2" in done.stderr
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[camera]\nfov_y = "wide"\n')
+    done = run_view([str(bad)], tmp_path, display=None)
+    assert done.returncode == 2 and "camera.fov_y" in done.stderr and "Traceback" not in done.stderr
