@@ -191,3 +191,64 @@ def test_bad_key_scripts_and_scenes_are_refused_before_a_window_opens(tmp_path: 
     bad.write_text('[camera]\nfov_y = "wide"\n')
     done = run_view([str(bad)], tmp_path, display=None)
     assert done.returncode == 2 and "camera.fov_y" in done.stderr and "Traceback" not in done.stderr
+
+
+MOUSE_AND_RESIZE = """
+import json, sys, time
+import glfw
+import numpy as np
+from depthimpostor.context import create_window
+from depthimpostor.scene import load_scene
+from depthimpostor.viewer.app import Viewer, ViewerOptions
+
+scene = load_scene(sys.argv[1]).with_overrides(size=(320, 180))
+window = create_window("test", scene.render.size)
+viewer = Viewer(window, ViewerOptions(scene))
+viewer.draw_frame()
+nav = viewer.navigation
+home_eye = nav.eye.copy()
+out = {}
+# A left drag across a quarter of the window's width orbits a quarter turn.
+viewer.on_cursor(100.0, 90.0)
+viewer.on_button(glfw.MOUSE_BUTTON_LEFT, glfw.PRESS)
+viewer.on_cursor(180.0, 90.0)
+viewer.on_button(glfw.MOUSE_BUTTON_LEFT, glfw.RELEASE)
+offset0, offset1 = home_eye - nav.target, nav.eye - nav.target
+out["orbit_degrees"] = float(np.degrees(np.arccos(np.dot(offset0[[0, 2]], offset1[[0, 2]])
+                                                  / np.linalg.norm(offset0[[0, 2]]) / np.linalg.norm(offset1[[0, 2]]))))
+# A right drag pans: eye and target move together.
+target = nav.target.copy()
+viewer.on_button(glfw.MOUSE_BUTTON_RIGHT, glfw.PRESS)
+viewer.on_cursor(200.0, 90.0)
+viewer.on_button(glfw.MOUSE_BUTTON_RIGHT, glfw.RELEASE)
+out["panned"] = float(np.linalg.norm(nav.target - target))
+glfw.set_window_size(window.handle, 400, 300)
+deadline = time.time() + 10
+while viewer.frame_size != (400, 300) and time.time() < deadline:
+    glfw.poll_events()
+viewer.draw_frame()
+out["frame_size"] = list(viewer.frame_size)
+out["renderer_size"] = list(viewer.renderer.scene.render.size)
+out["frame_shape"] = list(viewer.renderer.read_color().shape)
+out["baked"] = viewer.renderer.stats.depth_images_baked
+out["gl_error"] = viewer.ctx.error
+viewer.release()
+window.release()
+print(json.dumps(out))
+"""
+
+
+def test_mouse_drags_and_window_resizes(display: str, tmp_path: Path) -> None:
+    """The glfw callbacks' handlers, driven in a real window: drags orbit and pan; a resize
+    renders at the new framebuffer size and re-bakes nothing."""
+    env = {**os.environ, "DISPLAY": display, "PYTHONPATH": str(PROJECT_ROOT)}
+    done = subprocess.run([sys.executable, "-c", MOUSE_AND_RESIZE, str(DEFAULT_SCENE)], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["orbit_degrees"] == pytest.approx(90.0, abs=1e-6)
+    assert result["panned"] > 0.1
+    assert result["frame_size"] == result["renderer_size"] == [400, 300]
+    assert result["frame_shape"] == [300, 400, 3]
+    assert result["baked"] == 5
+    assert result["gl_error"] == "GL_NO_ERROR"
