@@ -16,7 +16,7 @@ from ..font import SOLID, GlyphAtlas, rasterize
 from ..shaders import ProgramCache
 from .uniforms import write
 
-Anchor = Literal["top-left", "top-right", "centre"]
+Anchor = Literal["top-left", "top-right"]
 
 #: Pixels between a panel's edge and its text, and its colour (dark, mostly opaque: legible on
 #: a white sky and a black mirror alike).
@@ -66,11 +66,9 @@ def layout(panels: list[Panel], atlas: GlyphAtlas, size: tuple[int, int]) -> np.
         tab_stop = _tab_stop(panel.lines, atlas)
         width = max((_line_width(line, atlas, tab_stop) for line in panel.lines), default=0.0) + 2 * PANEL_PADDING
         height = len(panel.lines) * line_height + 2 * PANEL_PADDING
-        x0 = {"top-left": PANEL_PADDING, "top-right": size[0] - PANEL_PADDING - width,
-              "centre": (size[0] - width) / 2}[panel.anchor]
-        y0 = PANEL_PADDING if panel.anchor != "centre" else (size[1] - height) / 2
-        # A panel larger than the frame keeps its top-left corner in view.
-        x0, y0 = round(max(x0, PANEL_PADDING)), round(max(y0, PANEL_PADDING))
+        x0 = PANEL_PADDING if panel.anchor == "top-left" else size[0] - PANEL_PADDING - width
+        # A panel wider than the frame keeps its left edge in view.
+        x0, y0 = round(max(x0, PANEL_PADDING)), PANEL_PADDING
         # The solid cell is sampled at its centre texel, stretched over the panel.
         solid_centre = (solid_x + cell_width / 2, solid_y + line_height / 2)
         vertices += _quad((x0, y0), (width, height), solid_centre, (0.0, 0.0), PANEL_COLOR)

@@ -332,7 +332,7 @@ class Viewer:
             lines.append(self.message[0])
         panels = [Panel(tuple(lines))]
         if self.show_help:
-            panels.append(Panel(tuple(help_lines()), "centre"))
+            panels.append(Panel(tuple(help_lines()), "top-right"))
         return panels
 
     def draw_frame(self) -> None:
@@ -347,8 +347,9 @@ class Viewer:
         self.ctx.copy_framebuffer(self.frame_framebuffer, renderer.color_framebuffer)
         self.frame_framebuffer.use()
         self.overlay.draw(self.panels(), self.frame_size)
-        screen = self.ctx.detect_framebuffer(0)
-        screen.use()
+        self.ctx.screen.use()
+        # The window's framebuffer was measured when the context was made; after a resize the
+        # viewport must be set to its current size.
         self.ctx.viewport = (0, 0, *self.frame_size)
         self.present.draw(self.frame_texture)
         error = self.ctx.error
