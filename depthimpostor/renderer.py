@@ -172,7 +172,8 @@ class Renderer:
         self.camera = fitted_camera(view, self.scene.render.size, self.bounds)
 
     def set_camera(self, camera: PPC) -> None:
-        """Use this exact camera (tests); nothing is re-baked, and a resize re-fits `self.view`."""
+        """Use this exact camera (tests); nothing is re-baked. A later `look_at` or `resize`
+        replaces it with the fitted camera of a view."""
         self.camera = camera
 
     def resize(self, size: tuple[int, int]) -> None:
