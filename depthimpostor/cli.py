@@ -10,7 +10,7 @@ from pathlib import Path
 
 from PIL import Image
 
-from .constants import Algorithm
+from .constants import Algorithm, Method
 from .context import create_context, describe
 from .errors import DepthImpostorError
 from .compare import Comparison, compare, format_table, write_report
@@ -39,28 +39,39 @@ def _load(args: argparse.Namespace) -> Scene:
     return scene.with_overrides(size=args.size, impostor_resolution=args.impostor_res)
 
 
+def _stand_in(renderer: Renderer) -> str:
+    """What the reflected objects were found through, and what it cost to prepare."""
+    bake_ms = 1000 * sum(renderer.stats.bake_seconds)
+    if renderer.impostors is not None:
+        resolution = renderer.scene.render.impostor_resolution
+        return (f"{renderer.algorithm.name.lower()} algorithm, bake {bake_ms:.1f} ms "
+                f"({len(renderer.impostors.depth_images)} depth images of {resolution}^2)")
+    if renderer.triangles is not None:
+        return f"ray-traced ({renderer.triangles.triangle_count} triangles in a BVH)"
+    return "no mirror"
+
+
 def _render(args: argparse.Namespace) -> int:
     scene = _load(args)
     ctx = create_context(args.backend)
     renderer_name = describe(ctx)
     algorithm = Algorithm[args.algorithm.upper()]
+    method = Method[args.method.upper()]
     try:
-        with Renderer(ctx, scene, algorithm) as renderer:
+        with Renderer(ctx, scene, algorithm, method=method) as renderer:
             for _ in range(args.frames + 1):  # the first frame bakes the depth images and warms up
                 stats = renderer.render()
             image = renderer.read_color()
-            depth_images = len(renderer.impostors.depth_images) if renderer.impostors else 0
+            stand_in = _stand_in(renderer)
     finally:
         ctx.release()
     timed = stats.draw_seconds[1:]
-    bake_seconds = sum(stats.bake_seconds)
     output = Path(args.output)
     output.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(image).save(output)
     print(output)
     print(
-        f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)}, {algorithm.name.lower()}), "
-        f"bake {1000 * bake_seconds:.1f} ms ({depth_images} depth images of {scene.render.impostor_resolution}^2), "
+        f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)}), {stand_in}, "
         f"{scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}"
     )
     return 0
@@ -69,9 +80,10 @@ def _render(args: argparse.Namespace) -> int:
 def _compare_frame(args: argparse.Namespace) -> tuple[Scene, Comparison]:
     scene = _load(args)
     algorithm = Algorithm[getattr(args, "algorithm", "optimized").upper()]
+    method = Method[getattr(args, "method", "depth").upper()]
     ctx = create_context(args.backend)
     try:
-        with Renderer(ctx, scene, algorithm, reflection_data=True) as renderer:
+        with Renderer(ctx, scene, algorithm, reflection_data=True, method=method) as renderer:
             renderer.render()
             return scene, compare(renderer)
     finally:
@@ -94,6 +106,7 @@ def _compare(args: argparse.Namespace) -> int:
         "size": list(scene.render.size),
         "impostor_resolution": scene.render.impostor_resolution,
         "algorithm": args.algorithm,
+        "method": args.method,
     }
     for path in write_report(comparison, Path(args.output), settings):
         print(path)
@@ -108,6 +121,7 @@ def _view(args: argparse.Namespace) -> int:
     options = ViewerOptions(
         scene=_load(args),
         algorithm=Algorithm[args.algorithm.upper()],
+        method=Method[args.method.upper()],
         frames=args.frames,
         keys=tuple(parse_key_script(args.keys or "")),
         screenshot=args.screenshot,
@@ -128,6 +142,11 @@ def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) ->
                          help="headless GL backend (default: auto, EGL then OSMesa)")
 
 
+def _method_argument(command: argparse.ArgumentParser) -> None:
+    command.add_argument("--method", choices=[m.name.lower() for m in Method], default="depth",
+                         help="how reflected objects are stood in for: depth images, or their triangles ray-traced")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="depthimpostor", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
@@ -136,6 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("-o", "--output", default="render.png", help="output PNG (default: render.png)")
     render.add_argument("--algorithm", choices=["basic", "optimized"], default="optimized",
                         help="ray/depth-image intersection: the lecture's basic or optimized algorithm")
+    _method_argument(render)
     render.add_argument("--frames", type=_positive, default=3, help="frames timed after the first (default 3)")
     render.set_defaults(run=_render)
 
@@ -148,11 +168,13 @@ def build_parser() -> argparse.ArgumentParser:
     _scene_arguments(comparison)
     comparison.add_argument("-o", "--output", default="report", help="output folder (default: report/)")
     comparison.add_argument("--algorithm", choices=["basic", "optimized"], default="optimized")
+    _method_argument(comparison)
     comparison.set_defaults(run=_compare)
 
     view = commands.add_parser("view", help="fly around a scene in a window (keys: H in the window)")
     _scene_arguments(view, headless=False)
     view.add_argument("--algorithm", choices=["basic", "optimized"], default="optimized")
+    _method_argument(view)
     view.add_argument("--frames", type=_positive, help="quit after this many frames")
     view.add_argument("--keys", help='scripted key presses, one per frame, e.g. "right*6 ] wait p escape"')
     view.add_argument("--screenshot", type=Path, help="save the last frame (without the overlay) here at exit")

@@ -19,10 +19,11 @@ class Algorithm(IntEnum):
 
 
 class Method(IntEnum):
-    """How reflected geometry is stood in for. Issue 6 adds the lecture's other approximations
-    (cube map, billboard, simplified geometry) and ray tracing; the viewer cycles through these."""
+    """How a reflected ray finds what it sees (the lecture's cube map, billboards and simplified
+    geometry are still to come); the viewer cycles through these."""
 
     DEPTH = 0  # depth-image impostors
+    RAYTRACE = 1  # the real triangles, through a BVH traversed in the mirror shader
 
 
 class MaterialKind(IntEnum):
@@ -87,14 +88,44 @@ DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
     ("surface", "vec4"),
 )
 
-DEPTH_IMAGE_DTYPE = np.dtype(
-    [(name, "<i4" if glsl_type.startswith("i") else "<f4", (4,)) for name, glsl_type in DEPTH_IMAGE_FIELDS]
+#: One reflected object of the ray-traced method (std140): the world-to-local transform (the
+#: checker is laid out in local coordinates), colour_a with the checker scale in w, colour_b, and
+#: (material kind, object id, 0, 0).
+TRIANGLE_OBJECT_FIELDS: tuple[tuple[str, str], ...] = (
+    ("world_to_local", "mat4"),
+    ("color_a", "vec4"),
+    ("color_b", "vec4"),
+    ("kind_and_id", "ivec4"),
 )
+#: Width of the float textures holding BVH nodes and triangles: element i is texel
+#: (i % width, i / width). 1024 is the smallest GL_MAX_TEXTURE_SIZE GL 3.3 allows; the height
+#: grows with the count and is checked against the driver's own limit.
+BVH_TEXTURE_WIDTH = 1024
+#: Entries of the traversal stack: the BVH's depth may not exceed this (see bvh.py).
+BVH_STACK_SIZE = 48
+
+
+def _std140_dtype(fields: tuple[tuple[str, str], ...]) -> np.dtype:
+    """The numpy layout of a struct of vec4, ivec4 and mat4 members (no padding under std140)."""
+    shapes = {"vec4": ("<f4", (4,)), "ivec4": ("<i4", (4,)), "mat4": ("<f4", (4, 4))}
+    return np.dtype([(name, *shapes[glsl_type]) for name, glsl_type in fields])
+
+
+DEPTH_IMAGE_DTYPE = _std140_dtype(DEPTH_IMAGE_FIELDS)
+TRIANGLE_OBJECT_DTYPE = _std140_dtype(TRIANGLE_OBJECT_FIELDS)
+
+
+def _struct_glsl(name: str, fields: tuple[tuple[str, str], ...]) -> str:
+    members = "\n".join(f"    {glsl_type} {field};" for field, glsl_type in fields)
+    return f"struct {name} {{\n{members}\n}};\n"
 
 
 def depth_image_struct_glsl() -> str:
-    members = "\n".join(f"    {glsl_type} {name};" for name, glsl_type in DEPTH_IMAGE_FIELDS)
-    return f"struct DepthImage {{\n{members}\n}};\n"
+    return _struct_glsl("DepthImage", DEPTH_IMAGE_FIELDS)
+
+
+def triangle_object_struct_glsl() -> str:
+    return _struct_glsl("TriangleObject", TRIANGLE_OBJECT_FIELDS)
 
 
 def glsl_constants() -> dict[str, str]:
@@ -108,8 +139,12 @@ def glsl_constants() -> dict[str, str]:
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",
         "CLIP_TOLERANCE_PIXELS": f"{CLIP_TOLERANCE_PIXELS!r}",
         "MIN_LINES_SINE_SQUARED": f"{MIN_LINES_SINE_SQUARED!r}",
+        "BVH_TEXTURE_WIDTH": str(BVH_TEXTURE_WIDTH),
+        "BVH_STACK_SIZE": str(BVH_STACK_SIZE),
     }
-    for enum in (Algorithm, MaterialKind, LightKind):
-        prefix = {"Algorithm": "ALGORITHM", "MaterialKind": "MATERIAL", "LightKind": "LIGHT"}[enum.__name__]
+    for enum in (Algorithm, Method, MaterialKind, LightKind):
+        prefix = {"Algorithm": "ALGORITHM", "Method": "METHOD", "MaterialKind": "MATERIAL", "LightKind": "LIGHT"}[
+            enum.__name__
+        ]
         defines.update({f"{prefix}_{member.name}": str(int(member)) for member in enum})
     return defines

@@ -15,10 +15,10 @@ from typing import Protocol
 import moderngl
 import numpy as np
 
-from .constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm
+from .constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm, Method
 from .context import bind_default_framebuffer
-from .passes.impostors import ImpostorAtlas
-from .passes.mirrors import DEPTH_IMAGES_BINDING, bind_impostors, reflection_defines
+from .passes.impostors import DEPTH_IMAGES_BINDING, ImpostorAtlas, bind_impostors
+from .passes.mirrors import reflection_defines
 from .passes.uniforms import write
 from .reference import DepthImageData, RayHits
 from .shaders import ProgramCache
@@ -51,7 +51,7 @@ class RayQuery:
         self.ctx = ctx
         self.atlas = atlas
         self.image_count = len(images)
-        self.program = programs.get("fullscreen.vert", "ray_query.frag", reflection_defines(algorithm))
+        self.program = programs.get("fullscreen.vert", "ray_query.frag", reflection_defines(Method.DEPTH, algorithm))
         records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, dtype=DEPTH_IMAGE_DTYPE)
         for i, image in enumerate(images):
             records[i] = image.record()

@@ -22,6 +22,7 @@ from .passes.impostors import ImpostorPass
 from .passes.meshes import GpuMeshes
 from .passes.mirrors import MirrorPass
 from .passes.samples import SamplesPass
+from .passes.triangles import TrianglePass
 from .ppc import PPC
 from .scene.model import Scene
 from .shaders import ProgramCache, ShaderLibrary
@@ -104,14 +105,16 @@ class Renderer:
         algorithm: Algorithm = Algorithm.OPTIMIZED,
         reflection_data: bool = False,
         shaders: ShaderLibrary | None = None,
+        method: Method = Method.DEPTH,
     ) -> None:
         """`reflection_data` adds float outputs of each mirror pixel's reflected ray and hit (for
         comparisons with the truth); without it neither the attachments nor the variant exist.
-        `shaders` reads the GLSL from another folder (the viewer's `--shaders`)."""
+        `shaders` reads the GLSL from another folder (the viewer's `--shaders`). `method` is how
+        reflected objects are stood in for; only its own resources are made."""
         self.ctx = ctx
         self.scene = scene
         self.algorithm = algorithm
-        self.method = Method.DEPTH
+        self.method = method
         self.show_samples = False
         self.reflection_data = reflection_data
         self.stats = RenderStats()
@@ -150,18 +153,36 @@ class Renderer:
         self.environment = EnvironmentPass(ctx, self.programs, scene)
         self.diffuse = DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
         self.impostors: ImpostorPass | None = None
+        self.triangles: TrianglePass | None = None
         self.mirror_pass: MirrorPass | None = None
         self.samples: SamplesPass | None = None
         if self.mirrors:
-            self.impostors = ImpostorPass(ctx, self.programs, scene, self.meshes, self.mirrors, self.reflected_objects)
-            self.mirror_pass = self._mirror_pass(self.impostors)
-            if self.show_samples:
+            self._make_reflected(self.method, self.scene)
+            self.mirror_pass = self._mirror_pass()
+            if self.show_samples and self.impostors is not None:
                 self.samples = SamplesPass(ctx, self.programs)
         self._impostors_baked = False
 
-    def _mirror_pass(self, impostors: ImpostorPass) -> MirrorPass:
+    def _make_reflected(self, method: Method, scene: Scene) -> None:
+        """The method's stand-in for the reflected objects; the old one (if any) is released only
+        once the new one exists, so that a failure leaves the renderer as it was."""
+        impostors = triangles = None
+        if method == Method.DEPTH:
+            impostors = ImpostorPass(self.ctx, self.programs, scene, self.meshes, self.mirrors, self.reflected_objects)
+        else:
+            triangles = TrianglePass(self.ctx, scene, self.reflected_objects)
+        for old in (self.impostors, self.triangles):
+            if old is not None:
+                old.release()
+        self.impostors, self.triangles = impostors, triangles
+        self._impostors_baked = False
+
+    def _mirror_pass(self) -> MirrorPass:
+        reflected = self.impostors if self.impostors is not None else self.triangles
+        if reflected is None:
+            raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
         return MirrorPass(
-            self.programs, self.scene, self.meshes, impostors, self.analytic_planes, self.algorithm,
+            self.programs, self.scene, self.meshes, reflected, self.analytic_planes, self.method, self.algorithm,
             self.reflection_data,
         )
 
@@ -189,8 +210,22 @@ class Renderer:
     def set_algorithm(self, algorithm: Algorithm) -> None:
         """Intersect with another algorithm: another mirror variant, the same depth images."""
         self.algorithm = algorithm
-        if self.impostors is not None:
-            self.mirror_pass = self._mirror_pass(self.impostors)
+        if self.mirror_pass is not None:
+            self.mirror_pass = self._mirror_pass()
+
+    def set_method(self, method: Method) -> None:
+        """Stand in for the reflected objects another way: the old method's resources go, the new
+        one's are made (a scene without mirrors has none either way)."""
+        if self.mirrors:
+            self._make_reflected(method, self.scene)
+        self.method = method
+        if self.mirrors:
+            self.mirror_pass = self._mirror_pass()
+            if self.impostors is None:
+                self.show_samples = False
+            if self.samples is not None and not self.show_samples:
+                self.samples.release()
+                self.samples = None
 
     def set_impostor_resolution(self, resolution: int) -> None:
         """Re-plan and re-bake the depth images (all of them share the resolution, so all change).
@@ -199,14 +234,11 @@ class Renderer:
         SceneError and leaves the renderer as it was.
         """
         scene = self.scene.with_overrides(impostor_resolution=resolution)
-        if self.impostors is None:
-            self.scene = scene
-            return
-        impostors = ImpostorPass(self.ctx, self.programs, scene, self.meshes, self.mirrors, self.reflected_objects)
-        self.impostors.release()
-        self.scene, self.impostors = scene, impostors
-        self.mirror_pass = self._mirror_pass(impostors)
-        self._impostors_baked = False
+        if self.impostors is not None:
+            self._make_reflected(Method.DEPTH, scene)
+        self.scene = scene
+        if self.mirror_pass is not None:
+            self.mirror_pass = self._mirror_pass()
 
     def set_show_samples(self, show: bool) -> None:
         """Show each reflected object as its depth images' samples (the lecture's sample
@@ -300,7 +332,7 @@ class Renderer:
 
     def _release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
-        for owner in (self.impostors, self.environment, self.samples):
+        for owner in (self.impostors, self.triangles, self.environment, self.samples):
             if owner is not None:
                 owner.release()
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import moderngl
 
-from .constants import depth_image_struct_glsl, glsl_constants
+from .constants import depth_image_struct_glsl, glsl_constants, triangle_object_struct_glsl
 from .errors import ShaderError
 from .resources import shaders_dir
 
@@ -39,7 +39,10 @@ def _line_directive(file_number: int, line: int) -> str:
 
 
 def _generated_sources() -> dict[str, str]:
-    return {"generated/depth_image.glsl": depth_image_struct_glsl()}
+    return {
+        "generated/depth_image.glsl": depth_image_struct_glsl(),
+        "generated/triangle_object.glsl": triangle_object_struct_glsl(),
+    }
 
 
 @dataclass

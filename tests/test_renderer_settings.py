@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import PROJECT_ROOT, SCENES, assert_finite
-from depthimpostor.constants import Algorithm
+from depthimpostor.constants import Algorithm, Method
 from depthimpostor.errors import SceneError, ShaderError
 from depthimpostor.renderer import CameraView, Renderer
 from depthimpostor.scene import Scene, load_scene
@@ -68,7 +68,7 @@ def test_algorithm_switch_changes_the_variant_not_the_depth_images(ctx: moderngl
         assert renderer.stats.depth_images_baked == 5
         frame = renderer.read_color_float()
         mirror_variants = {d for _, fragment, d in renderer.programs.variants if fragment == "mirror.frag"}
-        assert mirror_variants == {(("ALGORITHM", str(int(a))),) for a in Algorithm}
+        assert mirror_variants == {(("ALGORITHM", str(int(a))), ("METHOD", str(int(Method.DEPTH)))) for a in Algorithm}
     assert_same_frame(frame, fresh_frame(ctx, scene, Algorithm.BASIC))
 
 

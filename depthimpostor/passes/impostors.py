@@ -30,6 +30,20 @@ from ..scene.model import Scene
 from ..shaders import ProgramCache
 from .diffuse import DiffusePass
 from .meshes import GpuMeshes
+from .uniforms import bind_texture, bind_uniform_block, write
+
+
+#: Texture units and the uniform-block binding the reflected-scene chunk reads.
+COLOR_ATLAS_UNIT = 0
+DEPTH_ATLAS_UNIT = 1
+DEPTH_IMAGES_BINDING = 0
+
+
+def bind_impostors(program: moderngl.Program, atlas: ImpostorAtlas) -> None:
+    """Point a program that includes lib/reflected_scene.glsl at the depth-image atlas."""
+    bind_texture(program, "u_impostor_color", atlas.color, COLOR_ATLAS_UNIT)
+    bind_texture(program, "u_impostor_depth", atlas.depth, DEPTH_ATLAS_UNIT)
+    bind_uniform_block(program, "DepthImages", DEPTH_IMAGES_BINDING)
 
 
 @dataclass(frozen=True, eq=False)
@@ -193,6 +207,13 @@ class ImpostorPass:
         for i, image in enumerate(images):
             records[i] = image.record()
         return self.ctx.buffer(records.tobytes())
+
+    def bind(self, program: moderngl.Program) -> None:
+        bind_impostors(program, self.atlas)
+
+    def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
+        self.uniform_buffers[mirror.index].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
+        write(program, "u_depth_image_count", len(self.images_by_mirror[mirror.index]))
 
     def bake(self) -> int:
         """Render every depth image into its tile; returns the number of draw calls."""

@@ -13,7 +13,7 @@ import numpy as np
 from ..ppc import PPC
 from ..shaders import ProgramCache
 from .impostors import ImpostorPass
-from .mirrors import DEPTH_IMAGES_BINDING, bind_impostors
+from .impostors import DEPTH_IMAGES_BINDING, bind_impostors
 from .uniforms import write, write_matrix
 
 

@@ -31,18 +31,37 @@ def write(program: moderngl.Program, name: str, data: np.ndarray | bytes | int |
         uniform.value = data
 
 
+def bind_texture(program: moderngl.Program, name: str, texture: moderngl.Texture, unit: int) -> None:
+    """Put `texture` on texture unit `unit` and point the sampler `name` at it."""
+    texture.use(unit)
+    write(program, name, unit)
+
+
+def bind_uniform_block(program: moderngl.Program, name: str, binding: int) -> None:
+    """Point the uniform block `name` (if the variant kept it) at a buffer binding point."""
+    if name in program:
+        program[name].binding = binding
+
+
 def write_matrix(program: moderngl.Program, name: str, matrix: np.ndarray) -> None:
     """A matrix in GL's column-major float32 layout."""
     write(program, name, np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes())
 
 
-def write_material(program: moderngl.Program, name: str, material: Material) -> None:
+MaterialFields = tuple[MaterialKind, tuple[float, float, float], tuple[float, float, float], float]
+
+
+def material_fields(material: Material) -> MaterialFields:
+    """(kind, colour a, colour b, checker scale): shading.glsl's Material, from a scene material."""
     if isinstance(material, CheckerMaterial):
-        kind, color_a, color_b, scale = MaterialKind.CHECKER, material.color_a, material.color_b, material.scale
-    elif isinstance(material, DiffuseMaterial):
-        kind, color_a, color_b, scale = MaterialKind.DIFFUSE, material.color, material.color, 1.0
-    else:
-        raise TypeError(f"{material!r} is not a diffuse material")
+        return MaterialKind.CHECKER, material.color_a, material.color_b, material.scale
+    if isinstance(material, DiffuseMaterial):
+        return MaterialKind.DIFFUSE, material.color, material.color, 1.0
+    raise TypeError(f"{material!r} is not a diffuse material")
+
+
+def write_material(program: moderngl.Program, name: str, material: Material) -> None:
+    kind, color_a, color_b, scale = material_fields(material)
     write(program, f"{name}.kind", int(kind))
     write(program, f"{name}.color_a", tuple(color_a))
     write(program, f"{name}.color_b", tuple(color_b))

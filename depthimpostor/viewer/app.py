@@ -51,13 +51,14 @@ MAX_FLY_SECONDS = 0.1
 MESSAGE_SECONDS = 4.0
 #: Depth-image resolutions the resolution keys step through.
 RESOLUTION_STEPS = tuple(2**k for k in range(3, 13))  # 8 .. 4096
-METHOD_LABELS = {Method.DEPTH: "depth-image impostors"}
+METHOD_LABELS = {Method.DEPTH: "depth-image impostors", Method.RAYTRACE: "ray-traced triangles"}
 
 
 @dataclass(frozen=True)
 class ViewerOptions:
     scene: Scene
     algorithm: Algorithm = Algorithm.OPTIMIZED
+    method: Method = Method.DEPTH
     frames: int | None = None  # quit after this many frames
     keys: tuple[KeyPress, ...] = ()
     screenshot: Path | None = None  # the last frame, without the overlay, at exit
@@ -115,7 +116,7 @@ class Viewer:
         self.frame_size: tuple[int, int] = glfw.get_framebuffer_size(window.handle)
         library = ShaderLibrary(options.shaders) if options.shaders else None
         scene = options.scene.with_overrides(size=self.frame_size)
-        self.renderer = Renderer(self.ctx, scene, options.algorithm, shaders=library)
+        self.renderer = Renderer(self.ctx, scene, options.algorithm, shaders=library, method=options.method)
         # The viewer's own programs (overlay, present): the renderer's are its to replace.
         self.programs = ProgramCache(self.ctx, library)
         self.font_pixels = round(FONT_SIZE * max(glfw.get_window_content_scale(window.handle)))
@@ -239,9 +240,7 @@ class Viewer:
             return f"algorithm: {renderer.algorithm.name.lower()}"
         elif action == Action.NEXT_METHOD:
             methods = list(Method)
-            if len(methods) == 1:
-                return f"{METHOD_LABELS[renderer.method]} are the only method so far"
-            renderer.method = methods[(methods.index(renderer.method) + 1) % len(methods)]
+            renderer.set_method(methods[(methods.index(renderer.method) + 1) % len(methods)])
             return f"method: {METHOD_LABELS[renderer.method]}"
         elif action in (Action.RESOLUTION_UP, Action.RESOLUTION_DOWN):
             return self._change_resolution(action == Action.RESOLUTION_UP)
@@ -324,8 +323,11 @@ class Viewer:
                 f"{len(renderer.impostors.depth_images)} depth images {resolution}x{resolution} | "
                 f"{renderer.impostors.atlas.bytes / 2**20:.1f} MiB | bake {bake_ms:.0f} ms"
             )
+        elif renderer.triangles is not None:
+            lines.append(f"{renderer.triangles.triangle_count} triangles in a BVH | "
+                         f"{renderer.triangles.bytes / 2**20:.1f} MiB")
         else:
-            lines.append("no depth images (no mirror)")
+            lines.append("nothing to reflect (no mirror)")
         mode = "fly" if self.navigation.flying else "orbit"
         lines.append(f"{mode}{' | samples view' if renderer.show_samples else ''} | H: help")
         if self.message and time.perf_counter() - self.message[1] < MESSAGE_SECONDS:

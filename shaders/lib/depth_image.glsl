@@ -1,6 +1,7 @@
 // Ray / depth-image intersection: the lecture's two algorithms, shared by the mirror pass and the
 // GPU ray query. depthimpostor/reference.py implements the same functions with the same names.
 #include "../generated/depth_image.glsl"
+#include "ray_hit.glsl"
 
 // One mirror's depth images (one per reflected object), from its uniform buffer.
 layout(std140) uniform DepthImages {
@@ -12,19 +13,6 @@ uniform sampler2D u_impostor_color;  // atlas of every depth image's colours (RG
 // Atlas of their OpenGL window depths (RG32F): the visible surface, and the nearest back face
 // behind it (the far end of the object's first solid run along the eye ray); 1.0 = nothing.
 uniform sampler2D u_impostor_depth;
-
-struct RayHit {
-    bool hit;
-    float t;              // ray parameter: hit point = origin + t * direction
-    vec2 image_position;  // (u, v) in the depth image, pixels
-    vec3 color;
-    float object_id;
-    int samples;          // depth-image samples read
-};
-
-RayHit no_hit(int samples) {
-    return RayHit(false, 0.0, vec2(0.0), vec3(0.0), float(NO_OBJECT), samples);
-}
 
 // (u w, v w, w) of a world-space vector: [a b c]^-1 applied row by row.
 vec3 camera_coordinates(DepthImage image, vec3 world_vector) {

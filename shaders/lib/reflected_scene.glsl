@@ -1,8 +1,19 @@
-// Everything a reflected ray can hit: this mirror's depth images (one per reflected object),
-// the analytic planes (floors and walls, intersected exactly), and the environment.
-#include "depth_image.glsl"
+// Everything a reflected ray can hit: the reflected objects as the method stands them in (this
+// mirror's depth images, one per object, or their real triangles), the analytic planes (floors
+// and walls, intersected exactly), and the environment.
+#ifndef METHOD
+#define METHOD METHOD_DEPTH
+#endif
+// Included before the method's chunk: includes are merged once, and a first include inside the
+// branch the preprocessor drops would drop it for the other branch too.
+#include "ray_hit.glsl"
 #include "shading.glsl"
 #include "environment.glsl"
+#if METHOD == METHOD_DEPTH
+#include "depth_image.glsl"
+#else
+#include "triangles.glsl"
+#endif
 
 uniform int u_plane_count;
 uniform mat4 u_plane_world_to_local[MAX_ANALYTIC_PLANES];
@@ -11,6 +22,7 @@ uniform vec3 u_plane_normal[MAX_ANALYTIC_PLANES];  // world space, unit
 uniform Material u_plane_material[MAX_ANALYTIC_PLANES];
 uniform int u_plane_object_id[MAX_ANALYTIC_PLANES];
 
+#if METHOD == METHOD_DEPTH
 // The nearest hit over all depth images of this mirror.
 RayHit nearest_depth_image_hit(vec3 origin, vec3 direction) {
     RayHit best = no_hit(0);
@@ -22,6 +34,15 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction) {
     }
     best.samples = samples;
     return best;
+}
+#endif
+
+RayHit nearest_object_hit(vec3 origin, vec3 direction) {
+#if METHOD == METHOD_DEPTH
+    return nearest_depth_image_hit(origin, direction);
+#else
+    return nearest_triangle_hit(origin, direction);
+#endif
 }
 
 // A plane shape is the rectangle |x| <= w/2, |z| <= d/2 of its local y = 0 plane. The local ray
@@ -47,7 +68,7 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
 
 // What the reflected ray origin + t * direction sees: the nearest hit, or the environment.
 RayHit trace_reflected(vec3 origin, vec3 direction) {
-    RayHit hit = nearest_depth_image_hit(origin, direction);
+    RayHit hit = nearest_object_hit(origin, direction);
     RayHit plane = nearest_plane_hit(origin, direction);
     if (plane.hit && (!hit.hit || plane.t < hit.t)) {
         plane.samples = hit.samples;

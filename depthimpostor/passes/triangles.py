@@ -1,0 +1,102 @@
+"""The ray-traced method's data: every reflected object's world-space triangles in one BVH.
+
+Nothing is baked: the mirror shader traverses the BVH per reflected ray (shaders/lib/triangles.glsl).
+The hierarchy is built once on the CPU (depthimpostor/bvh.py) and uploaded as two float textures
+and a uniform buffer of per-object materials and transforms.
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from ..bvh import build_bvh
+from ..constants import (
+    BVH_STACK_SIZE,
+    BVH_TEXTURE_WIDTH,
+    MAX_DEPTH_IMAGES_PER_MIRROR,
+    TRIANGLE_OBJECT_DTYPE,
+)
+from ..errors import SceneError
+from ..geometry import ObjectGeometry
+from ..scene.model import Scene
+from .uniforms import bind_texture, bind_uniform_block, material_fields
+
+NODES_UNIT = 2
+TRIANGLES_UNIT = 3
+TRIANGLE_OBJECTS_BINDING = 1
+
+
+def _texture(ctx: moderngl.Context, texels: np.ndarray) -> moderngl.Texture:
+    """(n, 4) float32 texels laid out in rows of BVH_TEXTURE_WIDTH."""
+    rows = max(1, math.ceil(len(texels) / BVH_TEXTURE_WIDTH))
+    limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
+    if rows > limit:
+        raise SceneError("scene", "objects", f"{len(texels)} BVH texels need {rows} rows, over this GL's limit of {limit}")
+    padded = np.zeros((rows * BVH_TEXTURE_WIDTH, 4), np.float32)
+    padded[: len(texels)] = texels
+    texture = ctx.texture((BVH_TEXTURE_WIDTH, rows), 4, padded.tobytes(), dtype="f4")
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return texture
+
+
+def object_records(objects: list[ObjectGeometry]) -> np.ndarray:
+    records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, TRIANGLE_OBJECT_DTYPE)
+    for slot, item in enumerate(objects):
+        kind, color_a, color_b, scale = material_fields(item.object.material)
+        # std140 mat4 is column-major: the numpy row holds a column.
+        records[slot]["world_to_local"] = np.linalg.inv(item.model_matrix).T
+        records[slot]["color_a"] = (*color_a, scale)
+        records[slot]["color_b"] = (*color_b, 0.0)
+        records[slot]["kind_and_id"] = (int(kind), item.index, 0, 0)
+    return records
+
+
+class TrianglePass:
+    """Owns the BVH textures and the per-object uniform buffer of the ray-traced method."""
+
+    def __init__(self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry]) -> None:
+        if len(reflected) > MAX_DEPTH_IMAGES_PER_MIRROR:
+            raise SceneError(
+                scene.source, "objects",
+                f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} reflected objects, got {len(reflected)}",
+            )
+        self.ctx = ctx
+        worlds = [item.world_mesh for item in reflected]
+        triangles = np.concatenate([mesh.positions[mesh.indices] for mesh in worlds])
+        normals = np.concatenate([mesh.normals[mesh.indices] for mesh in worlds])
+        slots = np.concatenate([np.full(len(mesh.indices), slot) for slot, mesh in enumerate(worlds)])
+        bvh = build_bvh(triangles)
+        if bvh.depth + 1 > BVH_STACK_SIZE:
+            raise SceneError(scene.source, "objects", f"the BVH is {bvh.depth} levels deep, over the shader's "
+                             f"stack of {BVH_STACK_SIZE}")
+        self.triangle_count = len(triangles)
+        nodes = np.zeros((bvh.node_count, 2, 4), np.float32)
+        nodes[:, 0, :3], nodes[:, 0, 3] = bvh.lower, bvh.first
+        nodes[:, 1, :3], nodes[:, 1, 3] = bvh.upper, bvh.count
+        ordered = np.zeros((len(triangles), 6, 4), np.float32)
+        ordered[:, :3, :3] = triangles[bvh.order]
+        ordered[:, 0, 3] = slots[bvh.order]
+        ordered[:, 3:, :3] = normals[bvh.order]
+        self.nodes = _texture(ctx, nodes.reshape(-1, 4))
+        self.triangles = _texture(ctx, ordered.reshape(-1, 4))
+        self.objects = ctx.buffer(object_records(reflected).tobytes())
+
+    @property
+    def bytes(self) -> int:
+        return sum(texture.width * texture.height * 16 for texture in (self.nodes, self.triangles)) + self.objects.size
+
+    def bind(self, program: moderngl.Program) -> None:
+        bind_texture(program, "u_bvh_nodes", self.nodes, NODES_UNIT)
+        bind_texture(program, "u_bvh_triangles", self.triangles, TRIANGLES_UNIT)
+        bind_uniform_block(program, "TriangleObjects", TRIANGLE_OBJECTS_BINDING)
+        self.objects.bind_to_uniform_block(TRIANGLE_OBJECTS_BINDING)
+
+    def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
+        """Every mirror traces the same triangles: nothing per mirror."""
+
+    def release(self) -> None:
+        for item in (self.nodes, self.triangles, self.objects):
+            item.release()

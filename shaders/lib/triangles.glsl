@@ -1,0 +1,90 @@
+// The ray-traced method: the reflected objects' real triangles, in world space, found through a
+// BVH (depthimpostor/bvh.py) and shaded as the rasterizer shades them. Nodes and triangles live
+// in float textures (GL 3.3 has no storage buffers): element i is texel (i % width, i / width).
+#include "../generated/triangle_object.glsl"
+#include "ray_hit.glsl"
+#include "shading.glsl"
+
+uniform sampler2D u_bvh_nodes;      // 2 texels a node: (lower, first), (upper, count)
+uniform sampler2D u_bvh_triangles;  // 6 texels a triangle: p0 (w: object slot), p1, p2, n0, n1, n2
+layout(std140) uniform TriangleObjects {
+    TriangleObject u_triangle_objects[MAX_DEPTH_IMAGES_PER_MIRROR];
+};
+
+vec4 bvh_fetch(sampler2D data, int index) {
+    return texelFetch(data, ivec2(index % BVH_TEXTURE_WIDTH, index / BVH_TEXTURE_WIDTH), 0);
+}
+
+// Slab test against [lower, upper]; t_near is where the ray enters. 1/0 = +-Inf makes an axis the
+// ray is parallel to either never or always inside its slab, as it should; min/max discard the
+// NaN of 0 * Inf for a ray lying exactly in a slab's face (the box is then treated as missed).
+bool ray_meets_box(vec3 origin, vec3 inverse_direction, vec3 lower, vec3 upper, float t_max, out float t_near) {
+    vec3 t0 = (lower - origin) * inverse_direction;
+    vec3 t1 = (upper - origin) * inverse_direction;
+    vec3 near_t = min(t0, t1), far_t = max(t0, t1);
+    t_near = max(max(near_t.x, near_t.y), max(near_t.z, 0.0));
+    float t_far = min(min(far_t.x, far_t.y), min(far_t.z, t_max));
+    return t_near <= t_far;
+}
+
+// Moller-Trumbore; returns t (or -1) and the barycentrics (u, v) of p1 and p2. Triangles are
+// two-sided: a reflected ray may meet a back face of an open mesh, and Embree's truth does too.
+float ray_triangle(vec3 origin, vec3 direction, vec3 p0, vec3 p1, vec3 p2, out vec2 uv) {
+    vec3 edge1 = p1 - p0, edge2 = p2 - p0;
+    vec3 p = cross(direction, edge2);
+    float determinant = dot(edge1, p);
+    uv = vec2(0.0);
+    if (determinant == 0.0) return -1.0;  // the ray lies in the triangle's plane
+    float inverse = 1.0 / determinant;
+    vec3 s = origin - p0;
+    uv.x = dot(s, p) * inverse;
+    vec3 q = cross(s, edge1);
+    uv.y = dot(direction, q) * inverse;
+    if (uv.x < 0.0 || uv.y < 0.0 || uv.x + uv.y > 1.0) return -1.0;
+    return dot(edge2, q) * inverse;
+}
+
+RayHit nearest_triangle_hit(vec3 origin, vec3 direction) {
+    vec3 inverse_direction = 1.0 / direction;
+    float best_t = 3.0e38;
+    int best_triangle = -1;
+    vec2 best_uv = vec2(0.0);
+    int visited = 0;
+    int stack[BVH_STACK_SIZE];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        int node = stack[--top];
+        vec4 lower = bvh_fetch(u_bvh_nodes, 2 * node), upper = bvh_fetch(u_bvh_nodes, 2 * node + 1);
+        float t_near;
+        ++visited;
+        if (!ray_meets_box(origin, inverse_direction, lower.xyz, upper.xyz, best_t, t_near)) continue;
+        int first = int(lower.w), count = int(upper.w);
+        if (count == 0) {
+            stack[top++] = first + 1;
+            stack[top++] = first;
+            continue;
+        }
+        for (int i = first; i < first + count; ++i) {
+            vec2 uv;
+            float t = ray_triangle(origin, direction, bvh_fetch(u_bvh_triangles, 6 * i).xyz,
+                                   bvh_fetch(u_bvh_triangles, 6 * i + 1).xyz, bvh_fetch(u_bvh_triangles, 6 * i + 2).xyz, uv);
+            if (t > 0.0 && t < best_t) {
+                best_t = t;
+                best_triangle = i;
+                best_uv = uv;
+            }
+        }
+    }
+    if (best_triangle < 0) return no_hit(visited);
+    int base = 6 * best_triangle;
+    int slot = int(bvh_fetch(u_bvh_triangles, base).w);
+    vec3 normal = safe_normalize((1.0 - best_uv.x - best_uv.y) * bvh_fetch(u_bvh_triangles, base + 3).xyz
+                                 + best_uv.x * bvh_fetch(u_bvh_triangles, base + 4).xyz
+                                 + best_uv.y * bvh_fetch(u_bvh_triangles, base + 5).xyz, -direction);
+    TriangleObject object = u_triangle_objects[slot];
+    vec3 position = origin + direction * best_t;
+    Material material = Material(object.kind_and_id.x, object.color_a.xyz, object.color_b.xyz, object.color_a.w);
+    vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz);
+    return RayHit(true, best_t, best_uv, shade(albedo, position, normal), float(object.kind_and_id.y), visited);
+}
