@@ -29,12 +29,12 @@ TRIANGLES_UNIT = 3
 TRIANGLE_OBJECTS_BINDING = 1
 
 
-def _texture(ctx: moderngl.Context, texels: np.ndarray) -> moderngl.Texture:
-    """(n, 4) float32 texels laid out in rows of BVH_TEXTURE_WIDTH."""
+def _texture(ctx: moderngl.Context, texels: np.ndarray, source: str) -> moderngl.Texture:
+    """(n, 4) float32 texels laid out in rows of BVH_TEXTURE_WIDTH; `source` names the scene."""
     rows = max(1, math.ceil(len(texels) / BVH_TEXTURE_WIDTH))
     limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
     if rows > limit:
-        raise SceneError("scene", "objects", f"{len(texels)} BVH texels need {rows} rows, over this GL's limit of {limit}")
+        raise SceneError(source, "objects", f"{len(texels)} BVH texels need {rows} rows, over this GL's limit of {limit}")
     padded = np.zeros((rows * BVH_TEXTURE_WIDTH, 4), np.float32)
     padded[: len(texels)] = texels
     texture = ctx.texture((BVH_TEXTURE_WIDTH, rows), 4, padded.tobytes(), dtype="f4")
@@ -80,8 +80,8 @@ class TrianglePass:
         ordered[:, :3, :3] = triangles[bvh.order]
         ordered[:, 0, 3] = slots[bvh.order]
         ordered[:, 3:, :3] = normals[bvh.order]
-        self.nodes = _texture(ctx, nodes.reshape(-1, 4))
-        self.triangles = _texture(ctx, ordered.reshape(-1, 4))
+        self.nodes = _texture(ctx, nodes.reshape(-1, 4), scene.source)
+        self.triangles = _texture(ctx, ordered.reshape(-1, 4), scene.source)
         self.objects = ctx.buffer(object_records(reflected).tobytes())
 
     @property

@@ -16,8 +16,9 @@ vec4 bvh_fetch(sampler2D data, int index) {
 }
 
 // Slab test against [lower, upper]; t_near is where the ray enters. 1/0 = +-Inf makes an axis the
-// ray is parallel to either never or always inside its slab, as it should; min/max discard the
-// NaN of 0 * Inf for a ray lying exactly in a slab's face (the box is then treated as missed).
+// ray is parallel to either never or always inside its slab, as it should. A ray lying exactly in
+// a slab's face gives 0 * Inf = NaN, and GLSL leaves min/max of NaN undefined: such a box may be
+// missed (not seen in the tests against Embree; a robust slab test is left for later).
 bool ray_meets_box(vec3 origin, vec3 inverse_direction, vec3 lower, vec3 upper, float t_max, out float t_near) {
     vec3 t0 = (lower - origin) * inverse_direction;
     vec3 t1 = (upper - origin) * inverse_direction;
