@@ -13,6 +13,7 @@ import select
 import shutil
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -38,6 +39,20 @@ def _no_window(reason: str) -> None:
     pytest.skip(reason)
 
 
+def _display_number(read_end: int, timeout: float = 20.0) -> str:
+    """What Xvfb writes to -displayfd: the number, then a newline, possibly in two writes. The
+    pipe must stay open until the newline: Xvfb treats a failed write as fatal."""
+    text = ""
+    deadline = time.monotonic() + timeout
+    while not text.endswith("\n"):
+        ready, _, _ = select.select([read_end], [], [], max(0.0, deadline - time.monotonic()))
+        chunk = os.read(read_end, 64).decode() if ready else ""
+        if not chunk:
+            break  # timed out, or Xvfb exited
+        text += chunk
+    return text.strip()
+
+
 @pytest.fixture(scope="module")
 def display() -> Iterator[str]:
     """A private Xvfb server; its display name (":N", chosen by Xvfb itself)."""
@@ -50,8 +65,7 @@ def display() -> Iterator[str]:
         pass_fds=(write_end,), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
     )
     os.close(write_end)
-    ready, _, _ = select.select([read_end], [], [], 20.0)
-    number = os.read(read_end, 64).decode().strip() if ready else ""
+    number = _display_number(read_end)
     os.close(read_end)
     if not number:
         server.kill()

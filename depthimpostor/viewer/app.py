@@ -275,7 +275,9 @@ class Viewer:
             self.renderer.set_impostor_resolution(resolution)
         except SceneError as error:
             return f"depth images stay at {current}x{current}: {error.detail}"
-        count = len(self.renderer.impostors.depth_images) if self.renderer.impostors else 0
+        if self.renderer.impostors is None:
+            return f"depth-image resolution {resolution}x{resolution}, for when depth images are in use"
+        count = len(self.renderer.impostors.depth_images)
         return f"depth images {current}x{current} -> {resolution}x{resolution} (re-baking {count})"
 
     def reload_shaders(self) -> str:
