@@ -142,7 +142,9 @@ def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) ->
                          help="headless GL backend (default: auto, EGL then OSMesa)")
 
 
-def _method_argument(command: argparse.ArgumentParser) -> None:
+def _method_arguments(command: argparse.ArgumentParser) -> None:
+    command.add_argument("--algorithm", choices=[a.name.lower() for a in Algorithm], default="optimized",
+                         help="ray/depth-image intersection: the lecture's basic or optimized algorithm")
     command.add_argument("--method", choices=[m.name.lower() for m in Method], default="depth",
                          help="how reflected objects are stood in for: depth images, or their triangles ray-traced")
 
@@ -153,9 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
     render = commands.add_parser("render", help="render a scene headless to a PNG")
     _scene_arguments(render)
     render.add_argument("-o", "--output", default="render.png", help="output PNG (default: render.png)")
-    render.add_argument("--algorithm", choices=["basic", "optimized"], default="optimized",
-                        help="ray/depth-image intersection: the lecture's basic or optimized algorithm")
-    _method_argument(render)
+    _method_arguments(render)
     render.add_argument("--frames", type=_positive, default=3, help="frames timed after the first (default 3)")
     render.set_defaults(run=_render)
 
@@ -167,14 +167,12 @@ def build_parser() -> argparse.ArgumentParser:
     comparison = commands.add_parser("compare", help="render and truth side by side, with error figures")
     _scene_arguments(comparison)
     comparison.add_argument("-o", "--output", default="report", help="output folder (default: report/)")
-    comparison.add_argument("--algorithm", choices=["basic", "optimized"], default="optimized")
-    _method_argument(comparison)
+    _method_arguments(comparison)
     comparison.set_defaults(run=_compare)
 
     view = commands.add_parser("view", help="fly around a scene in a window (keys: H in the window)")
     _scene_arguments(view, headless=False)
-    view.add_argument("--algorithm", choices=["basic", "optimized"], default="optimized")
-    _method_argument(view)
+    _method_arguments(view)
     view.add_argument("--frames", type=_positive, help="quit after this many frames")
     view.add_argument("--keys", help='scripted key presses, one per frame, e.g. "right*6 ] wait p escape"')
     view.add_argument("--screenshot", type=Path, help="save the last frame (without the overlay) here at exit")

@@ -24,7 +24,7 @@ from .passes.mirrors import MirrorPass
 from .passes.samples import SamplesPass
 from .passes.triangles import TrianglePass
 from .ppc import PPC
-from .scene.model import Scene
+from .scene.model import Camera, Scene
 from .shaders import ProgramCache, ShaderLibrary
 
 
@@ -48,27 +48,11 @@ def to_uint8(color: np.ndarray) -> np.ndarray:
 NEAR_FAR_RATIO = 1e-3
 
 
-@dataclass(frozen=True)
-class CameraView:
-    """Where a camera stands and looks: what a viewer moves. The frame's size and the near and
-    far planes are the renderer's to fit."""
-
-    eye: tuple[float, float, float]
-    target: tuple[float, float, float]
-    up: tuple[float, float, float]
-    fov_y: float  # vertical, degrees
-
-    @classmethod
-    def of_scene(cls, scene: Scene) -> CameraView:
-        camera = scene.camera
-        return cls(camera.eye, camera.target, camera.up, camera.fov_y)
-
-
 Sphere = tuple[np.ndarray, float]
 
 
-def fitted_camera(view: CameraView, size: tuple[int, int], bounds: list[Sphere]) -> PPC:
-    """The camera of `view`, its near and far planes fitted to the scene's bounding spheres: fixed
+def fitted_camera(view: Camera, size: tuple[int, int], bounds: list[Sphere]) -> PPC:
+    """The camera of `view` (where it stands and looks), its near and far planes fitted to the scene's bounding spheres: fixed
     planes would clip a scene a thousand times smaller (or larger) than the one they were picked
     for, and a moving eye changes what is near and far."""
     eye = np.asarray(view.eye, float)
@@ -82,7 +66,7 @@ def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC
     """The scene's own camera, fitted to its bounds. `geometry` is the scene's, when the caller
     has already built it."""
     spheres = [g.bounding_sphere for g in (geometry if geometry is not None else scene_geometry(scene.objects))]
-    return fitted_camera(CameraView.of_scene(scene), scene.render.size, spheres)
+    return fitted_camera(scene.camera, scene.render.size, spheres)
 
 
 @dataclass(frozen=True)
@@ -121,7 +105,7 @@ class Renderer:
         self.programs = ProgramCache(ctx, shaders)
         geometry = scene_geometry(scene.objects)
         self.bounds: list[Sphere] = [g.bounding_sphere for g in geometry]
-        self.view = CameraView.of_scene(scene)
+        self.view = scene.camera
         self.camera = fitted_camera(self.view, scene.render.size, self.bounds)
         self.mirrors: list[ObjectGeometry] = [g for g in geometry if g.object.is_mirror]
         self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
@@ -187,7 +171,7 @@ class Renderer:
         )
 
     # ------------------------------------------------------------------ settings
-    def look_at(self, view: CameraView) -> None:
+    def look_at(self, view: Camera) -> None:
         """Move the camera; depth images do not depend on it, so nothing is re-baked."""
         self.view = view
         self.camera = fitted_camera(view, self.scene.render.size, self.bounds)

@@ -9,12 +9,12 @@ import pytest
 
 from conftest import PROJECT_ROOT
 from depthimpostor.ppc import PPC
-from depthimpostor.renderer import CameraView
+from depthimpostor.scene.model import Camera
 from depthimpostor.viewer.app import next_resolution, save_numbered
 from depthimpostor.viewer.keys import BINDINGS, KEY_CODES, KeyScriptError, controls_markdown, parse_key_script
 from depthimpostor.viewer.navigation import PITCH_MARGIN_DEGREES, ZOOM_STEP, Navigation
 
-HOME = CameraView((0.0, 1.6, 5.0), (0.0, 0.6, 0.0), (0.0, 1.0, 0.0), 45.0)
+HOME = Camera((0.0, 1.6, 5.0), (0.0, 0.6, 0.0), (0.0, 1.0, 0.0), 45.0)
 
 
 def elevation(vector: np.ndarray) -> float:
@@ -38,7 +38,7 @@ def test_orbit_circles_the_target_and_stops_short_of_the_poles() -> None:
 
 
 def test_orbit_from_a_camera_looking_straight_down_stays_finite() -> None:
-    top_down = CameraView((0.0, 5.0, 0.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 45.0)
+    top_down = Camera((0.0, 5.0, 0.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 45.0)
     navigation = Navigation(top_down, scene_radius=1.0)
     navigation.turn(10.0, -10.0)
     assert np.isfinite(navigation.eye).all()

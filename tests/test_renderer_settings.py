@@ -15,8 +15,8 @@ import pytest
 from conftest import PROJECT_ROOT, SCENES, assert_finite
 from depthimpostor.constants import Algorithm, Method
 from depthimpostor.errors import SceneError, ShaderError
-from depthimpostor.renderer import CameraView, Renderer
-from depthimpostor.scene import Scene, load_scene
+from depthimpostor.renderer import Renderer
+from depthimpostor.scene import Camera, Scene, load_scene
 from depthimpostor.shaders import ShaderLibrary
 
 SIZE = (160, 90)
@@ -28,7 +28,7 @@ def scene() -> Scene:
 
 
 def fresh_frame(ctx: moderngl.Context, scene: Scene, algorithm: Algorithm = Algorithm.OPTIMIZED,
-                view: CameraView | None = None) -> np.ndarray:
+                view: Camera | None = None) -> np.ndarray:
     with Renderer(ctx, scene, algorithm) as renderer:
         if view is not None:
             renderer.look_at(view)
@@ -43,7 +43,7 @@ def assert_same_frame(actual: np.ndarray, expected: np.ndarray) -> None:
 
 
 def test_camera_moves_and_resizes_re_bake_nothing(ctx: moderngl.Context, scene: Scene) -> None:
-    orbit = CameraView((3.5, 2.0, 3.0), scene.camera.target, scene.camera.up, 50.0)
+    orbit = Camera((3.5, 2.0, 3.0), scene.camera.target, scene.camera.up, 50.0)
     with Renderer(ctx, scene) as renderer:
         renderer.render()
         baked = renderer.stats.depth_images_baked

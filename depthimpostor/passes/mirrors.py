@@ -16,6 +16,7 @@ from ..shaders import ProgramCache
 from .meshes import GpuMeshes
 from .uniforms import write, write_analytic_planes, write_lighting
 
+
 class ReflectedObjects(Protocol):
     """What a method gives the mirror shader to find reflected objects with (ImpostorPass,
     TrianglePass): resources bound once per draw, and per mirror."""

@@ -12,8 +12,7 @@ import numpy as np
 
 from ..ppc import PPC
 from ..shaders import ProgramCache
-from .impostors import ImpostorPass
-from .impostors import DEPTH_IMAGES_BINDING, bind_impostors
+from .impostors import DEPTH_IMAGES_BINDING, ImpostorPass
 from .uniforms import write, write_matrix
 
 
@@ -26,7 +25,7 @@ class SamplesPass:
 
     def draw(self, impostors: ImpostorPass, camera: PPC) -> int:
         """Draw every depth image's samples into the bound framebuffer; returns the draw calls."""
-        bind_impostors(self.program, impostors.atlas)
+        impostors.bind(self.program)
         write_matrix(self.program, "u_view_projection", camera.view_projection)
         write(self.program, "u_pixel_size", float(np.linalg.norm(camera.b)))
         self.ctx.enable(moderngl.PROGRAM_POINT_SIZE)

@@ -30,7 +30,7 @@ from ..context import Window, bind_default_framebuffer, create_window, describe
 from ..errors import SceneError, ShaderError
 from ..passes.overlay import OverlayPass, Panel
 from ..passes.present import PresentPass
-from ..renderer import CameraView, Renderer
+from ..renderer import Renderer
 from ..scene.model import Scene
 from ..shaders import ProgramCache, ShaderLibrary
 from .keys import ACTIONS_BY_KEY, FLY_KEYS, KEY_CODES, TURN_STEP_DEGREES, Action, KeyPress, help_lines, key_name
@@ -122,7 +122,7 @@ class Viewer:
         self.font_pixels = round(FONT_SIZE * max(glfw.get_window_content_scale(window.handle)))
         self._make_viewer_passes()
         self._make_frame_target()
-        self.navigation = Navigation(CameraView.of_scene(scene), _scene_radius(self.renderer))
+        self.navigation = Navigation(scene.camera, _scene_radius(self.renderer))
         self.log = SessionLog()
         self.frames = 0
         self.held: set[int] = set()

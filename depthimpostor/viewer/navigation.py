@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..ppc import orthonormal_frame
-from ..renderer import CameraView
+from ..scene.model import Camera
 
 PITCH_MARGIN_DEGREES = 1.0
 #: Each wheel step moves the eye this share of the way to the target (or back).
@@ -37,7 +37,7 @@ def _rotate(vector: np.ndarray, axis: np.ndarray, degrees: float) -> np.ndarray:
 
 @dataclass
 class Navigation:
-    home: CameraView
+    home: Camera
     scene_radius: float
     eye: np.ndarray = field(init=False)
     target: np.ndarray = field(init=False)
@@ -53,8 +53,8 @@ class Navigation:
         self.target = np.asarray(self.home.target, float).copy()
         self.flying = False
 
-    def view(self) -> CameraView:
-        return CameraView(tuple(self.eye), tuple(self.target), tuple(self.up), self.home.fov_y)
+    def view(self) -> Camera:
+        return Camera(tuple(self.eye), tuple(self.target), tuple(self.up), self.home.fov_y)
 
     @property
     def distance(self) -> float:
