@@ -315,7 +315,9 @@ class Viewer:
         frame_ms = 1000.0 * statistics.median(draws) if draws else float("nan")
         fps = 1.0 / statistics.median(self.frame_intervals) if self.frame_intervals else float("nan")
         lines = [
-            f"{METHOD_LABELS[renderer.method]}, {renderer.algorithm.name.lower()}",
+            # The algorithm is the depth images' intersection; the other methods have none.
+            METHOD_LABELS[renderer.method]
+            + (f", {renderer.algorithm.name.lower()}" if renderer.method == Method.DEPTH else ""),
             f"{width}x{height} | {frame_ms:.1f} ms (median of {len(draws)}) | {fps:.1f} fps",
         ]
         if renderer.impostors is not None:
