@@ -1,8 +1,11 @@
 """GLSL sources: a tiny `#include` preprocessor, injected defines, a program cache, readable errors.
 
-- `#include "x.glsl"` resolves relative to the including file (or to `shaders/`), is merged once
-  per program, and is wrapped in `#line` directives whose source-string numbers map back to file
-  names, so that a compile error points at the right line of the right file.
+- `#include "x.glsl"` resolves relative to the including file (or to `shaders/`) and is expanded
+  wherever it appears, inside an include guard: the GLSL preprocessor then keeps the first copy it
+  actually compiles, so that an include inside an `#if` branch works whichever branch is taken
+  (merging once in Python, blind to `#if`, would drop a chunk first met in a dropped branch).
+  Each copy is wrapped in `#line` directives whose source-string numbers map back to file names,
+  so that a compile error points at the right line of the right file.
 - Defines go in as a prefix right after `#version`; the body is never rewritten.
 - Programs are cached by (vertex, fragment, defines) per context and compiled once.
 - Files under `generated/` are not on disk: Python writes them from `constants.py` so that struct
@@ -24,7 +27,6 @@ from .errors import ShaderError
 from .resources import shaders_dir
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
-_MAX_INCLUDE_DEPTH = 16
 #: Some drivers (Mesa among them) report source-string 0 whatever `#line L N` said, so the file
 #: number is also encoded in the line number: line = file * stride + line in file.
 _LINE_STRIDE = 10000
@@ -36,6 +38,10 @@ Defines = Mapping[str, str | int | float]
 
 def _line_directive(file_number: int, line: int) -> str:
     return f"#line {file_number * _LINE_STRIDE + line} {file_number}"
+
+
+def _include_guard(name: str) -> str:
+    return "INCLUDED_" + re.sub(r"\W", "_", name).upper()
 
 
 def _generated_sources() -> dict[str, str]:
@@ -74,15 +80,13 @@ class ShaderLibrary:
         result = PreprocessedSource(text="", files=[name])
         prefix = [lines[version_index]]
         prefix += [f"#define {key} {value}" for key, value in {**glsl_constants(), **defines}.items()]
-        body = self._expand(name, lines[version_index + 1 :], version_index + 2, result, included=set(), depth=0)
+        body = self._expand(name, lines[version_index + 1 :], version_index + 2, result, stack=[name])
         result.text = "\n".join(prefix + [_line_directive(0, version_index + 2)] + body) + "\n"
         return result
 
     def _expand(
-        self, name: str, lines: list[str], first_line: int, result: PreprocessedSource, included: set[str], depth: int
+        self, name: str, lines: list[str], first_line: int, result: PreprocessedSource, stack: list[str]
     ) -> list[str]:
-        if depth > _MAX_INCLUDE_DEPTH:
-            raise ShaderError(f"{name}: #include nested deeper than {_MAX_INCLUDE_DEPTH} (a cycle?)")
         file_number = result.files.index(name)
         out: list[str] = []
         for offset, line in enumerate(lines):
@@ -91,13 +95,14 @@ class ShaderLibrary:
                 out.append(line)
                 continue
             target = self._resolve(name, match.group(1))
-            if target not in included:
-                included.add(target)
+            if target in stack:
+                raise ShaderError(f"{name}: #include cycle: {' -> '.join([*stack, target])}")
+            if target not in result.files:
                 result.files.append(target)
-                out.append(f"// begin include {target}")
-                out.append(_line_directive(len(result.files) - 1, 1))
-                out += self._expand(target, self.read(target).splitlines(), 1, result, included, depth + 1)
-                out.append(f"// end include {target}")
+            guard = _include_guard(target)
+            out += [f"#ifndef {guard}", f"#define {guard}", _line_directive(result.files.index(target), 1)]
+            out += self._expand(target, self.read(target).splitlines(), 1, result, [*stack, target])
+            out.append(f"#endif  // {target}")
             out.append(_line_directive(file_number, first_line + offset + 1))
         return out
 

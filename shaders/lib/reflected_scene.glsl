@@ -4,8 +4,6 @@
 #ifndef METHOD
 #define METHOD METHOD_DEPTH
 #endif
-// Included before the method's chunk: includes are merged once, and a first include inside the
-// branch the preprocessor drops would drop it for the other branch too.
 #include "ray_hit.glsl"
 #include "shading.glsl"
 #include "environment.glsl"
