@@ -36,19 +36,18 @@ def _positive(text: str) -> int:
 
 def _load(args: argparse.Namespace) -> Scene:
     scene = load_scene(args.scene or default_scene_path())
-    return scene.with_overrides(size=args.size, impostor_resolution=args.impostor_res)
+    return scene.with_overrides(size=args.size, impostor_resolution=args.impostor_res,
+                                simplified_triangles=args.simplified_triangles)
 
 
 def _stand_in(renderer: Renderer) -> str:
     """What the reflected objects were found through, and what it cost to prepare."""
-    bake_ms = 1000 * sum(renderer.stats.bake_seconds)
-    if renderer.impostors is not None:
-        resolution = renderer.scene.render.impostor_resolution
-        return (f"{renderer.algorithm.name.lower()} algorithm, bake {bake_ms:.1f} ms "
-                f"({len(renderer.impostors.depth_images)} depth images of {resolution}^2)")
-    if renderer.triangles is not None:
-        return f"ray-traced ({renderer.triangles.triangle_count} triangles in a BVH)"
-    return "no mirror"
+    stand_in = renderer.stand_in
+    if stand_in is None:
+        return "no mirror"
+    algorithm = f"{renderer.algorithm.name.lower()} algorithm, " if renderer.method == Method.DEPTH else ""
+    bake = f", bake {1000 * sum(renderer.stats.bake_seconds):.1f} ms" if renderer.baked_images is not None else ""
+    return f"{renderer.method.option}: {algorithm}{stand_in.describe()}, {stand_in.bytes / 2**20:.2f} MiB{bake}"
 
 
 def _render(args: argparse.Namespace) -> int:
@@ -56,7 +55,7 @@ def _render(args: argparse.Namespace) -> int:
     ctx = create_context(args.backend)
     renderer_name = describe(ctx)
     algorithm = Algorithm[args.algorithm.upper()]
-    method = Method[args.method.upper()]
+    method = Method.from_option(args.method)
     try:
         with Renderer(ctx, scene, algorithm, method=method) as renderer:
             for _ in range(args.frames + 1):  # the first frame bakes the depth images and warms up
@@ -80,7 +79,7 @@ def _render(args: argparse.Namespace) -> int:
 def _compare_frame(args: argparse.Namespace) -> tuple[Scene, Comparison]:
     scene = _load(args)
     algorithm = Algorithm[getattr(args, "algorithm", "optimized").upper()]
-    method = Method[getattr(args, "method", "depth").upper()]
+    method = Method.from_option(getattr(args, "method", "depth"))
     ctx = create_context(args.backend)
     try:
         with Renderer(ctx, scene, algorithm, reflection_data=True, method=method) as renderer:
@@ -121,7 +120,7 @@ def _view(args: argparse.Namespace) -> int:
     options = ViewerOptions(
         scene=_load(args),
         algorithm=Algorithm[args.algorithm.upper()],
-        method=Method[args.method.upper()],
+        method=Method.from_option(args.method),
         frames=args.frames,
         keys=tuple(parse_key_script(args.keys or "")),
         screenshot=args.screenshot,
@@ -135,7 +134,10 @@ def _view(args: argparse.Namespace) -> int:
 def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) -> None:
     command.add_argument("scene", nargs="?", help="scene file (TOML); the built-in default scene if omitted")
     command.add_argument("--size", type=_size, help="output size WxH, overriding the scene's render.size")
-    command.add_argument("--impostor-res", type=int, help="depth-image resolution, overriding the scene's")
+    command.add_argument("--impostor-res", type=int,
+                         help="resolution of depth images, cube-map faces and billboards, overriding the scene's")
+    command.add_argument("--simplified-triangles", type=int,
+                         help="--method simplified: triangles per reflected object at most, overriding the scene's")
     if not headless:
         return
     command.add_argument("--backend", choices=["auto", "egl", "osmesa"], default=None,
@@ -145,8 +147,10 @@ def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) ->
 def _method_arguments(command: argparse.ArgumentParser) -> None:
     command.add_argument("--algorithm", choices=[a.name.lower() for a in Algorithm], default="optimized",
                          help="ray/depth-image intersection: the lecture's basic or optimized algorithm")
-    command.add_argument("--method", choices=[m.name.lower() for m in Method], default="depth",
-                         help="how reflected objects are stood in for: depth images, or their triangles ray-traced")
+    command.add_argument("--method", choices=[m.option for m in Method], default="depth",
+                         help="how reflected objects are stood in for: depth images, a cube map (looked up by "
+                              "direction, or parallax-corrected), billboards, simplified triangles, or the real "
+                              "triangles ray-traced")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -19,11 +19,24 @@ class Algorithm(IntEnum):
 
 
 class Method(IntEnum):
-    """How a reflected ray finds what it sees (the lecture's cube map, billboards and simplified
-    geometry are still to come); the viewer cycles through these."""
+    """How a reflected ray finds what it sees: the lecture's stand-ins for the reflected
+    geometry, and the real triangles. The viewer cycles through them in this order."""
 
-    DEPTH = 0  # depth-image impostors
-    RAYTRACE = 1  # the real triangles, through a BVH traversed in the mirror shader
+    DEPTH = 0  # depth-image impostors: one per mirror and reflected object
+    CUBEMAP = 1  # a cube map from the mirror's centre, looked up by direction alone
+    CUBEMAP_PARALLAX = 2  # the same cube map, its lookup corrected against a proxy box
+    BILLBOARD = 3  # one textured quad per mirror and reflected object
+    SIMPLIFIED = 4  # decimated triangles, through the ray-traced method's BVH
+    RAYTRACE = 5  # the real triangles, through a BVH traversed in the mirror shader
+
+    @property
+    def option(self) -> str:
+        """The name on the command line: `cubemap-parallax`."""
+        return self.name.lower().replace("_", "-")
+
+    @classmethod
+    def from_option(cls, option: str) -> Method:
+        return cls[option.upper().replace("-", "_")]
 
 
 class MaterialKind(IntEnum):

@@ -18,10 +18,13 @@ from .context import bind_default_framebuffer
 from .geometry import ObjectGeometry, scene_geometry
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
-from .passes.impostors import ImpostorPass
+from .passes.billboards import BillboardPass
+from .passes.cubemaps import CubeMapPass
+from .passes.impostors import BakedImages, ImpostorPass
 from .passes.meshes import GpuMeshes
-from .passes.mirrors import MirrorPass
+from .passes.mirrors import MirrorPass, ReflectedObjects
 from .passes.samples import SamplesPass
+from .passes.simplified import SimplifiedPass
 from .passes.triangles import TrianglePass
 from .ppc import PPC
 from .scene.model import Camera, Scene
@@ -67,6 +70,18 @@ def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC
     has already built it."""
     spheres = [g.bounding_sphere for g in (geometry if geometry is not None else scene_geometry(scene.objects))]
     return fitted_camera(scene.camera, scene.render.size, spheres)
+
+
+#: Each method's pass. Both cube-map methods look up the same cube map: switching between them
+#: keeps it (only the mirror shader's variant changes).
+STAND_INS: dict[Method, type[BakedImages] | type[TrianglePass]] = {
+    Method.DEPTH: ImpostorPass,
+    Method.CUBEMAP: CubeMapPass,
+    Method.CUBEMAP_PARALLAX: CubeMapPass,
+    Method.BILLBOARD: BillboardPass,
+    Method.SIMPLIFIED: SimplifiedPass,
+    Method.RAYTRACE: TrianglePass,
+}
 
 
 @dataclass(frozen=True)
@@ -136,37 +151,56 @@ class Renderer:
         ctx, scene = self.ctx, self.scene
         self.environment = EnvironmentPass(ctx, self.programs, scene)
         self.diffuse = DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
-        self.impostors: ImpostorPass | None = None
-        self.triangles: TrianglePass | None = None
+        self.stand_in: ReflectedObjects | None = None
         self.mirror_pass: MirrorPass | None = None
         self.samples: SamplesPass | None = None
         if self.mirrors:
-            self._make_reflected(self.method, self.scene)
+            self._make_stand_in(self.method, self.scene)
             self.mirror_pass = self._mirror_pass()
-            if self.show_samples and self.impostors is not None:
+            if self.show_samples and self.sampled is not None:
                 self.samples = SamplesPass(ctx, self.programs)
-        self._impostors_baked = False
+        self._baked = False
 
-    def _make_reflected(self, method: Method, scene: Scene) -> None:
+    def _make_stand_in(self, method: Method, scene: Scene) -> None:
         """The method's stand-in for the reflected objects; the old one (if any) is released only
         once the new one exists, so that a failure leaves the renderer as it was."""
-        impostors = triangles = None
-        if method == Method.DEPTH:
-            impostors = ImpostorPass(self.ctx, self.programs, scene, self.meshes, self.mirrors, self.reflected_objects)
+        kind = STAND_INS[method]
+        stand_in: ReflectedObjects
+        if issubclass(kind, BakedImages):
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.mirrors, self.reflected_objects)
         else:
-            triangles = TrianglePass(self.ctx, scene, self.reflected_objects)
-        for old in (self.impostors, self.triangles):
-            if old is not None:
-                old.release()
-        self.impostors, self.triangles = impostors, triangles
-        self._impostors_baked = False
+            stand_in = kind(self.ctx, scene, self.reflected_objects)
+        if self.stand_in is not None:
+            self.stand_in.release()
+        self.stand_in = stand_in
+        self._baked = False
+
+    @property
+    def impostors(self) -> ImpostorPass | None:
+        """The depth images, when the method is `depth`."""
+        return self.stand_in if isinstance(self.stand_in, ImpostorPass) else None
+
+    @property
+    def baked_images(self) -> BakedImages | None:
+        """The atlas of images the method bakes (depth images, cube-map faces, billboards)."""
+        return self.stand_in if isinstance(self.stand_in, BakedImages) else None
+
+    @property
+    def sampled(self) -> BakedImages | None:
+        """Baked images with a depth per sample, which the sample view can draw."""
+        baked = self.baked_images
+        return baked if baked is not None and baked.atlas.depth is not None else None
+
+    @property
+    def triangles(self) -> TrianglePass | None:
+        """The triangles traced, when the method is `simplified` or `raytrace`."""
+        return self.stand_in if isinstance(self.stand_in, TrianglePass) else None
 
     def _mirror_pass(self) -> MirrorPass:
-        reflected = self.impostors if self.impostors is not None else self.triangles
-        if reflected is None:
+        if self.stand_in is None:
             raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
         return MirrorPass(
-            self.programs, self.scene, self.meshes, reflected, self.analytic_planes, self.method, self.algorithm,
+            self.programs, self.scene, self.meshes, self.stand_in, self.analytic_planes, self.method, self.algorithm,
             self.reflection_data,
         )
 
@@ -198,37 +232,38 @@ class Renderer:
             self.mirror_pass = self._mirror_pass()
 
     def set_method(self, method: Method) -> None:
-        """Stand in for the reflected objects another way: the old method's resources go, the new
-        one's are made (a scene without mirrors has none either way)."""
-        if self.mirrors:
-            self._make_reflected(method, self.scene)
+        """Stand in for the reflected objects another way: the old method's resources go and the
+        new one's are made, unless both use the same (the two cube-map lookups); a scene without
+        mirrors has none either way."""
+        if self.mirrors and STAND_INS[method] is not STAND_INS[self.method]:
+            self._make_stand_in(method, self.scene)
         self.method = method
         if self.mirrors:
             self.mirror_pass = self._mirror_pass()
-            if self.impostors is None:
+            if self.sampled is None:
                 self.show_samples = False
             if self.samples is not None and not self.show_samples:
                 self.samples.release()
                 self.samples = None
 
     def set_impostor_resolution(self, resolution: int) -> None:
-        """Re-plan and re-bake the depth images (all of them share the resolution, so all change).
+        """Re-plan and re-bake the baked images (all of them share the resolution, so all change).
 
         The new atlas is made before the old one goes: a resolution this GL cannot hold raises
         SceneError and leaves the renderer as it was.
         """
         scene = self.scene.with_overrides(impostor_resolution=resolution)
-        if self.impostors is not None:
-            self._make_reflected(Method.DEPTH, scene)
+        if self.baked_images is not None:
+            self._make_stand_in(self.method, scene)
         self.scene = scene
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
 
     def set_show_samples(self, show: bool) -> None:
-        """Show each reflected object as its depth images' samples (the lecture's sample
+        """Show each reflected object as the samples of the baked images (the lecture's sample
         visualization) instead of its triangles; the samples' program is made on first use."""
         self.show_samples = show
-        if show and self.samples is None and self.impostors is not None:
+        if show and self.samples is None and self.sampled is not None:
             self.samples = SamplesPass(self.ctx, self.programs)
 
     def reload_shaders(self) -> None:
@@ -251,14 +286,15 @@ class Renderer:
         Times are wall-clock around `ctx.finish()`: GPU time queries under-report on software
         rasterizers, and a finish makes the time include all the work the frame queued.
         """
-        if self.impostors is not None and not self._impostors_baked:
+        if self.stand_in is not None and not self._baked:
             self.ctx.finish()
             start = time.perf_counter()
-            self.stats.draw_calls += self.impostors.bake()
+            self.stats.draw_calls += self.stand_in.bake()
             self.ctx.finish()
             self.stats.bake_seconds.append(time.perf_counter() - start)
-            self.stats.depth_images_baked += len(self.impostors.depth_images)
-            self._impostors_baked = True
+            if self.baked_images is not None:
+                self.stats.depth_images_baked += len(self.baked_images.depth_images)
+            self._baked = True
 
         self.ctx.finish()
         start = time.perf_counter()
@@ -267,9 +303,10 @@ class Renderer:
         self.color_framebuffer.use()
         self.environment.draw(self.camera)
         view_projection = self.camera.view_projection
-        if self.show_samples and self.samples is not None and self.impostors is not None:
+        sampled = self.sampled
+        if self.show_samples and self.samples is not None and sampled is not None:
             drawn = [g for g in self.diffuse_objects if g.is_analytic_plane]
-            self.stats.draw_calls += self.samples.draw(self.impostors, self.camera)
+            self.stats.draw_calls += self.samples.draw(sampled, self.camera)
         else:
             drawn = self.diffuse_objects
         self.stats.draw_calls += self.diffuse.draw(drawn, view_projection)
@@ -316,7 +353,7 @@ class Renderer:
 
     def _release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
-        for owner in (self.impostors, self.triangles, self.environment, self.samples):
+        for owner in (self.stand_in, self.environment, self.samples):
             if owner is not None:
                 owner.release()
 

@@ -1,6 +1,7 @@
 #version 330 core
 // Diffuse and checker objects, for the camera view and for baking depth images (WRITE_DEPTH_IMAGE:
-// the window depth also goes to a 32-bit float attachment, the depth image's Z).
+// the window depth also goes to a 32-bit float attachment, the depth image's Z, with the object's
+// id beside it for images that show several objects: cube-map faces).
 #include "lib/common.glsl"
 #include "lib/shading.glsl"
 
@@ -12,13 +13,14 @@ in vec3 v_world_normal;
 
 layout(location = 0) out vec4 out_color;
 #if WRITE_DEPTH_IMAGE
-layout(location = 1) out float out_depth;
+layout(location = 1) out vec2 out_depth_and_object;
+uniform int u_object_id;
 #endif
 
 void main() {
     vec3 normal = safe_normalize(v_world_normal, vec3(0.0, 1.0, 0.0));
     out_color = vec4(shade(material_albedo(u_material, v_local_position), v_world_position, normal), 1.0);
 #if WRITE_DEPTH_IMAGE
-    out_depth = gl_FragCoord.z;
+    out_depth_and_object = vec2(gl_FragCoord.z, float(u_object_id));
 #endif
 }

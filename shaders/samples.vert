@@ -2,7 +2,7 @@
 // The lecture's sample visualization: each sample of a depth image drawn as a splat at the 3-D
 // point it stands for, as large as the patch of surface it covers. Gaps, stretched silhouettes
 // and undersampled slopes show up as they are.
-#include "lib/depth_image.glsl"
+#include "lib/baked_images.glsl"
 
 uniform int u_image_index;
 uniform mat4 u_view_projection;

@@ -83,7 +83,7 @@ def test_render_without_a_scene_renders_the_default_scene(
     assert code == 0, stderr
     assert stderr == ""
     timing = assert_rendered(out, stdout, (160, 90))
-    assert "optimized" in timing and "256^2" in timing  # the default algorithm and the scene's resolution
+    assert "optimized" in timing and "256x256" in timing  # the default algorithm and the scene's resolution
 
 
 def test_render_planar_mirror_with_the_basic_algorithm(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -93,7 +93,7 @@ def test_render_planar_mirror_with_the_basic_algorithm(tmp_path: Path, capsys: p
     code, stdout, stderr = run_in_process(args, capsys)
     assert code == 0, stderr
     timing = assert_rendered(out, stdout, (96, 54))
-    assert "basic" in timing and "32^2" in timing
+    assert "basic" in timing and "32x32" in timing
 
 
 # --- bad input ---------------------------------------------------------------------------------------

@@ -1,5 +1,6 @@
-"""The methods a reflected ray can find objects with: depth images (the rest of the suite) and
-the ray-traced triangles, which must agree with Embree's truth to within float noise."""
+"""The methods a reflected ray can find objects with: depth images (the rest of the suite), the
+cube map (by direction, and parallax-corrected), billboards, simplified triangles, and the
+ray-traced triangles, which must agree with Embree's truth to within float noise."""
 
 from __future__ import annotations
 
@@ -15,13 +16,19 @@ from conftest import SCENES, assert_finite
 from depthimpostor.bvh import LEAF_TRIANGLES, build_bvh
 from depthimpostor.cli import main
 from depthimpostor.compare import compare
-from depthimpostor.constants import Method
-from depthimpostor.renderer import Renderer
-from depthimpostor.scene import load_scene
+from depthimpostor.constants import NO_OBJECT, Method
+from depthimpostor.errors import SceneError
+from depthimpostor.meshes import sphere
+from depthimpostor.passes.impostors import BakedImages
+from depthimpostor.passes.simplified import simplified_mesh
+from depthimpostor.renderer import STAND_INS, Renderer
+from depthimpostor.scene import Scene, load_scene
 
-# The hard scenes too: surrounds.toml, which the depth method must refuse (no frustum fits an
-# object around the mirror's centre), is an ordinary scene to a ray tracer.
+# The hard scenes too: surrounds.toml, which the methods that bake from the mirror's centre must
+# refuse (no image taken from there can hold an object around it), is an ordinary scene to a ray
+# tracer.
 SCENE_FILES = sorted(SCENES.glob("*.toml")) + sorted((SCENES / "hard").glob("*.toml"))
+BAKING = [method for method in Method if issubclass(STAND_INS[method], BakedImages)]
 
 
 def test_bvh_holds_every_triangle_once_inside_nested_boxes() -> None:
@@ -41,14 +48,24 @@ def test_bvh_holds_every_triangle_once_inside_nested_boxes() -> None:
             assert (bvh.lower[child] >= bvh.lower[node]).all() and (bvh.upper[child] <= bvh.upper[node]).all()
 
 
+@pytest.mark.parametrize("method", list(Method), ids=lambda m: m.option)
 @pytest.mark.parametrize("path", SCENE_FILES, ids=lambda p: p.stem)
-def test_raytrace_renders_every_scene_finite(ctx: moderngl.Context, path: Path) -> None:
-    scene = load_scene(path).with_overrides(size=(128, 72))
-    with Renderer(ctx, scene, method=Method.RAYTRACE) as renderer:
+def test_every_method_renders_every_scene_finite(ctx: moderngl.Context, path: Path, method: Method) -> None:
+    scene = load_scene(path).with_overrides(size=(128, 72), impostor_resolution=64)
+    if method in BAKING and path.stem == "surrounds":
+        with pytest.raises(SceneError, match="centre of mirror"):
+            Renderer(ctx, scene, method=method)
+        return
+    with Renderer(ctx, scene, method=method) as renderer:
         renderer.render()
         image = renderer.read_color_float()
-        assert renderer.impostors is None, "the ray-traced method bakes no depth image"
-        assert renderer.stats.depth_images_baked == 0
+        # Only the method's own stand-in exists, and only its mirror variant was compiled.
+        assert type(renderer.stand_in) is STAND_INS[method]
+        mirror_variants = {dict(defines)["METHOD"] for _, fragment, defines in renderer.programs.variants
+                           if fragment == "mirror.frag"}
+        assert mirror_variants == {str(int(method))}
+        if method not in BAKING:
+            assert renderer.stats.depth_images_baked == 0
     assert_finite(image)
 
 
@@ -92,3 +109,163 @@ def test_compare_reports_the_method(tmp_path: Path, capsys: pytest.CaptureFixtur
     report = json.loads((out / "report.json").read_text())
     assert report["settings"]["method"] == "raytrace"
     assert "wrong object" in capsys.readouterr().out
+
+
+def _scene_file(folder: Path, text: str, name: str) -> Scene:
+    path = folder / name
+    path.write_text(text, encoding="utf-8")
+    return load_scene(path)
+
+
+def _reflection(ctx: moderngl.Context, scene: Scene, method: Method) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(colours, object ids, mirror mask) of one frame."""
+    with Renderer(ctx, scene, reflection_data=True, method=method) as renderer:
+        renderer.render()
+        data = renderer.read_reflection_data()
+        return renderer.read_color_float(), data.object_id, data.mirror_mask
+
+
+def _around_a_mirror_sphere(eye: str, light_direction: str, objects: str) -> str:
+    """A scene: a unit mirror sphere at the origin, seen from `eye`, among `objects`."""
+    return f"""
+[render]
+size = [240, 240]
+impostor_resolution = 512
+[camera]
+eye = {eye}
+target = [0.0, 0.0, 0.0]
+fov_y = 38.0
+[environment]
+type = "constant"
+color = [0.2, 0.2, 0.25]
+[[lights]]
+type = "directional"
+direction = {light_direction}
+[[objects]]
+name = "mirror"
+shape = {{ type = "sphere", radius = 1.0 }}
+material = {{ type = "mirror" }}
+{objects}"""
+
+
+# Two objects 1,000 radii away, large enough to fill part of the mirror, lit on the sides that
+# face it.
+FAR_OBJECTS = _around_a_mirror_sphere("[0.0, 0.0, 4.0]", "[0.3, -0.4, 1.0]", """
+[[objects]]
+name = "far_box"
+shape = { type = "box", size = [500.0, 500.0, 500.0] }
+material = { type = "diffuse", color = [0.9, 0.2, 0.1] }
+position = [300.0, 250.0, 1000.0]
+rotation = [20.0, 30.0, 0.0]
+[[objects]]
+name = "far_sphere"
+shape = { type = "sphere", radius = 300.0 }
+material = { type = "diffuse", color = [0.1, 0.6, 0.9] }
+position = [-450.0, -150.0, 900.0]
+""")
+
+
+def test_cubemap_equals_depth_images_for_objects_far_away(ctx: moderngl.Context, tmp_path: Path) -> None:
+    scene = _scene_file(tmp_path, FAR_OBJECTS, "far_objects.toml")
+    depth, depth_object, mask = _reflection(ctx, scene, Method.DEPTH)
+    cube, cube_object, _ = _reflection(ctx, scene, Method.CUBEMAP)
+    on_objects = mask & (depth_object != NO_OBJECT)
+    assert on_objects.sum() > 0.03 * mask.sum(), "the far objects fill part of the mirror"
+    # The offset of a reflected ray's origin from the mirror's centre is 1e-3 of the distance:
+    # the same objects, and the same colours up to the two images' different sampling.
+    assert (depth_object != cube_object)[mask].mean() < 0.01
+    assert np.median(np.abs(depth - cube).max(axis=2)[on_objects]) < 0.01
+
+
+@pytest.mark.parametrize("name", ["default", "planar_mirror"])
+def test_cubemap_differs_visibly_for_near_objects(ctx: moderngl.Context, name: str) -> None:
+    scene = load_scene(SCENES / f"{name}.toml").with_overrides(size=(320, 180))
+    _, depth_object, mask = _reflection(ctx, scene, Method.DEPTH)
+    _, cube_object, _ = _reflection(ctx, scene, Method.CUBEMAP)
+    _, parallax_object, _ = _reflection(ctx, scene, Method.CUBEMAP_PARALLAX)
+    plain = (cube_object != depth_object)[mask].mean()
+    assert plain > 0.05, "near objects seen by direction alone land elsewhere in the mirror"
+    assert (parallax_object != depth_object)[mask].mean() < plain, "the parallax correction brings them closer"
+
+
+def test_both_cube_map_lookups_share_one_bake(ctx: moderngl.Context) -> None:
+    scene = load_scene(SCENES / "default.toml").with_overrides(size=(96, 54), impostor_resolution=64)
+    with Renderer(ctx, scene, method=Method.CUBEMAP) as renderer:
+        renderer.render()
+        plain = renderer.read_color_float()
+        cube_map = renderer.stand_in
+        renderer.set_method(Method.CUBEMAP_PARALLAX)
+        renderer.render()
+        assert renderer.stand_in is cube_map and renderer.stats.depth_images_baked == 6
+        assert np.abs(renderer.read_color_float() - plain).max() > 0.1
+
+
+# A flat square facing the mirror's centre (its thin side along the line between them), seen in
+# the mirror by a camera beside it.
+FLAT_FACING = _around_a_mirror_sphere("[2.5, 0.3, 2.5]", "[-1.0, -0.4, -0.2]", """
+[[objects]]
+name = "card"
+shape = { type = "box", size = [0.0005, 1.6, 1.6] }
+material = { type = "checker", color_a = [0.9, 0.8, 0.1], color_b = [0.1, 0.3, 0.8], scale = 0.4 }
+position = [2.5, 0.0, 0.0]
+""")
+
+
+def test_billboard_is_exact_for_a_flat_object_facing_the_mirror(ctx: moderngl.Context, tmp_path: Path) -> None:
+    scene = _scene_file(tmp_path, FLAT_FACING, "flat_facing.toml")
+    with Renderer(ctx, scene, reflection_data=True, method=Method.BILLBOARD) as renderer:
+        renderer.render()
+        figures = compare(renderer).figures
+    assert figures.geometric_pixels > 0.03 * figures.mirror_pixels, "the card fills part of the mirror"
+    # Only texels along the card's outline may differ (the texture's sampling), and the hit
+    # points lie on the card: its half thickness is 0.02 % of its radius.
+    assert figures.wrong_object_share < 0.01
+    assert figures.geometric_error_p95 < 0.001
+    assert figures.color_rmse < 0.05
+
+
+def test_simplified_meshes_keep_the_shape_with_fewer_triangles() -> None:
+    original = sphere(1.0)
+    simple = simplified_mesh(original, 400)
+    assert 300 <= len(simple.indices) <= 400 < len(original.indices)
+    radii = np.linalg.norm(simple.positions, axis=1)
+    assert np.abs(radii - 1.0).max() < 0.02, "vertices stay on the sphere"
+    centres = simple.positions[simple.indices].mean(axis=1)
+    normals = simple.normals[simple.indices].mean(axis=1)
+    assert (np.einsum("ij,ij->i", centres, normals) > 0).all(), "normals point outward"
+    assert simplified_mesh(original, len(original.indices)) is original, "nothing to do, nothing done"
+
+
+def test_simplified_traces_fewer_triangles_with_the_same_traversal(ctx: moderngl.Context) -> None:
+    scene = load_scene(SCENES / "default.toml").with_overrides(size=(320, 180))
+    with Renderer(ctx, scene, reflection_data=True, method=Method.SIMPLIFIED) as renderer:
+        renderer.render()
+        figures = compare(renderer).figures
+        triangles = renderer.triangles
+        assert triangles is not None
+        assert triangles.triangle_count <= scene.render.simplified_triangles * len(renderer.reflected_objects)
+    assert figures.wrong_object_share < 0.01 and figures.geometric_error_median < 0.01
+    # With a target above every object's count nothing is simplified: the ray-traced frame, exactly.
+    everything = scene.with_overrides(simplified_triangles=10**6)
+    simplified, _, _ = _reflection(ctx, everything, Method.SIMPLIFIED)
+    traced, _, _ = _reflection(ctx, everything, Method.RAYTRACE)
+    np.testing.assert_array_equal(simplified, traced)
+
+
+def test_compare_reports_the_same_figures_for_every_method(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    reports = {}
+    for method in Method:
+        out = tmp_path / method.option
+        arguments = ["compare", str(SCENES / "default.toml"), "--size", "96x54", "--impostor-res", "64"]
+        assert main([*arguments, "--method", method.option, "-o", str(out)]) == 0
+        assert sorted(path.name for path in out.iterdir()) == ["difference.png", "render.png", "report.json", "truth.png"]
+        reports[method] = json.loads((out / "report.json").read_text())
+        assert reports[method]["settings"]["method"] == method.option
+    printed = capsys.readouterr().out
+    assert printed.count("wrong object") == len(Method)
+    fields = {name for name, value in reports[Method.DEPTH]["figures"].items() if name != "worst_pixels"}
+    for method, report in reports.items():
+        figures = report["figures"]
+        assert set(figures) - {"worst_pixels"} == fields
+        assert all(np.isfinite(figures[name]) for name in fields if name != "psnr_db"), method
+        assert figures["mirror_pixels"] == reports[Method.DEPTH]["figures"]["mirror_pixels"]

@@ -92,7 +92,7 @@ def test_bundled_scene_loads(path: Path, model_path: Path) -> None:
 
 def test_default_scene_is_a_mirror_sphere_among_diffuse_objects() -> None:
     scene = load_scene(REPO / "scenes" / "default.toml")
-    assert scene.render == RenderSettings((960, 540), 256, 0.25)
+    assert scene.render == RenderSettings(size=(960, 540), impostor_resolution=256, ambient=0.25)
     (mirror,) = scene.mirrors
     assert mirror.shape == SphereShape(1.0)
     assert mirror.position == (0.0, 1.0, 0.0)
@@ -259,8 +259,8 @@ def test_model_matrix_agrees_with_pyrr_rotations() -> None:
 
 def test_with_overrides_replaces_render_settings(tmp_path: Path) -> None:
     scene = load_scene(write(tmp_path, OK))
-    changed = scene.with_overrides(size=(320, 200), impostor_resolution=64)
-    assert changed.render == RenderSettings((320, 200), 64, scene.render.ambient)
+    changed = scene.with_overrides(size=(320, 200), impostor_resolution=64, simplified_triangles=100)
+    assert changed.render == RenderSettings((320, 200), 64, scene.render.ambient, 100)
     assert changed.objects == scene.objects and scene.render.size == (960, 540)
     assert scene.with_overrides() == scene
 
@@ -270,6 +270,7 @@ def test_with_overrides_replaces_render_settings(tmp_path: Path) -> None:
     ({"size": (320,)}, "--size", "expected 2 integers"),
     ({"impostor_resolution": 5000}, "--impostor-res", "expected an integer in [4, 4096], got 5000"),
     ({"impostor_resolution": True}, "--impostor-res", "got true"),
+    ({"simplified_triangles": 0}, "--simplified-triangles", "expected an integer >= 4, got 0"),
 ])
 def test_with_overrides_checks_values(tmp_path: Path, kwargs: dict[str, object], path: str, fragment: str) -> None:
     scene = load_scene(write(tmp_path, OK))
@@ -396,7 +397,9 @@ BAD_CASES = [
     ("unknown_section", '[[object]]\nname = "a"\n' + OK, "",
      'unknown field "object"; expected one of: render, camera, environment, lights, objects'),
     ("unknown_render_field", "[render]\nwidth = 100\n" + OK, "render",
-     'unknown field "width"; expected one of: size, impostor_resolution, ambient'),
+     'unknown field "width"; expected one of: size, impostor_resolution, ambient, simplified_triangles'),
+    ("simplified_too_few", "[render]\nsimplified_triangles = 3\n" + OK, "render.simplified_triangles",
+     "expected an integer >= 4, got 3"),
     ("unknown_object_field", an_object(extra="colour = [1, 0, 0]"), "objects[0]", 'unknown field "colour"'),
     ("missing_name", '[[objects]]\nshape = { type = "sphere", radius = 1.0 }\n', "objects[0].name",
      "missing required field; expected a non-empty string"),

@@ -165,7 +165,7 @@ def test_window_shows_the_scene_and_re_bakes_only_for_resolution(
 def test_every_control_runs_without_gl_errors(ctx: moderngl.Context, display: str, tmp_path: Path) -> None:
     shaders = tmp_path / "shaders"
     shutil.copytree(PROJECT_ROOT / "shaders", shaders)
-    keys = "tab v v m m f w*2 d e shift+w right up home page_up page_down [ r h f1 tab f12 wait"
+    keys = "tab v v m*6 f w*2 d e shift+w right up home page_up page_down [ r h f1 tab f12 wait"
     report = view_session(display, tmp_path, keys, len(keys.split()) + 5, "--shaders", str(shaders))
     done = {event["action"] for event in report["events"]}
     assert done == {
@@ -174,11 +174,14 @@ def test_every_control_runs_without_gl_errors(ctx: moderngl.Context, display: st
     }
     messages = {event["action"]: event["message"] for event in report["events"]}
     assert messages["reload_shaders"] == "shaders reloaded"
-    # A reload re-bakes with the new programs; so did the halved resolution before it, and the
-    # return to depth images after the ray-traced method (which released them).
+    # M goes through every method and back to depth images: the cube map bakes its six faces
+    # once for both of its lookups, billboards bake one image per object, the triangle methods
+    # bake nothing, and the depth images (released meanwhile) are baked again.
+    method_bakes = [new_bakes(report, frame) for frame in events_of(report, "next_method")]
+    assert method_bakes == [6, 0, 5, 0, 0, 5]
+    # A reload re-bakes with the new programs; so did the halved resolution before it.
     assert new_bakes(report, events_of(report, "reload_shaders")[0]) == 5
-    assert new_bakes(report, events_of(report, "next_method")[0]) == 0
-    assert report["depth_images_baked"] == 5 + 5 + 5 + 5
+    assert report["depth_images_baked"] == 5 + sum(method_bakes) + 5 + 5
     # Every setting toggled back, zoom undone, the camera home: the frame `render` makes.
     expected, _, _ = headless(ctx, load_scene(DEFAULT_SCENE).with_overrides(size=SIZE, impostor_resolution=128))
     close = np.abs(png(tmp_path / "last.png") - expected).max(axis=2) <= 2

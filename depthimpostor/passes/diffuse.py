@@ -13,7 +13,7 @@ from ..geometry import ObjectGeometry
 from ..scene.model import Scene
 from ..shaders import ProgramCache
 from .meshes import GpuMeshes
-from .uniforms import write_lighting, write_material
+from .uniforms import write, write_lighting, write_material
 
 
 class DiffusePass:
@@ -28,6 +28,7 @@ class DiffusePass:
         """Draw the objects; returns the number of draw calls."""
         for item in items:
             write_material(self.program, "u_material", item.object.material)
+            write(self.program, "u_object_id", item.index)
             self.meshes.draw(self.program, item, view_projection)
         return len(items)
 

@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import Enum
+from typing import ClassVar
 
 import moderngl
 import numpy as np
 
 from ..context import bind_default_framebuffer
-from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR
+from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, NO_OBJECT
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
@@ -40,27 +42,39 @@ DEPTH_IMAGES_BINDING = 0
 
 
 def bind_impostors(program: moderngl.Program, atlas: ImpostorAtlas) -> None:
-    """Point a program that includes lib/reflected_scene.glsl at the depth-image atlas."""
+    """Point a program that includes lib/baked_images.glsl at the atlas."""
     bind_texture(program, "u_impostor_color", atlas.color, COLOR_ATLAS_UNIT)
-    bind_texture(program, "u_impostor_depth", atlas.depth, DEPTH_ATLAS_UNIT)
+    if atlas.depth is not None:
+        bind_texture(program, "u_impostor_depth", atlas.depth, DEPTH_ATLAS_UNIT)
     bind_uniform_block(program, "DepthImages", DEPTH_IMAGES_BINDING)
 
 
 @dataclass(frozen=True, eq=False)
 class DepthImage:
-    """One baked depth image: which mirror and object, its camera, and where it sits in the atlas."""
+    """One baked image: its mirror, the objects it shows (one for a depth image or a billboard,
+    all reflected objects for a cube-map face), its camera, and where it sits in the atlas."""
 
     mirror: ObjectGeometry
-    target: ObjectGeometry
+    targets: tuple[ObjectGeometry, ...]
     camera: PPC
     tile_origin: tuple[int, int]
+
+    @property
+    def target(self) -> ObjectGeometry:
+        """The one object of a per-object image."""
+        if len(self.targets) != 1:
+            raise ValueError(f"this image shows {len(self.targets)} objects, not one")
+        return self.targets[0]
 
     @property
     def tile(self) -> tuple[int, int, int, int]:
         return (*self.tile_origin, self.camera.width, self.camera.height)
 
     def record(self) -> np.void:
-        return self.camera.depth_image_record(self.target.index, self.tile_origin)
+        """The std140 record; `eye.w` names the object of a per-object image (NO_OBJECT for a
+        cube-map face, whose texels name their own)."""
+        object_id = self.targets[0].index if len(self.targets) == 1 else NO_OBJECT
+        return self.camera.depth_image_record(object_id, self.tile_origin)
 
 
 #: The face GL culls to keep the back faces. A depth image's projection puts image row 0 (the top)
@@ -96,9 +110,10 @@ def atlas_grid(count: int) -> tuple[int, int]:
 
 
 class ImpostorAtlas:
-    """The textures and framebuffer that hold every depth image of the scene."""
+    """The textures and framebuffer that hold every baked image of the scene: colour, and (unless
+    `layers` is False: billboards need colour alone) the two float depth layers."""
 
-    def __init__(self, ctx: moderngl.Context, count: int, resolution: int) -> None:
+    def __init__(self, ctx: moderngl.Context, count: int, resolution: int, layers: bool = True) -> None:
         columns, rows = atlas_grid(count)
         size = (columns * resolution, rows * resolution)
         limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
@@ -113,11 +128,13 @@ class ImpostorAtlas:
         self.columns = columns
         self.resolution = resolution
         self.color = ctx.texture(size, 4, dtype="f1")
-        self.depth = ctx.texture(size, 2, dtype="f4")  # (visible surface, nearest back face)
-        for texture in (self.color, self.depth):
+        # (visible surface, second layer): see lib/baked_images.glsl.
+        self.depth = ctx.texture(size, 2, dtype="f4") if layers else None
+        self.textures = [self.color] if self.depth is None else [self.color, self.depth]
+        for texture in self.textures:
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._depth_buffer = ctx.depth_renderbuffer(size)
-        self.framebuffer = ctx.framebuffer([self.color, self.depth], self._depth_buffer)
+        self.framebuffer = ctx.framebuffer(self.textures, self._depth_buffer)
 
     @property
     def size(self) -> tuple[int, int]:
@@ -125,15 +142,21 @@ class ImpostorAtlas:
 
     @property
     def bytes(self) -> int:
-        """GPU memory of the depth images: colour, float depth and the depth buffer used to bake."""
+        """GPU memory of the images: colour, float layers and the depth buffer used to bake."""
         width, height = self.size
-        return width * height * (4 + 8 + 4)
+        return width * height * (4 + (8 if self.depth is not None else 0) + 4)
 
     def tile_origin(self, slot: int) -> tuple[int, int]:
         return (slot % self.columns) * self.resolution, (slot // self.columns) * self.resolution
 
+    def _layers(self) -> moderngl.Texture:
+        if self.depth is None:
+            raise ValueError("this atlas keeps colour alone (billboards): it holds no depth images")
+        return self.depth
+
     def read(self, image: DepthImage) -> DepthImageData:
         """One depth image as the numpy reference takes it (rows top to bottom, colour in [0, 1])."""
+        self._layers()
         viewport = image.tile
         height, width = viewport[3], viewport[2]
         color = np.frombuffer(self.framebuffer.read(viewport=viewport, components=4, attachment=0), np.uint8)
@@ -152,16 +175,34 @@ class ImpostorAtlas:
         rgba = np.concatenate([np.rint(np.clip(data.color, 0, 1) * 255), np.full((height, width, 1), 255)], axis=2)
         self.color.write(np.ascontiguousarray(rgba, np.uint8).tobytes(), viewport=viewport)
         layers = np.stack([data.depth, data.back_layer], axis=2)
-        self.depth.write(np.ascontiguousarray(layers, np.float32).tobytes(), viewport=viewport)
+        self._layers().write(np.ascontiguousarray(layers, np.float32).tobytes(), viewport=viewport)
 
     def release(self) -> None:
         bind_default_framebuffer(self.ctx)
-        for item in (self.framebuffer, self._depth_buffer, self.color, self.depth):
+        for item in (self.framebuffer, self._depth_buffer, *self.textures):
             item.release()
 
 
-class ImpostorPass:
-    """Plans, bakes and uploads the depth images of every mirror."""
+class SecondLayer(Enum):
+    """What the atlas's second texture holds besides the visible surface's depth (R)."""
+
+    BACK_FACE = "back face"  # G: the nearest back face behind it (depth images)
+    OBJECT_ID = "object id"  # G: the id of the object seen (cube-map faces show several)
+    NONE = "none"  # no float layers at all: colour alone (billboards)
+
+
+#: One image to bake: the objects it shows and the camera that sees them.
+ImagePlan = tuple[tuple[ObjectGeometry, ...], PPC]
+
+
+class BakedImages:
+    """Images baked from the mirrors' centres into one atlas, with a uniform buffer of records per
+    mirror: what the depth-image, cube-map and billboard methods share. They differ in the images
+    they plan (per object, or six faces) and in the second layer they keep."""
+
+    second_layer: ClassVar[SecondLayer]
+    #: What one image is called in the CLI's and the viewer's summaries.
+    image_noun: ClassVar[str]
 
     def __init__(
         self,
@@ -172,33 +213,44 @@ class ImpostorPass:
         mirrors: list[ObjectGeometry],
         reflected: list[ObjectGeometry],
     ) -> None:
+        plan = self.plan(scene, mirrors, reflected)
         self.ctx = ctx
         self.scene = scene
         self.meshes = meshes
-        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=True)
-        self.back_faces = programs.get("mesh.vert", "back_depth.frag")
-        resolution = scene.render.impostor_resolution
-        if len(reflected) > MAX_DEPTH_IMAGES_PER_MIRROR:
-            raise SceneError(
-                scene.source, "objects",
-                f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} reflected objects per mirror, got {len(reflected)}",
-            )
-        self.atlas = ImpostorAtlas(ctx, len(mirrors) * len(reflected), resolution)
+        layers = self.second_layer != SecondLayer.NONE
+        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=layers)
+        self.back_faces = programs.get("mesh.vert", "back_depth.frag") if self.second_layer == SecondLayer.BACK_FACE else None
+        count = sum(len(images) for images in plan.values())
+        self.atlas = ImpostorAtlas(ctx, count, scene.render.impostor_resolution, layers)
         self.images_by_mirror: dict[int, list[DepthImage]] = {}
         slot = 0
         for mirror in mirrors:
             images = []
-            for target in reflected:
-                camera = fit_depth_image_camera(scene, mirror, target, resolution)
-                images.append(DepthImage(mirror, target, camera, self.atlas.tile_origin(slot)))
+            for targets, camera in plan[mirror.index]:
+                images.append(DepthImage(mirror, targets, camera, self.atlas.tile_origin(slot)))
                 slot += 1
             self.images_by_mirror[mirror.index] = images
         self.uniform_buffers = {index: self._uniform_buffer(images) for index, images in self.images_by_mirror.items()}
-        self.bakes = 0  # depth images rendered so far (tests and stats check that nothing re-bakes)
+        self.bakes = 0  # images rendered so far (tests and stats check that nothing re-bakes)
+
+    def plan(
+        self, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
+    ) -> dict[int, list[ImagePlan]]:
+        """The images to bake for each mirror (by its index): by default one per reflected
+        object (depth images, billboards); cube maps bake six faces instead."""
+        return per_object_plan(scene, mirrors, reflected)
 
     @property
     def depth_images(self) -> list[DepthImage]:
         return [image for images in self.images_by_mirror.values() for image in images]
+
+    @property
+    def bytes(self) -> int:
+        return self.atlas.bytes + sum(buffer.size for buffer in self.uniform_buffers.values())
+
+    def describe(self) -> str:
+        resolution = self.atlas.resolution
+        return f"{len(self.depth_images)} {self.image_noun}s of {resolution}x{resolution}"
 
     def _uniform_buffer(self, images: list[DepthImage]) -> moderngl.Buffer:
         # The block is declared with MAX_DEPTH_IMAGES_PER_MIRROR entries; a smaller buffer would
@@ -216,11 +268,17 @@ class ImpostorPass:
         write(program, "u_depth_image_count", len(self.images_by_mirror[mirror.index]))
 
     def bake(self) -> int:
-        """Render every depth image into its tile; returns the number of draw calls."""
+        """Render every image into its tile; returns the number of draw calls."""
         framebuffer = self.atlas.framebuffer
         framebuffer.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
-        everything = ((True,) * 4, (True,) * 4)
+        # The visible surface writes colour, R, and G when G is the object id. (moderngl takes
+        # one attachment's mask as a plain 4-tuple.)
+        if self.atlas.depth is None:
+            everything = surface_mask = (True,) * 4
+        else:
+            everything = ((True,) * 4, (True,) * 4)
+            surface_mask = ((True,) * 4, (True, self.second_layer == SecondLayer.OBJECT_ID, False, False))
         draws = 0
         try:
             for image in self.depth_images:
@@ -229,25 +287,54 @@ class ImpostorPass:
                 # BACKGROUND_DEPTH, the value the depth buffer clears to.
                 framebuffer.color_mask = everything
                 framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
-                # The visible surface: colour and the R layer.
-                framebuffer.color_mask = ((True,) * 4, (True, False, False, False))
-                draws += self.diffuse.draw([image.target], image.camera.view_projection)
-                # The nearest back face: the G layer alone, against a fresh depth buffer.
-                framebuffer.color_mask = ((False,) * 4, (False,) * 4)
-                framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=image.tile)
-                framebuffer.color_mask = ((False,) * 4, (False, True, False, False))
-                self.ctx.enable(moderngl.CULL_FACE)
-                self.ctx.cull_face = BAKE_CULLS_FRONT_FACES
-                self.meshes.draw(self.back_faces, image.target, image.camera.view_projection)
-                self.ctx.disable(moderngl.CULL_FACE)
-                draws += 1
+                framebuffer.color_mask = surface_mask
+                draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
+                if self.back_faces is not None:
+                    draws += self._bake_back_faces(image)
                 self.bakes += 1
         finally:
             framebuffer.color_mask = everything
             self.ctx.disable(moderngl.CULL_FACE)
         return draws
 
+    def _bake_back_faces(self, image: DepthImage) -> int:
+        """The nearest back face: the G layer alone, against a fresh depth buffer."""
+        assert self.back_faces is not None
+        framebuffer = self.atlas.framebuffer
+        framebuffer.color_mask = ((False,) * 4, (False,) * 4)
+        framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=image.tile)
+        framebuffer.color_mask = ((False,) * 4, (False, True, False, False))
+        self.ctx.enable(moderngl.CULL_FACE)
+        self.ctx.cull_face = BAKE_CULLS_FRONT_FACES
+        for target in image.targets:
+            self.meshes.draw(self.back_faces, target, image.camera.view_projection)
+        self.ctx.disable(moderngl.CULL_FACE)
+        return len(image.targets)
+
     def release(self) -> None:
         for buffer in self.uniform_buffers.values():
             buffer.release()
         self.atlas.release()
+
+
+class ImpostorPass(BakedImages):
+    """The depth-image method: one depth image per mirror and reflected object, with a frustum
+    fitted to that object alone, and the back-face layer."""
+
+    second_layer = SecondLayer.BACK_FACE
+    image_noun = "depth image"
+
+
+def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]) -> dict[int, list[ImagePlan]]:
+    """One image per mirror and reflected object, its frustum fitted to the object. The images
+    of one mirror share its uniform block, which has a fixed size."""
+    if len(reflected) > MAX_DEPTH_IMAGES_PER_MIRROR:
+        raise SceneError(
+            scene.source, "objects",
+            f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} reflected objects per mirror, got {len(reflected)}",
+        )
+    resolution = scene.render.impostor_resolution
+    return {
+        mirror.index: [((target,), fit_depth_image_camera(scene, mirror, target, resolution)) for target in reflected]
+        for mirror in mirrors
+    }

@@ -18,12 +18,24 @@ from .uniforms import write, write_analytic_planes, write_lighting
 
 
 class ReflectedObjects(Protocol):
-    """What a method gives the mirror shader to find reflected objects with (ImpostorPass,
-    TrianglePass): resources bound once per draw, and per mirror."""
+    """A method's stand-in for the reflected objects (ImpostorPass, CubeMapPass, BillboardPass,
+    TrianglePass, SimplifiedPass): what it bakes, and what it binds for the mirror shader once per
+    draw and per mirror."""
+
+    @property
+    def bytes(self) -> int: ...
+
+    def describe(self) -> str: ...
+
+    def bake(self) -> int:
+        """Render what the method renders ahead of the mirrors; returns the draw calls."""
+        ...
 
     def bind(self, program: moderngl.Program) -> None: ...
 
     def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None: ...
+
+    def release(self) -> None: ...
 
 
 def reflection_defines(

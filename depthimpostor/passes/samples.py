@@ -12,7 +12,7 @@ import numpy as np
 
 from ..ppc import PPC
 from ..shaders import ProgramCache
-from .impostors import DEPTH_IMAGES_BINDING, ImpostorPass
+from .impostors import DEPTH_IMAGES_BINDING, BakedImages
 from .uniforms import write, write_matrix
 
 
@@ -23,8 +23,9 @@ class SamplesPass:
         # Every vertex comes from gl_VertexID: the vertex array has no buffers.
         self.vertex_array = ctx.vertex_array(self.program, [])
 
-    def draw(self, impostors: ImpostorPass, camera: PPC) -> int:
-        """Draw every depth image's samples into the bound framebuffer; returns the draw calls."""
+    def draw(self, impostors: BakedImages, camera: PPC) -> int:
+        """Draw the samples of every baked image (depth images, cube-map faces) into the bound
+        framebuffer; returns the draw calls."""
         impostors.bind(self.program)
         write_matrix(self.program, "u_view_projection", camera.view_projection)
         write(self.program, "u_pixel_size", float(np.linalg.norm(camera.b)))

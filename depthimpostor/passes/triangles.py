@@ -21,6 +21,7 @@ from ..constants import (
 )
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
+from ..meshes import Mesh
 from ..scene.model import Scene
 from .uniforms import bind_texture, bind_uniform_block, material_fields
 
@@ -57,14 +58,20 @@ def object_records(objects: list[ObjectGeometry]) -> np.ndarray:
 class TrianglePass:
     """Owns the BVH textures and the per-object uniform buffer of the ray-traced method."""
 
-    def __init__(self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry]) -> None:
+    noun = "triangle"
+
+    def __init__(
+        self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry], world_meshes: list[Mesh] | None = None
+    ) -> None:
+        """`world_meshes` are the triangles to trace, one per reflected object, in world space:
+        their own by default (the simplified method passes decimated ones)."""
         if len(reflected) > MAX_DEPTH_IMAGES_PER_MIRROR:
             raise SceneError(
                 scene.source, "objects",
                 f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} reflected objects, got {len(reflected)}",
             )
         self.ctx = ctx
-        worlds = [item.world_mesh for item in reflected]
+        worlds = world_meshes if world_meshes is not None else [item.world_mesh for item in reflected]
         triangles = np.concatenate([mesh.positions[mesh.indices] for mesh in worlds])
         normals = np.concatenate([mesh.normals[mesh.indices] for mesh in worlds])
         slots = np.concatenate([np.full(len(mesh.indices), slot) for slot, mesh in enumerate(worlds)])
@@ -87,6 +94,13 @@ class TrianglePass:
     @property
     def bytes(self) -> int:
         return sum(texture.width * texture.height * 16 for texture in (self.nodes, self.triangles)) + self.objects.size
+
+    def describe(self) -> str:
+        return f"{self.triangle_count} {self.noun}s in a BVH"
+
+    def bake(self) -> int:
+        """Nothing to bake: the BVH was built and uploaded with the pass."""
+        return 0
 
     def bind(self, program: moderngl.Program) -> None:
         bind_texture(program, "u_bvh_nodes", self.nodes, NODES_UNIT)

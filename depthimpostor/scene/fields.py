@@ -120,6 +120,8 @@ def choice(options: Sequence[str]) -> Reader[str]:
 NAME = Reader("a non-empty string", lambda v: v if isinstance(v, str) and v.strip() else None)
 SIZE = cast(Reader[tuple[int, int]], integers(2, Bounds(1, 16384)))
 RESOLUTION = integer(Bounds(4, 4096))
+#: A decimation target: fewer than 4 triangles cannot enclose anything.
+TRIANGLE_TARGET = integer(Bounds(4))
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ import numpy as np
 from depthimpostor.constants import MAX_LIGHTS
 from depthimpostor.errors import SceneError
 from depthimpostor.scene import fields as f
-from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, At, Table, Variant, Vec3, read_variant, show
+from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_variant, show
 from depthimpostor.scene.model import (
     ZERO, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial, Environment, Light, Material,
     MeshShape, MirrorMaterial, PlaneShape, RenderSettings, Scene, SceneObject, Shape, SphereShape,
@@ -120,6 +120,7 @@ def _render(t: Table) -> RenderSettings:
     d = RenderSettings()
     return RenderSettings(size=t.opt("size", SIZE, d.size),
                           impostor_resolution=t.opt("impostor_resolution", RESOLUTION, d.impostor_resolution),
+                          simplified_triangles=t.opt("simplified_triangles", TRIANGLE_TARGET, d.simplified_triangles),
                           ambient=t.opt("ambient", f.number(f.UNIT), d.ambient))
 
 
@@ -166,7 +167,7 @@ def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
     top = Table(data, At(source, "", Path(base_dir)), ("render", "camera", "environment", "lights", "objects"))
     return Scene(
         source=source,
-        render=_render(top.section("render", ("size", "impostor_resolution", "ambient"))),
+        render=_render(top.section("render", ("size", "impostor_resolution", "ambient", "simplified_triangles"))),
         camera=_camera(top.section("camera", ("eye", "target", "up", "fov_y"))),
         environment=top.variant("environment", _ENVIRONMENTS, default=Environment(), default_type="gradient"),
         # The shading chunk loops over a fixed-size uniform array of lights.

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from depthimpostor.scene.fields import RESOLUTION, SIZE, At, Vec3
+from depthimpostor.scene.fields import RESOLUTION, SIZE, TRIANGLE_TARGET, At, Vec3
 
 ZERO: Vec3 = (0.0, 0.0, 0.0)
 
@@ -23,6 +23,8 @@ class RenderSettings:
     impostor_resolution: int = 256  # depth-image width and height
     # color = albedo * (ambient + sum of lights' intensity * color * max(0, N.L))
     ambient: float = 0.15
+    # The `simplified` method: each reflected object decimated to at most this many triangles.
+    simplified_triangles: int = 500
 
 
 @dataclass(frozen=True)
@@ -174,8 +176,8 @@ class Scene:
     def non_mirrors(self) -> tuple[SceneObject, ...]:
         return tuple(o for o in self.objects if not o.is_mirror)
 
-    def with_overrides(self, size: tuple[int, int] | None = None,
-                       impostor_resolution: int | None = None) -> Scene:
+    def with_overrides(self, size: tuple[int, int] | None = None, impostor_resolution: int | None = None,
+                       simplified_triangles: int | None = None) -> Scene:
         """This scene with render settings from the command line, checked as strictly as the file's."""
         at = At("command line", "")
         render = self.render
@@ -184,4 +186,7 @@ class Scene:
         if impostor_resolution is not None:
             resolution = at.key("--impostor-res").read(impostor_resolution, RESOLUTION)
             render = dataclasses.replace(render, impostor_resolution=resolution)
+        if simplified_triangles is not None:
+            target = at.key("--simplified-triangles").read(simplified_triangles, TRIANGLE_TARGET)
+            render = dataclasses.replace(render, simplified_triangles=target)
         return dataclasses.replace(self, render=render)

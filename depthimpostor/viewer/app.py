@@ -51,7 +51,14 @@ MAX_FLY_SECONDS = 0.1
 MESSAGE_SECONDS = 4.0
 #: Depth-image resolutions the resolution keys step through.
 RESOLUTION_STEPS = tuple(2**k for k in range(3, 13))  # 8 .. 4096
-METHOD_LABELS = {Method.DEPTH: "depth-image impostors", Method.RAYTRACE: "ray-traced triangles"}
+METHOD_LABELS = {
+    Method.DEPTH: "depth-image impostors",
+    Method.CUBEMAP: "cube map (direction alone)",
+    Method.CUBEMAP_PARALLAX: "cube map, parallax-corrected",
+    Method.BILLBOARD: "billboards",
+    Method.SIMPLIFIED: "simplified triangles",
+    Method.RAYTRACE: "ray-traced triangles",
+}
 
 
 @dataclass(frozen=True)
@@ -245,10 +252,11 @@ class Viewer:
         elif action in (Action.RESOLUTION_UP, Action.RESOLUTION_DOWN):
             return self._change_resolution(action == Action.RESOLUTION_UP)
         elif action == Action.TOGGLE_SAMPLES:
-            if renderer.impostors is None:
-                return "this scene has no depth images (no mirror)"
+            if renderer.sampled is None:
+                return "no samples to show: " + ("no mirror" if renderer.stand_in is None else
+                                                 f"{METHOD_LABELS[renderer.method]} keep no depth")
             renderer.set_show_samples(not renderer.show_samples)
-            return "showing depth-image samples" if renderer.show_samples else "showing objects"
+            return "showing the baked images' samples" if renderer.show_samples else "showing objects"
         elif action == Action.RELOAD_SHADERS:
             return self.reload_shaders()
         elif action == Action.SCREENSHOT:
@@ -270,15 +278,15 @@ class Viewer:
         current = self.renderer.scene.render.impostor_resolution
         resolution = next_resolution(current, up)
         if resolution == current:
-            return f"depth images stay at {current}x{current}: the end of the range"
+            return f"baked images stay at {current}x{current}: the end of the range"
         try:
             self.renderer.set_impostor_resolution(resolution)
         except SceneError as error:
-            return f"depth images stay at {current}x{current}: {error.detail}"
-        if self.renderer.impostors is None:
-            return f"depth-image resolution {resolution}x{resolution}, for when depth images are in use"
-        count = len(self.renderer.impostors.depth_images)
-        return f"depth images {current}x{current} -> {resolution}x{resolution} (re-baking {count})"
+            return f"baked images stay at {current}x{current}: {error.detail}"
+        baked = self.renderer.baked_images
+        if baked is None:
+            return f"image resolution {resolution}x{resolution}, for the methods that bake images"
+        return f"{baked.image_noun}s {current}x{current} -> {resolution}x{resolution} (re-baking {len(baked.depth_images)})"
 
     def reload_shaders(self) -> str:
         try:
@@ -320,16 +328,12 @@ class Viewer:
             + (f", {renderer.algorithm.name.lower()}" if renderer.method == Method.DEPTH else ""),
             f"{width}x{height} | {frame_ms:.1f} ms (median of {len(draws)}) | {fps:.1f} fps",
         ]
-        if renderer.impostors is not None:
-            resolution = renderer.impostors.atlas.resolution
-            bake_ms = 1000.0 * renderer.stats.bake_seconds[-1] if renderer.stats.bake_seconds else 0.0
-            lines.append(
-                f"{len(renderer.impostors.depth_images)} depth images {resolution}x{resolution} | "
-                f"{renderer.impostors.atlas.bytes / 2**20:.1f} MiB | bake {bake_ms:.0f} ms"
-            )
-        elif renderer.triangles is not None:
-            lines.append(f"{renderer.triangles.triangle_count} triangles in a BVH | "
-                         f"{renderer.triangles.bytes / 2**20:.1f} MiB")
+        if renderer.stand_in is not None:
+            line = f"{renderer.stand_in.describe()} | {renderer.stand_in.bytes / 2**20:.1f} MiB"
+            if renderer.baked_images is not None:
+                bake_ms = 1000.0 * renderer.stats.bake_seconds[-1] if renderer.stats.bake_seconds else 0.0
+                line += f" | bake {bake_ms:.0f} ms"
+            lines.append(line)
         else:
             lines.append("nothing to reflect (no mirror)")
         mode = "fly" if self.navigation.flying else "orbit"

@@ -1,46 +1,6 @@
 // Ray / depth-image intersection: the lecture's two algorithms, shared by the mirror pass and the
 // GPU ray query. depthimpostor/reference.py implements the same functions with the same names.
-#include "../generated/depth_image.glsl"
-#include "ray_hit.glsl"
-
-// One mirror's depth images (one per reflected object), from its uniform buffer.
-layout(std140) uniform DepthImages {
-    DepthImage u_depth_images[MAX_DEPTH_IMAGES_PER_MIRROR];
-};
-uniform int u_depth_image_count;
-
-uniform sampler2D u_impostor_color;  // atlas of every depth image's colours (RGBA8)
-// Atlas of their OpenGL window depths (RG32F): the visible surface, and the nearest back face
-// behind it (the far end of the object's first solid run along the eye ray); 1.0 = nothing.
-uniform sampler2D u_impostor_depth;
-
-// (u w, v w, w) of a world-space vector: [a b c]^-1 applied row by row.
-vec3 camera_coordinates(DepthImage image, vec3 world_vector) {
-    return vec3(dot(image.inverse_row0.xyz, world_vector),
-                dot(image.inverse_row1.xyz, world_vector),
-                dot(image.inverse_row2.xyz, world_vector));
-}
-
-float opengl_depth(DepthImage image, float w) {
-    float w_near = image.depth_range.x, w_far = image.depth_range.y;
-    return w_far * (w - w_near) / (w * (w_far - w_near));
-}
-
-float w_from_opengl_depth(DepthImage image, float depth) {
-    float w_near = image.depth_range.x, w_far = image.depth_range.y;
-    return 1.0 / (1.0 / w_near - depth * (1.0 / w_near - 1.0 / w_far));
-}
-
-vec3 unproject(DepthImage image, vec2 s, float w) {
-    return image.eye.xyz + (image.a.xyz * s.x + image.b.xyz * s.y + image.c.xyz) * w;
-}
-
-// The sample under image point s. Clipped endpoints lie on the frustum's sides, where s.x can be
-// exactly width (or a rounding step outside [0, width]): clamp to the image's own texels.
-ivec2 texel_of(DepthImage image, vec2 s) {
-    ivec2 texel = clamp(ivec2(floor(s)), ivec2(0), image.tile.zw - 1);
-    return image.tile.xy + texel;
-}
+#include "baked_images.glsl"
 
 // (visible surface, back of its solid run) at an atlas texel (reference.sample_layers). Where
 // no back face was drawn (an open surface) the object is taken to be as thin as it looks: no
@@ -48,10 +8,6 @@ ivec2 texel_of(DepthImage image, vec2 s) {
 vec2 layers_at(ivec2 texel) {
     vec2 layers = texelFetch(u_impostor_depth, texel, 0).rg;
     return vec2(layers.x, layers.y >= BACKGROUND_DEPTH ? layers.x : max(layers.x, layers.y));
-}
-
-vec3 sample_color(DepthImage image, vec2 s) {
-    return texelFetch(u_impostor_color, texel_of(image, s), 0).rgb;
 }
 
 // One Liang-Barsky step: keep the part of the ray where value + rate * t >= 0.

@@ -1,6 +1,7 @@
 // Everything a reflected ray can hit: the reflected objects as the method stands them in (this
-// mirror's depth images, one per object, or their real triangles), the analytic planes (floors
-// and walls, intersected exactly), and the environment.
+// mirror's depth images, its cube map, its billboards, or triangles: simplified or the real
+// ones), the analytic planes (floors and walls, intersected exactly by every method), and the
+// environment.
 #ifndef METHOD
 #define METHOD METHOD_DEPTH
 #endif
@@ -9,7 +10,11 @@
 #include "environment.glsl"
 #if METHOD == METHOD_DEPTH
 #include "depth_image.glsl"
-#else
+#elif METHOD == METHOD_CUBEMAP || METHOD == METHOD_CUBEMAP_PARALLAX
+#include "cube_map.glsl"
+#elif METHOD == METHOD_BILLBOARD
+#include "billboard.glsl"
+#else  // METHOD_SIMPLIFIED, METHOD_RAYTRACE: one traversal, other triangles
 #include "triangles.glsl"
 #endif
 
@@ -38,6 +43,10 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction) {
 RayHit nearest_object_hit(vec3 origin, vec3 direction) {
 #if METHOD == METHOD_DEPTH
     return nearest_depth_image_hit(origin, direction);
+#elif METHOD == METHOD_CUBEMAP || METHOD == METHOD_CUBEMAP_PARALLAX
+    return cube_map_hit(origin, direction);
+#elif METHOD == METHOD_BILLBOARD
+    return nearest_billboard_hit(origin, direction);
 #else
     return nearest_triangle_hit(origin, direction);
 #endif

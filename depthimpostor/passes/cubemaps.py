@@ -1,0 +1,96 @@
+"""The cube-map methods: per mirror, six 90-degree images from its centre showing every reflected
+object, looked up by the reflected ray's direction (lib/cube_map.glsl).
+
+The faces are depth images in all but their frusta, so they are baked into the same atlas with
+the same shader; their second layer holds the id of the object each texel shows. The same cube
+map serves both lookups: by direction alone (`cubemap`, the lecture's environment mapping, which
+takes everything as infinitely far away) and corrected against a proxy box (`cubemap-parallax`,
+what engines ship). The box is the mirror's bounds and those of everything it reflects, so that
+every reflected ray starts inside it, as the correction assumes.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cached_property
+
+import moderngl
+import numpy as np
+
+from ..errors import SceneError
+from ..geometry import ObjectGeometry
+from ..ppc import PPC
+from ..scene.model import Scene
+from .impostors import BakedImages, ImagePlan, SecondLayer, mirror_centre
+from .uniforms import write
+
+#: The faces in the order lib/cube_map.glsl's cube_face() numbers them: +x, -x, +y, -y, +z, -z,
+#: each with an up vector not parallel to it. The lookup projects through each face's own
+#: camera, so no texture-coordinate convention has to be matched.
+CUBE_FACES: tuple[tuple[tuple[float, float, float], tuple[float, float, float]], ...] = (
+    ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+    ((-1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+    ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+    ((0.0, -1.0, 0.0), (0.0, 0.0, 1.0)),
+    ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0)),
+    ((0.0, 0.0, -1.0), (0.0, 1.0, 0.0)),
+)
+
+
+def cube_cameras(scene: Scene, mirror: ObjectGeometry, reflected: list[ObjectGeometry], resolution: int) -> list[PPC]:
+    """The six face cameras at the mirror's centre, their near and far planes around the
+    reflected objects' bounding spheres.
+
+    A point at distance d from the centre lies, in the face that holds it, at depth >= d / sqrt(3)
+    along that face's axis (the corner direction is the worst): the near plane goes just inside
+    that for the nearest object, and the far plane just beyond the farthest.
+    """
+    centre = mirror_centre(mirror)
+    spheres = [item.bounding_sphere for item in reflected]
+    nearest = min(float(np.linalg.norm(c - centre)) - r for c, r in spheres)
+    farthest = max(float(np.linalg.norm(c - centre)) + r for c, r in spheres)
+    if nearest <= 0.0:
+        inside = min(reflected, key=lambda item: float(np.linalg.norm(item.bounding_sphere[0] - centre)) - item.bounding_sphere[1])
+        raise SceneError(
+            scene.source, f"objects[{inside.index}]",
+            f'object "{inside.object.name}" reaches the centre of mirror "{mirror.object.name}": a cube map '
+            "taken from there would cut through it; move it away or use another method",
+        )
+    near, far = 0.99 * nearest / math.sqrt(3.0), 1.01 * farthest
+    return [
+        PPC.look_at(centre, centre + np.array(axis), up, 90.0, resolution, resolution, near, far)
+        for axis, up in CUBE_FACES
+    ]
+
+
+def proxy_box(mirror: ObjectGeometry, reflected: list[ObjectGeometry]) -> tuple[np.ndarray, np.ndarray]:
+    """The parallax correction's box: world bounds of the mirror and of what it reflects."""
+    points = np.concatenate([item.world_mesh.positions for item in (mirror, *reflected)])
+    return points.min(axis=0), points.max(axis=0)
+
+
+class CubeMapPass(BakedImages):
+    """Six faces per mirror, each showing every reflected object, and the proxy boxes."""
+
+    second_layer = SecondLayer.OBJECT_ID
+    image_noun = "cube-map face"
+
+    def plan(
+        self, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
+    ) -> dict[int, list[ImagePlan]]:
+        resolution = scene.render.impostor_resolution
+        return {
+            mirror.index: [(tuple(reflected), camera) for camera in cube_cameras(scene, mirror, reflected, resolution)]
+            for mirror in mirrors
+        }
+
+    @cached_property
+    def proxies(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """Per mirror, the parallax correction's box around it and what its faces show."""
+        return {index: proxy_box(images[0].mirror, list(images[0].targets)) for index, images in self.images_by_mirror.items()}
+
+    def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
+        super().bind_mirror(program, mirror)
+        lower, upper = self.proxies[mirror.index]
+        write(program, "u_proxy_lower", tuple(lower))
+        write(program, "u_proxy_upper", tuple(upper))

@@ -1,0 +1,33 @@
+// The billboard method: per mirror and reflected object, one textured quad with transparency. The
+// quad faces the mirror's centre: it is the section, through the object's bounding-sphere centre,
+// of the frustum its depth image would have, and its texture is that image's colour. A ray hits
+// a quad where its texel is opaque; the nearest such hit wins. Exact for a flat object lying in
+// its quad's plane, and off by the object's depth everywhere else.
+#include "baked_images.glsl"
+
+// Per billboard of this mirror: the camera depth w of the quad's plane (w = const is a plane
+// parallel to the image plane).
+uniform float u_billboard_w[MAX_DEPTH_IMAGES_PER_MIRROR];
+
+RayHit nearest_billboard_hit(vec3 origin, vec3 direction) {
+    RayHit best = no_hit(0);
+    int samples = 0;
+    for (int i = 0; i < u_depth_image_count; ++i) {
+        DepthImage image = u_depth_images[i];
+        vec3 p0 = camera_coordinates(image, origin - image.eye.xyz);
+        vec3 dp = camera_coordinates(image, direction);
+        float quad_w = u_billboard_w[i];
+        // A ray parallel to the quad never meets it (dividing would give +-Inf or NaN).
+        if (dp.z == 0.0) continue;
+        float t = (quad_w - p0.z) / dp.z;
+        if (t <= 0.0 || (best.hit && t >= best.t)) continue;
+        vec2 s = (p0.xy + dp.xy * t) / quad_w;
+        if (any(lessThan(s, vec2(0.0))) || any(greaterThanEqual(s, image.depth_range.zw))) continue;
+        vec4 color = texelFetch(u_impostor_color, image.tile.xy + ivec2(s), 0);
+        ++samples;
+        if (color.a == 0.0) continue;  // a transparent texel: the ray goes on to what lies behind
+        best = RayHit(true, t, s, color.rgb, image.eye.w, 0);
+    }
+    best.samples = samples;
+    return best;
+}
