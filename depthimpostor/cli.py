@@ -13,7 +13,7 @@ from PIL import Image
 from .constants import Algorithm, Method
 from .context import create_context, describe
 from .errors import DepthImpostorError
-from .compare import Comparison, compare, format_table, write_report
+from .compare import Comparison, Figures, compare, format_table, markdown_table, side_by_side, write_report
 from .renderer import Renderer, to_uint8
 from .resources import default_scene_path
 from .scene import Scene, load_scene
@@ -76,21 +76,22 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
-def _compare_frame(args: argparse.Namespace) -> tuple[Scene, Comparison]:
-    scene = _load(args)
+def _compare_frame(scene: Scene, args: argparse.Namespace, method: Method) -> tuple[Comparison, str]:
+    """One frame of `method` compared with the truth, and what the method kept to draw it."""
     algorithm = Algorithm[getattr(args, "algorithm", "optimized").upper()]
-    method = Method.from_option(getattr(args, "method", "depth"))
     ctx = create_context(args.backend)
     try:
         with Renderer(ctx, scene, algorithm, reflection_data=True, method=method) as renderer:
             renderer.render()
-            return scene, compare(renderer)
+            stand_in = renderer.stand_in
+            kept = f"{stand_in.describe()}, {stand_in.bytes / 2**20:.2f} MiB" if stand_in is not None else "no mirror"
+            return compare(renderer), kept
     finally:
         ctx.release()
 
 
 def _truth(args: argparse.Namespace) -> int:
-    _, comparison = _compare_frame(args)
+    comparison, _ = _compare_frame(_load(args), args, Method.RAYTRACE)
     output = Path(args.output)
     output.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(to_uint8(comparison.truth)).save(output)
@@ -99,17 +100,35 @@ def _truth(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    scene, comparison = _compare_frame(args)
-    settings = {
-        "scene": scene.source,
-        "size": list(scene.render.size),
-        "impostor_resolution": scene.render.impostor_resolution,
-        "algorithm": args.algorithm,
-        "method": args.method,
-    }
-    for path in write_report(comparison, Path(args.output), settings):
-        print(path)
-    print(format_table(comparison.figures))
+    """One method: its report in the output folder. `--method all`: every method's report in a
+    sub-folder, and the side-by-side sheet and table of all of them."""
+    scene = _load(args)
+    methods = list(Method) if args.method == ALL_METHODS else [Method.from_option(args.method)]
+    output = Path(args.output)
+    rows: dict[str, tuple[str, Figures]] = {}
+    comparisons: dict[str, Comparison] = {}
+    for method in methods:
+        comparison, kept = _compare_frame(scene, args, method)
+        settings = {
+            "scene": scene.source,
+            "size": list(scene.render.size),
+            "impostor_resolution": scene.render.impostor_resolution,
+            "simplified_triangles": scene.render.simplified_triangles,
+            "algorithm": args.algorithm,
+            "method": method.option,
+            "stand_in": kept,
+        }
+        folder = output / method.option if len(methods) > 1 else output
+        for path in write_report(comparison, folder, settings):
+            print(path)
+        print(format_table(comparison.figures))
+        rows[method.option], comparisons[method.option] = (kept, comparison.figures), comparison
+    if len(methods) > 1:
+        Image.fromarray(side_by_side(comparisons)).save(output / "methods.png")
+        (output / "methods.md").write_text(markdown_table(rows), encoding="utf-8")
+        print(output / "methods.png")
+        print(output / "methods.md")
+        print(markdown_table(rows), end="")
     return 0
 
 
@@ -144,13 +163,18 @@ def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) ->
                          help="headless GL backend (default: auto, EGL then OSMesa)")
 
 
-def _method_arguments(command: argparse.ArgumentParser) -> None:
+#: `compare --method all`: every method, side by side.
+ALL_METHODS = "all"
+
+
+def _method_arguments(command: argparse.ArgumentParser, every: bool = False) -> None:
     command.add_argument("--algorithm", choices=[a.name.lower() for a in Algorithm], default="optimized",
                          help="ray/depth-image intersection: the lecture's basic or optimized algorithm")
-    command.add_argument("--method", choices=[m.option for m in Method], default="depth",
+    command.add_argument("--method", choices=[m.option for m in Method] + ([ALL_METHODS] if every else []),
+                         default="depth",
                          help="how reflected objects are stood in for: depth images, a cube map (looked up by "
                               "direction, or parallax-corrected), billboards, simplified triangles, or the real "
-                              "triangles ray-traced")
+                              "triangles ray-traced" + ("; all: every one, side by side" if every else ""))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -171,7 +195,7 @@ def build_parser() -> argparse.ArgumentParser:
     comparison = commands.add_parser("compare", help="render and truth side by side, with error figures")
     _scene_arguments(comparison)
     comparison.add_argument("-o", "--output", default="report", help="output folder (default: report/)")
-    _method_arguments(comparison)
+    _method_arguments(comparison, every=True)
     comparison.set_defaults(run=_compare)
 
     view = commands.add_parser("view", help="fly around a scene in a window (keys: H in the window)")

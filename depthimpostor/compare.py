@@ -17,9 +17,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
+from PIL import Image, ImageDraw
 
 from .constants import NO_OBJECT
+from .font import load_font
 from .renderer import ReflectionData, Renderer, to_uint8
 from .scene.model import MirrorMaterial
 from .truth import TruthTracer
@@ -169,3 +170,48 @@ def format_table(figures: Figures) -> str:
         for p in figures.worst_pixels
     ]
     return "\n".join(lines)
+
+
+def mirror_crop(mask: np.ndarray, margin: int = 4) -> tuple[slice, slice]:
+    """Rows and columns around every mirror pixel (the whole frame if there is none)."""
+    rows, columns = np.nonzero(mask)
+    if not len(rows):
+        return slice(None), slice(None)
+    height, width = mask.shape
+    return (slice(max(rows.min() - margin, 0), min(rows.max() + margin + 1, height)),
+            slice(max(columns.min() - margin, 0), min(columns.max() + margin + 1, width)))
+
+
+#: Height of the label strip under each picture of a side-by-side sheet, in pixels.
+LABEL_HEIGHT = 22
+
+
+def side_by_side(comparisons: dict[str, Comparison]) -> np.ndarray:
+    """Each method's mirror pixels and the truth's, cropped to the mirrors, in one labelled row
+    (uint8). The truth is the same for every method (the same rays): the first one's is shown."""
+    first = next(iter(comparisons.values()))
+    rows, columns = mirror_crop(first.mirror_mask)
+    pictures = {name: c.render for name, c in comparisons.items()} | {"truth (Embree)": first.truth}
+    tiles = [to_uint8(picture[rows, columns]) for picture in pictures.values()]
+    height, width = tiles[0].shape[:2]
+    sheet = Image.new("RGB", (len(tiles) * (width + 2), height + LABEL_HEIGHT), (255, 255, 255))
+    draw = ImageDraw.Draw(sheet)
+    font = load_font(14)
+    for index, (name, tile) in enumerate(zip(pictures, tiles)):
+        sheet.paste(Image.fromarray(tile), (index * (width + 2), 0))
+        draw.text((index * (width + 2) + 4, height + 3), name, fill=(0, 0, 0), font=font)
+    return np.asarray(sheet)
+
+
+def markdown_table(rows: dict[str, tuple[str, Figures]]) -> str:
+    """One row per method: what it keeps, and its figures against the truth."""
+    lines = [
+        "| method | stand-in | wrong object | colour RMSE | PSNR | geometric error, median / 95th pct |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for name, (stand_in, f) in rows.items():
+        lines.append(
+            f"| `{name}` | {stand_in} | {100 * f.wrong_object_share:.2f} % | {f.color_rmse:.4f} | "
+            f"{f.psnr_db:.1f} dB | {100 * f.geometric_error_median:.2f} % / {100 * f.geometric_error_p95:.1f} % |"
+        )
+    return "\n".join(lines) + "\n"

@@ -11,6 +11,7 @@ import moderngl
 import numpy as np
 import pytest
 import trimesh
+from PIL import Image
 
 from conftest import SCENES, assert_finite
 from depthimpostor.bvh import LEAF_TRIANGLES, build_bvh
@@ -253,19 +254,25 @@ def test_simplified_traces_fewer_triangles_with_the_same_traversal(ctx: moderngl
 
 
 def test_compare_reports_the_same_figures_for_every_method(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "report"
+    arguments = ["compare", str(SCENES / "default.toml"), "--size", "96x54", "--impostor-res", "64"]
+    assert main([*arguments, "--method", "all", "-o", str(out)]) == 0
     reports = {}
     for method in Method:
-        out = tmp_path / method.option
-        arguments = ["compare", str(SCENES / "default.toml"), "--size", "96x54", "--impostor-res", "64"]
-        assert main([*arguments, "--method", method.option, "-o", str(out)]) == 0
-        assert sorted(path.name for path in out.iterdir()) == ["difference.png", "render.png", "report.json", "truth.png"]
-        reports[method] = json.loads((out / "report.json").read_text())
+        folder = out / method.option
+        assert sorted(path.name for path in folder.iterdir()) == ["difference.png", "render.png", "report.json", "truth.png"]
+        reports[method] = json.loads((folder / "report.json").read_text())
         assert reports[method]["settings"]["method"] == method.option
     printed = capsys.readouterr().out
-    assert printed.count("wrong object") == len(Method)
-    fields = {name for name, value in reports[Method.DEPTH]["figures"].items() if name != "worst_pixels"}
+    assert printed.count("wrong object") == len(Method) + 1  # each method's table, and the summary's header
+    fields = {name for name in reports[Method.DEPTH]["figures"] if name != "worst_pixels"}
     for method, report in reports.items():
         figures = report["figures"]
         assert set(figures) - {"worst_pixels"} == fields
         assert all(np.isfinite(figures[name]) for name in fields if name != "psnr_db"), method
         assert figures["mirror_pixels"] == reports[Method.DEPTH]["figures"]["mirror_pixels"]
+    # The summary: one row per method, and the mirrors of every method and the truth side by side.
+    table = (out / "methods.md").read_text().splitlines()
+    assert [row.split("|")[1].strip() for row in table[2:]] == [f"`{method.option}`" for method in Method]
+    sheet = np.asarray(Image.open(out / "methods.png"))
+    assert sheet.shape[1] > (len(Method) + 1) * 20 and sheet.ndim == 3

@@ -183,6 +183,10 @@ class ImpostorAtlas:
             item.release()
 
 
+def plural(count: int, noun: str) -> str:
+    return f"{count} {noun}{'' if count == 1 else 's'}"
+
+
 class SecondLayer(Enum):
     """What the atlas's second texture holds besides the visible surface's depth (R)."""
 
@@ -250,7 +254,7 @@ class BakedImages:
 
     def describe(self) -> str:
         resolution = self.atlas.resolution
-        return f"{len(self.depth_images)} {self.image_noun}s of {resolution}x{resolution}"
+        return f"{plural(len(self.depth_images), self.image_noun)} of {resolution}x{resolution}"
 
     def _uniform_buffer(self, images: list[DepthImage]) -> moderngl.Buffer:
         # The block is declared with MAX_DEPTH_IMAGES_PER_MIRROR entries; a smaller buffer would

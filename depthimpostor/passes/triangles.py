@@ -23,6 +23,7 @@ from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..meshes import Mesh
 from ..scene.model import Scene
+from .impostors import plural
 from .uniforms import bind_texture, bind_uniform_block, material_fields
 
 NODES_UNIT = 2
@@ -96,7 +97,7 @@ class TrianglePass:
         return sum(texture.width * texture.height * 16 for texture in (self.nodes, self.triangles)) + self.objects.size
 
     def describe(self) -> str:
-        return f"{self.triangle_count} {self.noun}s in a BVH"
+        return f"{plural(self.triangle_count, self.noun)} in a BVH"
 
     def bake(self) -> int:
         """Nothing to bake: the BVH was built and uploaded with the pass."""
