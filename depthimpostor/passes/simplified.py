@@ -5,8 +5,9 @@ Decimation is fast-simplification's quadric edge collapse (a well-kept wrapper o
 Fast-Quadric-Mesh-Simplification), to at most `render.simplified_triangles` triangles per object.
 Our meshes duplicate vertices along creases and seams (a box has 24), which would cut the surface
 into patches that collapse independently, so positions are welded first (trimesh). The result's
-normals come from trimesh's smooth shading with creases kept above 30 degrees: smooth where the
-surface was smooth, flat faces staying flat.
+normals are smoothed across edges and split at creases sharper than 30 degrees: smooth where the
+surface was smooth, flat faces staying flat. (trimesh.graph.smooth_shade does the same but needs
+scipy or networkx for its graph search, a heavy dependency for twenty lines of numpy.)
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ import fast_simplification
 import moderngl
 import numpy as np
 import trimesh
-import trimesh.graph
 
 from ..geometry import ObjectGeometry
 from ..meshes import Mesh
@@ -29,16 +29,43 @@ CREASE_ANGLE_DEGREES = 30.0
 
 
 def simplified_mesh(mesh: Mesh, target_triangles: int) -> Mesh:
-    """`mesh` with at most `target_triangles` triangles (itself if it has no more already)."""
+    """`mesh` decimated toward `target_triangles` triangles (itself if it has no more already).
+
+    The simplifier refuses collapses that would flip a triangle, so a mesh may keep more: a
+    64-sided cylinder (long thin sides, one ring at each end) stays at its 256 triangles."""
     if len(mesh.indices) <= target_triangles:
         return mesh
     welded = trimesh.Trimesh(mesh.positions, mesh.indices, process=True)
     points, faces = fast_simplification.simplify(
         np.asarray(welded.vertices, np.float64), np.asarray(welded.faces, np.int32), target_count=target_triangles
     )
-    decimated = trimesh.Trimesh(points, faces, process=True)
-    shaded = trimesh.graph.smooth_shade(decimated, angle=math.radians(CREASE_ANGLE_DEGREES))
-    return Mesh(np.asarray(shaded.vertices), np.asarray(shaded.vertex_normals), np.asarray(shaded.faces))
+    return crease_shaded(np.asarray(points, np.float64), np.asarray(faces, np.int64))
+
+
+def crease_shaded(positions: np.ndarray, faces: np.ndarray) -> Mesh:
+    """Per-corner normals: the area-weighted mean of the normals of the faces around the corner's
+    vertex that meet the corner's face at under CREASE_ANGLE_DEGREES. Every corner gets its own
+    vertex (3 per triangle), which is all a mesh traced through a BVH needs."""
+    area_normals = np.cross(positions[faces[:, 1]] - positions[faces[:, 0]], positions[faces[:, 2]] - positions[faces[:, 0]])
+    lengths = np.linalg.norm(area_normals, axis=1, keepdims=True)
+    unit = area_normals / np.where(lengths > 0.0, lengths, 1.0)
+    corner_vertex = faces.reshape(-1)
+    corner_face = np.repeat(np.arange(len(faces)), 3)
+    # Corners grouped by vertex: each vertex's faces are one contiguous run.
+    order = np.argsort(corner_vertex, kind="stable")
+    starts = np.searchsorted(corner_vertex[order], np.arange(positions.shape[0] + 1))
+    cosine = math.cos(math.radians(CREASE_ANGLE_DEGREES))
+    normals = np.zeros((len(corner_vertex), 3))
+    for vertex in range(positions.shape[0]):
+        corners = order[starts[vertex] : starts[vertex + 1]]
+        around = corner_face[corners]
+        # weights[i, j]: does face j count toward the normal of corner i?
+        weights = (unit[around] @ unit[around].T) >= cosine
+        normals[corners] = weights @ area_normals[around]
+    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+    # A corner of a degenerate face alone has a zero sum: it takes its face's (or any) direction.
+    normals = np.where(lengths > 0.0, normals / np.where(lengths > 0.0, lengths, 1.0), (0.0, 1.0, 0.0))
+    return Mesh(positions[corner_vertex], normals, np.arange(len(corner_vertex)).reshape(-1, 3))
 
 
 class SimplifiedPass(TrianglePass):
