@@ -21,7 +21,7 @@ from depthimpostor.constants import NO_OBJECT, Method
 from depthimpostor.errors import SceneError
 from depthimpostor.meshes import sphere
 from depthimpostor.passes.impostors import BakedImages
-from depthimpostor.passes.simplified import simplified_mesh
+from depthimpostor.passes.simplified import crease_shaded, simplified_mesh
 from depthimpostor.renderer import STAND_INS, Renderer
 from depthimpostor.scene import Scene, load_scene
 
@@ -235,6 +235,16 @@ def test_simplified_meshes_keep_the_shape_with_fewer_triangles() -> None:
     normals = simple.normals[simple.indices].mean(axis=1)
     assert (np.einsum("ij,ij->i", centres, normals) > 0).all(), "normals point outward"
     assert simplified_mesh(original, len(original.indices)) is original, "nothing to do, nothing done"
+
+
+def test_crease_shading_keeps_flat_faces_flat_and_smooths_the_rest() -> None:
+    cube = trimesh.creation.box()  # 8 shared corners: every edge is a 90-degree crease
+    shaded = crease_shaded(np.asarray(cube.vertices, float), np.asarray(cube.faces))
+    assert np.allclose(np.abs(shaded.normals).max(axis=1), 1.0), "each corner takes its own face's normal"
+    ball = trimesh.creation.icosphere(subdivisions=3)
+    smooth = crease_shaded(np.asarray(ball.vertices, float), np.asarray(ball.faces))
+    radial = smooth.positions / np.linalg.norm(smooth.positions, axis=1, keepdims=True)
+    assert np.einsum("ij,ij->i", smooth.normals, radial).min() > 0.999, "smooth where the surface is smooth"
 
 
 def test_simplified_traces_fewer_triangles_with_the_same_traversal(ctx: moderngl.Context) -> None:
