@@ -12,7 +12,7 @@ from PIL import Image
 
 from .constants import Algorithm, Method
 from .context import create_context, describe
-from .errors import DepthImpostorError
+from .errors import DepthImpostorError, SceneError
 from .compare import Comparison, Figures, compare, format_table, markdown_table, side_by_side, write_report
 from .renderer import Renderer, to_uint8
 from .resources import default_scene_path
@@ -132,6 +132,49 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _list_of(kind: type[int] | type[str]) -> object:
+    def parse(text: str) -> list[int] | list[str]:
+        parts = [part.strip() for part in text.split(",") if part.strip()]
+        if not parts:
+            raise argparse.ArgumentTypeError(f"expected a comma-separated list, got {text!r}")
+        try:
+            return [kind(part) for part in parts]  # type: ignore[return-value]
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a comma-separated list of {kind.__name__}s, got {text!r}") from None
+    return parse
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from tqdm import tqdm  # the progress bar is the benchmark's alone
+
+    from .bench import BenchSettings, machine_lines, run_bench, total_configurations, write_results
+
+    scenes = [load_scene(path) for path in args.scenes] or [load_scene(default_scene_path())]
+    if ALL_METHODS in args.methods:
+        methods = tuple(Method)
+    else:
+        unknown = [name for name in args.methods if name not in {m.option for m in Method}]
+        if unknown:
+            raise SceneError("command line", "--methods", f"expected methods among {[m.option for m in Method]} "
+                             f"or all, got {unknown}")
+        methods = tuple(Method.from_option(name) for name in args.methods)
+    for resolution in args.resolutions:  # checked as strictly as a scene file's
+        scenes[0].with_overrides(impostor_resolution=resolution)
+    size = args.size or scenes[0].render.size
+    settings = BenchSettings(methods, tuple(args.resolutions), size, args.frames, args.warmup, args.bakes)
+    ctx = create_context(args.backend)
+    try:
+        header = machine_lines(ctx, settings, scenes)
+        print("\n".join(header), flush=True)
+        with tqdm(total=total_configurations(len(scenes), settings), unit="configuration") as progress:
+            rows = run_bench(ctx, scenes, settings, progress)
+    finally:
+        ctx.release()
+    for path in write_results(rows, Path(args.output), header):
+        print(path)
+    return 0
+
+
 def _view(args: argparse.Namespace) -> int:
     from .viewer import ViewerOptions, run_viewer  # glfw is loaded for the window alone
     from .viewer.keys import parse_key_script
@@ -197,6 +240,20 @@ def build_parser() -> argparse.ArgumentParser:
     comparison.add_argument("-o", "--output", default="report", help="output folder (default: report/)")
     _method_arguments(comparison, every=True)
     comparison.set_defaults(run=_compare)
+
+    bench = commands.add_parser("bench", help="frame time, memory, samples per ray and error of every method")
+    bench.add_argument("scenes", nargs="*", type=Path, help="scene files (TOML); the built-in default if none")
+    bench.add_argument("--methods", type=_list_of(str), default=[ALL_METHODS],
+                       help="comma-separated methods, or all (default)")
+    bench.add_argument("--resolutions", type=_list_of(int), default=[64, 128, 256, 512, 1024],
+                       help="image resolutions of the methods that bake images (default 64,128,256,512,1024)")
+    bench.add_argument("--size", type=_size, help="frame size WxH (default: the first scene's render.size)")
+    bench.add_argument("--frames", type=_positive, default=10, help="timed frames per configuration (default 10)")
+    bench.add_argument("--warmup", type=int, default=2, help="untimed frames before them (default 2)")
+    bench.add_argument("--bakes", type=int, default=3, help="timed re-bakes per configuration (default 3)")
+    bench.add_argument("-o", "--output", default="results", help="output folder (default: results/)")
+    bench.add_argument("--backend", choices=["auto", "egl", "osmesa"], default=None, help="headless GL backend")
+    bench.set_defaults(run=_bench)
 
     view = commands.add_parser("view", help="fly around a scene in a window (keys: H in the window)")
     _scene_arguments(view, headless=False)

@@ -22,7 +22,7 @@ from .passes.billboards import BillboardPass
 from .passes.cubemaps import CubeMapPass
 from .passes.impostors import BakedImages, ImpostorPass
 from .passes.meshes import GpuMeshes
-from .passes.mirrors import MirrorPass, ReflectedObjects
+from .passes.mirrors import REFLECTION_OUTPUTS, MirrorPass, ReflectedObjects
 from .passes.samples import SamplesPass
 from .passes.simplified import SimplifiedPass
 from .passes.triangles import TrianglePass
@@ -105,17 +105,20 @@ class Renderer:
         reflection_data: bool = False,
         shaders: ShaderLibrary | None = None,
         method: Method = Method.DEPTH,
+        count_samples: bool = False,
     ) -> None:
         """`reflection_data` adds float outputs of each mirror pixel's reflected ray and hit (for
         comparisons with the truth); without it neither the attachments nor the variant exist.
         `shaders` reads the GLSL from another folder (the viewer's `--shaders`). `method` is how
-        reflected objects are stood in for; only its own resources are made."""
+        reflected objects are stood in for; only its own resources are made. `count_samples`
+        (the benchmark's) adds an output of the samples each reflected ray read."""
         self.ctx = ctx
         self.scene = scene
         self.algorithm = algorithm
         self.method = method
         self.show_samples = False
         self.reflection_data = reflection_data
+        self.count_samples = count_samples
         self.stats = RenderStats()
         self.programs = ProgramCache(ctx, shaders)
         geometry = scene_geometry(scene.objects)
@@ -136,15 +139,17 @@ class Renderer:
         # instead of being clamped into a plausible-looking 8-bit pixel.
         self._color = ctx.renderbuffer(size, 4, dtype="f4")
         self._depth = ctx.depth_renderbuffer(size)
-        self._reflection_outputs = [ctx.renderbuffer(size, 4, dtype="f4") for _ in range(3 if self.reflection_data else 0)]
-        self.framebuffer = ctx.framebuffer([self._color, *self._reflection_outputs], self._depth)
+        self._reflection_outputs = [
+            ctx.renderbuffer(size, 4, dtype="f4") for _ in range(REFLECTION_OUTPUTS if self.reflection_data else 0)
+        ]
+        self._sample_counts = ctx.renderbuffer(size, 1, dtype="f4") if self.count_samples else None
+        extra = [*self._reflection_outputs, *([self._sample_counts] if self._sample_counts is not None else [])]
+        self.framebuffer = ctx.framebuffer([self._color, *extra], self._depth)
         # Passes with one output draw through a framebuffer with the colour alone: GL leaves
         # attachments a shader does not write undefined. Diffuse objects are drawn before mirrors,
         # so a mirror fragment that passes the depth test is the visible one and its extra
         # outputs stay consistent with the colour.
-        self.color_framebuffer = (
-            ctx.framebuffer([self._color], self._depth) if self._reflection_outputs else self.framebuffer
-        )
+        self.color_framebuffer = ctx.framebuffer([self._color], self._depth) if extra else self.framebuffer
 
     def _build_passes(self) -> None:
         """The passes the scene and settings call for, their programs from the cache."""
@@ -201,7 +206,7 @@ class Renderer:
             raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
         return MirrorPass(
             self.programs, self.scene, self.meshes, self.stand_in, self.analytic_planes, self.method, self.algorithm,
-            self.reflection_data,
+            self.reflection_data, self.count_samples,
         )
 
     # ------------------------------------------------------------------ settings
@@ -266,6 +271,11 @@ class Renderer:
         if show and self.samples is None and self.sampled is not None:
             self.samples = SamplesPass(self.ctx, self.programs)
 
+    def bake_again(self) -> None:
+        """Bake the method's images again at the next frame, although nothing changed: for
+        timing bakes (the benchmark); a renderer re-bakes by itself whenever it must."""
+        self._baked = False
+
     def reload_shaders(self) -> None:
         """Compile every program again from the files as they are now, and re-bake.
 
@@ -328,6 +338,15 @@ class Renderer:
         """The last frame as (height, width, 3) uint8, top row first, ready for a PNG."""
         return to_uint8(self.read_color_float())
 
+    def read_sample_counts(self) -> np.ndarray:
+        """(height, width) samples each mirror pixel's reflected ray read (0 outside mirrors)."""
+        if self._sample_counts is None:
+            raise ValueError("this renderer was made without count_samples=True")
+        width, height = self.scene.render.size
+        index = 1 + len(self._reflection_outputs)
+        data = self.framebuffer.read(components=1, attachment=index, dtype="f4")
+        return np.frombuffer(data, np.float32).reshape(height, width).copy()
+
     def read_reflection_data(self) -> ReflectionData:
         if not self._reflection_outputs:
             raise ValueError("this renderer was made without reflection_data=True")
@@ -350,6 +369,8 @@ class Renderer:
             self.color_framebuffer.release()
         for item in (self.framebuffer, self._color, self._depth, *self._reflection_outputs):
             item.release()
+        if self._sample_counts is not None:
+            self._sample_counts.release()
 
     def _release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)

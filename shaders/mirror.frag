@@ -19,6 +19,11 @@ uniform int u_mirror_id;
 layout(location = 2) out vec4 out_ray_direction;  // (unit direction, object id hit or NO_OBJECT)
 layout(location = 3) out vec4 out_hit_position;   // (world position of the hit, 1 if hit)
 #endif
+#ifdef COUNT_SAMPLES
+// For the benchmark alone: the samples (depth-image texels, BVH nodes) this ray read. The
+// location follows the reflection outputs when they are there (passes/mirrors.py).
+layout(location = COUNT_SAMPLES) out float out_samples;
+#endif
 
 void main() {
     vec3 view = safe_normalize(v_world_position - u_eye, vec3(0.0, 0.0, -1.0));
@@ -32,5 +37,8 @@ void main() {
     out_ray_origin = vec4(v_world_position, float(u_mirror_id + 1));
     out_ray_direction = vec4(direction, hit.hit ? hit.object_id : float(NO_OBJECT));
     out_hit_position = vec4(v_world_position + direction * hit.t, hit.hit ? 1.0 : 0.0);
+#endif
+#ifdef COUNT_SAMPLES
+    out_samples = float(hit.samples);
 #endif
 }

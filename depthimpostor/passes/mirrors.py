@@ -38,16 +38,23 @@ class ReflectedObjects(Protocol):
     def release(self) -> None: ...
 
 
+#: The colour outputs the reflection data adds (ray origin, ray direction, hit position).
+REFLECTION_OUTPUTS = 3
+
+
 def reflection_defines(
-    method: Method, algorithm: Algorithm, write_reflection_data: bool = False
+    method: Method, algorithm: Algorithm, write_reflection_data: bool = False, count_samples: bool = False
 ) -> dict[str, int]:
     """The mirror shader's variant: the method, and for depth images the intersection algorithm
-    (the other methods have none, so that no two identical programs are compiled)."""
+    (the other methods have none, so that no two identical programs are compiled). The counting
+    variant (the benchmark's) writes each ray's samples to the output after the others."""
     defines = {"METHOD": int(method)}
     if method == Method.DEPTH:
         defines["ALGORITHM"] = int(algorithm)
     if write_reflection_data:
         defines["WRITE_REFLECTION_DATA"] = 1
+    if count_samples:
+        defines["COUNT_SAMPLES"] = 1 + (REFLECTION_OUTPUTS if write_reflection_data else 0)
     return defines
 
 
@@ -62,8 +69,9 @@ class MirrorPass:
         method: Method,
         algorithm: Algorithm,
         write_reflection_data: bool = False,
+        count_samples: bool = False,
     ) -> None:
-        defines = reflection_defines(method, algorithm, write_reflection_data)
+        defines = reflection_defines(method, algorithm, write_reflection_data, count_samples)
         self.program = programs.get("mesh.vert", "mirror.frag", defines)
         self.meshes = meshes
         self.reflected = reflected

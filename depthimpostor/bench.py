@@ -1,0 +1,304 @@
+"""The accuracy/time benchmark: for every scene, method and resolution, what a frame costs and how
+far it is from the truth.
+
+Per configuration two renderers are made. The timed one is the renderer `render` uses (no extra
+outputs): its bakes and frames are timed with `time.perf_counter()` around `ctx.finish()` (GL time
+queries under-report on software rasterizers; they are recorded beside, for real drivers). The
+measuring one adds the reflection outputs and the sample-counting variant, which exist only for
+this: one frame of it gives the error figures against the truth and the samples each reflected
+ray read. The truth depends only on the rays, which every method computes alike, so it is traced
+once per scene and reused.
+
+Frames are timed in rounds, every method of a resolution once per round, in an order that rotates
+from round to round: a machine that slows down for a while slows every method alike.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime
+import math
+import os
+import platform
+import statistics
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+
+import moderngl
+import numpy as np
+
+from .compare import TruthFrame, compare, trace_truth
+from .constants import Method
+from .context import describe
+from .renderer import STAND_INS, Renderer
+from .passes.impostors import BakedImages
+from .scene import Scene
+
+#: Methods whose cost and accuracy depend on the image resolution; the triangle methods get one
+#: row per scene, measured with the first resolution's group.
+RESOLUTION_METHODS = frozenset(method for method in Method if issubclass(STAND_INS[method], BakedImages))
+
+
+@dataclass(frozen=True)
+class BenchSettings:
+    methods: tuple[Method, ...]
+    resolutions: tuple[int, ...]
+    size: tuple[int, int]
+    frames: int  # timed frames per configuration
+    warmup: int  # untimed frames before them
+    bakes: int  # timed re-bakes per configuration (after an untimed first bake)
+
+
+@dataclass(frozen=True)
+class BenchRow:
+    """One scene, method and resolution (0 for the methods that have none)."""
+
+    scene: str
+    method: str
+    resolution: int
+    stand_in: str
+    frame_ms_median: float
+    frame_ms_p10: float
+    frame_ms_p90: float
+    gl_time_query_ms: float  # median; under-reports on llvmpipe
+    bake_ms_median: float  # 0 for the methods that bake nothing
+    memory_mib: float
+    samples_per_ray_mean: float
+    samples_per_ray_max: float
+    mirror_pixels: int
+    wrong_object_percent: float
+    color_rmse: float
+    psnr_db: float
+    geometric_error_median_percent: float
+    geometric_error_p95_percent: float
+
+
+def machine_lines(ctx: moderngl.Context, settings: BenchSettings, scenes: Sequence[Scene]) -> list[str]:
+    """What the figures were measured on and with: the first lines of every output."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return [
+        f"depthimpostor bench, {datetime.date.today().isoformat()}",
+        f"GL: {describe(ctx)}",
+        f"machine: {cpu}, {os.cpu_count()} logical CPUs, {platform.system()} {platform.release()}, "
+        f"Python {platform.python_version()}",
+        f"scenes: {', '.join(scene.source for scene in scenes)}",
+        f"settings: size {settings.size[0]}x{settings.size[1]}, resolutions {list(settings.resolutions)}, "
+        f"methods {[m.option for m in settings.methods]}, {settings.warmup} warm-up + {settings.frames} timed "
+        f"frames, {settings.bakes} timed bakes",
+    ]
+
+
+def _percentile(values: Sequence[float], q: float) -> float:
+    return float(np.percentile(values, q)) if values else math.nan
+
+
+@contextmanager
+def _renderers(ctx: moderngl.Context, scene: Scene, methods: Sequence[Method]) -> Iterator[list[Renderer]]:
+    renderers: list[Renderer] = []
+    try:
+        for method in methods:
+            renderers.append(Renderer(ctx, scene, method=method))
+        yield renderers
+    finally:
+        for renderer in renderers:
+            renderer.release()
+
+
+def _time_group(ctx: moderngl.Context, renderers: list[Renderer], settings: BenchSettings) -> list[dict[str, float]]:
+    """Bake and frame times of renderers timed together, in rotating order."""
+    gl_times: list[list[float]] = [[] for _ in renderers]
+    for renderer in renderers:
+        renderer.render()  # the first bake: llvmpipe compiles shaders on first use
+        for _ in range(settings.bakes if renderer.baked_images is not None else 0):
+            renderer.bake_again()
+            renderer.render()
+    first_timed = [len(renderer.stats.draw_seconds) + settings.warmup for renderer in renderers]
+    query = ctx.query(time=True)  # moderngl queries live as long as their context: one, reused
+    for round_index in range(settings.warmup + settings.frames):
+        for offset in range(len(renderers)):
+            index = (round_index + offset) % len(renderers)
+            with query:
+                renderers[index].render()
+            if round_index >= settings.warmup:
+                gl_times[index].append(query.elapsed / 1e6)
+    timings = []
+    for renderer, first, gl_time in zip(renderers, first_timed, gl_times):
+        frames = [1000.0 * seconds for seconds in renderer.stats.draw_seconds[first:]]
+        bakes = [1000.0 * seconds for seconds in renderer.stats.bake_seconds[1:]]
+        timings.append({
+            "frame_ms_median": statistics.median(frames),
+            "frame_ms_p10": _percentile(frames, 10),
+            "frame_ms_p90": _percentile(frames, 90),
+            "gl_time_query_ms": statistics.median(gl_time),
+            "bake_ms_median": statistics.median(bakes) if bakes else 0.0,
+        })
+    return timings
+
+
+def _measure(
+    ctx: moderngl.Context, scene: Scene, method: Method, truth: TruthFrame | None
+) -> tuple[dict[str, float | int | str], TruthFrame]:
+    """Error figures and samples per ray, from one frame of the measuring variant."""
+    with Renderer(ctx, scene, reflection_data=True, method=method, count_samples=True) as renderer:
+        renderer.render()
+        data = renderer.read_reflection_data()
+        if truth is None or not truth.fits(data):
+            truth = trace_truth(renderer, data)
+        figures = compare(renderer, truth).figures
+        samples = renderer.read_sample_counts()[data.mirror_mask]
+        stand_in = renderer.stand_in
+        measured: dict[str, float | int | str] = {
+            "stand_in": stand_in.describe() if stand_in is not None else "no mirror",
+            "memory_mib": stand_in.bytes / 2**20 if stand_in is not None else 0.0,
+            "samples_per_ray_mean": float(samples.mean()) if len(samples) else 0.0,
+            "samples_per_ray_max": float(samples.max()) if len(samples) else 0.0,
+            "mirror_pixels": figures.mirror_pixels,
+            "wrong_object_percent": 100.0 * figures.wrong_object_share,
+            "color_rmse": figures.color_rmse,
+            "psnr_db": figures.psnr_db,
+            "geometric_error_median_percent": 100.0 * figures.geometric_error_median,
+            "geometric_error_p95_percent": 100.0 * figures.geometric_error_p95,
+        }
+    return measured, truth
+
+
+def configurations(settings: BenchSettings) -> list[tuple[int, list[Method]]]:
+    """The timing groups of one scene: per resolution, the methods timed together. The methods
+    without a resolution join the first group (resolution 0 in their rows)."""
+    resolution_methods = [m for m in settings.methods if m in RESOLUTION_METHODS]
+    others = [m for m in settings.methods if m not in RESOLUTION_METHODS]
+    groups = [(resolution, list(resolution_methods)) for resolution in settings.resolutions if resolution_methods]
+    if others:
+        if groups:
+            groups[0][1].extend(others)
+        else:
+            groups.append((settings.resolutions[0], others))
+    return groups
+
+
+def run_bench(
+    ctx: moderngl.Context, scenes: Sequence[Scene], settings: BenchSettings, progress: object | None = None
+) -> list[BenchRow]:
+    """Every scene x method x resolution; `progress` is a tqdm bar (or anything with update())."""
+    rows: list[BenchRow] = []
+    for scene in scenes:
+        name = Path(scene.source).stem
+        truth: TruthFrame | None = None
+        for resolution, methods in configurations(settings):
+            configured = scene.with_overrides(size=settings.size, impostor_resolution=resolution)
+            with _renderers(ctx, configured, methods) as renderers:
+                timings = _time_group(ctx, renderers, settings)
+            for method, timing in zip(methods, timings):
+                measured, truth = _measure(ctx, configured, method, truth)
+                row_resolution = resolution if method in RESOLUTION_METHODS else 0
+                rows.append(BenchRow(scene=name, method=method.option, resolution=row_resolution,
+                                     **measured, **timing))  # type: ignore[arg-type]
+                if progress is not None:
+                    progress.update(1)  # type: ignore[attr-defined]
+    return rows
+
+
+def total_configurations(scene_count: int, settings: BenchSettings) -> int:
+    return scene_count * sum(len(methods) for _, methods in configurations(settings))
+
+
+# ---------------------------------------------------------------------------------- output
+COLUMNS = [field.name for field in fields(BenchRow)]
+
+
+def write_csv(rows: Sequence[BenchRow], path: Path, header: Sequence[str]) -> None:
+    """Comment lines (`# ...`) name the machine and settings; then one row per configuration."""
+    with path.open("w", newline="", encoding="utf-8") as file:
+        for line in header:
+            file.write(f"# {line}\n")
+        writer = csv.DictWriter(file, fieldnames=COLUMNS)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow(asdict(row))
+
+
+def markdown(rows: Sequence[BenchRow], header: Sequence[str]) -> str:
+    lines = [f"{line}  " for line in header] + [""]
+    lines += [
+        "| scene | method | resolution | frame ms (median, p10-p90) | bake ms | MiB | samples/ray mean / max "
+        "| wrong object | colour RMSE | geometric error median / p95 |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r.scene} | `{r.method}` | {r.resolution or '-'} | {r.frame_ms_median:.1f} ({r.frame_ms_p10:.1f}-"
+            f"{r.frame_ms_p90:.1f}) | {r.bake_ms_median:.1f} | {r.memory_mib:.2f} | {r.samples_per_ray_mean:.1f} / "
+            f"{r.samples_per_ray_max:.0f} | {r.wrong_object_percent:.2f} % | {r.color_rmse:.4f} | "
+            f"{r.geometric_error_median_percent:.2f} % / {r.geometric_error_p95_percent:.1f} % |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[Path]:
+    """Per scene: the accuracy/time frontier (colour RMSE against frame time, a curve per method,
+    a point per resolution) and samples per ray against resolution."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # files only: no display, whatever the environment says
+    import matplotlib.pyplot as plt
+
+    written = []
+    for scene in dict.fromkeys(row.scene for row in rows):
+        mine = [row for row in rows if row.scene == scene]
+        methods = list(dict.fromkeys(row.method for row in mine))
+        figure, axis = plt.subplots(figsize=(7.5, 5.0))
+        for method in methods:
+            points = sorted((row for row in mine if row.method == method), key=lambda row: row.resolution)
+            times = [row.frame_ms_median for row in points]
+            errors = [max(row.color_rmse, 1e-6) for row in points]  # the exact method sits on the floor
+            axis.plot(times, errors, marker="o", label=method)
+            for row in points:
+                if row.resolution:
+                    axis.annotate(str(row.resolution), (row.frame_ms_median, max(row.color_rmse, 1e-6)),
+                                  textcoords="offset points", xytext=(4, 3), fontsize=7)
+        axis.set(xscale="log", yscale="log", xlabel="frame time, ms (median)",
+                 ylabel="colour RMSE in the mirrors (under 1e-6 drawn at 1e-6)",
+                 title=f"{scene}: accuracy against frame time")
+        axis.grid(True, which="both", alpha=0.3)
+        axis.legend(fontsize=8)
+        figure.text(0.01, 0.005, header[1], fontsize=6)
+        path = folder / f"frontier-{scene}.png"
+        figure.tight_layout(rect=(0, 0.03, 1, 1))
+        figure.savefig(path, dpi=110)
+        plt.close(figure)
+        written.append(path)
+
+        figure, axis = plt.subplots(figsize=(7.5, 5.0))
+        for method in methods:
+            points = sorted((row for row in mine if row.method == method and row.resolution), key=lambda r: r.resolution)
+            if points:
+                axis.plot([row.resolution for row in points], [row.samples_per_ray_mean for row in points],
+                          marker="o", label=f"{method} (mean)")
+                axis.plot([row.resolution for row in points], [row.samples_per_ray_max for row in points],
+                          marker=".", linestyle=":", label=f"{method} (max)")
+        axis.set(xscale="log", yscale="log", xlabel="image resolution (pixels a side)",
+                 ylabel="samples read per reflected ray", title=f"{scene}: samples per ray")
+        axis.grid(True, which="both", alpha=0.3)
+        axis.legend(fontsize=8)
+        path = folder / f"samples-{scene}.png"
+        figure.tight_layout()
+        figure.savefig(path, dpi=110)
+        plt.close(figure)
+        written.append(path)
+    return written
+
+
+def write_results(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[Path]:
+    folder.mkdir(parents=True, exist_ok=True)
+    write_csv(rows, folder / "bench.csv", header)
+    (folder / "bench.md").write_text(markdown(rows, header), encoding="utf-8")
+    return [folder / "bench.csv", folder / "bench.md", *plot(rows, folder, header)]

@@ -1,0 +1,57 @@
+"""The benchmark's smoke test: every file written, every figure finite. Timing itself is never
+asserted in a test (it belongs to the benchmark's own output)."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from conftest import SCENES
+from depthimpostor.bench import COLUMNS, RESOLUTION_METHODS
+from depthimpostor.cli import main
+from depthimpostor.constants import Method
+
+
+def test_bench_writes_every_file_with_finite_figures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "results"
+    arguments = ["bench", str(SCENES / "default.toml"), "--resolutions", "16,32", "--size", "96x54",
+                 "--frames", "2", "--warmup", "1", "--bakes", "1", "-o", str(out)]
+    assert main(arguments) == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("depthimpostor bench, ") and "GL: " in printed and "machine: " in printed
+    assert sorted(path.name for path in out.iterdir()) == [
+        "bench.csv", "bench.md", "frontier-default.png", "samples-default.png"]
+    with (out / "bench.csv").open(encoding="utf-8") as file:
+        lines = file.read().splitlines()
+    header = [line for line in lines if line.startswith("# ")]
+    assert any("GL: " in line for line in header) and any("settings: " in line for line in header)
+    rows = list(csv.DictReader(line for line in lines if not line.startswith("# ")))
+    assert list(rows[0]) == COLUMNS
+    # Two resolutions for the methods that bake images, one row for each of the others.
+    expected = {(m.option, r) for m in RESOLUTION_METHODS for r in ("16", "32")}
+    expected |= {(m.option, "0") for m in Method if m not in RESOLUTION_METHODS}
+    assert {(row["method"], row["resolution"]) for row in rows} == expected and len(rows) == len(expected)
+    for row in rows:
+        for name, value in row.items():
+            if name in ("scene", "method", "stand_in"):
+                continue
+            number = float(value)
+            if name == "psnr_db" and float(row["color_rmse"]) == 0.0:
+                continue  # an exact frame has no finite PSNR
+            assert math.isfinite(number), (row["method"], row["resolution"], name, value)
+        assert float(row["frame_ms_median"]) > 0 and int(row["mirror_pixels"]) > 0
+        assert float(row["samples_per_ray_max"]) >= float(row["samples_per_ray_mean"]) >= 0
+    depth = {row["resolution"]: row for row in rows if row["method"] == "depth"}
+    assert float(depth["32"]["memory_mib"]) > float(depth["16"]["memory_mib"])
+    assert float(depth["16"]["bake_ms_median"]) > 0
+    for name in ("frontier-default.png", "samples-default.png"):
+        assert Image.open(out / name).size[0] > 400
+
+
+def test_bench_refuses_an_unknown_method(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", "--methods", "depth,mirrorball"]) == 2
+    assert "--methods" in capsys.readouterr().err
