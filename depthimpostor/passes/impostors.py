@@ -10,6 +10,10 @@ The back layer costs a second, depth-only draw per image. Without it the depth i
 surface but not what lies behind it, and a ray passing behind a silhouette must either be joined
 to it by a false "rubber sheet" or fall through the object's hidden side (a hole): see the README's
 "Numerical robustness".
+
+BakedImages is the part the cube-map and billboard methods share with this one (passes/cubemaps.py,
+passes/billboards.py): the atlas, the per-mirror uniform buffers and the bake loop. Each method
+plans its own images and keeps its own second layer.
 """
 
 from __future__ import annotations
