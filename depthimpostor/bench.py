@@ -203,8 +203,10 @@ def run_bench(
         # images exist at once (about 4.4 GiB for the 8 x 9 scene at 64 to 1024).
         with _renderers(ctx, [(variant, method) for variant, _, method in configured]) as renderers:
             timings = _time_group(ctx, renderers, settings)
-        # Measured after all timing: the truth's ray tracer (Embree) leaves worker threads
-        # spinning for a while, which would steal the rasterizer's cores.
+        # Measured after all timing, as a precaution: the truth's ray tracer (Embree, on TBB
+        # threads, which may spin a while after their work) should not share the cores with
+        # frames being timed. (Not shown to matter: the slow groups seen while this was written
+        # were machine noise, which the rotating rounds above absorb.)
         truth: TruthFrame | None = None
         for (variant, resolution, method), timing in zip(configured, timings):
             measured, truth = _measure(ctx, variant, method, truth)
