@@ -29,7 +29,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
-from .compare import TruthFrame, compare, trace_truth
+from .compare import TruthFrame, compare
 from .constants import Method
 from .context import describe
 from .renderer import STAND_INS, Renderer
@@ -151,11 +151,9 @@ def _measure(
     """Error figures and samples per ray, from one frame of the measuring variant."""
     with Renderer(ctx, scene, reflection_data=True, method=method, count_samples=True) as renderer:
         renderer.render()
-        data = renderer.read_reflection_data()
-        if truth is None or not truth.fits(data):
-            truth = trace_truth(renderer, data)
-        figures = compare(renderer, truth).figures
-        samples = renderer.read_sample_counts()[data.mirror_mask]
+        comparison = compare(renderer, truth)
+        figures = comparison.figures
+        samples = renderer.read_sample_counts()[comparison.mirror_mask]
         stand_in = renderer.stand_in
         measured: dict[str, float | int | str] = {
             "stand_in": stand_in.describe() if stand_in is not None else "no mirror",
@@ -169,7 +167,7 @@ def _measure(
             "geometric_error_median_percent": 100.0 * figures.geometric_error_median,
             "geometric_error_p95_percent": 100.0 * figures.geometric_error_p95,
         }
-    return measured, truth
+    return measured, comparison.truth_frame
 
 
 def configurations(settings: BenchSettings) -> list[tuple[int, list[Method]]]:

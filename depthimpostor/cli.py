@@ -8,12 +8,13 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+import moderngl
 from PIL import Image
 
 from .constants import Algorithm, Method
 from .context import create_context, describe
 from .errors import DepthImpostorError, SceneError
-from .compare import Comparison, Figures, compare, format_table, markdown_table, side_by_side, write_report
+from .compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
 from .renderer import Renderer, to_uint8
 from .resources import default_scene_path
 from .scene import Scene, load_scene
@@ -47,7 +48,7 @@ def _stand_in(renderer: Renderer) -> str:
         return "no mirror"
     algorithm = f"{renderer.algorithm.name.lower()} algorithm, " if renderer.method == Method.DEPTH else ""
     bake = f", bake {1000 * sum(renderer.stats.bake_seconds):.1f} ms" if renderer.baked_images is not None else ""
-    return f"{renderer.method.option}: {algorithm}{stand_in.describe()}, {stand_in.bytes / 2**20:.2f} MiB{bake}"
+    return f"{renderer.method.option}: {algorithm}{_kept(renderer)}{bake}"
 
 
 def _render(args: argparse.Namespace) -> int:
@@ -76,22 +77,29 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
-def _compare_frame(scene: Scene, args: argparse.Namespace, method: Method) -> tuple[Comparison, str]:
-    """One frame of `method` compared with the truth, and what the method kept to draw it."""
+def _kept(renderer: Renderer) -> str:
+    """What the method kept to draw the frame, and its memory."""
+    stand_in = renderer.stand_in
+    return f"{stand_in.describe()}, {stand_in.bytes / 2**20:.2f} MiB" if stand_in is not None else "no mirror"
+
+
+def _compare_frame(
+    ctx: moderngl.Context, scene: Scene, args: argparse.Namespace, method: Method, truth: TruthFrame | None = None
+) -> tuple[Comparison, str]:
+    """One frame of `method` compared with the truth (`truth` when it was traced for the same
+    rays), and what the method kept to draw it."""
     algorithm = Algorithm[getattr(args, "algorithm", "optimized").upper()]
-    ctx = create_context(args.backend)
-    try:
-        with Renderer(ctx, scene, algorithm, reflection_data=True, method=method) as renderer:
-            renderer.render()
-            stand_in = renderer.stand_in
-            kept = f"{stand_in.describe()}, {stand_in.bytes / 2**20:.2f} MiB" if stand_in is not None else "no mirror"
-            return compare(renderer), kept
-    finally:
-        ctx.release()
+    with Renderer(ctx, scene, algorithm, reflection_data=True, method=method) as renderer:
+        renderer.render()
+        return compare(renderer, truth), _kept(renderer)
 
 
 def _truth(args: argparse.Namespace) -> int:
-    comparison, _ = _compare_frame(_load(args), args, Method.RAYTRACE)
+    ctx = create_context(args.backend)
+    try:
+        comparison, _ = _compare_frame(ctx, _load(args), args, Method.RAYTRACE)
+    finally:
+        ctx.release()
     output = Path(args.output)
     output.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(to_uint8(comparison.truth)).save(output)
@@ -107,22 +115,27 @@ def _compare(args: argparse.Namespace) -> int:
     output = Path(args.output)
     rows: dict[str, tuple[str, Figures]] = {}
     comparisons: dict[str, Comparison] = {}
-    for method in methods:
-        comparison, kept = _compare_frame(scene, args, method)
-        settings = {
-            "scene": scene.source,
-            "size": list(scene.render.size),
-            "impostor_resolution": scene.render.impostor_resolution,
-            "simplified_triangles": scene.render.simplified_triangles,
-            "algorithm": args.algorithm,
-            "method": method.option,
-            "stand_in": kept,
-        }
-        folder = output / method.option if len(methods) > 1 else output
-        for path in write_report(comparison, folder, settings):
-            print(path)
-        print(format_table(comparison.figures))
-        rows[method.option], comparisons[method.option] = (kept, comparison.figures), comparison
+    ctx = create_context(args.backend)
+    try:
+        for method in methods:
+            # Every method computes the same rays: the truth is traced once and reused.
+            truth = next(iter(comparisons.values())).truth_frame if comparisons else None
+            comparison, kept = _compare_frame(ctx, scene, args, method, truth)
+            settings = {
+                "scene": scene.source,
+                "size": list(scene.render.size),
+                "impostor_resolution": scene.render.impostor_resolution,
+                "simplified_triangles": scene.render.simplified_triangles,
+                "algorithm": args.algorithm,
+                "method": method.option,
+                "stand_in": kept,
+            }
+            for path in write_report(comparison, output / method.option if len(methods) > 1 else output, settings):
+                print(path)
+            print(format_table(comparison.figures))
+            rows[method.option], comparisons[method.option] = (kept, comparison.figures), comparison
+    finally:
+        ctx.release()
     if len(methods) > 1:
         Image.fromarray(side_by_side(comparisons)).save(output / "methods.png")
         (output / "methods.md").write_text(markdown_table(rows), encoding="utf-8")

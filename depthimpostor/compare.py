@@ -42,15 +42,6 @@ class Figures:
 
 
 @dataclass(frozen=True, eq=False)
-class Comparison:
-    render: np.ndarray  # (h, w, 3) displayed colours in [0, 1]
-    truth: np.ndarray
-    mirror_mask: np.ndarray
-    geometric_error: np.ndarray  # (h, w), NaN where not measured
-    figures: Figures
-
-
-@dataclass(frozen=True, eq=False)
 class TruthFrame:
     """What the truth sees at every mirror pixel of a frame, for the rays it was traced with."""
 
@@ -66,6 +57,16 @@ class TruthFrame:
         traces the truth once and reuses it."""
         return bool(np.array_equal(self.mirror_mask, data.mirror_mask)
                     and np.allclose(self.direction[data.mirror_mask], data.direction[data.mirror_mask], atol=1e-6))
+
+
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    render: np.ndarray  # (h, w, 3) displayed colours in [0, 1]
+    truth: np.ndarray
+    mirror_mask: np.ndarray
+    geometric_error: np.ndarray  # (h, w), NaN where not measured
+    figures: Figures
+    truth_frame: TruthFrame  # what the truth saw: another method's frame of the same rays reuses it
 
 
 def trace_truth(renderer: Renderer, data: ReflectionData) -> TruthFrame:
@@ -89,7 +90,7 @@ def trace_truth(renderer: Renderer, data: ReflectionData) -> TruthFrame:
 
 def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
     """Compare the renderer's last frame (made with reflection_data=True) with the truth: traced
-    now, or `truth` when it was traced for the same rays."""
+    now, or `truth` (an earlier comparison's `truth_frame`) when it was traced for the same rays."""
     data = renderer.read_reflection_data()
     render = np.clip(renderer.read_color_float(), 0.0, 1.0)
     if truth is None or not truth.fits(data):
@@ -124,7 +125,7 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
         geometric_error_max=float(values.max()) if len(values) else 0.0,
         worst_pixels=worst,
     )
-    return Comparison(render, truth_image, mask, geometric, figures)
+    return Comparison(render, truth_image, mask, geometric, figures, truth)
 
 
 def _worst_pixels(
