@@ -12,10 +12,12 @@ import numpy as np
 
 
 class Algorithm(IntEnum):
-    """The lecture's two ray/depth-image intersection algorithms."""
+    """How a ray is intersected with a depth image: the lecture's two linear marches, and the
+    hierarchical traversal that finds the optimized march's hit in a logarithmic number of steps."""
 
-    BASIC = 0      # unproject every step and intersect 3-D segments
+    BASIC = 0  # unproject every step and intersect 3-D segments
     OPTIMIZED = 1  # intersect 2-D segments in OpenGL depth, no unprojection
+    HIERARCHICAL = 2  # the optimized march's steps, spans that cannot hit skipped by a min/max pyramid
 
 
 class Method(IntEnum):
@@ -55,7 +57,7 @@ MAX_LIGHTS = 8
 #: Analytic planes (floors, walls) a reflected ray is intersected with exactly.
 MAX_ANALYTIC_PLANES = 8
 #: Depth images one mirror may own (one per reflected object): bounds the uniform block,
-#: 64 x 160 bytes = 10 KiB, well under GL's guaranteed 16 KiB.
+#: 64 x 176 bytes = 11 KiB, under GL's guaranteed 16 KiB.
 MAX_DEPTH_IMAGES_PER_MIRROR = 64
 #: A depth-image sample at or beyond this OpenGL depth is background: nothing was rasterized there.
 BACKGROUND_DEPTH = 1.0
@@ -73,6 +75,12 @@ MAX_SURFACE_SLOPE = 16.0
 #: and "first front-to-back crossing" lands anywhere along it (flicker as the camera moves).
 CONTACT_DEPTH_TOLERANCE = 2.0**-21
 
+#: A span of the min/max depth pyramid over background alone holds (EMPTY_SPAN_MIN,
+#: EMPTY_SPAN_MAX): no ray depth (OpenGL depths in [0, 1], a rounding step beyond after clipping)
+#: can meet an interval that starts above it and ends below it.
+EMPTY_SPAN_MIN = 2.0
+EMPTY_SPAN_MAX = -1.0
+
 #: The basic algorithm's closest approach of two lines divides by aa cc - bb^2 = aa cc sin^2 of
 #: their angle. Below this share of aa cc (0.2 degrees) float32 rounding, relative 1e-7 of aa cc,
 #: is a visible part of it, and the 2-D intersection in depth is used instead.
@@ -87,7 +95,9 @@ CLIP_TOLERANCE_PIXELS = 1e-4
 #: `inverse_row*` are the rows of [a b c]^-1 (projection into the camera's (x, y, w)),
 #: `depth_range` is (w_near, w_far, width, height), `tile` the (x, y) pixel origin of the image
 #: in the atlas and its size; `surface` is (the largest relative change in w per texel of
-#: distance that still joins two samples, 1/w_near, 1/w_near - 1/w_far).
+#: distance that still joins two samples, 1/w_near, 1/w_near - 1/w_far); `pyramid` the (x, y)
+#: origin of the image's first coarse level in the depth pyramid's texture and its number of
+#: coarse levels (passes/pyramid.py; read by the hierarchical traversal alone).
 DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
     ("eye", "vec4"),
     ("a", "vec4"),
@@ -99,6 +109,7 @@ DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
     ("depth_range", "vec4"),
     ("tile", "ivec4"),
     ("surface", "vec4"),
+    ("pyramid", "ivec4"),
 )
 
 #: One reflected object of the ray-traced method (std140): the world-to-local transform (the
@@ -152,6 +163,8 @@ def glsl_constants() -> dict[str, str]:
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",
         "CLIP_TOLERANCE_PIXELS": f"{CLIP_TOLERANCE_PIXELS!r}",
         "MIN_LINES_SINE_SQUARED": f"{MIN_LINES_SINE_SQUARED!r}",
+        "EMPTY_SPAN_MIN": f"{EMPTY_SPAN_MIN!r}",
+        "EMPTY_SPAN_MAX": f"{EMPTY_SPAN_MAX!r}",
         "BVH_TEXTURE_WIDTH": str(BVH_TEXTURE_WIDTH),
         "BVH_STACK_SIZE": str(BVH_STACK_SIZE),
     }

@@ -19,18 +19,24 @@ from .constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm
 from .context import bind_default_framebuffer
 from .passes.impostors import DEPTH_IMAGES_BINDING, ImpostorAtlas, bind_impostors
 from .passes.mirrors import reflection_defines
+from .passes.pyramid import DepthPyramid
 from .passes.uniforms import write
 from .reference import DepthImageData, RayHits
 from .shaders import ProgramCache
 
 #: Rays per row of the query framebuffer.
 _ROW = 1024
-#: Texture units of the ray inputs (after the atlas's).
-_ORIGINS_UNIT = 2
-_DIRECTIONS_UNIT = 3
+#: Texture units of the ray inputs (after the atlas's and the pyramid's).
+_ORIGINS_UNIT = 3
+_DIRECTIONS_UNIT = 4
 
 
-class HasRecord(Protocol):
+class QueriedImage(Protocol):
+    """A depth image in an atlas: where (x, y, width, height), and its std140 record."""
+
+    @property
+    def tile(self) -> tuple[int, int, int, int]: ...
+
     def record(self) -> np.void: ...
 
 
@@ -42,10 +48,11 @@ class RayQuery:
         ctx: moderngl.Context,
         programs: ProgramCache,
         atlas: ImpostorAtlas,
-        images: Sequence[HasRecord],
+        images: Sequence[QueriedImage],
         algorithm: Algorithm = Algorithm.OPTIMIZED,
     ) -> None:
-        """`images` are the atlas's depth images to intersect (anything with a std140 `record()`)."""
+        """`images` are the atlas's depth images to intersect. The hierarchical algorithm builds
+        their depth pyramids here, from the atlas as it is now."""
         if not 0 < len(images) <= MAX_DEPTH_IMAGES_PER_MIRROR:
             raise ValueError(f"a ray query takes 1 to {MAX_DEPTH_IMAGES_PER_MIRROR} depth images, got {len(images)}")
         self.ctx = ctx
@@ -57,6 +64,13 @@ class RayQuery:
             records[i] = image.record()
         self.uniform_buffer = ctx.buffer(records.tobytes())
         self.vertex_array = ctx.vertex_array(self.program, [])
+        self.pyramid: DepthPyramid | None = None
+        if algorithm == Algorithm.HIERARCHICAL:
+            tiles = [(0, 0, 0, 0)] * atlas.slot_count  # an empty tile: a slot left out has no pyramid
+            for image in images:
+                tiles[atlas.slot_of(image.tile)] = image.tile
+            self.pyramid = DepthPyramid(ctx, programs, atlas.pyramid_layout, tiles)
+            self.pyramid.build(atlas.depth_layers())
 
     def run(self, origins: np.ndarray, directions: np.ndarray) -> RayHits:
         count = len(origins)
@@ -77,6 +91,8 @@ class RayQuery:
             framebuffer.use()
             framebuffer.clear()
             bind_impostors(self.program, self.atlas)
+            if self.pyramid is not None:
+                self.pyramid.bind(self.program)
             inputs[0].use(_ORIGINS_UNIT)
             inputs[1].use(_DIRECTIONS_UNIT)
             write(self.program, "u_ray_origins", _ORIGINS_UNIT)
@@ -108,6 +124,8 @@ class RayQuery:
         )
 
     def release(self) -> None:
+        if self.pyramid is not None:
+            self.pyramid.release()
         self.vertex_array.release()
         self.uniform_buffer.release()
 
@@ -116,9 +134,14 @@ class RayQuery:
 class _UploadedImage:
     data: DepthImageData
     tile_origin: tuple[int, int]
+    pyramid: tuple[int, int, int]
+
+    @property
+    def tile(self) -> tuple[int, int, int, int]:
+        return (*self.tile_origin, self.data.camera.width, self.data.camera.height)
 
     def record(self) -> np.void:
-        return self.data.camera.depth_image_record(self.data.object_id, self.tile_origin)
+        return self.data.camera.depth_image_record(self.data.object_id, self.tile_origin, self.pyramid)
 
 
 def query_depth_images(
@@ -138,7 +161,8 @@ def query_depth_images(
         uploaded = []
         for slot, image in enumerate(images):
             atlas.write(atlas.tile_origin(slot), image)
-            uploaded.append(_UploadedImage(image, atlas.tile_origin(slot)))
+            pyramid = atlas.pyramid_layout.entry(slot, image.camera.width, image.camera.height)
+            uploaded.append(_UploadedImage(image, atlas.tile_origin(slot), pyramid))
         query = RayQuery(ctx, programs, atlas, uploaded, algorithm)
         return query.run(np.asarray(origins, float), np.asarray(directions, float))
     finally:

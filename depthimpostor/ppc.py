@@ -276,8 +276,11 @@ class PPC:
         """A matrix as GL wants it: float32, column-major."""
         return np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes()
 
-    def depth_image_record(self, object_id: int, tile_origin: tuple[int, int]) -> np.void:
-        """This camera packed as one `DepthImage` std140 record (see constants.DEPTH_IMAGE_FIELDS)."""
+    def depth_image_record(
+        self, object_id: int, tile_origin: tuple[int, int], pyramid: tuple[int, int, int] = (0, 0, 0)
+    ) -> np.void:
+        """This camera packed as one `DepthImage` std140 record (see constants.DEPTH_IMAGE_FIELDS);
+        `pyramid` is (x, y, coarse levels) of its depth pyramid, where it has one."""
         record = np.zeros((), dtype=DEPTH_IMAGE_DTYPE)
         record["eye"] = (*self.C, float(object_id))
         record["a"][:3] = self.a
@@ -290,4 +293,5 @@ class PPC:
         # (max relative depth step, 1/w_near, 1/w_near - 1/w_far): 1/w = y - OpenGL depth * z.
         inverse_near, inverse_far = 1.0 / self.w_near, 1.0 / self.w_far
         record["surface"] = (self.max_relative_depth_step, inverse_near, inverse_near - inverse_far, 0.0)
+        record["pyramid"] = (*pyramid, 0)
         return record

@@ -1,8 +1,10 @@
 """The numpy reference of the ray / depth-image intersection.
 
-The same algorithms as shaders/lib/depth_image.glsl, with the same function names, vectorized
-over rays and computed in float64, so that the GLSL can be checked against it ray by ray and a
-reader can hold the two side by side. A ray is origin + t * direction, t >= 0.
+The lecture's two algorithms of shaders/lib/depth_image.glsl, with the same function names,
+vectorized over rays and computed in float64, so that the GLSL can be checked against it ray by
+ray and a reader can hold the two side by side. A ray is origin + t * direction, t >= 0. The
+hierarchical traversal has no reference of its own: it must find the optimized march's hits, so
+the optimized march is its reference (its samples per ray differ).
 """
 
 from __future__ import annotations
@@ -310,6 +312,7 @@ def _record(result: RayHits, mask: NDArray[np.bool_], t: Array, s: Array, color:
 
 
 def intersect_depth_image(image: DepthImageData, origins: Array, directions: Array, algorithm: Algorithm) -> RayHits:
+    """The hits `algorithm` must find (the hierarchical traversal: the optimized march's)."""
     if algorithm == Algorithm.BASIC:
         return intersect_basic(image, origins, directions)
     return intersect_optimized(image, origins, directions)

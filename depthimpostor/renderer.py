@@ -179,6 +179,12 @@ class Renderer:
             self.stand_in.release()
         self.stand_in = stand_in
         self._baked = False
+        self._keep_pyramid()
+
+    def _keep_pyramid(self) -> None:
+        """Depth pyramids exist exactly while the hierarchical algorithm intersects depth images."""
+        if self.impostors is not None:
+            self.impostors.use_pyramid(self.algorithm == Algorithm.HIERARCHICAL)
 
     @property
     def impostors(self) -> ImpostorPass | None:
@@ -231,8 +237,10 @@ class Renderer:
         self.look_at(self.view)
 
     def set_algorithm(self, algorithm: Algorithm) -> None:
-        """Intersect with another algorithm: another mirror variant, the same depth images."""
+        """Intersect with another algorithm: another mirror variant, the same depth images (the
+        hierarchical one builds their pyramids from them; the others free the pyramids)."""
         self.algorithm = algorithm
+        self._keep_pyramid()
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
 

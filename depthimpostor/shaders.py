@@ -7,7 +7,8 @@
   Each copy is wrapped in `#line` directives whose source-string numbers map back to file names,
   so that a compile error points at the right line of the right file.
 - Defines go in as a prefix right after `#version`; the body is never rewritten.
-- Programs are cached by (vertex, fragment, defines) per context and compiled once.
+- Programs are cached by (files, defines) per context and compiled once: a vertex + fragment
+  pair, or a compute shader alone.
 - Files under `generated/` are not on disk: Python writes them from `constants.py` so that struct
   layouts exist in one place.
 """
@@ -142,49 +143,71 @@ def _format_compile_error(
     return "\n".join(report)
 
 
+#: A program's stages (vertex and fragment file, or a compute file alone) and its defines.
+ProgramKey = tuple[tuple[str, ...], tuple[tuple[str, str], ...]]
+
+
 class ProgramCache:
-    """Compiles each (vertex, fragment, defines) program once per context and owns them."""
+    """Compiles each program (vertex + fragment, or compute) once per (files, defines) per
+    context and owns them."""
 
     def __init__(self, ctx: moderngl.Context, library: ShaderLibrary | None = None) -> None:
         self.ctx = ctx
         self.library = library or ShaderLibrary()
-        self._programs: dict[tuple[str, str, tuple[tuple[str, str], ...]], moderngl.Program] = {}
+        self._programs: dict[ProgramKey, moderngl.Program | moderngl.ComputeShader] = {}
 
     def get(self, vertex: str, fragment: str, defines: Defines | None = None) -> moderngl.Program:
+        program = self._get((vertex, fragment), defines)
+        assert isinstance(program, moderngl.Program)
+        return program
+
+    def compute(self, name: str, defines: Defines | None = None) -> moderngl.ComputeShader:
+        """A compute shader (GLSL 4.30: the caller checks the context has it)."""
+        program = self._get((name,), defines)
+        assert isinstance(program, moderngl.ComputeShader)
+        return program
+
+    def _get(self, stages: tuple[str, ...], defines: Defines | None) -> moderngl.Program | moderngl.ComputeShader:
         defines = dict(defines or {})
-        key = (vertex, fragment, tuple(sorted((k, str(v)) for k, v in defines.items())))
+        key = (stages, tuple(sorted((k, str(v)) for k, v in defines.items())))
         program = self._programs.get(key)
         if program is None:
-            program = self._build(vertex, fragment, defines)
+            program = self._build(stages, defines)
             self._programs[key] = program
         return program
 
     @property
     def variants(self) -> list[tuple[str, str, tuple[tuple[str, str], ...]]]:
-        """The keys of every program compiled so far (for plans, stats and tests)."""
-        return list(self._programs)
+        """(vertex, fragment, defines) of every vertex + fragment program compiled so far (for
+        plans, stats and tests)."""
+        return [(stages[0], stages[1], defines) for stages, defines in self._programs if len(stages) == 2]
+
+    @property
+    def compute_variants(self) -> list[tuple[str, tuple[tuple[str, str], ...]]]:
+        """(file, defines) of every compute shader compiled so far."""
+        return [(stages[0], defines) for stages, defines in self._programs if len(stages) == 1]
 
     def reloaded(self) -> ProgramCache:
         """A new cache holding every program of this one, compiled from the files as they are
         now. Raises ShaderError (and leaves this cache as it is) if any of them fails."""
         fresh = ProgramCache(self.ctx, ShaderLibrary(self.library.root))
         try:
-            for vertex, fragment, defines in self._programs:
-                fresh.get(vertex, fragment, dict(defines))
+            for stages, defines in self._programs:
+                fresh._get(stages, dict(defines))
         except ShaderError:
             fresh.release()
             raise
         return fresh
 
-    def _build(self, vertex: str, fragment: str, defines: Defines) -> moderngl.Program:
-        sources = {
-            "vertex": self.library.preprocess(vertex, defines),
-            "fragment": self.library.preprocess(fragment, defines),
-        }
+    def _build(self, stages: tuple[str, ...], defines: Defines) -> moderngl.Program | moderngl.ComputeShader:
+        kinds = ("compute",) if len(stages) == 1 else ("vertex", "fragment")
+        sources = {kind: self.library.preprocess(name, defines) for kind, name in zip(kinds, stages)}
         try:
+            if len(stages) == 1:
+                return self.ctx.compute_shader(sources["compute"].text)
             return self.ctx.program(vertex_shader=sources["vertex"].text, fragment_shader=sources["fragment"].text)
         except moderngl.Error as error:
-            name = f"{vertex} + {fragment}"
+            name = " + ".join(stages)
             raise ShaderError(_format_compile_error(name, defines, str(error), sources, self.library)) from None
 
     def release(self) -> None:

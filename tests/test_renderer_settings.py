@@ -61,15 +61,22 @@ def test_camera_moves_and_resizes_re_bake_nothing(ctx: moderngl.Context, scene: 
 
 
 def test_algorithm_switch_changes_the_variant_not_the_depth_images(ctx: moderngl.Context, scene: Scene) -> None:
+    """Every algorithm is a mirror variant over the same depth images; the hierarchical one adds
+    their pyramids (built from the images already baked) and they go when it goes."""
+    frames = {}
     with Renderer(ctx, scene) as renderer:
-        renderer.render()
-        renderer.set_algorithm(Algorithm.BASIC)
-        renderer.render()
+        for algorithm in (Algorithm.OPTIMIZED, Algorithm.BASIC, Algorithm.HIERARCHICAL, Algorithm.OPTIMIZED):
+            renderer.set_algorithm(algorithm)
+            renderer.render()
+            frames[algorithm] = renderer.read_color_float()
+            assert renderer.impostors is not None
+            assert (renderer.impostors.pyramid is not None) == (algorithm == Algorithm.HIERARCHICAL)
         assert renderer.stats.depth_images_baked == 5
-        frame = renderer.read_color_float()
         mirror_variants = {d for _, fragment, d in renderer.programs.variants if fragment == "mirror.frag"}
         assert mirror_variants == {(("ALGORITHM", str(int(a))), ("METHOD", str(int(Method.DEPTH)))) for a in Algorithm}
-    assert_same_frame(frame, fresh_frame(ctx, scene, Algorithm.BASIC))
+    assert_same_frame(frames[Algorithm.BASIC], fresh_frame(ctx, scene, Algorithm.BASIC))
+    # The hierarchical traversal finds the optimized march's hits, bit for bit.
+    assert np.array_equal(frames[Algorithm.HIERARCHICAL], frames[Algorithm.OPTIMIZED])
 
 
 def test_resolution_change_re_bakes_every_depth_image_once(ctx: moderngl.Context, scene: Scene) -> None:

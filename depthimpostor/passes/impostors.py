@@ -36,6 +36,7 @@ from ..scene.model import Scene
 from ..shaders import ProgramCache
 from .diffuse import DiffusePass
 from .meshes import GpuMeshes
+from .pyramid import DepthPyramid, PyramidLayout
 from .uniforms import bind_texture, bind_uniform_block, write
 
 
@@ -56,12 +57,14 @@ def bind_impostors(program: moderngl.Program, atlas: ImpostorAtlas) -> None:
 @dataclass(frozen=True, eq=False)
 class DepthImage:
     """One baked image: its mirror, the objects it shows (one for a depth image or a billboard,
-    all reflected objects for a cube-map face), its camera, and where it sits in the atlas."""
+    all reflected objects for a cube-map face), its camera, where it sits in the atlas, and where
+    its depth pyramid would sit (used only by the hierarchical algorithm: (x, y, levels))."""
 
     mirror: ObjectGeometry
     targets: tuple[ObjectGeometry, ...]
     camera: PPC
     tile_origin: tuple[int, int]
+    pyramid: tuple[int, int, int] = (0, 0, 0)
 
     @property
     def target(self) -> ObjectGeometry:
@@ -78,7 +81,7 @@ class DepthImage:
         """The std140 record; `eye.w` names the object of a per-object image (NO_OBJECT for a
         cube-map face, whose texels name their own)."""
         object_id = self.targets[0].index if len(self.targets) == 1 else NO_OBJECT
-        return self.camera.depth_image_record(object_id, self.tile_origin)
+        return self.camera.depth_image_record(object_id, self.tile_origin, self.pyramid)
 
 
 #: The face GL culls to keep the back faces. A depth image's projection puts image row 0 (the top)
@@ -131,6 +134,7 @@ class ImpostorAtlas:
         self.ctx = ctx
         self.columns = columns
         self.resolution = resolution
+        self.pyramid_layout = PyramidLayout.of_grid(columns, rows, resolution)
         self.color = ctx.texture(size, 4, dtype="f1")
         # (visible surface, second layer): see lib/baked_images.glsl.
         self.depth = ctx.texture(size, 2, dtype="f4") if layers else None
@@ -150,17 +154,26 @@ class ImpostorAtlas:
         width, height = self.size
         return width * height * (4 + (8 if self.depth is not None else 0) + 4)
 
+    @property
+    def slot_count(self) -> int:
+        return self.pyramid_layout.columns * self.pyramid_layout.rows
+
     def tile_origin(self, slot: int) -> tuple[int, int]:
         return (slot % self.columns) * self.resolution, (slot // self.columns) * self.resolution
 
-    def _layers(self) -> moderngl.Texture:
+    def slot_of(self, tile: tuple[int, ...]) -> int:
+        """The slot of the tile at (tile[0], tile[1])."""
+        return (tile[1] // self.resolution) * self.columns + tile[0] // self.resolution
+
+    def depth_layers(self) -> moderngl.Texture:
+        """The float layers (visible surface, second layer) of an atlas that keeps them."""
         if self.depth is None:
             raise ValueError("this atlas keeps colour alone (billboards): it holds no depth images")
         return self.depth
 
     def read(self, image: DepthImage) -> DepthImageData:
         """One depth image as the numpy reference takes it (rows top to bottom, colour in [0, 1])."""
-        self._layers()
+        self.depth_layers()
         viewport = image.tile
         height, width = viewport[3], viewport[2]
         color = np.frombuffer(self.framebuffer.read(viewport=viewport, components=4, attachment=0), np.uint8)
@@ -179,7 +192,7 @@ class ImpostorAtlas:
         rgba = np.concatenate([np.rint(np.clip(data.color, 0, 1) * 255), np.full((height, width, 1), 255)], axis=2)
         self.color.write(np.ascontiguousarray(rgba, np.uint8).tobytes(), viewport=viewport)
         layers = np.stack([data.depth, data.back_layer], axis=2)
-        self._layers().write(np.ascontiguousarray(layers, np.float32).tobytes(), viewport=viewport)
+        self.depth_layers().write(np.ascontiguousarray(layers, np.float32).tobytes(), viewport=viewport)
 
     def release(self) -> None:
         bind_default_framebuffer(self.ctx)
@@ -223,6 +236,7 @@ class BakedImages:
     ) -> None:
         plan = self.plan(scene, mirrors, reflected)
         self.ctx = ctx
+        self.programs = programs
         self.scene = scene
         self.meshes = meshes
         layers = self.second_layer != SecondLayer.NONE
@@ -235,7 +249,8 @@ class BakedImages:
         for mirror in mirrors:
             images = []
             for targets, camera in plan[mirror.index]:
-                images.append(DepthImage(mirror, targets, camera, self.atlas.tile_origin(slot)))
+                pyramid = self.atlas.pyramid_layout.entry(slot, camera.width, camera.height)
+                images.append(DepthImage(mirror, targets, camera, self.atlas.tile_origin(slot), pyramid))
                 slot += 1
             self.images_by_mirror[mirror.index] = images
         self.uniform_buffers = {index: self._uniform_buffer(images) for index, images in self.images_by_mirror.items()}
@@ -327,10 +342,47 @@ class BakedImages:
 
 class ImpostorPass(BakedImages):
     """The depth-image method: one depth image per mirror and reflected object, with a frustum
-    fitted to that object alone, and the back-face layer."""
+    fitted to that object alone, and the back-face layer; with the hierarchical algorithm, the
+    min/max depth pyramid of every image too, built after each bake."""
 
     second_layer = SecondLayer.BACK_FACE
     image_noun = "depth image"
+
+    pyramid: DepthPyramid | None = None
+
+    def use_pyramid(self, wanted: bool) -> None:
+        """Keep a depth pyramid (the hierarchical algorithm's) or free it. A new one is built at
+        once from the images already baked (the images themselves are not baked again)."""
+        if wanted and self.pyramid is None:
+            tiles = [image.tile for image in self.depth_images]
+            self.pyramid = DepthPyramid(self.ctx, self.programs, self.atlas.pyramid_layout, tiles)
+            if self.bakes:
+                self.pyramid.build(self.atlas.depth_layers())
+        elif not wanted and self.pyramid is not None:
+            self.pyramid.release()
+            self.pyramid = None
+
+    @property
+    def bytes(self) -> int:
+        return super().bytes + (self.pyramid.bytes if self.pyramid is not None else 0)
+
+    def describe(self) -> str:
+        return super().describe() + (" with depth pyramids" if self.pyramid is not None else "")
+
+    def bake(self) -> int:
+        draws = super().bake()
+        if self.pyramid is not None:
+            self.pyramid.build(self.atlas.depth_layers())
+        return draws
+
+    def bind(self, program: moderngl.Program) -> None:
+        super().bind(program)
+        if self.pyramid is not None:
+            self.pyramid.bind(program)
+
+    def release(self) -> None:
+        self.use_pyramid(False)
+        super().release()
 
 
 def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]) -> dict[int, list[ImagePlan]]:

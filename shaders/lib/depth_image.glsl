@@ -1,13 +1,12 @@
-// Ray / depth-image intersection: the lecture's two algorithms, shared by the mirror pass and the
-// GPU ray query. depthimpostor/reference.py implements the same functions with the same names.
+// Ray / depth-image intersection: the lecture's two algorithms and the hierarchical traversal,
+// shared by the mirror pass and the GPU ray query. depthimpostor/reference.py implements the
+// lecture's two with the same function names; the hierarchical one finds the optimized one's hit.
 #include "baked_images.glsl"
+#include "solid_run.glsl"
 
-// (visible surface, back of its solid run) at an atlas texel (reference.sample_layers). Where
-// no back face was drawn (an open surface) the object is taken to be as thin as it looks: no
-// false solid behind it.
+// (visible surface, back of its solid run) at an atlas texel.
 vec2 layers_at(ivec2 texel) {
-    vec2 layers = texelFetch(u_impostor_depth, texel, 0).rg;
-    return vec2(layers.x, layers.y >= BACKGROUND_DEPTH ? layers.x : max(layers.x, layers.y));
+    return solid_run(texelFetch(u_impostor_depth, texel, 0).rg);
 }
 
 // One Liang-Barsky step: keep the part of the ray where value + rate * t >= 0.
@@ -117,44 +116,163 @@ RayHit hit_at(DepthImage image, float t, vec2 s, int samples) {
     return RayHit(true, t, s, sample_color(image, s), image.eye.w, samples);
 }
 
+// Sample i of the march's `steps` along a'b': (u, v, OpenGL depth). Both marches compute every
+// sample with this one expression, so that they read the same texels and find the same hit.
+vec3 march_sample(ClippedRay ray, int i, int steps) {
+    return ray.sa + (ray.sb - ray.sa) * (float(i) / float(steps));
+}
+
+// The start of both marches: the ray clipped and projected, its step count, and sample 0 (its
+// texel and layers). False, with the answer in `early`, when the ray misses the frustum or starts
+// inside the object (a ray that touches the mirror), where it hits at once.
+bool march_start(DepthImage image, vec3 origin, vec3 direction, out ClippedRay ray, out int steps,
+                 out ivec2 texel0, out vec2 z0, out RayHit early) {
+    early = no_hit(0);
+    if (!clip_and_project(image, origin, direction, ray)) return false;
+    steps = step_count(image, ray.sa, ray.sb);
+    texel0 = texel_of(image, ray.sa.xy);
+    z0 = layers_at(texel0);
+    if (!inside_solid(ray.sa.z, z0)) return true;
+    early = hit_at(image, ray.t_enter, ray.sa.xy, 1);
+    return false;
+}
+
+// Step i of the optimized march, from sample i (s0, its texel and layers) to sample i + 1 (s1,
+// texel1, z1, returned for the next step). A step hits in one of two ways. Through the visible
+// surface: the 2-D segment intersection, between samples of one surface (samples_connected). Or
+// into the object through a side the eye cannot see (behind a silhouette, or from behind): the
+// ray is inside the solid run at s1 without crossing the visible surface, and the hit is put at
+// s1, within one step of where it entered. A ray that passes behind the solid run (behind a thin
+// foreground) is inside nothing and goes on to what lies behind, as the truth does.
+bool march_step(DepthImage image, ClippedRay ray, int i, int steps, vec3 s0, ivec2 texel0, vec2 z0,
+                out vec3 s1, out ivec2 texel1, out vec2 z1, out float t, out vec2 s) {
+    s1 = march_sample(ray, i + 1, steps);
+    texel1 = texel_of(image, s1.xy);
+    z1 = layers_at(texel1);
+    float k;
+    bool through_surface = samples_connected(image, texel0, texel1, z0.x, z1.x)
+        && segments_cross(s0.z - z0.x, s1.z - z1.x, k);
+    if (!through_surface && !inside_solid(s1.z, z1)) return false;
+    if (!through_surface) k = 1.0;
+    s = s0.xy + (s1.xy - s0.xy) * k;
+    t = ray_parameter((float(i) + k) / float(steps), ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
+    return true;
+}
+
 // The lecture's optimized algorithm: clip, project both ends, step along the projection and
-// intersect 2-D segments in OpenGL depth, which is affine in screen space: no unprojection.
-//
-// A step hits in one of two ways. Through the visible surface: the 2-D segment intersection,
-// between samples of one surface (samples_connected). Or into the object through a side the
-// eye cannot see (behind a silhouette, or from behind): the ray is inside the solid run at s1
-// without crossing the visible surface, and the hit is put at s1, within one step of where it
-// entered. A ray that passes behind the solid run (behind a thin foreground) is inside nothing
-// and goes on to what lies behind, as the truth does.
+// intersect 2-D segments in OpenGL depth, which is affine in screen space: no unprojection. It
+// reads one texel per step: up to max(w, h) of them.
 RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
     ClippedRay ray;
-    if (!clip_and_project(image, origin, direction, ray)) return no_hit(0);
-    vec3 sa = ray.sa, sb = ray.sb;
-    int steps = step_count(image, sa, sb);
-    vec3 s0 = sa;
-    ivec2 texel0 = texel_of(image, s0.xy);
-    vec2 z0 = layers_at(texel0);
-    // A ray that starts inside the object (one that touches the mirror) hits where it starts.
-    if (inside_solid(s0.z, z0)) return hit_at(image, ray.t_enter, s0.xy, 1);
+    int steps;
+    ivec2 texel0;
+    vec2 z0;
+    RayHit early;
+    if (!march_start(image, origin, direction, ray, steps, texel0, z0, early)) return early;
+    vec3 s0 = ray.sa;
     for (int i = 0; i < steps; ++i) {
-        vec3 s1 = sa + (sb - sa) * (float(i + 1) / float(steps));
-        ivec2 texel1 = texel_of(image, s1.xy);
-        vec2 z1 = layers_at(texel1);
-        float k;
-        bool through_surface = samples_connected(image, texel0, texel1, z0.x, z1.x)
-            && segments_cross(s0.z - z0.x, s1.z - z1.x, k);
-        if (through_surface || inside_solid(s1.z, z1)) {
-            if (!through_surface) k = 1.0;
-            vec2 s = s0.xy + (s1.xy - s0.xy) * k;
-            float t = ray_parameter((float(i) + k) / float(steps), ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
-            return hit_at(image, t, s, i + 2);
-        }
+        vec3 s1;
+        ivec2 texel1;
+        vec2 z1, s;
+        float t;
+        if (march_step(image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) return hit_at(image, t, s, i + 2);
         s0 = s1;
         texel0 = texel1;
         z0 = z1;
     }
     return no_hit(steps + 1);
 }
+
+#if ALGORITHM == ALGORITHM_HIERARCHICAL
+// The min/max depth pyramid (passes/pyramid.py): mip m holds level m + 1 of every image, each
+// texel (nearest surface, farthest back of a solid run) over its block grown by one texel.
+uniform sampler2D u_impostor_pyramid;
+
+// The first sample after sample i whose (unclamped) position leaves `cell` of `level`, from
+// where the line crosses the cell's exit edges. Rounding may make it one sample early or late:
+// early only shortens the span, and late is caught by the footprint check of the caller.
+int span_end(ClippedRay ray, int steps, int i, ivec2 cell, int level) {
+    vec2 d = ray.sb.xy - ray.sa.xy;
+    vec2 low = vec2(cell << level), high = vec2((cell + 1) << level);
+    float last = float(steps), end = last;
+    for (int axis = 0; axis < 2; ++axis) {
+        // Sample j is at sa + d j / steps: it reaches `high` at j >= (high - sa) steps / d, and
+        // falls below `low` at j > (sa - low) steps / -d.
+        if (d[axis] > 0.0) end = min(end, ceil((high[axis] - ray.sa[axis]) * last / d[axis]));
+        else if (d[axis] < 0.0) end = min(end, floor((ray.sa[axis] - low[axis]) * last / -d[axis]) + 1.0);
+    }
+    return clamp(int(end), i + 1, steps);
+}
+
+// The optimized march's hit, found in about log2(max(w, h)) texel reads where the ray passes
+// far from the surface. From sample i at `level`: take the span of samples from i to the first
+// one leaving the level's cell of sample i; if all their texels lie in the cell's footprint (the
+// block grown by one texel) and the ray's depth over the span, which is monotonic in the sample
+// index, cannot meet the footprint's [nearest, farthest] (with a margin beyond the march's own
+// tolerances), no step of the span can hit: skip it and climb a level. Otherwise descend; at
+// level 0 run the march's own step. Every step that could hit is run, in order, by march_step
+// itself: the first hit is the linear march's, bit for bit (tests/test_hierarchical.py).
+RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
+    ClippedRay ray;
+    int steps;
+    ivec2 texel0;
+    vec2 z0;
+    RayHit early;
+    if (!march_start(image, origin, direction, ray, steps, texel0, z0, early)) return early;
+    vec3 s0 = ray.sa;
+    bool z0_read = true;
+    int reads = 1;
+    int top = image.pyramid.z;
+    int level = top;
+    int i = 0;
+    // A step hits only if |ray - surface| <= CONTACT_DEPTH_TOLERANCE at one of its ends (in
+    // float32, whose rounding of values in [0, 1] is far below the tolerance): twice it is safe.
+    float margin = 2.0 * CONTACT_DEPTH_TOLERANCE;
+    // Each pass advances i, or descends a level; a level is climbed only after an advance. So at
+    // most steps advances, steps + top descents and as many climbs: this bound is never reached.
+    for (int pass = 0; pass <= 4 * steps + top && i < steps; ++pass) {
+        if (level > 0) {
+            ivec2 relative0 = texel0 - image.tile.xy;
+            ivec2 cell = relative0 >> level;
+            int end = span_end(ray, steps, i, cell, level);
+            vec3 s_end = march_sample(ray, end, steps);
+            ivec2 texel_end = texel_of(image, s_end.xy);
+            ivec2 relative_end = texel_end - image.tile.xy;
+            if (all(greaterThanEqual(relative_end, (cell << level) - 1)) && all(lessThanEqual(relative_end, (cell + 1) << level))) {
+                vec2 span = texelFetch(u_impostor_pyramid, (image.pyramid.xy >> (level - 1)) + cell, level - 1).rg;
+                reads += 1;
+                if (max(s0.z, s_end.z) < span.x - margin || min(s0.z, s_end.z) > span.y + margin) {
+                    i = end;
+                    s0 = s_end;
+                    texel0 = texel_end;
+                    z0_read = false;
+                    level = min(level + 1, top);
+                    continue;
+                }
+            }
+            level -= 1;
+            continue;
+        }
+        if (!z0_read) {
+            z0 = layers_at(texel0);
+            reads += 1;
+        }
+        vec3 s1;
+        ivec2 texel1;
+        vec2 z1, s;
+        float t;
+        reads += 1;
+        if (march_step(image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) return hit_at(image, t, s, reads);
+        i += 1;
+        s0 = s1;
+        texel0 = texel1;
+        z0 = z1;
+        z0_read = true;
+        level = min(1, top);
+    }
+    return no_hit(reads);
+}
+#endif
 
 // The lecture's basic algorithm: unproject every step's sample to 3-D and intersect the segment
 // between consecutive samples with the ray (they are coplanar: both lie in the plane through the
@@ -223,6 +341,8 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
 RayHit intersect_depth_image(DepthImage image, vec3 origin, vec3 direction) {
 #if ALGORITHM == ALGORITHM_BASIC
     return intersect_basic(image, origin, direction);
+#elif ALGORITHM == ALGORITHM_HIERARCHICAL
+    return intersect_hierarchical(image, origin, direction);
 #else
     return intersect_optimized(image, origin, direction);
 #endif
