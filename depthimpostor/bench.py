@@ -1,9 +1,10 @@
-"""The accuracy/time benchmark: for every scene, method and resolution, what a frame costs and how
-far it is from the truth.
+"""The accuracy/time benchmark: for every scene, method (and, for depth images, intersection
+algorithm) and resolution, what a frame costs and how far it is from the truth.
 
 Per configuration two renderers are made. The timed one is the renderer `render` uses (no extra
 outputs): its bakes and frames are timed with `time.perf_counter()` around `ctx.finish()` (GL time
-queries under-report on software rasterizers; they are recorded beside, for real drivers). The
+queries under-report on software rasterizers; they are recorded beside, for real drivers), and
+the mirror pass apart (a `ctx.finish()` before it): the part of the frame the methods differ in. The
 measuring one adds the reflection outputs and the sample-counting variant, which exist only for
 this: one frame of it gives the error figures against the truth and the samples each reflected
 ray read. The truth depends only on the rays, which every method computes alike, so it is traced
@@ -30,7 +31,7 @@ import moderngl
 import numpy as np
 
 from .compare import TruthFrame, compare
-from .constants import Method
+from .constants import Algorithm, Method
 from .context import describe
 from .renderer import STAND_INS, Renderer
 from .passes.impostors import BakedImages
@@ -42,8 +43,25 @@ RESOLUTION_METHODS = frozenset(method for method in Method if issubclass(STAND_I
 
 
 @dataclass(frozen=True)
+class Technique:
+    """A method, and for depth images the intersection algorithm (the other methods have none)."""
+
+    method: Method
+    algorithm: Algorithm = Algorithm.OPTIMIZED
+
+    @property
+    def algorithm_name(self) -> str:
+        return self.algorithm.name.lower() if self.method == Method.DEPTH else "-"
+
+    @property
+    def label(self) -> str:
+        return self.method.option + (f" ({self.algorithm_name})" if self.method == Method.DEPTH else "")
+
+
+@dataclass(frozen=True)
 class BenchSettings:
     methods: tuple[Method, ...]
+    algorithms: tuple[Algorithm, ...]  # for the depth-image method
     resolutions: tuple[int, ...]
     size: tuple[int, int]
     frames: int  # timed frames per configuration
@@ -53,15 +71,17 @@ class BenchSettings:
 
 @dataclass(frozen=True)
 class BenchRow:
-    """One scene, method and resolution (0 for the methods that have none)."""
+    """One scene, method (algorithm) and resolution (0 for the methods that have none)."""
 
     scene: str
     method: str
+    algorithm: str  # the depth-image intersection; "-" for the other methods
     resolution: int
     stand_in: str
     frame_ms_median: float
     frame_ms_p10: float
     frame_ms_p90: float
+    mirror_pass_ms_median: float  # the mirror pass alone
     gl_time_query_ms: float  # median; under-reports on llvmpipe
     bake_ms_median: float  # 0 for the methods that bake nothing
     memory_mib: float
@@ -92,7 +112,8 @@ def machine_lines(ctx: moderngl.Context, settings: BenchSettings, scenes: Sequen
         f"Python {platform.python_version()}",
         f"scenes: {', '.join(scene.source for scene in scenes)}",
         f"settings: size {settings.size[0]}x{settings.size[1]}, resolutions {list(settings.resolutions)}, "
-        f"methods {[m.option for m in settings.methods]}, {settings.warmup} warm-up + {settings.frames} timed "
+        f"methods {[m.option for m in settings.methods]}, depth-image algorithms "
+        f"{[a.name.lower() for a in settings.algorithms]}, {settings.warmup} warm-up + {settings.frames} timed "
         f"frames, {settings.bakes} timed bakes",
     ]
 
@@ -102,11 +123,11 @@ def _percentile(values: Sequence[float], q: float) -> float:
 
 
 @contextmanager
-def _renderers(ctx: moderngl.Context, configured: Sequence[tuple[Scene, Method]]) -> Iterator[list[Renderer]]:
+def _renderers(ctx: moderngl.Context, configured: Sequence[tuple[Scene, Technique]]) -> Iterator[list[Renderer]]:
     renderers: list[Renderer] = []
     try:
-        for scene, method in configured:
-            renderers.append(Renderer(ctx, scene, method=method))
+        for scene, technique in configured:
+            renderers.append(Renderer(ctx, scene, technique.algorithm, method=technique.method, time_mirror_pass=True))
         yield renderers
     finally:
         for renderer in renderers:
@@ -134,11 +155,13 @@ def _time_group(ctx: moderngl.Context, renderers: list[Renderer], settings: Benc
     timings = []
     for renderer, first, gl_time in zip(renderers, first_timed, gl_times):
         frames = [1000.0 * seconds for seconds in renderer.stats.draw_seconds[first:]]
+        mirror_passes = [1000.0 * seconds for seconds in renderer.stats.mirror_seconds[first:]]
         bakes = [1000.0 * seconds for seconds in renderer.stats.bake_seconds[1:]]
         timings.append({
             "frame_ms_median": statistics.median(frames),
             "frame_ms_p10": _percentile(frames, 10),
             "frame_ms_p90": _percentile(frames, 90),
+            "mirror_pass_ms_median": statistics.median(mirror_passes),
             "gl_time_query_ms": statistics.median(gl_time),
             "bake_ms_median": statistics.median(bakes) if bakes else 0.0,
         })
@@ -146,10 +169,11 @@ def _time_group(ctx: moderngl.Context, renderers: list[Renderer], settings: Benc
 
 
 def _measure(
-    ctx: moderngl.Context, scene: Scene, method: Method, truth: TruthFrame | None
+    ctx: moderngl.Context, scene: Scene, technique: Technique, truth: TruthFrame | None
 ) -> tuple[dict[str, float | int | str], TruthFrame]:
     """Error figures and samples per ray, from one frame of the measuring variant."""
-    with Renderer(ctx, scene, reflection_data=True, method=method, count_samples=True) as renderer:
+    with Renderer(ctx, scene, technique.algorithm, reflection_data=True, method=technique.method,
+                  count_samples=True) as renderer:
         renderer.render()
         comparison = compare(renderer, truth)
         figures = comparison.figures
@@ -170,11 +194,20 @@ def _measure(
     return measured, comparison.truth_frame
 
 
-def configurations(settings: BenchSettings) -> list[tuple[int, list[Method]]]:
+def techniques(settings: BenchSettings) -> list[Technique]:
+    """Every method, the depth-image method once per algorithm."""
+    return [
+        Technique(method, algorithm)
+        for method in settings.methods
+        for algorithm in (settings.algorithms if method == Method.DEPTH else (Algorithm.OPTIMIZED,))
+    ]
+
+
+def configurations(settings: BenchSettings) -> list[tuple[int, list[Technique]]]:
     """The configurations of one scene, by resolution. The methods without a resolution are
     made with the first (resolution 0 in their rows)."""
-    resolution_methods = [m for m in settings.methods if m in RESOLUTION_METHODS]
-    others = [m for m in settings.methods if m not in RESOLUTION_METHODS]
+    resolution_methods = [t for t in techniques(settings) if t.method in RESOLUTION_METHODS]
+    others = [t for t in techniques(settings) if t.method not in RESOLUTION_METHODS]
     groups = [(resolution, list(resolution_methods)) for resolution in settings.resolutions if resolution_methods]
     if others:
         if groups:
@@ -187,37 +220,37 @@ def configurations(settings: BenchSettings) -> list[tuple[int, list[Method]]]:
 def run_bench(
     ctx: moderngl.Context, scenes: Sequence[Scene], settings: BenchSettings, progress: object | None = None
 ) -> list[BenchRow]:
-    """Every scene x method x resolution; `progress` is a tqdm bar (or anything with update())."""
+    """Every scene x technique x resolution; `progress` is a tqdm bar (or anything with update())."""
     rows: list[BenchRow] = []
     for scene in scenes:
         name = Path(scene.source).stem
         configured = [
-            (scene.with_overrides(size=settings.size, impostor_resolution=resolution), resolution, method)
-            for resolution, methods in configurations(settings) for method in methods
+            (scene.with_overrides(size=settings.size, impostor_resolution=resolution), resolution, technique)
+            for resolution, group in configurations(settings) for technique in group
         ]
         # Every configuration of the scene is timed in the same rounds: a machine that slows down
         # for a few seconds (this one did, by a third, when resolutions were timed one after the
         # other) then slows every configuration alike. The cost is memory: every configuration's
         # images exist at once (about 4.4 GiB for the 8 x 9 scene at 64 to 1024).
-        with _renderers(ctx, [(variant, method) for variant, _, method in configured]) as renderers:
+        with _renderers(ctx, [(variant, technique) for variant, _, technique in configured]) as renderers:
             timings = _time_group(ctx, renderers, settings)
         # Measured after all timing, as a precaution: the truth's ray tracer (Embree, on TBB
         # threads, which may spin a while after their work) should not share the cores with
         # frames being timed. (Not shown to matter: the slow groups seen while this was written
         # were machine noise, which the rotating rounds above absorb.)
         truth: TruthFrame | None = None
-        for (variant, resolution, method), timing in zip(configured, timings):
-            measured, truth = _measure(ctx, variant, method, truth)
-            row_resolution = resolution if method in RESOLUTION_METHODS else 0
-            rows.append(BenchRow(scene=name, method=method.option, resolution=row_resolution,
-                                 **measured, **timing))  # type: ignore[arg-type]
+        for (variant, resolution, technique), timing in zip(configured, timings):
+            measured, truth = _measure(ctx, variant, technique, truth)
+            row_resolution = resolution if technique.method in RESOLUTION_METHODS else 0
+            rows.append(BenchRow(scene=name, method=technique.method.option, algorithm=technique.algorithm_name,
+                                 resolution=row_resolution, **measured, **timing))  # type: ignore[arg-type]
             if progress is not None:
                 progress.update(1)  # type: ignore[attr-defined]
     return rows
 
 
 def total_configurations(scene_count: int, settings: BenchSettings) -> int:
-    return scene_count * sum(len(methods) for _, methods in configurations(settings))
+    return scene_count * sum(len(group) for _, group in configurations(settings))
 
 
 # ---------------------------------------------------------------------------------- output
@@ -238,18 +271,23 @@ def write_csv(rows: Sequence[BenchRow], path: Path, header: Sequence[str]) -> No
 def markdown(rows: Sequence[BenchRow], header: Sequence[str]) -> str:
     lines = [f"{line}  " for line in header] + [""]
     lines += [
-        "| scene | method | resolution | frame ms (median, p10-p90) | bake ms | MiB | samples/ray mean / max "
-        "| wrong object | colour RMSE | geometric error median / p95 |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| scene | method | resolution | frame ms (median, p10-p90) | mirror pass ms | bake ms | MiB "
+        "| samples/ray mean / max | wrong object | colour RMSE | geometric error median / p95 |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         lines.append(
-            f"| {r.scene} | `{r.method}` | {r.resolution or '-'} | {r.frame_ms_median:.1f} ({r.frame_ms_p10:.1f}-"
-            f"{r.frame_ms_p90:.1f}) | {r.bake_ms_median:.1f} | {r.memory_mib:.2f} | {r.samples_per_ray_mean:.1f} / "
+            f"| {r.scene} | `{r.method}`{'' if r.algorithm == '-' else ' ' + r.algorithm} | {r.resolution or '-'} "
+            f"| {r.frame_ms_median:.1f} ({r.frame_ms_p10:.1f}-{r.frame_ms_p90:.1f}) | {r.mirror_pass_ms_median:.1f} "
+            f"| {r.bake_ms_median:.1f} | {r.memory_mib:.2f} | {r.samples_per_ray_mean:.1f} / "
             f"{r.samples_per_ray_max:.0f} | {r.wrong_object_percent:.2f} % | {r.color_rmse:.4f} | "
             f"{r.geometric_error_median_percent:.2f} % / {r.geometric_error_p95_percent:.1f} % |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _label(row: BenchRow) -> str:
+    return row.method + ("" if row.algorithm == "-" else f" ({row.algorithm})")
 
 
 def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[Path]:
@@ -263,13 +301,13 @@ def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[
     written = []
     for scene in dict.fromkeys(row.scene for row in rows):
         mine = [row for row in rows if row.scene == scene]
-        methods = list(dict.fromkeys(row.method for row in mine))
+        labels = list(dict.fromkeys(_label(row) for row in mine))
         figure, axis = plt.subplots(figsize=(7.5, 5.0))
-        for method in methods:
-            points = sorted((row for row in mine if row.method == method), key=lambda row: row.resolution)
+        for label in labels:
+            points = sorted((row for row in mine if _label(row) == label), key=lambda row: row.resolution)
             times = [row.frame_ms_median for row in points]
             errors = [max(row.color_rmse, 1e-6) for row in points]  # the exact method sits on the floor
-            axis.plot(times, errors, marker="o", label=method)
+            axis.plot(times, errors, marker="o", label=label)
             for row in points:
                 if row.resolution:
                     axis.annotate(str(row.resolution), (row.frame_ms_median, max(row.color_rmse, 1e-6)),
@@ -287,13 +325,13 @@ def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[
         written.append(path)
 
         figure, axis = plt.subplots(figsize=(7.5, 5.0))
-        for method in methods:
-            points = sorted((row for row in mine if row.method == method and row.resolution), key=lambda r: r.resolution)
+        for label in labels:
+            points = sorted((row for row in mine if _label(row) == label and row.resolution), key=lambda r: r.resolution)
             if points:
                 (mean,) = axis.plot([row.resolution for row in points], [row.samples_per_ray_mean for row in points],
-                                    marker="o", label=f"{method} (mean)")
+                                    marker="o", label=f"{label}, mean")
                 axis.plot([row.resolution for row in points], [row.samples_per_ray_max for row in points],
-                          marker=".", linestyle=":", color=mean.get_color(), label=f"{method} (max)")
+                          marker=".", linestyle=":", color=mean.get_color(), label=f"{label}, max")
         axis.set(xscale="log", yscale="log", xlabel="image resolution (pixels a side)",
                  ylabel="samples read per reflected ray", title=f"{scene}: samples per ray")
         axis.grid(True, which="both", alpha=0.3)

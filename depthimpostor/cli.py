@@ -174,7 +174,12 @@ def _bench(args: argparse.Namespace) -> int:
     for resolution in args.resolutions:  # checked as strictly as a scene file's
         scenes[0].with_overrides(impostor_resolution=resolution)
     size = args.size or scenes[0].render.size
-    settings = BenchSettings(methods, tuple(args.resolutions), size, args.frames, args.warmup, args.bakes)
+    unknown = [name for name in args.algorithms if name not in {a.name.lower() for a in Algorithm}]
+    if unknown:
+        raise SceneError("command line", "--algorithms", f"expected algorithms among "
+                         f"{[a.name.lower() for a in Algorithm]}, got {unknown}")
+    algorithms = tuple(Algorithm[name.upper()] for name in dict.fromkeys(args.algorithms))
+    settings = BenchSettings(methods, algorithms, tuple(args.resolutions), size, args.frames, args.warmup, args.bakes)
     ctx = create_context(args.backend)
     try:
         header = machine_lines(ctx, settings, scenes)
@@ -258,6 +263,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("scenes", nargs="*", type=Path, help="scene files (TOML); the built-in default if none")
     bench.add_argument("--methods", type=_list_of(str), default=[ALL_METHODS],
                        help="comma-separated methods, or all (default)")
+    bench.add_argument("--algorithms", type=_list_of(str), default=["optimized", "hierarchical"],
+                       help="the depth-image method's intersection algorithms, comma-separated "
+                            "(default: optimized,hierarchical)")
     bench.add_argument("--resolutions", type=_list_of(int), default=[64, 128, 256, 512, 1024],
                        help="image resolutions of the methods that bake images (default 64,128,256,512,1024)")
     bench.add_argument("--size", type=_size, help="frame size WxH (default: the first scene's render.size)")

@@ -40,6 +40,8 @@ class RenderStats:
     draw_calls: int = 0
     bake_seconds: list[float] = field(default_factory=list)  # one entry per bake
     draw_seconds: list[float] = field(default_factory=list)  # one entry per frame
+    # The mirror pass's share of each frame, when the renderer was asked to time it.
+    mirror_seconds: list[float] = field(default_factory=list)
 
 
 def to_uint8(color: np.ndarray) -> np.ndarray:
@@ -106,12 +108,15 @@ class Renderer:
         shaders: ShaderLibrary | None = None,
         method: Method = Method.DEPTH,
         count_samples: bool = False,
+        time_mirror_pass: bool = False,
     ) -> None:
         """`reflection_data` adds float outputs of each mirror pixel's reflected ray and hit (for
         comparisons with the truth); without it neither the attachments nor the variant exist.
         `shaders` reads the GLSL from another folder (the viewer's `--shaders`). `method` is how
         reflected objects are stood in for; only its own resources are made. `count_samples`
-        (the benchmark's) adds an output of the samples each reflected ray read."""
+        (the benchmark's) adds an output of the samples each reflected ray read, and
+        `time_mirror_pass` (the benchmark's too) times the mirror pass apart, at the cost of a
+        `ctx.finish()` before it."""
         self.ctx = ctx
         self.scene = scene
         self.algorithm = algorithm
@@ -119,6 +124,7 @@ class Renderer:
         self.show_samples = False
         self.reflection_data = reflection_data
         self.count_samples = count_samples
+        self.time_mirror_pass = time_mirror_pass
         self.stats = RenderStats()
         self.programs = ProgramCache(ctx, shaders)
         geometry = scene_geometry(scene.objects)
@@ -179,12 +185,12 @@ class Renderer:
             self.stand_in.release()
         self.stand_in = stand_in
         self._baked = False
-        self._keep_pyramid()
+        self._keep_pyramids(self.algorithm)
 
-    def _keep_pyramid(self) -> None:
+    def _keep_pyramids(self, algorithm: Algorithm) -> None:
         """Depth pyramids exist exactly while the hierarchical algorithm intersects depth images."""
         if self.impostors is not None:
-            self.impostors.use_pyramid(self.algorithm == Algorithm.HIERARCHICAL)
+            self.impostors.use_pyramid(algorithm == Algorithm.HIERARCHICAL)
 
     @property
     def impostors(self) -> ImpostorPass | None:
@@ -238,9 +244,10 @@ class Renderer:
 
     def set_algorithm(self, algorithm: Algorithm) -> None:
         """Intersect with another algorithm: another mirror variant, the same depth images (the
-        hierarchical one builds their pyramids from them; the others free the pyramids)."""
+        hierarchical one builds their pyramids from them; the others free the pyramids). A GL
+        without compute shaders raises ContextError for the hierarchical one and keeps the old."""
+        self._keep_pyramids(algorithm)
         self.algorithm = algorithm
-        self._keep_pyramid()
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
 
@@ -328,11 +335,18 @@ class Renderer:
         else:
             drawn = self.diffuse_objects
         self.stats.draw_calls += self.diffuse.draw(drawn, view_projection)
+        mirror_start = start
         if self.mirror_pass is not None:
+            if self.time_mirror_pass:
+                self.ctx.finish()
+                mirror_start = time.perf_counter()
             self.framebuffer.use()
             self.stats.draw_calls += self.mirror_pass.draw(self.mirrors, self.camera, view_projection)
         self.ctx.finish()
-        self.stats.draw_seconds.append(time.perf_counter() - start)
+        end = time.perf_counter()
+        self.stats.draw_seconds.append(end - start)
+        if self.time_mirror_pass:
+            self.stats.mirror_seconds.append(end - mirror_start if self.mirror_pass is not None else 0.0)
         self.stats.frames += 1
         return self.stats
 

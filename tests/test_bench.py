@@ -31,23 +31,34 @@ def test_bench_writes_every_file_with_finite_figures(tmp_path: Path, capsys: pyt
     assert any("GL: " in line for line in header) and any("settings: " in line for line in header)
     rows = list(csv.DictReader(line for line in lines if not line.startswith("# ")))
     assert list(rows[0]) == COLUMNS
-    # Two resolutions for the methods that bake images, one row for each of the others.
-    expected = {(m.option, r) for m in RESOLUTION_METHODS for r in ("16", "32")}
-    expected |= {(m.option, "0") for m in Method if m not in RESOLUTION_METHODS}
-    assert {(row["method"], row["resolution"]) for row in rows} == expected and len(rows) == len(expected)
+    # Two resolutions for the methods that bake images (depth images with both default
+    # algorithms), one row for each of the others.
+    def algorithms(method: Method) -> tuple[str, ...]:
+        return ("optimized", "hierarchical") if method == Method.DEPTH else ("-",)
+
+    expected = {(m.option, a, r) for m in RESOLUTION_METHODS for a in algorithms(m) for r in ("16", "32")}
+    expected |= {(m.option, "-", "0") for m in Method if m not in RESOLUTION_METHODS}
+    assert {(row["method"], row["algorithm"], row["resolution"]) for row in rows} == expected
+    assert len(rows) == len(expected)
     for row in rows:
         for name, value in row.items():
-            if name in ("scene", "method", "stand_in"):
+            if name in ("scene", "method", "algorithm", "stand_in"):
                 continue
             number = float(value)
             if name == "psnr_db" and float(row["color_rmse"]) == 0.0:
                 continue  # an exact frame has no finite PSNR
             assert math.isfinite(number), (row["method"], row["resolution"], name, value)
-        assert float(row["frame_ms_median"]) > 0 and int(row["mirror_pixels"]) > 0
+        assert float(row["frame_ms_median"]) > float(row["mirror_pass_ms_median"]) > 0 and int(row["mirror_pixels"]) > 0
         assert float(row["samples_per_ray_max"]) >= float(row["samples_per_ray_mean"]) >= 0
-    depth = {row["resolution"]: row for row in rows if row["method"] == "depth"}
+    depth = {row["resolution"]: row for row in rows if row["method"] == "depth" and row["algorithm"] == "optimized"}
     assert float(depth["32"]["memory_mib"]) > float(depth["16"]["memory_mib"])
     assert float(depth["16"]["bake_ms_median"]) > 0
+    # The hierarchical traversal: the same picture from its pyramids (which cost memory).
+    for resolution in ("16", "32"):
+        hierarchical = next(row for row in rows if row["algorithm"] == "hierarchical" and row["resolution"] == resolution)
+        assert hierarchical["color_rmse"] == depth[resolution]["color_rmse"]
+        assert float(hierarchical["memory_mib"]) > float(depth[resolution]["memory_mib"])
+        assert "depth pyramids" in hierarchical["stand_in"]
     for name in ("frontier-default.png", "samples-default.png"):
         assert Image.open(out / name).size[0] > 400
 
@@ -55,3 +66,5 @@ def test_bench_writes_every_file_with_finite_figures(tmp_path: Path, capsys: pyt
 def test_bench_refuses_an_unknown_method(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bench", "--methods", "depth,mirrorball"]) == 2
     assert "--methods" in capsys.readouterr().err
+    assert main(["bench", "--algorithms", "optimized,octree"]) == 2
+    assert "--algorithms" in capsys.readouterr().err

@@ -188,3 +188,27 @@ def test_gpu_and_reference_agree_on_hard_rays(ctx, programs, images, image_index
     position = gpu.image_position[gpu.hit]
     assert np.all((position >= -0.01) & (position <= [width + 0.01, height + 0.01])), "a hit outside the image"
     assert np.all(gpu.t[gpu.hit] >= -1e-4 * (1 + np.abs(gpu.t[gpu.hit]))), "a hit behind the ray's origin"
+
+
+@given(image_index=st.integers(0, 8), specs=st.lists(spec, min_size=SPECS_PER_BATCH, max_size=SPECS_PER_BATCH),
+       seed=st.integers(0, 2**32 - 1))
+def test_hierarchical_finds_the_linear_march_hits_on_hard_rays(ctx, programs, images, image_index, specs, seed) -> None:
+    """The hierarchical traversal skips only spans where no step can hit and runs the linear
+    march's own step everywhere else: on the hard rays, decision boundaries included, it finds
+    the same hit or miss at the same point (> 100,000 rays in CI)."""
+    image = images[image_index % len(images)]
+    with np.errstate(all="ignore"):
+        origins, directions = rays_of(image, specs, seed)
+    usable = np.isfinite(origins).all(axis=1) & np.isfinite(directions).all(axis=1)
+    origins, directions = origins[usable], directions[usable]
+    linear = query_depth_images(ctx, programs, [image], origins, directions, Algorithm.OPTIMIZED)
+    hierarchical = query_depth_images(ctx, programs, [image], origins, directions, Algorithm.HIERARCHICAL)
+    differ = hierarchical.hit != linear.hit
+    assert not differ.any(), (
+        f"{int(differ.sum())} rays differ (first: origin {origins[differ][0].tolist()}, direction "
+        f"{directions[differ][0].tolist()}; linear hit {bool(linear.hit[differ][0])})"
+    )
+    hit = linear.hit
+    assert np.allclose(hierarchical.t[hit], linear.t[hit], rtol=1e-6, atol=1e-7)
+    assert np.allclose(hierarchical.image_position[hit], linear.image_position[hit], atol=1e-4)
+    assert np.isfinite(hierarchical.t).all() and np.isfinite(hierarchical.image_position).all()

@@ -27,7 +27,7 @@ from PIL import Image
 
 from ..constants import Algorithm, Method
 from ..context import Window, bind_default_framebuffer, create_window, describe
-from ..errors import SceneError, ShaderError
+from ..errors import ContextError, SceneError, ShaderError
 from ..passes.overlay import OverlayPass, Panel
 from ..passes.present import PresentPass
 from ..renderer import Renderer
@@ -243,7 +243,12 @@ class Viewer:
             return "back to the scene's camera"
         elif action == Action.NEXT_ALGORITHM:
             algorithms = list(Algorithm)
-            renderer.set_algorithm(algorithms[(algorithms.index(renderer.algorithm) + 1) % len(algorithms)])
+            wanted = algorithms[(algorithms.index(renderer.algorithm) + 1) % len(algorithms)]
+            try:
+                renderer.set_algorithm(wanted)
+            except ContextError as error:  # a GL without compute shaders has no depth pyramids
+                renderer.set_algorithm(algorithms[(algorithms.index(wanted) + 1) % len(algorithms)])
+                return f"algorithm: {renderer.algorithm.name.lower()} ({wanted.name.lower()} skipped: {error})"
             return f"algorithm: {renderer.algorithm.name.lower()}"
         elif action == Action.NEXT_METHOD:
             methods = list(Method)

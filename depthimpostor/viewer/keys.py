@@ -56,7 +56,7 @@ BINDINGS: tuple[Binding, ...] = (
     Binding(Action.ZOOM_OUT, ("page_down",), "zoom out", True),
     Binding(Action.TOGGLE_FLY, ("f",), "fly mode on/off: W A S D move, Q E down/up, Shift faster, mouse looks"),
     Binding(Action.HOME, ("home",), "back to the scene's camera"),
-    Binding(Action.NEXT_ALGORITHM, ("tab",), "next intersection algorithm (basic, optimized)"),
+    Binding(Action.NEXT_ALGORITHM, ("tab",), "next intersection algorithm (basic, optimized, hierarchical)"),
     Binding(Action.NEXT_METHOD, ("m",), "next approximation method"),
     Binding(Action.RESOLUTION_UP, ("]", "="), "double the depth-image resolution (re-bakes them)"),
     Binding(Action.RESOLUTION_DOWN, ("[", "-"), "halve the depth-image resolution (re-bakes them)"),

@@ -222,7 +222,11 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
     vec3 s0 = ray.sa;
     bool z0_read = true;
     int reads = 1;
-    int top = image.pyramid.z;
+    // A cell wider than the whole projection (2^level > steps texels) skips nothing that a
+    // narrower one would not: the coarsest level worth a read is log2(steps); a ray of one step
+    // (along an eye ray) goes straight to the exact step.
+    int top = 0;
+    while (top < image.pyramid.z && (2 << top) <= steps) ++top;  // floor(log2(steps)); no findMSB in GLSL 3.30
     int level = top;
     int i = 0;
     // A step hits only if |ray - surface| <= CONTACT_DEPTH_TOLERANCE at one of its ends (in
