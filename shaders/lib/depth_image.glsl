@@ -159,6 +159,24 @@ bool march_step(DepthImage image, ClippedRay ray, int i, int steps, vec3 s0, ive
     return true;
 }
 
+// The optimized march's loop from sample `first` (s0, its texel and layers) to the end; `reads`
+// texels were read before it.
+RayHit march_linear(DepthImage image, ClippedRay ray, int steps, int first, vec3 s0, ivec2 texel0, vec2 z0, int reads) {
+    for (int i = first; i < steps; ++i) {
+        vec3 s1;
+        ivec2 texel1;
+        vec2 z1, s;
+        float t;
+        if (march_step(image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) {
+            return hit_at(image, t, s, reads + i - first + 1);
+        }
+        s0 = s1;
+        texel0 = texel1;
+        z0 = z1;
+    }
+    return no_hit(reads + steps - first);
+}
+
 // The lecture's optimized algorithm: clip, project both ends, step along the projection and
 // intersect 2-D segments in OpenGL depth, which is affine in screen space: no unprojection. It
 // reads one texel per step: up to max(w, h) of them.
@@ -169,18 +187,7 @@ RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
     vec2 z0;
     RayHit early;
     if (!march_start(image, origin, direction, ray, steps, texel0, z0, early)) return early;
-    vec3 s0 = ray.sa;
-    for (int i = 0; i < steps; ++i) {
-        vec3 s1;
-        ivec2 texel1;
-        vec2 z1, s;
-        float t;
-        if (march_step(image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) return hit_at(image, t, s, i + 2);
-        s0 = s1;
-        texel0 = texel1;
-        z0 = z1;
-    }
-    return no_hit(steps + 1);
+    return march_linear(image, ray, steps, 0, ray.sa, texel0, z0, 1);
 }
 
 #if ALGORITHM == ALGORITHM_HIERARCHICAL
@@ -189,19 +196,20 @@ RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
 uniform sampler2D u_impostor_pyramid;
 
 // The first sample after sample i whose (unclamped) position leaves `cell` of `level`, from
-// where the line crosses the cell's exit edges. Rounding may make it one sample early or late:
-// early only shortens the span, and late is caught by the footprint check of the caller.
-int span_end(ClippedRay ray, int steps, int i, ivec2 cell, int level) {
+// where the line crosses the cell's exit edges. Sample j is at sa + d j / steps: it reaches `high`
+// at j >= (high - sa) steps / d and falls below `low` at j > (sa - low) steps / -d, where
+// `samples_per_texel` is steps / |d| (Inf on an axis the ray does not move along). Rounding may
+// make it one sample early or late: early only shortens the span, and late is caught by the
+// caller's footprint check.
+int span_end(ClippedRay ray, vec2 samples_per_texel, int steps, int i, ivec2 cell, int level) {
     vec2 d = ray.sb.xy - ray.sa.xy;
     vec2 low = vec2(cell << level), high = vec2((cell + 1) << level);
-    float last = float(steps), end = last;
-    for (int axis = 0; axis < 2; ++axis) {
-        // Sample j is at sa + d j / steps: it reaches `high` at j >= (high - sa) steps / d, and
-        // falls below `low` at j > (sa - low) steps / -d.
-        if (d[axis] > 0.0) end = min(end, ceil((high[axis] - ray.sa[axis]) * last / d[axis]));
-        else if (d[axis] < 0.0) end = min(end, floor((ray.sa[axis] - low[axis]) * last / -d[axis]) + 1.0);
-    }
-    return clamp(int(end), i + 1, steps);
+    vec2 to_exit = mix(ray.sa.xy - low, high - ray.sa.xy, greaterThan(d, vec2(0.0)));
+    vec2 crossing = to_exit * samples_per_texel;
+    // > 0: the first j at or past `high`; < 0 (and 0): the first j strictly below `low`.
+    vec2 end = mix(floor(crossing) + 1.0, ceil(crossing), greaterThan(d, vec2(0.0)));
+    float first = min(d.x == 0.0 ? float(steps) : end.x, d.y == 0.0 ? float(steps) : end.y);
+    return clamp(int(min(first, float(steps))), i + 1, steps);
 }
 
 // The optimized march's hit, found in about log2(max(w, h)) texel reads where the ray passes
@@ -223,22 +231,22 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
     bool z0_read = true;
     int reads = 1;
     // A cell wider than the whole projection (2^level > steps texels) skips nothing that a
-    // narrower one would not: the coarsest level worth a read is log2(steps); a ray of one step
-    // (along an eye ray) goes straight to the exact step.
-    int top = 0;
-    while (top < image.pyramid.z && (2 << top) <= steps) ++top;  // floor(log2(steps)); no findMSB in GLSL 3.30
+    // narrower one would not: the coarsest level worth a read is about log2(steps) (rounding of
+    // log2 may give one less: a read more, never a wrong answer).
+    int top = min(image.pyramid.z, int(log2(float(steps))));
     int level = top;
     int i = 0;
     // A step hits only if |ray - surface| <= CONTACT_DEPTH_TOLERANCE at one of its ends (in
     // float32, whose rounding of values in [0, 1] is far below the tolerance): twice it is safe.
     float margin = 2.0 * CONTACT_DEPTH_TOLERANCE;
+    vec2 samples_per_texel = float(steps) / abs(ray.sb.xy - ray.sa.xy);
     // Each pass advances i, or descends a level; a level is climbed only after an advance. So at
     // most steps advances, steps + top descents and as many climbs: this bound is never reached.
     for (int pass = 0; pass <= 4 * steps + top && i < steps; ++pass) {
         if (level > 0) {
             ivec2 relative0 = texel0 - image.tile.xy;
             ivec2 cell = relative0 >> level;
-            int end = span_end(ray, steps, i, cell, level);
+            int end = span_end(ray, samples_per_texel, steps, i, cell, level);
             vec3 s_end = march_sample(ray, end, steps);
             ivec2 texel_end = texel_of(image, s_end.xy);
             ivec2 relative_end = texel_end - image.tile.xy;
@@ -268,11 +276,13 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
         reads += 1;
         if (march_step(image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) return hit_at(image, t, s, reads);
         i += 1;
+        // Climb only on entering another level-1 cell: in the same one, the test that sent the
+        // march down would fail again.
+        level = any(notEqual((texel1 - image.tile.xy) >> 1, (texel0 - image.tile.xy) >> 1)) ? min(1, top) : 0;
         s0 = s1;
         texel0 = texel1;
         z0 = z1;
         z0_read = true;
-        level = min(1, top);
     }
     return no_hit(reads);
 }
