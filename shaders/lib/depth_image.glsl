@@ -200,7 +200,8 @@ uniform sampler2D u_impostor_pyramid;
 // at j >= (high - sa) steps / d and falls below `low` at j > (sa - low) steps / -d, where
 // `samples_per_texel` is steps / |d| (Inf on an axis the ray does not move along). Rounding may
 // make it one sample early or late: early only shortens the span, and late is caught by the
-// caller's footprint check.
+// caller's footprint check (which is what correctness rests on: whatever span_end returns, a span
+// is skipped only when all its samples are in the footprint tested).
 int span_end(ClippedRay ray, vec2 samples_per_texel, int steps, int i, ivec2 cell, int level) {
     vec2 d = ray.sb.xy - ray.sa.xy;
     vec2 low = vec2(cell << level), high = vec2((cell + 1) << level);
@@ -276,8 +277,9 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
         reads += 1;
         if (march_step(image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) return hit_at(image, t, s, reads);
         i += 1;
-        // Climb only on entering another level-1 cell: in the same one, the test that sent the
-        // march down would fail again.
+        // Climb only on entering another level-1 cell: within the same one, a level-1 test would
+        // most likely fail again, its footprint still holding the surface that sent the march down.
+        // (Where to climb decides the cost alone: correctness rests on the footprint check.)
         level = any(notEqual((texel1 - image.tile.xy) >> 1, (texel0 - image.tile.xy) >> 1)) ? min(1, top) : 0;
         s0 = s1;
         texel0 = texel1;
