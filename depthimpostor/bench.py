@@ -53,10 +53,6 @@ class Technique:
     def algorithm_name(self) -> str:
         return self.algorithm.name.lower() if self.method == Method.DEPTH else "-"
 
-    @property
-    def label(self) -> str:
-        return self.method.option + (f" ({self.algorithm_name})" if self.method == Method.DEPTH else "")
-
 
 @dataclass(frozen=True)
 class BenchSettings:
@@ -287,6 +283,7 @@ def markdown(rows: Sequence[BenchRow], header: Sequence[str]) -> str:
 
 
 def _label(row: BenchRow) -> str:
+    """A plot's name for a row's technique: `depth (hierarchical)`, `cubemap`."""
     return row.method + ("" if row.algorithm == "-" else f" ({row.algorithm})")
 
 

@@ -335,7 +335,7 @@ class Renderer:
         else:
             drawn = self.diffuse_objects
         self.stats.draw_calls += self.diffuse.draw(drawn, view_projection)
-        mirror_start = start
+        mirror_start: float | None = None  # set when the mirror pass is timed
         if self.mirror_pass is not None:
             if self.time_mirror_pass:
                 self.ctx.finish()
@@ -346,7 +346,7 @@ class Renderer:
         end = time.perf_counter()
         self.stats.draw_seconds.append(end - start)
         if self.time_mirror_pass:
-            self.stats.mirror_seconds.append(end - mirror_start if self.mirror_pass is not None else 0.0)
+            self.stats.mirror_seconds.append(end - mirror_start if mirror_start is not None else 0.0)
         self.stats.frames += 1
         return self.stats
 

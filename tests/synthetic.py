@@ -83,6 +83,18 @@ def both(
     return gpu, expected
 
 
+def assert_same_hits(hierarchical: reference.RayHits, linear: reference.RayHits) -> None:
+    """The hierarchical traversal against the linear march on the same rays: the same hit or miss
+    for every ray and the same hit point (the same step code ran), everything finite."""
+    differ = hierarchical.hit != linear.hit
+    assert not differ.any(), f"{int(differ.sum())} rays differ (first: ray {int(np.argmax(differ))})"
+    hit = linear.hit
+    assert np.allclose(hierarchical.t[hit], linear.t[hit], rtol=1e-6, atol=1e-7)
+    assert np.allclose(hierarchical.image_position[hit], linear.image_position[hit], atol=1e-4)
+    assert np.array_equal(hierarchical.object_id, linear.object_id)
+    assert_finite_hits(hierarchical)
+
+
 def assert_finite_hits(hits: reference.RayHits) -> None:
     for name in ("t", "image_position", "color"):
         value = getattr(hits, name)

@@ -203,12 +203,4 @@ def test_hierarchical_finds_the_linear_march_hits_on_hard_rays(ctx, programs, im
     origins, directions = origins[usable], directions[usable]
     linear = query_depth_images(ctx, programs, [image], origins, directions, Algorithm.OPTIMIZED)
     hierarchical = query_depth_images(ctx, programs, [image], origins, directions, Algorithm.HIERARCHICAL)
-    differ = hierarchical.hit != linear.hit
-    assert not differ.any(), (
-        f"{int(differ.sum())} rays differ (first: origin {origins[differ][0].tolist()}, direction "
-        f"{directions[differ][0].tolist()}; linear hit {bool(linear.hit[differ][0])})"
-    )
-    hit = linear.hit
-    assert np.allclose(hierarchical.t[hit], linear.t[hit], rtol=1e-6, atol=1e-7)
-    assert np.allclose(hierarchical.image_position[hit], linear.image_position[hit], atol=1e-4)
-    assert np.isfinite(hierarchical.t).all() and np.isfinite(hierarchical.image_position).all()
+    synthetic.assert_same_hits(hierarchical, linear)

@@ -21,7 +21,6 @@ from depthimpostor.errors import ContextError
 from depthimpostor.gpu import RayQuery, query_depth_images
 from depthimpostor.passes.impostors import ImpostorAtlas
 from depthimpostor.passes.pyramid import DepthPyramid, PyramidLayout, coarse_levels, level_size
-from depthimpostor.reference import RayHits
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
 from depthimpostor.shaders import ProgramCache
@@ -122,17 +121,6 @@ def test_the_pyramid_asks_for_compute_shaders(programs: ProgramCache) -> None:
         DepthPyramid(old_gl, programs, PyramidLayout(1, 1, 3), [(0, 0, 8, 8)])  # type: ignore[arg-type]
 
 
-def assert_same_hits(hierarchical: RayHits, linear: RayHits) -> None:
-    """The same hit or miss for every ray, and the same hit point (the same step code ran)."""
-    assert np.array_equal(hierarchical.hit, linear.hit), f"{int((hierarchical.hit != linear.hit).sum())} rays differ"
-    hit = linear.hit
-    assert np.allclose(hierarchical.t[hit], linear.t[hit], rtol=1e-6, atol=1e-7)
-    assert np.allclose(hierarchical.image_position[hit], linear.image_position[hit], atol=1e-4)
-    assert np.array_equal(hierarchical.object_id, linear.object_id)
-    for field in (hierarchical.t, hierarchical.image_position, hierarchical.color):
-        assert np.isfinite(field).all()
-
-
 @pytest.fixture(scope="module")
 def baked(ctx: moderngl.Context) -> Iterator[Renderer]:
     """The default scene's depth images at a non-power-of-two resolution."""
@@ -159,7 +147,7 @@ def test_hierarchical_and_linear_agree_on_random_rays(ctx: moderngl.Context, bak
             answers[algorithm] = query.run(origins, directions)
             query.release()
         assert 0.2 < answers[Algorithm.OPTIMIZED].hit.mean() < 0.8
-        assert_same_hits(answers[Algorithm.HIERARCHICAL], answers[Algorithm.OPTIMIZED])
+        synthetic.assert_same_hits(answers[Algorithm.HIERARCHICAL], answers[Algorithm.OPTIMIZED])
 
 
 def test_hierarchical_and_linear_agree_over_several_images(ctx: moderngl.Context, baked: Renderer) -> None:
@@ -175,7 +163,7 @@ def test_hierarchical_and_linear_agree_over_several_images(ctx: moderngl.Context
         answers[algorithm] = query.run(origins, directions)
         query.release()
     assert answers[Algorithm.OPTIMIZED].hit.sum() > 3000
-    assert_same_hits(answers[Algorithm.HIERARCHICAL], answers[Algorithm.OPTIMIZED])
+    synthetic.assert_same_hits(answers[Algorithm.HIERARCHICAL], answers[Algorithm.OPTIMIZED])
 
 
 def test_texels_read_grow_with_the_logarithm_of_the_resolution(ctx: moderngl.Context, programs: ProgramCache) -> None:

@@ -68,9 +68,12 @@ def test_algorithm_switch_changes_the_variant_not_the_depth_images(ctx: moderngl
         for algorithm in (Algorithm.OPTIMIZED, Algorithm.BASIC, Algorithm.HIERARCHICAL, Algorithm.OPTIMIZED):
             renderer.set_algorithm(algorithm)
             renderer.render()
-            frames[algorithm] = renderer.read_color_float()
             assert renderer.impostors is not None
             assert (renderer.impostors.pyramid is not None) == (algorithm == Algorithm.HIERARCHICAL)
+            if algorithm == Algorithm.OPTIMIZED and not frames:
+                assert renderer.programs.compute_variants == []  # no pyramid build compiled before it is needed
+            frames[algorithm] = renderer.read_color_float()
+        assert renderer.programs.compute_variants == [("depth_pyramid.comp", ())]
         assert renderer.stats.depth_images_baked == 5
         mirror_variants = {d for _, fragment, d in renderer.programs.variants if fragment == "mirror.frag"}
         assert mirror_variants == {(("ALGORITHM", str(int(a))), ("METHOD", str(int(Method.DEPTH)))) for a in Algorithm}
