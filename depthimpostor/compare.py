@@ -7,6 +7,10 @@ Figures, over the mirror pixels of one frame:
 - the geometric error where both hit the same depth-image object: the distance between the two
   hit points as a fraction of that object's bounding-sphere radius (median, 95th percentile, max).
   Analytic planes are exact by construction and are left out of this figure.
+
+In scenes with shadows, also over the pixels seen directly (outside the mirrors), whose shadows are
+approximated too: the colour RMSE against primary rays traced with real shadow rays. Without
+shadows the direct view *is* the truth (the same shading, rasterized) and is not traced.
 """
 
 from __future__ import annotations
@@ -39,6 +43,9 @@ class Figures:
     geometric_error_p95: float
     geometric_error_max: float
     worst_pixels: list[dict[str, object]] = field(default_factory=list)
+    # Scenes with shadows: the pixels seen directly (outside mirrors) and their colour RMSE.
+    direct_pixels: int = 0
+    direct_rmse: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,6 +57,9 @@ class TruthFrame:
     color: np.ndarray  # (h, w, 3) tinted colour inside the mirrors, 0 elsewhere
     object_id: np.ndarray  # (h, w), NO_OBJECT outside the mirrors and for the environment
     position: np.ndarray  # (h, w, 3) hit positions
+    # Scenes with shadows: the truth of the pixels seen directly (NaN where not measured: mirrors,
+    # and the few silhouette pixels where the rasterizer and the traced ray see different objects).
+    direct: np.ndarray | None = None
 
     def fits(self, data: ReflectionData) -> bool:
         """Were these the rays of `data`? The same scene and camera give the same rays whatever
@@ -67,12 +77,30 @@ class Comparison:
     geometric_error: np.ndarray  # (h, w), NaN where not measured
     figures: Figures
     truth_frame: TruthFrame  # what the truth saw: another method's frame of the same rays reuses it
+    direct_mask: np.ndarray  # (h, w) pixels seen directly and measured (scenes with shadows; else none)
+
+
+def trace_direct(renderer: Renderer, mirror_mask: np.ndarray) -> np.ndarray:
+    """The truth of every pixel seen directly: a primary ray through its centre, traced against
+    every object and shaded with real shadow rays. NaN where the ray meets a mirror or the
+    rasterizer saw one (mirror pixels have their own truth)."""
+    camera = renderer.camera
+    rows, columns = np.mgrid[0:camera.height, 0:camera.width] + 0.5
+    directions = camera.ray_direction(columns.ravel(), rows.ravel())
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    origins = np.broadcast_to(camera.C, directions.shape)
+    casters = renderer.shadow_casters
+    hits = TruthTracer(renderer.scene, casters, renderer.analytic_planes, casters).trace(origins, directions)
+    mirrors = [g.index for g in renderer.mirrors]
+    seen_mirror = np.isin(hits.object_id, mirrors).reshape(mirror_mask.shape) | mirror_mask
+    return np.where(seen_mirror[..., None], np.nan, hits.color.reshape(mirror_mask.shape + (3,)))
 
 
 def trace_truth(renderer: Renderer, data: ReflectionData) -> TruthFrame:
-    """The truth for the mirror pixels of the renderer's last frame, whose reflection outputs are `data`."""
+    """The truth for the mirror pixels of the renderer's last frame, whose reflection outputs are
+    `data` (and, in scenes with shadows, for the pixels seen directly)."""
     mask = data.mirror_mask
-    tracer = TruthTracer(renderer.scene, renderer.reflected_objects, renderer.analytic_planes)
+    tracer = TruthTracer(renderer.scene, renderer.reflected_objects, renderer.analytic_planes, renderer.shadow_casters)
     hits = tracer.trace(data.origin[mask], data.direction[mask])
     tints = np.zeros((len(renderer.scene.objects), 3))
     for mirror in renderer.mirrors:
@@ -85,7 +113,8 @@ def trace_truth(renderer: Renderer, data: ReflectionData) -> TruthFrame:
     object_id[mask] = hits.object_id
     position = np.zeros(mask.shape + (3,))
     position[mask] = hits.position
-    return TruthFrame(mask, data.direction, color, object_id, position)
+    direct = trace_direct(renderer, mask) if renderer.scene.has_shadows else None
+    return TruthFrame(mask, data.direction, color, object_id, position, direct)
 
 
 def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
@@ -96,8 +125,16 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
     if truth is None or not truth.fits(data):
         truth = trace_truth(renderer, data)
     mask = data.mirror_mask
-    # Outside the mirrors the truth is the render itself (primary visibility is the rasterizer's).
+    # Outside the mirrors the truth is the render itself (primary visibility is the rasterizer's),
+    # unless shadows make the direct view an approximation too.
     truth_image = np.where(mask[..., None], truth.color, render)
+    direct_pixels, direct_rmse = 0, 0.0
+    direct = np.zeros_like(mask)
+    if truth.direct is not None:
+        direct = ~np.isnan(truth.direct[..., 0])
+        truth_image = np.where(direct[..., None], np.clip(np.nan_to_num(truth.direct), 0.0, 1.0), truth_image)
+        direct_pixels = int(direct.sum())
+        direct_rmse = float(np.sqrt(((render - truth_image)[direct] ** 2).mean())) if direct_pixels else 0.0
     truth_object, truth_position = truth.object_id, truth.position
     count = int(mask.sum())
     squared = ((render - truth_image) ** 2)[mask]
@@ -124,8 +161,10 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
         geometric_error_p95=float(np.percentile(values, 95)) if len(values) else 0.0,
         geometric_error_max=float(values.max()) if len(values) else 0.0,
         worst_pixels=worst,
+        direct_pixels=direct_pixels,
+        direct_rmse=direct_rmse,
     )
-    return Comparison(render, truth_image, mask, geometric, figures, truth)
+    return Comparison(render, truth_image, mask, geometric, figures, truth, direct)
 
 
 def _worst_pixels(
@@ -149,12 +188,13 @@ def _worst_pixels(
 
 
 def heat_map(comparison: Comparison, limit: float = 0.25) -> np.ndarray:
-    """Per-pixel colour error inside the mirrors, black -> red -> yellow -> white at `limit`;
-    the rest of the frame in dim grey for context."""
+    """Per-pixel colour error inside the mirrors (and the pixels seen directly, in scenes with
+    shadows), black -> red -> yellow -> white at `limit`; the rest of the frame in dim grey for
+    context."""
     error = np.clip(np.abs(comparison.render - comparison.truth).max(axis=2) / limit, 0.0, 1.0)
     heat = np.stack([np.clip(3 * error, 0, 1), np.clip(3 * error - 1, 0, 1), np.clip(3 * error - 2, 0, 1)], axis=2)
     context = comparison.render.mean(axis=2, keepdims=True) * 0.35
-    return np.where(comparison.mirror_mask[..., None], heat, context)
+    return np.where((comparison.mirror_mask | comparison.direct_mask)[..., None], heat, context)
 
 
 def write_report(comparison: Comparison, folder: Path, settings: dict[str, object]) -> list[Path]:
@@ -183,6 +223,8 @@ def format_table(figures: Figures) -> str:
         ("geometric error, max", f"{100 * figures.geometric_error_max:.3f} %"),
         ("pixels measured (geometry)", f"{figures.geometric_pixels}"),
     ]
+    if figures.direct_pixels:
+        rows.append(("seen directly (shadows): RMSE", f"{figures.direct_rmse:.4f} over {figures.direct_pixels} pixels"))
     width = max(len(name) for name, _ in rows)
     lines = [f"{name:<{width}}  {value}" for name, value in rows]
     lines.append("worst pixels (x, y: object / truth object, colour error, geometric error):")

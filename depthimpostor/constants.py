@@ -52,8 +52,28 @@ class LightKind(IntEnum):
     POINT = 1
 
 
+class ShadowKind(IntEnum):
+    """A light's shadows (scene files: `shadows = "none" | "hard" | "soft"`)."""
+
+    NONE = 0
+    HARD = 1  # of the light's centre: one ray to it
+    SOFT = 2  # of a sphere about it: SOFT_SHADOW_RAYS rays to points of its disk
+
+
 #: Lights a scene may have; the shading chunk loops over a uniform array of this size.
 MAX_LIGHTS = 8
+#: Rays a soft shadow sends toward the light's disk at every shaded point: its visibility is the
+#: share that reach it, in SOFT_SHADOW_RAYS + 1 levels. More rays smooth the penumbra's steps
+#: and cost a depth-image march each.
+SOFT_SHADOW_RAYS = 8
+#: A shaded point's shadow ray starts this many shadow-map texels (the texel's width at the point's
+#: distance from the light) off the surface, along its normal. A planar surface at angle theta
+#: to the light moves away from the light by the offset / cos(theta) in depth, while within the
+#: half diagonal (0.71 texel) of a texel its depth varies by up to 0.71 texel * tan(theta): an
+#: offset of 0.71 texel * sin(theta) clears every texel's sample at every angle (no acne; the
+#: bias scales with the slope by itself). 1.5 leaves room for curvature. It is small enough
+#: that a point beside a contact stays outside the touching caster (no light leaks under it).
+SHADOW_NORMAL_OFFSET_TEXELS = 1.5
 #: Analytic planes (floors, walls) a reflected ray is intersected with exactly.
 MAX_ANALYTIC_PLANES = 8
 #: Depth images one mirror may own (one per reflected object): bounds the uniform block,
@@ -167,10 +187,11 @@ def glsl_constants() -> dict[str, str]:
         "EMPTY_SPAN_MAX": f"{EMPTY_SPAN_MAX!r}",
         "BVH_TEXTURE_WIDTH": str(BVH_TEXTURE_WIDTH),
         "BVH_STACK_SIZE": str(BVH_STACK_SIZE),
+        "SOFT_SHADOW_RAYS": str(SOFT_SHADOW_RAYS),
+        "SHADOW_NORMAL_OFFSET_TEXELS": f"{SHADOW_NORMAL_OFFSET_TEXELS!r}",
     }
-    for enum in (Algorithm, Method, MaterialKind, LightKind):
-        prefix = {"Algorithm": "ALGORITHM", "Method": "METHOD", "MaterialKind": "MATERIAL", "LightKind": "LIGHT"}[
-            enum.__name__
-        ]
+    prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",
+                ShadowKind: "SHADOW"}
+    for enum, prefix in prefixes.items():
         defines.update({f"{prefix}_{member.name}": str(int(member)) for member in enum})
     return defines

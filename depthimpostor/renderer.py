@@ -24,6 +24,7 @@ from .passes.impostors import BakedImages, ImpostorPass
 from .passes.meshes import GpuMeshes
 from .passes.mirrors import REFLECTION_OUTPUTS, MirrorPass, ReflectedObjects
 from .passes.samples import SamplesPass
+from .passes.shadows import ShadowMaps
 from .passes.simplified import SimplifiedPass
 from .passes.triangles import TrianglePass
 from .ppc import PPC
@@ -37,8 +38,9 @@ class RenderStats:
 
     frames: int = 0
     depth_images_baked: int = 0
+    shadow_maps_baked: int = 0
     draw_calls: int = 0
-    bake_seconds: list[float] = field(default_factory=list)  # one entry per bake
+    bake_seconds: list[float] = field(default_factory=list)  # one entry per bake (shadow maps and stand-in)
     draw_seconds: list[float] = field(default_factory=list)  # one entry per frame
     # The mirror pass's share of each frame, when the renderer was asked to time it.
     mirror_seconds: list[float] = field(default_factory=list)
@@ -135,6 +137,8 @@ class Renderer:
         self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
         self.diffuse_objects = [g for g in geometry if not g.object.is_mirror]
         self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
+        casters = set(scene.shadow_casters)
+        self.shadow_casters = [g for g in geometry if g.object in casters]
         self.meshes = GpuMeshes(ctx)
         self._make_targets(scene.render.size)
         self._build_passes()
@@ -161,6 +165,11 @@ class Renderer:
         """The passes the scene and settings call for, their programs from the cache."""
         ctx, scene = self.ctx, self.scene
         self.environment = EnvironmentPass(ctx, self.programs, scene)
+        # Made (and baked) before anything that shades: depth images show the shadows too.
+        self.shadow_maps = (
+            ShadowMaps(ctx, self.programs, scene, self.meshes, self.shadow_casters) if scene.has_shadows else None
+        )
+        self._shadows_baked = False
         self.diffuse = DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
         self.stand_in: ReflectedObjects | None = None
         self.mirror_pass: MirrorPass | None = None
@@ -311,15 +320,19 @@ class Renderer:
         Times are wall-clock around `ctx.finish()`: GPU time queries under-report on software
         rasterizers, and a finish makes the time include all the work the frame queued.
         """
-        if self.stand_in is not None and not self._baked:
+        shadow_maps, stand_in = self.shadow_maps, self.stand_in
+        if shadow_maps is not None:
+            shadow_maps.use()
+        shadows_stale = shadow_maps is not None and not self._shadows_baked
+        if shadows_stale or (stand_in is not None and not self._baked):
             self.ctx.finish()
             start = time.perf_counter()
-            self.stats.draw_calls += self.stand_in.bake()
+            if shadow_maps is not None and shadows_stale:
+                self._bake_shadow_maps(shadow_maps)
+            if stand_in is not None:  # stale, or showing shadows that are
+                self._bake_stand_in(stand_in)
             self.ctx.finish()
             self.stats.bake_seconds.append(time.perf_counter() - start)
-            if self.baked_images is not None:
-                self.stats.depth_images_baked += len(self.baked_images.depth_images)
-            self._baked = True
 
         self.ctx.finish()
         start = time.perf_counter()
@@ -349,6 +362,18 @@ class Renderer:
             self.stats.mirror_seconds.append(end - mirror_start if mirror_start is not None else 0.0)
         self.stats.frames += 1
         return self.stats
+
+    def _bake_shadow_maps(self, shadow_maps: ShadowMaps) -> None:
+        self.stats.draw_calls += shadow_maps.bake()
+        self.stats.shadow_maps_baked += len(shadow_maps.cameras)
+        self._shadows_baked = True
+
+    def _bake_stand_in(self, stand_in: ReflectedObjects) -> None:
+        """Bake the method's images; they show the shadows, so the shadow maps come first."""
+        self.stats.draw_calls += stand_in.bake()
+        if self.baked_images is not None:
+            self.stats.depth_images_baked += len(self.baked_images.depth_images)
+        self._baked = True
 
     def read_color_float(self) -> np.ndarray:
         """The last frame as (height, width, 3) float32, top row first, unclamped."""
@@ -396,7 +421,7 @@ class Renderer:
 
     def _release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
-        for owner in (self.stand_in, self.environment, self.samples):
+        for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps):
             if owner is not None:
                 owner.release()
 

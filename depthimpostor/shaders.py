@@ -25,6 +25,7 @@ import moderngl
 
 from .constants import depth_image_struct_glsl, glsl_constants, triangle_object_struct_glsl
 from .errors import ShaderError
+from .lights import soft_shadow_disk_glsl
 from .resources import shaders_dir
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
@@ -49,6 +50,7 @@ def _generated_sources() -> dict[str, str]:
     return {
         "generated/depth_image.glsl": depth_image_struct_glsl(),
         "generated/triangle_object.glsl": triangle_object_struct_glsl(),
+        "generated/soft_shadow_disk.glsl": soft_shadow_disk_glsl(),
     }
 
 

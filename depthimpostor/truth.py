@@ -5,12 +5,14 @@ each mirror pixel's reflected ray), so that outside the mirrors the truth *is* t
 inside them only the approximation differs. The reflected rays are traced on the CPU with Embree
 (embreex) against the same world-space meshes the renderer draws, the analytic planes are
 intersected as in the shader, and hits are shaded with the same model as shaders/lib/shading.glsl
-(albedo * (ambient + lights), smooth normals interpolated from the same vertex normals).
+(albedo * (ambient + lights), smooth normals interpolated from the same vertex normals). Shadows
+are the real ones: the rays the shadow maps are marched with (lights.py) traced against the real
+casters.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,6 +21,7 @@ from embreex.mesh_construction import TriangleMesh
 
 from .constants import NO_OBJECT
 from .geometry import ObjectGeometry
+from .lights import light_sample_points
 from .scene.model import CheckerMaterial, DiffuseMaterial, Material, Scene
 
 Array = np.ndarray
@@ -54,10 +57,26 @@ def material_albedo(material: Material, local_positions: Array) -> Array:
     raise TypeError(f"{material!r} is not a diffuse material")
 
 
-def shade(scene: Scene, albedo: Array, positions: Array, normals: Array) -> Array:
-    """shaders/lib/shading.glsl's shade in numpy."""
+#: A shadow ray starts this share of its length off the surface, along the normal: Embree's
+#: float32 hit would otherwise find the surface it starts on.
+SHADOW_RAY_OFFSET = 1e-4
+
+
+def _embree_scene(items: Sequence[ObjectGeometry]) -> rtcore_scene.EmbreeScene:
+    """An Embree scene of the objects' world-space triangles; geomID = position in `items`."""
+    embree = rtcore_scene.EmbreeScene()
+    for item in items:
+        mesh = item.world_mesh
+        TriangleMesh(embree, np.ascontiguousarray(mesh.positions[mesh.indices], dtype=np.float32))
+    return embree
+
+
+def shade(scene: Scene, albedo: Array, positions: Array, normals: Array,
+          visibility: Callable[[int, Array, Array], Array] | None = None) -> Array:
+    """shaders/lib/shading.glsl's shade in numpy; `visibility(light, positions, normals)` is the
+    share of each light that reaches each point (shadows), where the scene has any."""
     irradiance = np.full(len(positions), scene.render.ambient, dtype=float)[:, None] * np.ones(3)
-    for light in scene.lights:
+    for index, light in enumerate(scene.lights):
         if light.type == "directional":
             to_light = -np.asarray(light.direction, float) / np.linalg.norm(light.direction)
             to_light = np.broadcast_to(to_light, positions.shape)
@@ -66,24 +85,49 @@ def shade(scene: Scene, albedo: Array, positions: Array, normals: Array) -> Arra
             length = np.linalg.norm(offset, axis=1, keepdims=True)
             to_light = np.where(length > 1e-20, offset / np.maximum(length, 1e-300), normals)
         cosine = np.clip(np.einsum("ij,ij->i", normals, to_light), 0.0, None)
+        if visibility is not None and light.casts_shadows:
+            lit = cosine > 0.0  # as the shader: no shadow ray from a surface facing away
+            cosine[lit] *= visibility(index, positions[lit], normals[lit])
         irradiance += np.asarray(light.color, float) * light.intensity * cosine[:, None]
     return albedo * irradiance
 
 
 class TruthTracer:
     """Traces rays against the scene's reflected meshes (Embree) and analytic planes (exactly):
-    the same two lists the renderer splits the scene into (`reflected_objects`, `analytic_planes`)."""
+    the same two lists the renderer splits the scene into (`reflected_objects`, `analytic_planes`).
+    Shadow rays are traced against `casters` (the renderer's `shadow_casters`), in scenes with
+    shadows. Hits on objects that are not diffuse (mirrors, when traced) get no colour."""
 
     def __init__(
-        self, scene: Scene, meshes: Sequence[ObjectGeometry], planes: Sequence[ObjectGeometry]
+        self, scene: Scene, meshes: Sequence[ObjectGeometry], planes: Sequence[ObjectGeometry],
+        casters: Sequence[ObjectGeometry] = (),
     ) -> None:
         self.scene = scene
         self.meshes = list(meshes)
         self.planes = list(planes)
-        self._embree = rtcore_scene.EmbreeScene()
-        for item in self.meshes:  # geomID = position in self.meshes
-            mesh = item.world_mesh
-            TriangleMesh(self._embree, np.ascontiguousarray(mesh.positions[mesh.indices], dtype=np.float32))
+        self._embree = _embree_scene(self.meshes)
+        self._casters = _embree_scene(casters) if scene.has_shadows and casters else None
+
+    def visibility(self, light_index: int, positions: Array, normals: Array) -> Array:
+        """The share of the light's rays (lights.py: its centre for hard shadows, the disk points
+        for soft ones) that reach each point unblocked by a caster."""
+        light = self.scene.lights[light_index]
+        centre = np.asarray(light.position, float)
+        if self._casters is None or not len(positions):
+            return np.ones(len(positions))
+        targets = centre[None, None, :] if light.shadows == "hard" else light_sample_points(centre, light.radius, positions)
+        targets = np.broadcast_to(targets, (len(positions), targets.shape[1], 3))
+        span = np.linalg.norm(targets - positions[:, None, :], axis=2, keepdims=True)
+        origins = positions[:, None, :] + normals[:, None, :] * (SHADOW_RAY_OFFSET * span)
+        offsets = targets - origins
+        lengths = np.linalg.norm(offsets, axis=2)
+        directions = offsets / np.maximum(lengths, 1e-300)[..., None]
+        blocked = self._casters.run(
+            np.ascontiguousarray(origins.reshape(-1, 3), np.float32),
+            np.ascontiguousarray(directions.reshape(-1, 3), np.float32),
+            dists=np.ascontiguousarray(lengths.reshape(-1), np.float32), query="OCCLUDED",
+        ) != -1
+        return 1.0 - blocked.reshape(lengths.shape).mean(axis=1)
 
     def trace(self, origins: Array, directions: Array) -> TruthHits:
         count = len(origins)
@@ -99,7 +143,7 @@ class TruthTracer:
         position[hit] = origins[hit] + directions[hit] * t[hit, None]
         color = environment(self.scene, directions)
         if hit.any():
-            color[hit] = shade(self.scene, albedo[hit], position[hit], normal[hit])
+            color[hit] = shade(self.scene, albedo[hit], position[hit], normal[hit], self.visibility)
         return TruthHits(hit, np.where(hit, t, 0.0), position, object_id, color)
 
     def _trace_meshes(self, origins: Array, directions: Array, hit: Array, t: Array,
@@ -124,7 +168,8 @@ class TruthTracer:
             normal[mask] = smooth
             points = origins[mask] + directions[mask] * t[mask, None]
             local = (np.linalg.inv(item.model_matrix) @ np.c_[points, np.ones(len(points))].T).T[:, :3]
-            albedo[mask] = material_albedo(item.object.material, local)
+            if isinstance(item.object.material, (DiffuseMaterial, CheckerMaterial)):
+                albedo[mask] = material_albedo(item.object.material, local)
 
     def _trace_planes(self, origins: Array, directions: Array, hit: Array, t: Array,
                       object_id: Array, normal: Array, albedo: Array) -> None:

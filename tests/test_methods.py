@@ -101,7 +101,7 @@ def test_method_switch_keeps_only_the_methods_resources(ctx: moderngl.Context) -
         fresh.render()
         np.testing.assert_allclose(fresh.read_color_float(), traced, atol=1e-6)
         fragments = {fragment for _, fragment, _ in fresh.programs.variants}
-        assert "back_depth.frag" not in fragments, "no baking program for a method that bakes nothing"
+        assert "window_depth.frag" not in fragments, "no baking program for a method that bakes nothing"
 
 
 def test_compare_reports_the_method(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -13,14 +13,15 @@ from ..geometry import ObjectGeometry
 from ..scene.model import Scene
 from ..shaders import ProgramCache
 from .meshes import GpuMeshes
-from .uniforms import write, write_lighting, write_material
+from .uniforms import shading_defines, write, write_lighting, write_material
 
 
 class DiffusePass:
     def __init__(
         self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, *, write_depth_image: bool
     ) -> None:
-        self.program = programs.get("mesh.vert", "diffuse.frag", {"WRITE_DEPTH_IMAGE": int(write_depth_image)})
+        defines = {"WRITE_DEPTH_IMAGE": int(write_depth_image), **shading_defines(scene)}
+        self.program = programs.get("mesh.vert", "diffuse.frag", defines)
         self.meshes = meshes
         write_lighting(self.program, scene)
 

@@ -241,7 +241,7 @@ class BakedImages:
         self.meshes = meshes
         layers = self.second_layer != SecondLayer.NONE
         self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=layers)
-        self.back_faces = programs.get("mesh.vert", "back_depth.frag") if self.second_layer == SecondLayer.BACK_FACE else None
+        self.back_faces = programs.get("mesh.vert", "window_depth.frag") if self.second_layer == SecondLayer.BACK_FACE else None
         count = sum(len(images) for images in plan.values())
         self.atlas = ImpostorAtlas(ctx, count, scene.render.impostor_resolution, layers)
         self.images_by_mirror: dict[int, list[DepthImage]] = {}

@@ -14,7 +14,7 @@ from ..ppc import PPC
 from ..scene.model import MirrorMaterial, Scene
 from ..shaders import ProgramCache
 from .meshes import GpuMeshes
-from .uniforms import write, write_analytic_planes, write_lighting
+from .uniforms import shading_defines, write, write_analytic_planes, write_lighting
 
 
 class ReflectedObjects(Protocol):
@@ -71,7 +71,7 @@ class MirrorPass:
         write_reflection_data: bool = False,
         count_samples: bool = False,
     ) -> None:
-        defines = reflection_defines(method, algorithm, write_reflection_data, count_samples)
+        defines = {**reflection_defines(method, algorithm, write_reflection_data, count_samples), **shading_defines(scene)}
         self.program = programs.get("mesh.vert", "mirror.frag", defines)
         self.meshes = meshes
         self.reflected = reflected

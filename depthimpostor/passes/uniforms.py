@@ -11,10 +11,22 @@ from collections.abc import Sequence
 import moderngl
 import numpy as np
 
-from ..constants import MAX_ANALYTIC_PLANES, MAX_LIGHTS, LightKind, MaterialKind
+from ..constants import MAX_ANALYTIC_PLANES, MAX_LIGHTS, LightKind, MaterialKind, ShadowKind
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, Scene
+
+
+#: Where every shading program finds the shadow maps (lib/shadows.glsl; passes/shadows.py binds
+#: them there once per frame). The unit is past those of every method's stand-in (0 to 4).
+SHADOW_MAP_UNIT = 5
+SHADOW_MAPS_BINDING = 2
+
+
+def shading_defines(scene: Scene) -> dict[str, int]:
+    """The variant of every shading program that the scene's lights call for: shadow rays only
+    in scenes where a light casts shadows on something."""
+    return {"SHADOWS": 1} if scene.has_shadows else {}
 
 
 def write(program: moderngl.Program, name: str, data: np.ndarray | bytes | int | float | Sequence[float]) -> None:
@@ -75,6 +87,8 @@ def write_lighting(program: moderngl.Program, scene: Scene) -> None:
     kinds = np.zeros(MAX_LIGHTS, dtype=np.int32)
     vectors = np.zeros((MAX_LIGHTS, 3))
     radiance = np.zeros((MAX_LIGHTS, 3))
+    shadows = np.zeros(MAX_LIGHTS, dtype=np.int32)
+    radii = np.zeros(MAX_LIGHTS)
     for i, light in enumerate(scene.lights):
         if light.type == "directional":
             kinds[i] = LightKind.DIRECTIONAL
@@ -83,11 +97,17 @@ def write_lighting(program: moderngl.Program, scene: Scene) -> None:
             kinds[i] = LightKind.POINT
             vectors[i] = light.position
         radiance[i] = np.asarray(light.color) * light.intensity
+        shadows[i] = ShadowKind[light.shadows.upper()]
+        radii[i] = light.radius
     write(program, "u_ambient", float(scene.render.ambient))
     write(program, "u_light_count", len(scene.lights))
     write(program, "u_light_kind", kinds)
     write(program, "u_light_vector", vectors)
     write(program, "u_light_radiance", radiance)
+    write(program, "u_light_shadows", shadows)
+    write(program, "u_light_radius", radii)
+    write(program, "u_shadow_depth", SHADOW_MAP_UNIT)
+    bind_uniform_block(program, "ShadowMaps", SHADOW_MAPS_BINDING)
     write(program, "u_env_zenith", tuple(scene.environment.zenith))
     write(program, "u_env_horizon", tuple(scene.environment.horizon))
     write(program, "u_env_ground", tuple(scene.environment.ground))

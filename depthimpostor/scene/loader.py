@@ -84,16 +84,31 @@ _MATERIALS: dict[str, Variant[Material]] = {
 }
 
 
+SHADOW_KINDS = ("none", "hard", "soft")
+
+
 def _light(t: Table, kind: str, direction: Vec3 = ZERO, position: Vec3 = ZERO) -> Light:
     d = Light(kind)
+    shadows = t.opt("shadows", f.choice(SHADOW_KINDS), d.shadows)
+    if kind == "directional" and shadows != "none":
+        # A shadow map is a depth image taken from the light's position, which a directional light lacks.
+        raise t.at.key("shadows").error(f'expected "none" for a directional light (shadows need a point '
+                                        f'light, whose position a shadow map is taken from), got "{shadows}"')
+    if shadows == "soft":
+        radius = t.req("radius", _LENGTH)
+    elif "radius" in t.data:
+        raise t.at.key("radius").error(f'expected no radius unless shadows = "soft" (the light is a point '
+                                       f'otherwise), got shadows = "{shadows}"')
+    else:
+        radius = d.radius
     return Light(kind, direction, position, color=t.opt("color", _RADIANCE, d.color),
-                 intensity=t.opt("intensity", f.number(f.NON_NEGATIVE), d.intensity))
+                 intensity=t.opt("intensity", f.number(f.NON_NEGATIVE), d.intensity), shadows=shadows, radius=radius)
 
 
 _LIGHTS: dict[str, Variant[Light]] = {
-    "directional": Variant(("direction", "color", "intensity"),
+    "directional": Variant(("direction", "color", "intensity", "shadows"),
                            lambda t: _light(t, "directional", direction=t.req("direction", _DIRECTION))),
-    "point": Variant(("position", "color", "intensity"),
+    "point": Variant(("position", "color", "intensity", "shadows", "radius"),
                      lambda t: _light(t, "point", position=t.req("position", _POINT))),
 }
 
@@ -121,6 +136,7 @@ def _render(t: Table) -> RenderSettings:
     return RenderSettings(size=t.opt("size", SIZE, d.size),
                           impostor_resolution=t.opt("impostor_resolution", RESOLUTION, d.impostor_resolution),
                           simplified_triangles=t.opt("simplified_triangles", TRIANGLE_TARGET, d.simplified_triangles),
+                          shadow_resolution=t.opt("shadow_resolution", RESOLUTION, d.shadow_resolution),
                           ambient=t.opt("ambient", f.number(f.UNIT), d.ambient))
 
 
@@ -167,7 +183,8 @@ def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
     top = Table(data, At(source, "", Path(base_dir)), ("render", "camera", "environment", "lights", "objects"))
     return Scene(
         source=source,
-        render=_render(top.section("render", ("size", "impostor_resolution", "ambient", "simplified_triangles"))),
+        render=_render(top.section("render", ("size", "impostor_resolution", "ambient", "simplified_triangles",
+                                              "shadow_resolution"))),
         camera=_camera(top.section("camera", ("eye", "target", "up", "fov_y"))),
         environment=top.variant("environment", _ENVIRONMENTS, default=Environment(), default_type="gradient"),
         # The shading chunk loops over a fixed-size uniform array of lights.

@@ -25,6 +25,8 @@ class RenderSettings:
     ambient: float = 0.15
     # The `simplified` method: each reflected object decimated to at most this many triangles.
     simplified_triangles: int = 500
+    # Width and height of each shadow map (a depth image from a light with shadows).
+    shadow_resolution: int = 512
 
 
 @dataclass(frozen=True)
@@ -54,7 +56,8 @@ class Environment:
 class Light:
     """A "directional" light (`direction` is where it travels) or a "point" light at `position`.
 
-    The vector a type does not use is (0, 0, 0).
+    The vector a type does not use is (0, 0, 0). A point light may cast `shadows`: "hard" ones of
+    its centre, or "soft" ones of a sphere of `radius` about it (an area light).
     """
 
     type: str
@@ -62,6 +65,12 @@ class Light:
     position: Vec3 = ZERO
     color: Vec3 = (1.0, 1.0, 1.0)
     intensity: float = 1.0
+    shadows: str = "none"  # "none", "hard" or "soft"
+    radius: float = 0.0  # soft shadows' light radius; 0 otherwise
+
+    @property
+    def casts_shadows(self) -> bool:
+        return self.shadows != "none"
 
 
 @dataclass(frozen=True)
@@ -171,6 +180,22 @@ class Scene:
     @property
     def mirrors(self) -> tuple[SceneObject, ...]:
         return tuple(o for o in self.objects if o.is_mirror)
+
+    @property
+    def shadowed_lights(self) -> tuple[int, ...]:
+        """Indices of the lights that cast shadows (each gets a shadow map)."""
+        return tuple(i for i, light in enumerate(self.lights) if light.casts_shadows)
+
+    @property
+    def shadow_casters(self) -> tuple[SceneObject, ...]:
+        """What casts shadows: every object but the planes (floors and walls only receive them)."""
+        return tuple(o for o in self.objects if not isinstance(o.shape, PlaneShape))
+
+    @property
+    def has_shadows(self) -> bool:
+        """Does any light cast a shadow on anything? Only then do shadow maps and the shaders'
+        SHADOWS variant exist."""
+        return bool(self.shadowed_lights and self.shadow_casters)
 
     @property
     def non_mirrors(self) -> tuple[SceneObject, ...]:

@@ -1,12 +1,20 @@
 // Ray / depth-image intersection: the lecture's two algorithms and the hierarchical traversal,
 // shared by the mirror pass and the GPU ray query. depthimpostor/reference.py implements the
 // lecture's two with the same function names; the hierarchical one finds the optimized one's hit.
+// The marches take the texture of depth layers they read as an argument (`layers`): the mirror's
+// depth images are in u_impostor_depth, the lights' shadow maps (lib/shadows.glsl) in another.
+#ifndef ALGORITHM
+#define ALGORITHM ALGORITHM_OPTIMIZED
+#endif
 #include "baked_images.glsl"
 #include "solid_run.glsl"
 
+// No bound on a ray's parameter but the frustum's: every frustum is bounded.
+#define UNBOUNDED_RAY 3.0e38
+
 // (visible surface, back of its solid run) at an atlas texel.
-vec2 layers_at(ivec2 texel) {
-    return solid_run(texelFetch(u_impostor_depth, texel, 0).rg);
+vec2 layers_at(sampler2D layers, ivec2 texel) {
+    return solid_run(texelFetch(layers, texel, 0).rg);
 }
 
 // One Liang-Barsky step: keep the part of the ray where value + rate * t >= 0.
@@ -20,16 +28,16 @@ void clip_half_space(float value, float rate, inout float t_enter, inout float t
     }
 }
 
-// Clip origin + t * direction (t >= 0) to the frustum, in camera coordinates (x, y, w) where every
+// Clip origin + t * direction (0 <= t <= t_limit) to the frustum, in camera coordinates (x, y, w) where every
 // frustum plane is linear: no perspective divide happens before w >= w_near is guaranteed, so a
 // ray that starts behind the eye or crosses its plane is clipped, not mirrored through it.
-bool clip_ray(DepthImage image, vec3 p0, vec3 dp, out float t_enter, out float t_exit) {
+bool clip_ray(DepthImage image, vec3 p0, vec3 dp, float t_limit, out float t_enter, out float t_exit) {
     float width = image.depth_range.z, height = image.depth_range.w;
     // A zero direction is no ray: every rate below is 0, nothing would lower t_exit, and the
     // "clipped" ray would be the point p0 stretched to t = 3e38 (NaN in the float64 reference).
     bool inside = dp != vec3(0.0);
     t_enter = 0.0;
-    t_exit = 3.0e38;  // the frustum is bounded, so some plane always lowers this
+    t_exit = t_limit;  // UNBOUNDED_RAY: the frustum is bounded, so some plane always lowers this
     // Grown by CLIP_TOLERANCE_PIXELS: u >= -g is x + g w >= 0, and so on (see constants.py).
     float g = CLIP_TOLERANCE_PIXELS, depth_growth = g / max(width, height);
     clip_half_space(p0.z - image.depth_range.x * (1.0 - depth_growth), dp.z, t_enter, t_exit, inside);
@@ -60,10 +68,10 @@ struct ClippedRay {
     vec3 sb;
 };
 
-bool clip_and_project(DepthImage image, vec3 origin, vec3 direction, out ClippedRay ray) {
+bool clip_and_project(DepthImage image, vec3 origin, vec3 direction, float t_limit, out ClippedRay ray) {
     vec3 p0 = camera_coordinates(image, origin - image.eye.xyz);
     vec3 dp = camera_coordinates(image, direction);
-    if (!clip_ray(image, p0, dp, ray.t_enter, ray.t_exit)) return false;
+    if (!clip_ray(image, p0, dp, t_limit, ray.t_enter, ray.t_exit)) return false;
     ray.pa = p0 + dp * ray.t_enter;
     ray.pb = p0 + dp * ray.t_exit;
     ray.sa = vec3(ray.pa.xy / ray.pa.z, opengl_depth(image, ray.pa.z));
@@ -112,8 +120,10 @@ bool inside_solid(float r, vec2 layers) {
         && r <= layers.y + CONTACT_DEPTH_TOLERANCE;
 }
 
+// A hit without its colour: the mirror's search reads it once, for the nearest hit over all its
+// depth images (a shadow ray needs none).
 RayHit hit_at(DepthImage image, float t, vec2 s, int samples) {
-    return RayHit(true, t, s, sample_color(image, s), image.eye.w, samples);
+    return RayHit(true, t, s, vec3(0.0), image.eye.w, samples);
 }
 
 // Sample i of the march's `steps` along a'b': (u, v, OpenGL depth). Both marches compute every
@@ -125,13 +135,13 @@ vec3 march_sample(ClippedRay ray, int i, int steps) {
 // The start of both marches: the ray clipped and projected, its step count, and sample 0 (its
 // texel and layers). False, with the answer in `early`, when the ray misses the frustum or starts
 // inside the object (a ray that touches the mirror), where it hits at once.
-bool march_start(DepthImage image, vec3 origin, vec3 direction, out ClippedRay ray, out int steps,
-                 out ivec2 texel0, out vec2 z0, out RayHit early) {
+bool march_start(sampler2D layers, DepthImage image, vec3 origin, vec3 direction, float t_limit, out ClippedRay ray,
+                 out int steps, out ivec2 texel0, out vec2 z0, out RayHit early) {
     early = no_hit(0);
-    if (!clip_and_project(image, origin, direction, ray)) return false;
+    if (!clip_and_project(image, origin, direction, t_limit, ray)) return false;
     steps = step_count(image, ray.sa, ray.sb);
     texel0 = texel_of(image, ray.sa.xy);
-    z0 = layers_at(texel0);
+    z0 = layers_at(layers, texel0);
     if (!inside_solid(ray.sa.z, z0)) return true;
     early = hit_at(image, ray.t_enter, ray.sa.xy, 1);
     return false;
@@ -144,11 +154,11 @@ bool march_start(DepthImage image, vec3 origin, vec3 direction, out ClippedRay r
 // ray is inside the solid run at s1 without crossing the visible surface, and the hit is put at
 // s1, within one step of where it entered. A ray that passes behind the solid run (behind a thin
 // foreground) is inside nothing and goes on to what lies behind, as the truth does.
-bool march_step(DepthImage image, ClippedRay ray, int i, int steps, vec3 s0, ivec2 texel0, vec2 z0,
+bool march_step(sampler2D layers, DepthImage image, ClippedRay ray, int i, int steps, vec3 s0, ivec2 texel0, vec2 z0,
                 out vec3 s1, out ivec2 texel1, out vec2 z1, out float t, out vec2 s) {
     s1 = march_sample(ray, i + 1, steps);
     texel1 = texel_of(image, s1.xy);
-    z1 = layers_at(texel1);
+    z1 = layers_at(layers, texel1);
     float k;
     bool through_surface = samples_connected(image, texel0, texel1, z0.x, z1.x)
         && segments_cross(s0.z - z0.x, s1.z - z1.x, k);
@@ -161,13 +171,14 @@ bool march_step(DepthImage image, ClippedRay ray, int i, int steps, vec3 s0, ive
 
 // The optimized march's loop from sample `first` (s0, its texel and layers) to the end; `reads`
 // texels were read before it.
-RayHit march_linear(DepthImage image, ClippedRay ray, int steps, int first, vec3 s0, ivec2 texel0, vec2 z0, int reads) {
+RayHit march_linear(sampler2D layers, DepthImage image, ClippedRay ray, int steps, int first, vec3 s0, ivec2 texel0,
+                    vec2 z0, int reads) {
     for (int i = first; i < steps; ++i) {
         vec3 s1;
         ivec2 texel1;
         vec2 z1, s;
         float t;
-        if (march_step(image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) {
+        if (march_step(layers, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) {
             return hit_at(image, t, s, reads + i - first + 1);
         }
         s0 = s1;
@@ -179,15 +190,15 @@ RayHit march_linear(DepthImage image, ClippedRay ray, int steps, int first, vec3
 
 // The lecture's optimized algorithm: clip, project both ends, step along the projection and
 // intersect 2-D segments in OpenGL depth, which is affine in screen space: no unprojection. It
-// reads one texel per step: up to max(w, h) of them.
-RayHit intersect_optimized(DepthImage image, vec3 origin, vec3 direction) {
+// reads one texel per step: up to max(w, h) of them. Only hits with t <= t_limit are looked for.
+RayHit intersect_optimized(sampler2D layers, DepthImage image, vec3 origin, vec3 direction, float t_limit) {
     ClippedRay ray;
     int steps;
     ivec2 texel0;
     vec2 z0;
     RayHit early;
-    if (!march_start(image, origin, direction, ray, steps, texel0, z0, early)) return early;
-    return march_linear(image, ray, steps, 0, ray.sa, texel0, z0, 1);
+    if (!march_start(layers, image, origin, direction, t_limit, ray, steps, texel0, z0, early)) return early;
+    return march_linear(layers, image, ray, steps, 0, ray.sa, texel0, z0, 1);
 }
 
 #if ALGORITHM == ALGORITHM_HIERARCHICAL
@@ -227,7 +238,7 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
     ivec2 texel0;
     vec2 z0;
     RayHit early;
-    if (!march_start(image, origin, direction, ray, steps, texel0, z0, early)) return early;
+    if (!march_start(u_impostor_depth, image, origin, direction, UNBOUNDED_RAY, ray, steps, texel0, z0, early)) return early;
     vec3 s0 = ray.sa;
     bool z0_read = true;
     int reads = 1;
@@ -267,7 +278,7 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
             continue;
         }
         if (!z0_read) {
-            z0 = layers_at(texel0);
+            z0 = layers_at(u_impostor_depth, texel0);
             reads += 1;
         }
         vec3 s1;
@@ -275,7 +286,9 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
         vec2 z1, s;
         float t;
         reads += 1;
-        if (march_step(image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) return hit_at(image, t, s, reads);
+        if (march_step(u_impostor_depth, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) {
+            return hit_at(image, t, s, reads);
+        }
         i += 1;
         // Climb only on entering another level-1 cell: within the same one, a level-1 test would
         // most likely fail again, its footprint still holding the surface that sent the march down.
@@ -296,14 +309,14 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
 // solid run through hidden sides by the same rule.
 RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
     ClippedRay ray;
-    if (!clip_and_project(image, origin, direction, ray)) return no_hit(0);
+    if (!clip_and_project(image, origin, direction, UNBOUNDED_RAY, ray)) return no_hit(0);
     vec3 sa = ray.sa, sb = ray.sb;
     vec3 ray_a = origin + direction * ray.t_enter;
     vec3 ray_ab = direction * (ray.t_exit - ray.t_enter);
     int steps = step_count(image, sa, sb);
     vec2 s0 = sa.xy;
     ivec2 texel0 = texel_of(image, s0);
-    vec2 z0 = layers_at(texel0);
+    vec2 z0 = layers_at(u_impostor_depth, texel0);
     if (inside_solid(sa.z, z0)) return hit_at(image, ray.t_enter, s0, 1);
     vec3 q0 = unproject(image, s0, w_from_opengl_depth(image, z0.x));
     for (int i = 0; i < steps; ++i) {
@@ -311,7 +324,7 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
         float sigma1 = float(i + 1) / float(steps);
         vec2 s1 = sa.xy + (sb.xy - sa.xy) * sigma1;
         ivec2 texel1 = texel_of(image, s1);
-        vec2 z1 = layers_at(texel1);
+        vec2 z1 = layers_at(u_impostor_depth, texel1);
         vec3 q1 = unproject(image, s1, w_from_opengl_depth(image, z1.x));
         if (samples_connected(image, texel0, texel1, z0.x, z1.x)) {
             // Closest approach of the lines q0 + mu (q1 - q0) and ray_a + lambda ray_ab.
@@ -354,12 +367,14 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
     return no_hit(steps + 1);
 }
 
+// A ray against one of the mirror's depth images, with the algorithm of this variant (the hit's
+// colour is left to the caller: see hit_at).
 RayHit intersect_depth_image(DepthImage image, vec3 origin, vec3 direction) {
 #if ALGORITHM == ALGORITHM_BASIC
     return intersect_basic(image, origin, direction);
 #elif ALGORITHM == ALGORITHM_HIERARCHICAL
     return intersect_hierarchical(image, origin, direction);
 #else
-    return intersect_optimized(image, origin, direction);
+    return intersect_optimized(u_impostor_depth, image, origin, direction, UNBOUNDED_RAY);
 #endif
 }

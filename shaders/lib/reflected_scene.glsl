@@ -29,12 +29,17 @@ uniform int u_plane_object_id[MAX_ANALYTIC_PLANES];
 // The nearest hit over all depth images of this mirror.
 RayHit nearest_depth_image_hit(vec3 origin, vec3 direction) {
     RayHit best = no_hit(0);
+    int best_image = 0;
     int samples = 0;
     for (int i = 0; i < u_depth_image_count; ++i) {
         RayHit candidate = intersect_depth_image(u_depth_images[i], origin, direction);
         samples += candidate.samples;
-        if (candidate.hit && (!best.hit || candidate.t < best.t)) best = candidate;
+        if (candidate.hit && (!best.hit || candidate.t < best.t)) {
+            best = candidate;
+            best_image = i;
+        }
     }
+    if (best.hit) best.color = sample_color(u_depth_images[best_image], best.image_position);
     best.samples = samples;
     return best;
 }

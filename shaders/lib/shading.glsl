@@ -1,11 +1,16 @@
 // The one shading model: color = albedo * (ambient + sum of lights' radiance * max(0, N.L)).
 // Diffuse shading does not depend on the viewer, so a depth image baked from a mirror's centre
-// holds exactly the colours a reflected ray should see.
+// holds exactly the colours a reflected ray should see. Shadows (the SHADOWS variant, for scenes
+// with a light that casts them) do not depend on the viewer either.
 uniform float u_ambient;
 uniform int u_light_count;
 uniform int u_light_kind[MAX_LIGHTS];
 uniform vec3 u_light_vector[MAX_LIGHTS];    // directional: unit travel direction; point: position
 uniform vec3 u_light_radiance[MAX_LIGHTS];  // color * intensity
+
+#ifdef SHADOWS
+#include "shadows.glsl"
+#endif
 
 struct Material {
     int kind;       // MATERIAL_DIFFUSE or MATERIAL_CHECKER
@@ -30,7 +35,12 @@ vec3 shade(vec3 albedo, vec3 position, vec3 normal) {
         vec3 to_light = u_light_kind[i] == LIGHT_DIRECTIONAL
             ? -u_light_vector[i]
             : safe_normalize(u_light_vector[i] - position, normal);
-        irradiance += u_light_radiance[i] * max(0.0, dot(normal, to_light));
+        float cosine = max(0.0, dot(normal, to_light));
+#ifdef SHADOWS
+        // A surface facing away from the light gets none of it: no shadow ray needed.
+        if (cosine > 0.0) cosine *= light_visibility(i, position, normal);
+#endif
+        irradiance += u_light_radiance[i] * cosine;
     }
     return albedo * irradiance;
 }

@@ -1,0 +1,128 @@
+"""Shadow maps: a depth image from each light that casts shadows, of everything that casts them.
+
+A shadow map is a depth image like a mirror's (the same camera model, record and two float
+layers: the visible surface and the nearest back face behind it), taken from the light's
+position with a frustum fitted to the casters: a point outside it sees no caster between it and
+the light. Shading programs intersect rays toward the light with it (lib/shadows.glsl). It
+depends on the lights and the casters alone: baked once, never for a camera move.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_LIGHTS, NO_OBJECT
+from ..context import bind_default_framebuffer
+from ..errors import SceneError
+from ..geometry import ObjectGeometry
+from ..ppc import PPC, FrustumFitError
+from ..scene.model import Scene
+from ..shaders import ProgramCache
+from .impostors import BAKE_CULLS_FRONT_FACES, atlas_grid, plural
+from .meshes import GpuMeshes
+from .uniforms import SHADOW_MAP_UNIT, SHADOW_MAPS_BINDING
+
+
+def fit_shadow_camera(scene: Scene, light_index: int, casters: list[ObjectGeometry], resolution: int) -> PPC:
+    """The shadow map's camera: from the light, the tightest frustum around every caster."""
+    light = scene.lights[light_index]
+    points = np.concatenate([caster.world_mesh.positions for caster in casters])
+    centre = (points.min(axis=0) + points.max(axis=0)) / 2.0
+    try:
+        return PPC.fitted(light.position, points, centre, resolution, resolution)
+    except FrustumFitError:
+        raise SceneError(
+            scene.source, f"lights[{light_index}].position",
+            "expected a light with every shadow caster on one side of it (one shadow map, a pinhole "
+            "image, must see them all); move the light out from among the objects",
+        ) from None
+
+
+class ShadowMaps:
+    """The shadow maps of a scene's shadowed lights in one RG32F atlas, and the uniform buffer
+    of their records (indexed by light) that lib/shadows.glsl reads."""
+
+    def __init__(
+        self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
+        casters: list[ObjectGeometry],
+    ) -> None:
+        resolution = scene.render.shadow_resolution
+        self.ctx = ctx
+        self.meshes = meshes
+        self.casters = casters
+        self.cameras = {i: fit_shadow_camera(scene, i, casters, resolution) for i in scene.shadowed_lights}
+        columns, rows = atlas_grid(len(self.cameras))
+        self.tiles = {
+            light: ((slot % columns) * resolution, (slot // columns) * resolution, resolution, resolution)
+            for slot, light in enumerate(self.cameras)
+        }
+        self.layers = ctx.texture((columns * resolution, rows * resolution), 2, dtype="f4")
+        self.layers.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._depth_buffer = ctx.depth_renderbuffer(self.layers.size)
+        self.framebuffer = ctx.framebuffer([self.layers], self._depth_buffer)
+        self.program = programs.get("mesh.vert", "window_depth.frag", {"OUTPUT_LOCATION": 0})
+        records = np.zeros(MAX_LIGHTS, dtype=DEPTH_IMAGE_DTYPE)
+        for light, camera in self.cameras.items():
+            records[light] = camera.depth_image_record(NO_OBJECT, self.tiles[light][:2])
+        self.uniform_buffer = ctx.buffer(records.tobytes())
+        self.bakes = 0  # shadow maps rendered so far (tests check that nothing re-bakes)
+
+    @property
+    def bytes(self) -> int:
+        """GPU memory: the two float layers and the depth buffer used to bake them."""
+        width, height = self.layers.size
+        return width * height * (8 + 4) + self.uniform_buffer.size
+
+    def describe(self) -> str:
+        resolution = self.layers.height if len(self.cameras) else 0
+        return f"{plural(len(self.cameras), 'shadow map')} of {resolution}x{resolution}"
+
+    def bake(self) -> int:
+        """Render every shadow map: the casters' visible surface into R, their nearest back face
+        into G. Returns the number of draw calls."""
+        self.framebuffer.use()
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        draws = 0
+        try:
+            for light, camera in self.cameras.items():
+                tile = self.tiles[light]
+                self.framebuffer.viewport = tile
+                self.framebuffer.color_mask = (True,) * 4
+                self.framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 0.0, 0.0, depth=BACKGROUND_DEPTH, viewport=tile)
+                self.framebuffer.color_mask = (True, False, False, False)
+                draws += self._draw_casters(camera)
+                # A depth-only clear: moderngl's clear also clears every colour channel unmasked.
+                self.framebuffer.color_mask = (False,) * 4
+                self.framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=tile)
+                self.framebuffer.color_mask = (False, True, False, False)
+                self.ctx.enable(moderngl.CULL_FACE)
+                self.ctx.cull_face = BAKE_CULLS_FRONT_FACES
+                draws += self._draw_casters(camera)
+                self.ctx.disable(moderngl.CULL_FACE)
+                self.bakes += 1
+        finally:
+            self.framebuffer.color_mask = (True,) * 4
+            self.ctx.disable(moderngl.CULL_FACE)
+        return draws
+
+    def _draw_casters(self, camera: PPC) -> int:
+        for caster in self.casters:
+            self.meshes.draw(self.program, caster, camera.view_projection)
+        return len(self.casters)
+
+    def use(self) -> None:
+        """Bind the maps where every shading program looks for them (passes/uniforms.py)."""
+        self.layers.use(SHADOW_MAP_UNIT)
+        self.uniform_buffer.bind_to_uniform_block(SHADOW_MAPS_BINDING)
+
+    def read(self, light: int) -> np.ndarray:
+        """Light `light`'s map as (height, width, 2) float32 OpenGL depths, top row first."""
+        tile = self.tiles[light]
+        data = self.framebuffer.read(viewport=tile, components=2, dtype="f4")
+        return np.frombuffer(data, np.float32).reshape(tile[3], tile[2], 2).copy()
+
+    def release(self) -> None:
+        bind_default_framebuffer(self.ctx)
+        for item in (self.framebuffer, self._depth_buffer, self.layers, self.uniform_buffer):
+            item.release()
