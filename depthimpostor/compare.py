@@ -27,7 +27,7 @@ from .constants import NO_OBJECT
 from .font import load_font
 from .renderer import ReflectionData, Renderer, to_uint8
 from .scene.model import MirrorMaterial
-from .truth import TruthTracer
+from .truth import TruthTracer, trace_bounces
 
 WORST_PIXELS = 8
 
@@ -100,8 +100,10 @@ def trace_truth(renderer: Renderer, data: ReflectionData) -> TruthFrame:
     """The truth for the mirror pixels of the renderer's last frame, whose reflection outputs are
     `data` (and, in scenes with shadows, for the pixels seen directly)."""
     mask = data.mirror_mask
-    tracer = TruthTracer(renderer.scene, renderer.reflected_objects, renderer.analytic_planes, renderer.shadow_casters)
-    hits = tracer.trace(data.origin[mask], data.direction[mask])
+    hits = trace_bounces(
+        renderer.scene, renderer.reflected_objects, renderer.mirrors, renderer.analytic_planes, renderer.shadow_casters,
+        data.origin[mask], data.direction[mask], data.mirror_id[mask], renderer.scene.render.max_bounces,
+    )
     tints = np.zeros((len(renderer.scene.objects), 3))
     for mirror in renderer.mirrors:
         material = mirror.object.material

@@ -74,6 +74,8 @@ SOFT_SHADOW_RAYS = 8
 #: bias scales with the slope by itself). 1.5 leaves room for curvature. It is small enough
 #: that a point beside a contact stays outside the touching caster (no light leaks under it).
 SHADOW_NORMAL_OFFSET_TEXELS = 1.5
+#: render.max_bounces at most: each bounce k >= 2 bakes one depth image per pair of mirrors.
+MAX_BOUNCES = 4
 #: Analytic planes (floors, walls) a reflected ray is intersected with exactly.
 MAX_ANALYTIC_PLANES = 8
 #: Depth images one mirror may own (one per reflected object): bounds the uniform block,

@@ -15,6 +15,7 @@ import numpy as np
 
 from .constants import NO_OBJECT, Algorithm, Method
 from .context import bind_default_framebuffer
+from .errors import SceneError
 from .geometry import ObjectGeometry, scene_geometry
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
@@ -185,9 +186,14 @@ class Renderer:
         """The method's stand-in for the reflected objects; the old one (if any) is released only
         once the new one exists, so that a failure leaves the renderer as it was."""
         kind = STAND_INS[method]
+        if scene.render.max_bounces > 1 and method != Method.DEPTH and len(self.mirrors) > 1:
+            raise SceneError(scene.source, "render.max_bounces",
+                             f"expected 1 with --method {method.option}: mirrors in mirrors are baked by the "
+                             f"depth method alone, got {scene.render.max_bounces}")
         stand_in: ReflectedObjects
         if issubclass(kind, BakedImages):
-            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.mirrors, self.reflected_objects)
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.mirrors, self.reflected_objects,
+                            self.analytic_planes)
         else:
             stand_in = kind(self.ctx, scene, self.reflected_objects)
         if self.stand_in is not None:

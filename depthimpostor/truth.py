@@ -22,7 +22,7 @@ from embreex.mesh_construction import TriangleMesh
 from .constants import NO_OBJECT
 from .geometry import ObjectGeometry
 from .lights import light_sample_points
-from .scene.model import CheckerMaterial, DiffuseMaterial, Material, Scene
+from .scene.model import CheckerMaterial, DiffuseMaterial, Material, MirrorMaterial, Scene
 
 Array = np.ndarray
 
@@ -34,6 +34,7 @@ class TruthHits:
     position: Array  # (n, 3)
     object_id: Array  # (n,) int, NO_OBJECT for the environment
     color: Array  # (n, 3), the environment's where nothing was hit
+    normal: Array  # (n, 3) the unit smooth normal at the hit (0 where nothing was hit)
 
 
 def environment(scene: Scene, directions: Array) -> Array:
@@ -144,7 +145,7 @@ class TruthTracer:
         color = environment(self.scene, directions)
         if hit.any():
             color[hit] = shade(self.scene, albedo[hit], position[hit], normal[hit], self.visibility)
-        return TruthHits(hit, np.where(hit, t, 0.0), position, object_id, color)
+        return TruthHits(hit, np.where(hit, t, 0.0), position, object_id, color, normal)
 
     def _trace_meshes(self, origins: Array, directions: Array, hit: Array, t: Array,
                       object_id: Array, normal: Array, albedo: Array) -> None:
@@ -192,3 +193,34 @@ class TruthTracer:
             object_id[closer] = item.index
             normal[closer] = plane_normal / np.linalg.norm(plane_normal)
             albedo[closer] = material_albedo(item.object.material, local[closer])
+
+
+def trace_bounces(
+    scene: Scene, meshes: Sequence[ObjectGeometry], mirrors: Sequence[ObjectGeometry],
+    planes: Sequence[ObjectGeometry], casters: Sequence[ObjectGeometry],
+    origins: Array, directions: Array, leaving: Array, bounces: int,
+) -> TruthHits:
+    """What rays leaving the mirrors `leaving` (object ids) see when they may make `bounces`
+    mirror bounces in all: with bounces left, the other mirrors are there and reflect (tint times
+    what their reflected ray sees, recursively); at the last one they are not, as
+    render.max_bounces defines."""
+    if bounces <= 1 or not mirrors:
+        return TruthTracer(scene, meshes, planes, casters).trace(origins, directions)
+    # Each ray starts a ten-thousandth of its mirror's radius along its way: float32 Embree would
+    # otherwise find the mirror it leaves, from whose (flat) triangles the ray starts.
+    radius = {m.index: m.bounding_sphere[1] for m in mirrors}
+    start = origins + directions * (SHADOW_RAY_OFFSET * np.array([radius[i] for i in leaving]))[:, None]
+    hits = TruthTracer(scene, [*meshes, *mirrors], planes, casters).trace(start, directions)
+    tints = {m.index: m.object.material.tint for m in mirrors if isinstance(m.object.material, MirrorMaterial)}
+    on_mirror = np.isin(hits.object_id, list(tints))
+    if on_mirror.any():
+        incoming = directions[on_mirror]
+        normal = hits.normal[on_mirror]
+        # As mirror.frag: the normal faces the incoming ray, which reflects about it.
+        normal = np.where((np.einsum("ij,ij->i", normal, incoming) > 0.0)[:, None], -normal, normal)
+        reflected = incoming - 2.0 * np.einsum("ij,ij->i", incoming, normal)[:, None] * normal
+        seen = trace_bounces(scene, meshes, mirrors, planes, casters, hits.position[on_mirror], reflected,
+                             hits.object_id[on_mirror], bounces - 1)
+        tint = np.array([tints[i] for i in hits.object_id[on_mirror]])
+        hits.color[on_mirror] = tint * seen.color
+    return hits

@@ -11,11 +11,17 @@ in vec3 v_world_position;
 in vec3 v_local_position;
 in vec3 v_world_normal;
 
+uniform int u_mirror_id;
+
 layout(location = 0) out vec4 out_color;
+#ifdef WRITE_DEPTH_IMAGE
+// Baking a depth image of this mirror for another mirror's reflections of reflections
+// (passes/bounces.py): the window depth and the object id, as diffuse.frag writes them.
+layout(location = 1) out vec2 out_depth_and_object;
+#endif
 #ifdef WRITE_REFLECTION_DATA
 // For comparisons against the ray-traced truth: the reflected ray and what it hit.
 layout(location = 1) out vec4 out_ray_origin;     // (origin, mirror's object id + 1): 0 outside mirrors
-uniform int u_mirror_id;
 layout(location = 2) out vec4 out_ray_direction;  // (unit direction, object id hit or NO_OBJECT)
 layout(location = 3) out vec4 out_hit_position;   // (world position of the hit, 1 if hit)
 #endif
@@ -33,6 +39,9 @@ void main() {
     vec3 direction = reflect(view, normal);
     RayHit hit = trace_reflected(v_world_position, direction);
     out_color = vec4(u_tint * hit.color, 1.0);
+#ifdef WRITE_DEPTH_IMAGE
+    out_depth_and_object = vec2(gl_FragCoord.z, float(u_mirror_id));
+#endif
 #ifdef WRITE_REFLECTION_DATA
     out_ray_origin = vec4(v_world_position, float(u_mirror_id + 1));
     out_ray_direction = vec4(direction, hit.hit ? hit.object_id : float(NO_OBJECT));

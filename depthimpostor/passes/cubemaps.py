@@ -80,7 +80,7 @@ class CubeMapPass(BakedImages):
     ) -> dict[int, list[ImagePlan]]:
         resolution = scene.render.impostor_resolution
         return {
-            mirror.index: [(tuple(reflected), camera) for camera in cube_cameras(scene, mirror, reflected, resolution)]
+            mirror.index: [ImagePlan(tuple(reflected), camera) for camera in cube_cameras(scene, mirror, reflected, resolution)]
             for mirror in mirrors
         }
 

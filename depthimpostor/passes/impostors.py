@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import Enum
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar, NamedTuple
 
 import moderngl
 import numpy as np
@@ -38,6 +38,9 @@ from .diffuse import DiffusePass
 from .meshes import GpuMeshes
 from .pyramid import DepthPyramid, PyramidLayout
 from .uniforms import bind_texture, bind_uniform_block, write
+
+if TYPE_CHECKING:
+    from .bounces import BounceBaker
 
 
 #: Texture units and the uniform-block binding the reflected-scene chunk reads.
@@ -65,6 +68,7 @@ class DepthImage:
     camera: PPC
     tile_origin: tuple[int, int]
     pyramid: tuple[int, int, int] = (0, 0, 0)
+    level: int = 0  # see ImagePlan
 
     @property
     def target(self) -> ObjectGeometry:
@@ -212,8 +216,14 @@ class SecondLayer(Enum):
     NONE = "none"  # no float layers at all: colour alone (billboards)
 
 
-#: One image to bake: the objects it shows and the camera that sees them.
-ImagePlan = tuple[tuple[ObjectGeometry, ...], PPC]
+class ImagePlan(NamedTuple):
+    """One image to bake: the objects it shows and the camera that sees them. `level` 0 is an
+    image of diffuse objects, the same at every bounce; level k >= 2 is an image of another
+    mirror showing its own reflections of bounce k - 1 (render.max_bounces; depth images only)."""
+
+    targets: tuple[ObjectGeometry, ...]
+    camera: PPC
+    level: int = 0
 
 
 class BakedImages:
@@ -233,9 +243,13 @@ class BakedImages:
         meshes: GpuMeshes,
         mirrors: list[ObjectGeometry],
         reflected: list[ObjectGeometry],
+        planes: list[ObjectGeometry] | None = None,
     ) -> None:
+        """`planes`, the analytic planes, are what a mirror shown in an image reflects besides
+        the images (render.max_bounces > 1)."""
         plan = self.plan(scene, mirrors, reflected)
         self.ctx = ctx
+        self.planes = planes or []
         self.programs = programs
         self.scene = scene
         self.meshes = meshes
@@ -248,12 +262,14 @@ class BakedImages:
         slot = 0
         for mirror in mirrors:
             images = []
-            for targets, camera in plan[mirror.index]:
+            for targets, camera, level in plan[mirror.index]:
                 pyramid = self.atlas.pyramid_layout.entry(slot, camera.width, camera.height)
-                images.append(DepthImage(mirror, targets, camera, self.atlas.tile_origin(slot), pyramid))
+                images.append(DepthImage(mirror, targets, camera, self.atlas.tile_origin(slot), pyramid, level))
                 slot += 1
             self.images_by_mirror[mirror.index] = images
-        self.uniform_buffers = {index: self._uniform_buffer(images) for index, images in self.images_by_mirror.items()}
+        self.final_level = scene.render.max_bounces
+        self.uniform_buffers = {index: self._uniform_buffer(self.images_at(index, self.final_level))
+                                for index in self.images_by_mirror}
         self.bakes = 0  # images rendered so far (tests and stats check that nothing re-bakes)
 
     def plan(
@@ -262,6 +278,11 @@ class BakedImages:
         """The images to bake for each mirror (by its index): by default one per reflected
         object (depth images, billboards); cube maps bake six faces instead."""
         return per_object_plan(scene, mirrors, reflected)
+
+    def images_at(self, mirror_index: int, bounces: int) -> list[DepthImage]:
+        """The images a reflected ray of this mirror is traced against when it may make
+        `bounces` bounces: the diffuse objects', and the other mirrors' that show bounces - 1."""
+        return [image for image in self.images_by_mirror[mirror_index] if image.level in (0, bounces)]
 
     @property
     def depth_images(self) -> list[DepthImage]:
@@ -288,7 +309,7 @@ class BakedImages:
 
     def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
         self.uniform_buffers[mirror.index].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
-        write(program, "u_depth_image_count", len(self.images_by_mirror[mirror.index]))
+        write(program, "u_depth_image_count", len(self.images_at(mirror.index, self.final_level)))
 
     def bake(self) -> int:
         """Render every image into its tile; returns the number of draw calls."""
@@ -305,6 +326,8 @@ class BakedImages:
         draws = 0
         try:
             for image in self.depth_images:
+                if image.level:  # images of mirrors: ImpostorPass bakes them after these
+                    continue
                 framebuffer.viewport = image.tile
                 # Cleared colour alpha 0 marks "nothing here"; both depth layers clear to
                 # BACKGROUND_DEPTH, the value the depth buffer clears to.
@@ -313,19 +336,18 @@ class BakedImages:
                 framebuffer.color_mask = surface_mask
                 draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
                 if self.back_faces is not None:
-                    draws += self._bake_back_faces(image)
+                    draws += self._bake_back_faces(image, framebuffer, image.tile)
                 self.bakes += 1
         finally:
             framebuffer.color_mask = everything
             self.ctx.disable(moderngl.CULL_FACE)
         return draws
 
-    def _bake_back_faces(self, image: DepthImage) -> int:
+    def _bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, ...]) -> int:
         """The nearest back face: the G layer alone, against a fresh depth buffer."""
         assert self.back_faces is not None
-        framebuffer = self.atlas.framebuffer
         framebuffer.color_mask = ((False,) * 4, (False,) * 4)
-        framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=image.tile)
+        framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=tile)
         framebuffer.color_mask = ((False,) * 4, (False, True, False, False))
         self.ctx.enable(moderngl.CULL_FACE)
         self.ctx.cull_face = BAKE_CULLS_FRONT_FACES
@@ -349,6 +371,31 @@ class ImpostorPass(BakedImages):
     image_noun = "depth image"
 
     pyramid: DepthPyramid | None = None
+    bounces: BounceBaker | None = None
+
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
+                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
+                 planes: list[ObjectGeometry] | None = None) -> None:
+        super().__init__(ctx, programs, scene, meshes, mirrors, reflected, planes)
+        if self.final_level > 1 and len(mirrors) > 1:
+            from .bounces import BounceBaker  # bounces.py builds on this module's classes
+
+            self.bounces = BounceBaker(self, scene)
+
+    def plan(
+        self, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
+    ) -> dict[int, list[ImagePlan]]:
+        """Per mirror, one depth image per reflected object and, for each bounce k from 2 to
+        render.max_bounces, one of every other mirror showing its bounce k - 1 reflections."""
+        plan = per_object_plan(scene, mirrors, reflected)
+        resolution = scene.render.impostor_resolution
+        for mirror in mirrors:
+            others = [other for other in mirrors if other is not mirror]
+            plan[mirror.index] += [
+                ImagePlan((other,), fit_depth_image_camera(scene, mirror, other, resolution), level)
+                for level in range(2, scene.render.max_bounces + 1) for other in others
+            ]
+        return plan
 
     def use_pyramid(self, wanted: bool) -> None:
         """Keep a depth pyramid (the hierarchical algorithm's) or free it. A new one is built at
@@ -371,6 +418,8 @@ class ImpostorPass(BakedImages):
 
     def bake(self) -> int:
         draws = super().bake()
+        if self.bounces is not None:
+            draws += self.bounces.bake()
         if self.pyramid is not None:
             self.pyramid.build(self.atlas.depth_layers())
         return draws
@@ -382,6 +431,8 @@ class ImpostorPass(BakedImages):
 
     def release(self) -> None:
         self.use_pyramid(False)
+        if self.bounces is not None:
+            self.bounces.release()
         super().release()
 
 
@@ -395,6 +446,6 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
         )
     resolution = scene.render.impostor_resolution
     return {
-        mirror.index: [((target,), fit_depth_image_camera(scene, mirror, target, resolution)) for target in reflected]
+        mirror.index: [ImagePlan((target,), fit_depth_image_camera(scene, mirror, target, resolution)) for target in reflected]
         for mirror in mirrors
     }

@@ -12,7 +12,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from depthimpostor.constants import MAX_LIGHTS
+from depthimpostor.constants import MAX_BOUNCES, MAX_LIGHTS
 from depthimpostor.errors import SceneError
 from depthimpostor.scene import fields as f
 from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_variant, show
@@ -137,6 +137,7 @@ def _render(t: Table) -> RenderSettings:
                           impostor_resolution=t.opt("impostor_resolution", RESOLUTION, d.impostor_resolution),
                           simplified_triangles=t.opt("simplified_triangles", TRIANGLE_TARGET, d.simplified_triangles),
                           shadow_resolution=t.opt("shadow_resolution", RESOLUTION, d.shadow_resolution),
+                          max_bounces=t.opt("max_bounces", f.integer(f.Bounds(1, MAX_BOUNCES)), d.max_bounces),
                           ambient=t.opt("ambient", f.number(f.UNIT), d.ambient))
 
 
@@ -184,7 +185,7 @@ def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
     return Scene(
         source=source,
         render=_render(top.section("render", ("size", "impostor_resolution", "ambient", "simplified_triangles",
-                                              "shadow_resolution"))),
+                                              "shadow_resolution", "max_bounces"))),
         camera=_camera(top.section("camera", ("eye", "target", "up", "fov_y"))),
         environment=top.variant("environment", _ENVIRONMENTS, default=Environment(), default_type="gradient"),
         # The shading chunk loops over a fixed-size uniform array of lights.

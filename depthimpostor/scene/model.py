@@ -27,6 +27,9 @@ class RenderSettings:
     simplified_triangles: int = 500
     # Width and height of each shadow map (a depth image from a light with shadows).
     shadow_resolution: int = 512
+    # Mirror bounces a camera ray may make: at 1 a mirror does not appear in another mirror;
+    # at k the depth images of bounce k show mirrors with their reflections of bounce k - 1.
+    max_bounces: int = 1
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,105 @@
+"""Mirrors in mirrors (render.max_bounces > 1): depth images of mirrors that show reflections.
+
+A mirror seen in another mirror is a reflected object whose colours depend on where it is seen
+from. Its depth image in mirror M's set is baked from M's centre, like every image of M, by
+drawing it with the mirror shader itself, its eye at M's centre and its reflected rays traced
+against its own images of one bounce fewer. So the images of bounce k show bounce k - 1 (the
+lecture's teapots that reflect each other): bounce 2 images read the diffuse objects' images
+(level 0), bounce 3 images read bounce 2's, and so on; the frame reads render.max_bounces'.
+
+Each mirror image is drawn into a one-tile scratch atlas and copied into its atlas tile through
+a pixel buffer: drawing into the atlas while its other tiles are read would be a feedback loop,
+which GL leaves undefined even for disjoint regions.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import moderngl
+
+from ..constants import BACKGROUND_DEPTH, Algorithm, Method
+from ..scene.model import MirrorMaterial, Scene
+from .impostors import DEPTH_IMAGES_BINDING, DepthImage, ImpostorAtlas, mirror_centre
+from .mirrors import reflection_defines
+from .uniforms import shading_defines, write, write_analytic_planes, write_lighting
+
+if TYPE_CHECKING:
+    from .impostors import ImpostorPass
+
+
+class BounceBaker:
+    """Bakes the images of mirrors (levels 2 and up) of an ImpostorPass, after its others."""
+
+    def __init__(self, images: ImpostorPass, scene: Scene) -> None:
+        self.images = images
+        ctx, resolution = images.ctx, images.atlas.resolution
+        # The optimized march: a bake's images are the same whatever the frame's algorithm.
+        defines = {**reflection_defines(Method.DEPTH, Algorithm.OPTIMIZED), "WRITE_DEPTH_IMAGE": 1,
+                   **shading_defines(scene)}
+        self.program = images.programs.get("mesh.vert", "mirror.frag", defines)
+        write_lighting(self.program, scene)
+        write_analytic_planes(self.program, scene, images.planes)
+        self.scratch = ImpostorAtlas(ctx, 1, resolution)
+        self.transfer = ctx.buffer(reserve=resolution * resolution * 8)  # one tile of RG32F
+        # Per (mirror, bounces): the records a mirror drawn into a bounce k image reads (k - 1).
+        self.level_buffers = {
+            (index, level): images._uniform_buffer(images.images_at(index, level))
+            for index in images.images_by_mirror for level in range(1, images.final_level)
+        }
+
+    def bake(self) -> int:
+        """Every mirror image, level by level (level k reads level k - 1); returns draw calls."""
+        draws = 0
+        for level in range(2, self.images.final_level + 1):
+            for image in self.images.depth_images:
+                if image.level == level:
+                    draws += self._bake(image)
+        return draws
+
+    def _bake(self, image: DepthImage) -> int:
+        images, framebuffer = self.images, self.scratch.framebuffer
+        shown = image.target
+        material = shown.object.material
+        if not isinstance(material, MirrorMaterial):
+            raise TypeError(f"object {shown.object.name!r} is not a mirror")
+        tile = (0, 0, image.camera.width, image.camera.height)
+        framebuffer.use()
+        framebuffer.viewport = tile
+        framebuffer.color_mask = ((True,) * 4, (True,) * 4)
+        framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=tile)
+        framebuffer.color_mask = ((True,) * 4, (True, False, False, False))
+        images.ctx.enable(moderngl.DEPTH_TEST)
+        images.bind(self.program)
+        below = image.level - 1
+        self.level_buffers[(shown.index, below)].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
+        write(self.program, "u_depth_image_count", len(images.images_at(shown.index, below)))
+        write(self.program, "u_eye", tuple(mirror_centre(image.mirror)))
+        write(self.program, "u_tint", tuple(material.tint))
+        write(self.program, "u_mirror_id", shown.index)
+        images.meshes.draw(self.program, shown, image.camera.view_projection)
+        draws = 1 + images._bake_back_faces(image, framebuffer, tile)
+        framebuffer.color_mask = ((True,) * 4, (True,) * 4)
+        self._copy(tile, image.tile)
+        images.bakes += 1
+        return draws
+
+    def _copy(self, source: tuple[int, int, int, int], destination: tuple[int, ...]) -> None:
+        """The scratch tile into the atlas tile, on the GPU (a pixel buffer)."""
+        atlas, framebuffer = self.images.atlas, self.scratch.framebuffer
+        for attachment, texture, components, dtype in ((0, atlas.color, 4, "f1"), (1, atlas.depth_layers(), 2, "f4")):
+            framebuffer.read_into(self.transfer, viewport=source, components=components, attachment=attachment, dtype=dtype)
+            texture.write(self.transfer, viewport=destination)
+
+    @property
+    def bytes(self) -> int:
+        return self.scratch.bytes + self.transfer.size + sum(b.size for b in self.level_buffers.values())
+
+    def release(self) -> None:
+        for buffer in self.level_buffers.values():
+            buffer.release()
+        self.transfer.release()
+        self.scratch.release()
+
+
+
