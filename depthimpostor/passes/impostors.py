@@ -389,6 +389,12 @@ class ImpostorPass(BakedImages):
         render.max_bounces, one of every other mirror showing its bounce k - 1 reflections."""
         plan = per_object_plan(scene, mirrors, reflected)
         resolution = scene.render.impostor_resolution
+        if scene.render.max_bounces > 1 and len(reflected) + len(mirrors) - 1 > MAX_DEPTH_IMAGES_PER_MIRROR:
+            raise SceneError(
+                scene.source, "render.max_bounces",
+                f"expected 1 with {len(reflected)} reflected objects and {len(mirrors)} mirrors: a mirror's images of "
+                f"the others would pass the {MAX_DEPTH_IMAGES_PER_MIRROR} one mirror may hold",
+            )
         for mirror in mirrors:
             others = [other for other in mirrors if other is not mirror]
             plan[mirror.index] += [
