@@ -58,9 +58,10 @@ def material_albedo(material: Material, local_positions: Array) -> Array:
     raise TypeError(f"{material!r} is not a diffuse material")
 
 
-#: A shadow ray starts this share of its length off the surface, along the normal: Embree's
-#: float32 hit would otherwise find the surface it starts on.
-SHADOW_RAY_OFFSET = 1e-4
+#: A ray that leaves a surface starts this share of a length off it (a shadow ray: of its own
+#: length, along the normal; a ray leaving a mirror: of the mirror's radius, along the ray):
+#: Embree's float32 hit would otherwise find the surface it starts on.
+RAY_START_OFFSET = 1e-4
 
 
 def _embree_scene(items: Sequence[ObjectGeometry]) -> rtcore_scene.EmbreeScene:
@@ -119,7 +120,7 @@ class TruthTracer:
         targets = centre[None, None, :] if light.shadows == "hard" else light_sample_points(centre, light.radius, positions)
         targets = np.broadcast_to(targets, (len(positions), targets.shape[1], 3))
         span = np.linalg.norm(targets - positions[:, None, :], axis=2, keepdims=True)
-        origins = positions[:, None, :] + normals[:, None, :] * (SHADOW_RAY_OFFSET * span)
+        origins = positions[:, None, :] + normals[:, None, :] * (RAY_START_OFFSET * span)
         offsets = targets - origins
         lengths = np.linalg.norm(offsets, axis=2)
         directions = offsets / np.maximum(lengths, 1e-300)[..., None]
@@ -204,13 +205,23 @@ def trace_bounces(
     mirror bounces in all: with bounces left, the other mirrors are there and reflect (tint times
     what their reflected ray sees, recursively); at the last one they are not, as
     render.max_bounces defines."""
+    last = TruthTracer(scene, meshes, planes, casters)
     if bounces <= 1 or not mirrors:
-        return TruthTracer(scene, meshes, planes, casters).trace(origins, directions)
+        return last.trace(origins, directions)
+    # Built once for every bounce but the last (an Embree scene is a BVH build).
+    with_mirrors = TruthTracer(scene, [*meshes, *mirrors], planes, casters)
+    return _trace_bounce(with_mirrors, last, mirrors, origins, directions, leaving, bounces)
+
+
+def _trace_bounce(with_mirrors: TruthTracer, last: TruthTracer, mirrors: Sequence[ObjectGeometry],
+                  origins: Array, directions: Array, leaving: Array, bounces: int) -> TruthHits:
+    if bounces <= 1:
+        return last.trace(origins, directions)
     # Each ray starts a ten-thousandth of its mirror's radius along its way: float32 Embree would
     # otherwise find the mirror it leaves, from whose (flat) triangles the ray starts.
     radius = {m.index: m.bounding_sphere[1] for m in mirrors}
-    start = origins + directions * (SHADOW_RAY_OFFSET * np.array([radius[i] for i in leaving]))[:, None]
-    hits = TruthTracer(scene, [*meshes, *mirrors], planes, casters).trace(start, directions)
+    start = origins + directions * (RAY_START_OFFSET * np.array([radius[i] for i in leaving]))[:, None]
+    hits = with_mirrors.trace(start, directions)
     tints = {m.index: m.object.material.tint for m in mirrors if isinstance(m.object.material, MirrorMaterial)}
     on_mirror = np.isin(hits.object_id, list(tints))
     if on_mirror.any():
@@ -219,7 +230,7 @@ def trace_bounces(
         # As mirror.frag: the normal faces the incoming ray, which reflects about it.
         normal = np.where((np.einsum("ij,ij->i", normal, incoming) > 0.0)[:, None], -normal, normal)
         reflected = incoming - 2.0 * np.einsum("ij,ij->i", incoming, normal)[:, None] * normal
-        seen = trace_bounces(scene, meshes, mirrors, planes, casters, hits.position[on_mirror], reflected,
+        seen = _trace_bounce(with_mirrors, last, mirrors, hits.position[on_mirror], reflected,
                              hits.object_id[on_mirror], bounces - 1)
         tint = np.array([tints[i] for i in hits.object_id[on_mirror]])
         hits.color[on_mirror] = tint * seen.color
