@@ -1,6 +1,7 @@
 """How far a render is from the truth, per mirror pixel: colour, object and geometry.
 
-Figures, over the mirror pixels of one frame:
+Figures, over the mirror and glass pixels of one frame ("mirror pixels" below; a glass pixel's
+reflected ray is the one measured for objects and geometry, its colour blends in the refraction):
 - colour RMSE and PSNR of the displayed (clamped) colours;
 - the share of pixels whose reflected ray hit another object than the truth's (the environment
   counting as an object);
@@ -26,8 +27,7 @@ from PIL import Image, ImageDraw
 from .constants import NO_OBJECT
 from .font import load_font
 from .renderer import ReflectionData, Renderer, to_uint8
-from .scene.model import MirrorMaterial
-from .truth import TruthTracer, trace_bounces
+from .truth import SpecularTruth, TruthTracer
 
 WORST_PIXELS = 8
 
@@ -82,7 +82,7 @@ class Comparison:
 
 def trace_direct(renderer: Renderer, mirror_mask: np.ndarray) -> np.ndarray:
     """The truth of every pixel seen directly: a primary ray through its centre, traced against
-    every object and shaded with real shadow rays. NaN where the ray meets a mirror or the
+    every object and shaded with real shadow rays. NaN where the ray meets a mirror or glass or the
     rasterizer saw one (mirror pixels have their own truth)."""
     camera = renderer.camera
     rows, columns = np.mgrid[0:camera.height, 0:camera.width] + 0.5
@@ -91,26 +91,24 @@ def trace_direct(renderer: Renderer, mirror_mask: np.ndarray) -> np.ndarray:
     origins = np.broadcast_to(camera.C, directions.shape)
     casters = renderer.shadow_casters
     hits = TruthTracer(renderer.scene, casters, renderer.analytic_planes, casters).trace(origins, directions)
-    mirrors = [g.index for g in renderer.mirrors]
-    seen_mirror = np.isin(hits.object_id, mirrors).reshape(mirror_mask.shape) | mirror_mask
+    reflectors = [g.index for g in renderer.reflectors]
+    seen_mirror = np.isin(hits.object_id, reflectors).reshape(mirror_mask.shape) | mirror_mask
     return np.where(seen_mirror[..., None], np.nan, hits.color.reshape(mirror_mask.shape + (3,)))
 
 
 def trace_truth(renderer: Renderer, data: ReflectionData) -> TruthFrame:
-    """The truth for the mirror pixels of the renderer's last frame, whose reflection outputs are
-    `data` (and, in scenes with shadows, for the pixels seen directly)."""
+    """The truth for the mirror and glass pixels of the renderer's last frame, whose reflection
+    outputs are `data` (and, in scenes with shadows, for the pixels seen directly)."""
     mask = data.mirror_mask
-    hits = trace_bounces(
-        renderer.scene, renderer.reflected_objects, renderer.mirrors, renderer.analytic_planes, renderer.shadow_casters,
-        data.origin[mask], data.direction[mask], data.mirror_id[mask], renderer.scene.render.max_bounces,
-    )
-    tints = np.zeros((len(renderer.scene.objects), 3))
-    for mirror in renderer.mirrors:
-        material = mirror.object.material
-        if isinstance(material, MirrorMaterial):
-            tints[mirror.index] = material.tint
+    specular = SpecularTruth(renderer.scene, renderer.reflected_objects, renderer.reflectors, renderer.analytic_planes,
+                             renderer.shadow_casters)
+    origins = data.origin[mask]
+    incoming = origins - renderer.camera.C
+    incoming /= np.maximum(np.linalg.norm(incoming, axis=1, keepdims=True), 1e-300)
+    surface, hits = specular.surface_color(data.mirror_id[mask], origins, data.normal[mask], incoming,
+                                           data.direction[mask], renderer.scene.render.max_bounces)
     color = np.zeros(mask.shape + (3,))
-    color[mask] = np.clip(tints[data.mirror_id[mask]] * hits.color, 0.0, 1.0)
+    color[mask] = np.clip(surface, 0.0, 1.0)
     object_id = np.full(mask.shape, NO_OBJECT, np.int64)
     object_id[mask] = hits.object_id
     position = np.zeros(mask.shape + (3,))

@@ -76,6 +76,17 @@ SOFT_SHADOW_RAYS = 8
 SHADOW_NORMAL_OFFSET_TEXELS = 1.5
 #: render.max_bounces at most: each bounce k >= 2 bakes one depth image per pair of mirrors.
 MAX_BOUNCES = 4
+#: The largest index of refraction a glass may have (diamond's is 2.42): past it nearly all
+#: light reflects at the first surface and nothing is left to refract.
+MAX_IOR = 4.0
+#: Reflections a ray refracted into glass may make inside it (the Fresnel share reflected at the
+#: surface it meets, all of it past the critical angle) before it gives up: what is still inside
+#: then carries no light, in the shader and in the truth alike. Each one is a march across the
+#: glass's interior image and a ray traced from where it leaves.
+MAX_INTERNAL_REFLECTIONS = 2
+#: A path inside glass whose share of the light is below this (one 8-bit step of a colour <= 1)
+#: is not followed further.
+MIN_PATH_WEIGHT = 1.0 / 256.0
 #: Analytic planes (floors, walls) a reflected ray is intersected with exactly.
 MAX_ANALYTIC_PLANES = 8
 #: Depth images one mirror may own (one per reflected object): bounds the uniform block,
@@ -191,6 +202,8 @@ def glsl_constants() -> dict[str, str]:
         "BVH_STACK_SIZE": str(BVH_STACK_SIZE),
         "SOFT_SHADOW_RAYS": str(SOFT_SHADOW_RAYS),
         "SHADOW_NORMAL_OFFSET_TEXELS": f"{SHADOW_NORMAL_OFFSET_TEXELS!r}",
+        "MAX_INTERNAL_REFLECTIONS": str(MAX_INTERNAL_REFLECTIONS),
+        "MIN_PATH_WEIGHT": f"{MIN_PATH_WEIGHT!r}",
     }
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",
                 ShadowKind: "SHADOW"}

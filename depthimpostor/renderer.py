@@ -19,6 +19,7 @@ from .errors import SceneError
 from .geometry import ObjectGeometry, scene_geometry
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
+from .passes.glass import GlassInterior
 from .passes.billboards import BillboardPass
 from .passes.cubemaps import CubeMapPass
 from .passes.impostors import BakedImages, ImpostorPass
@@ -99,6 +100,7 @@ class ReflectionData:
     direction: np.ndarray  # (h, w, 3) unit reflected direction
     object_id: np.ndarray  # (h, w) int, NO_OBJECT for the environment (and outside mirrors)
     hit_position: np.ndarray  # (h, w, 3) world position of the hit (meaningless where no hit)
+    normal: np.ndarray  # (h, w, 3) the reflector's unit normal, facing the eye
 
 
 class Renderer:
@@ -135,8 +137,11 @@ class Renderer:
         self.view = scene.camera
         self.camera = fitted_camera(self.view, scene.render.size, self.bounds)
         self.mirrors: list[ObjectGeometry] = [g for g in geometry if g.object.is_mirror]
+        self.glass: list[ObjectGeometry] = [g for g in geometry if g.object.is_glass]
+        # Mirrors and glass: drawn by the mirror pass, each with depth images of the others.
+        self.reflectors: list[ObjectGeometry] = [g for g in geometry if g.object.is_specular]
         self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
-        self.diffuse_objects = [g for g in geometry if not g.object.is_mirror]
+        self.diffuse_objects = [g for g in geometry if not g.object.is_specular]
         self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
         casters = set(scene.shadow_casters)
         self.shadow_casters = [g for g in geometry if g.object in casters]
@@ -175,7 +180,11 @@ class Renderer:
         self.stand_in: ReflectedObjects | None = None
         self.mirror_pass: MirrorPass | None = None
         self.samples: SamplesPass | None = None
-        if self.mirrors:
+        # One interior image at a time, as large as the frame's larger side (passes/glass.py).
+        self.glass_interior = (
+            GlassInterior(ctx, self.programs, self.meshes, max(scene.render.size)) if self.glass else None
+        )
+        if self.reflectors:
             self._make_stand_in(self.method, self.scene)
             self.mirror_pass = self._mirror_pass()
             if self.show_samples and self.sampled is not None:
@@ -186,13 +195,13 @@ class Renderer:
         """The method's stand-in for the reflected objects; the old one (if any) is released only
         once the new one exists, so that a failure leaves the renderer as it was."""
         kind = STAND_INS[method]
-        if scene.render.max_bounces > 1 and method != Method.DEPTH and len(self.mirrors) > 1:
+        if scene.render.max_bounces > 1 and method != Method.DEPTH and len(self.reflectors) > 1:
             raise SceneError(scene.source, "render.max_bounces",
-                             f"expected 1 with --method {method.option}: mirrors in mirrors are baked by the "
-                             f"depth method alone, got {scene.render.max_bounces}")
+                             f"expected 1 with --method {method.option}: mirrors and glass in one another are baked "
+                             f"by the depth method alone, got {scene.render.max_bounces}")
         stand_in: ReflectedObjects
         if issubclass(kind, BakedImages):
-            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.mirrors, self.reflected_objects,
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.reflectors, self.reflected_objects,
                             self.analytic_planes)
         else:
             stand_in = kind(self.ctx, scene, self.reflected_objects)
@@ -233,7 +242,7 @@ class Renderer:
             raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
         return MirrorPass(
             self.programs, self.scene, self.meshes, self.stand_in, self.analytic_planes, self.method, self.algorithm,
-            self.reflection_data, self.count_samples,
+            self.reflection_data, self.count_samples, self.glass_interior,
         )
 
     # ------------------------------------------------------------------ settings
@@ -270,10 +279,10 @@ class Renderer:
         """Stand in for the reflected objects another way: the old method's resources go and the
         new one's are made, unless both use the same (the two cube-map lookups); a scene without
         mirrors has none either way."""
-        if self.mirrors and STAND_INS[method] is not STAND_INS[self.method]:
+        if self.reflectors and STAND_INS[method] is not STAND_INS[self.method]:
             self._make_stand_in(method, self.scene)
         self.method = method
-        if self.mirrors:
+        if self.reflectors:
             self.mirror_pass = self._mirror_pass()
             if self.sampled is None:
                 self.show_samples = False
@@ -359,8 +368,7 @@ class Renderer:
             if self.time_mirror_pass:
                 self.ctx.finish()
                 mirror_start = time.perf_counter()
-            self.framebuffer.use()
-            self.stats.draw_calls += self.mirror_pass.draw(self.mirrors, self.camera, view_projection)
+            self.stats.draw_calls += self.mirror_pass.draw(self.reflectors, self.camera, self.framebuffer)
         self.ctx.finish()
         end = time.perf_counter()
         self.stats.draw_seconds.append(end - start)
@@ -409,11 +417,12 @@ class Renderer:
             data = self.framebuffer.read(components=4, attachment=index, dtype="f4")
             return np.frombuffer(data, np.float32).reshape(height, width, 4).astype(np.float64)
 
-        origin, direction, hit = attachment(1), attachment(2), attachment(3)
+        origin, direction, hit, normal = attachment(1), attachment(2), attachment(3), attachment(4)
         mask = origin[..., 3] > 0.5
         mirror_id = np.where(mask, np.rint(origin[..., 3]) - 1, NO_OBJECT).astype(np.int64)
         object_id = np.where(mask, np.rint(direction[..., 3]), NO_OBJECT).astype(np.int64)
-        return ReflectionData(mask, mirror_id, origin[..., :3], direction[..., :3], object_id, hit[..., :3])
+        return ReflectionData(mask, mirror_id, origin[..., :3], direction[..., :3], object_id, hit[..., :3],
+                              normal[..., :3])
 
     # ------------------------------------------------------------------ lifetime
     def _release_targets(self) -> None:
@@ -427,7 +436,7 @@ class Renderer:
 
     def _release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
-        for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps):
+        for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps, self.glass_interior):
             if owner is not None:
                 owner.release()
 

@@ -1,4 +1,5 @@
-"""Ray-traced truth: each mirror pixel's reflected ray traced against the real triangles.
+"""Ray-traced truth: each mirror pixel's reflected ray (and each glass pixel's reflected and
+refracted rays) traced against the real triangles.
 
 Primary visibility comes from the rasterizer's own frame (the renderer's reflection outputs give
 each mirror pixel's reflected ray), so that outside the mirrors the truth *is* the render and
@@ -19,10 +20,10 @@ import numpy as np
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
-from .constants import NO_OBJECT
+from .constants import MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
 from .geometry import ObjectGeometry
 from .lights import light_sample_points
-from .scene.model import CheckerMaterial, DiffuseMaterial, Material, MirrorMaterial, Scene
+from .scene.model import CheckerMaterial, DiffuseMaterial, GlassMaterial, Material, MirrorMaterial, Scene
 
 Array = np.ndarray
 
@@ -132,6 +133,20 @@ class TruthTracer:
         return 1.0 - blocked.reshape(lengths.shape).mean(axis=1)
 
     def trace(self, origins: Array, directions: Array) -> TruthHits:
+        """The nearest hits, shaded (the environment where nothing was hit)."""
+        hits, albedo = self._intersect(origins, directions)
+        hit = hits.hit
+        if hit.any():
+            hits.color[hit] = shade(self.scene, albedo[hit], hits.position[hit], hits.normal[hit], self.visibility)
+        return hits
+
+    def intersect(self, origins: Array, directions: Array) -> TruthHits:
+        """The nearest hits with no colour (zero): where a ray goes inside glass."""
+        hits, _ = self._intersect(origins, directions)
+        hits.color[:] = 0.0
+        return hits
+
+    def _intersect(self, origins: Array, directions: Array) -> tuple[TruthHits, Array]:
         count = len(origins)
         hit = np.zeros(count, bool)
         t = np.full(count, np.inf)
@@ -143,10 +158,7 @@ class TruthTracer:
             self._trace_meshes(origins, directions, hit, t, object_id, normal, albedo)
         self._trace_planes(origins, directions, hit, t, object_id, normal, albedo)
         position[hit] = origins[hit] + directions[hit] * t[hit, None]
-        color = environment(self.scene, directions)
-        if hit.any():
-            color[hit] = shade(self.scene, albedo[hit], position[hit], normal[hit], self.visibility)
-        return TruthHits(hit, np.where(hit, t, 0.0), position, object_id, color, normal)
+        return TruthHits(hit, np.where(hit, t, 0.0), position, object_id, environment(self.scene, directions), normal), albedo
 
     def _trace_meshes(self, origins: Array, directions: Array, hit: Array, t: Array,
                       object_id: Array, normal: Array, albedo: Array) -> None:
@@ -196,42 +208,119 @@ class TruthTracer:
             albedo[closer] = material_albedo(item.object.material, local[closer])
 
 
-def trace_bounces(
-    scene: Scene, meshes: Sequence[ObjectGeometry], mirrors: Sequence[ObjectGeometry],
-    planes: Sequence[ObjectGeometry], casters: Sequence[ObjectGeometry],
-    origins: Array, directions: Array, leaving: Array, bounces: int,
-) -> TruthHits:
-    """What rays leaving the mirrors `leaving` (object ids) see when they may make `bounces`
-    mirror bounces in all: with bounces left, the other mirrors are there and reflect (tint times
-    what their reflected ray sees, recursively); at the last one they are not, as
-    render.max_bounces defines."""
-    last = TruthTracer(scene, meshes, planes, casters)
-    if bounces <= 1 or not mirrors:
-        return last.trace(origins, directions)
-    # Built once for every bounce but the last (an Embree scene is a BVH build).
-    with_mirrors = TruthTracer(scene, [*meshes, *mirrors], planes, casters)
-    return _trace_bounce(with_mirrors, last, mirrors, origins, directions, leaving, bounces)
+def _dot(a: Array, b: Array) -> Array:
+    return np.einsum("ij,ij->i", a, b)
 
 
-def _trace_bounce(with_mirrors: TruthTracer, last: TruthTracer, mirrors: Sequence[ObjectGeometry],
-                  origins: Array, directions: Array, leaving: Array, bounces: int) -> TruthHits:
-    if bounces <= 1:
-        return last.trace(origins, directions)
-    # Each ray starts a ten-thousandth of its mirror's radius along its way: float32 Embree would
-    # otherwise find the mirror it leaves, from whose (flat) triangles the ray starts.
-    radius = {m.index: m.bounding_sphere[1] for m in mirrors}
-    start = origins + directions * (RAY_START_OFFSET * np.array([radius[i] for i in leaving]))[:, None]
-    hits = with_mirrors.trace(start, directions)
-    tints = {m.index: m.object.material.tint for m in mirrors if isinstance(m.object.material, MirrorMaterial)}
-    on_mirror = np.isin(hits.object_id, list(tints))
-    if on_mirror.any():
-        incoming = directions[on_mirror]
-        normal = hits.normal[on_mirror]
-        # As mirror.frag: the normal faces the incoming ray, which reflects about it.
-        normal = np.where((np.einsum("ij,ij->i", normal, incoming) > 0.0)[:, None], -normal, normal)
-        reflected = incoming - 2.0 * np.einsum("ij,ij->i", incoming, normal)[:, None] * normal
-        seen = _trace_bounce(with_mirrors, last, mirrors, hits.position[on_mirror], reflected,
-                             hits.object_id[on_mirror], bounces - 1)
-        tint = np.array([tints[i] for i in hits.object_id[on_mirror]])
-        hits.color[on_mirror] = tint * seen.color
-    return hits
+def facing(normals: Array, directions: Array) -> Array:
+    """GLSL's faceforward(n, d, n): each normal turned against its ray."""
+    return np.where((_dot(normals, directions) < 0.0)[:, None], normals, -normals)
+
+
+def reflect(directions: Array, normals: Array) -> Array:
+    """GLSL's reflect()."""
+    return directions - 2.0 * _dot(directions, normals)[:, None] * normals
+
+
+def refract(directions: Array, normals: Array, eta: float) -> Array:
+    """GLSL's refract(): zero where the ray is reflected in full (total internal reflection)."""
+    cosine = _dot(normals, directions)
+    k = 1.0 - eta * eta * (1.0 - cosine * cosine)
+    refracted = eta * directions - (eta * cosine + np.sqrt(np.clip(k, 0.0, None)))[:, None] * normals
+    return np.where((k < 0.0)[:, None], 0.0, refracted)
+
+
+def schlick(cosine: Array, ior: float) -> Array:
+    """Schlick's approximation of the Fresnel reflectance from air into a dielectric."""
+    f0 = ((ior - 1.0) / (ior + 1.0)) ** 2
+    return f0 + (1.0 - f0) * (1.0 - np.clip(cosine, 0.0, 1.0)) ** 5
+
+
+class SpecularTruth:
+    """What mirrors and glass show, traced with Embree under the rules the renderer follows:
+    at most render.max_bounces mirror or glass surfaces along a camera ray (a passage through
+    glass is one), and glass as lib/glass.glsl has it (Schlick at the entry, Snell both ways,
+    MAX_INTERNAL_REFLECTIONS, the interior holding the glass alone)."""
+
+    def __init__(self, scene: Scene, meshes: Sequence[ObjectGeometry], reflectors: Sequence[ObjectGeometry],
+                 planes: Sequence[ObjectGeometry], casters: Sequence[ObjectGeometry]) -> None:
+        self.reflectors = {r.index: r for r in reflectors}
+        self.last = TruthTracer(scene, meshes, planes, casters)
+        # Built once for every bounce but the last (an Embree scene is a BVH build).
+        self.with_reflectors = (
+            TruthTracer(scene, [*meshes, *reflectors], planes, casters)
+            if scene.render.max_bounces > 1 and reflectors else None
+        )
+        self.interiors = {r.index: TruthTracer(scene, [r], []) for r in reflectors if r.object.is_glass}
+        self.radius = {r.index: r.bounding_sphere[1] for r in reflectors}
+
+    def trace(self, origins: Array, directions: Array, leaving: Array, bounces: int) -> TruthHits:
+        """What rays leaving the reflectors `leaving` (object ids) see with `bounces` bounces
+        left: at the last, the mirrors and glass are not there; before it, they show what their
+        own rays see with one bounce fewer."""
+        # Each ray starts a ten-thousandth of its reflector's radius along its way: float32
+        # Embree would otherwise find the surface it leaves.
+        start = origins + directions * (RAY_START_OFFSET * np.array([self.radius[i] for i in leaving]))[:, None]
+        if bounces <= 1 or self.with_reflectors is None:
+            return self.last.trace(start, directions)
+        hits = self.with_reflectors.trace(start, directions)
+        on = np.isin(hits.object_id, list(self.reflectors))
+        if on.any():
+            normals = facing(hits.normal[on], directions[on])
+            hits.color[on] = self.surface_color(hits.object_id[on], hits.position[on], normals, directions[on],
+                                                reflect(directions[on], normals), bounces - 1)[0]
+        return hits
+
+    def surface_color(self, ids: Array, positions: Array, normals: Array, incoming: Array, reflected: Array,
+                      bounces: int) -> tuple[Array, TruthHits]:
+        """The colour of reflector points seen along `incoming` (unit normals facing it), and what
+        their `reflected` rays hit: a mirror's tint times it; glass's Fresnel blend."""
+        seen = self.trace(positions, reflected, ids, bounces)
+        color = np.zeros_like(seen.color)
+        for index in np.unique(ids):
+            mine = ids == index
+            material = self.reflectors[int(index)].object.material
+            if isinstance(material, MirrorMaterial):
+                color[mine] = np.asarray(material.tint) * seen.color[mine]
+            elif isinstance(material, GlassMaterial):
+                fresnel = schlick(-_dot(incoming[mine], normals[mine]), material.ior)[:, None]
+                refracted = refract(incoming[mine], normals[mine], 1.0 / material.ior)
+                transmitted = self._transmitted(int(index), material.ior, positions[mine], refracted, bounces)
+                color[mine] = fresnel * seen.color[mine] + (1.0 - fresnel) * np.asarray(material.tint) * transmitted
+        return color, seen
+
+    def _transmitted(self, index: int, ior: float, entry: Array, direction: Array, bounces: int) -> Array:
+        """lib/glass.glsl's glass_transmitted: each ray followed inside glass `index` (Embree,
+        against that object alone); at each surface the share 1 - F leaves, F reflects inside."""
+        color = np.zeros_like(entry)
+        active = np.arange(len(entry))
+        weight = np.ones(len(entry))
+        p, d = entry, direction
+        offset = RAY_START_OFFSET * self.radius[index]
+
+        def leave(rays: Array, origins: Array, directions: Array, share: Array) -> None:
+            seen = self.trace(origins, directions, np.full(len(rays), index), bounces)
+            color[rays] += share[:, None] * seen.color
+
+        for _ in range(MAX_INTERNAL_REFLECTIONS + 1):
+            followed = weight[active] >= MIN_PATH_WEIGHT
+            active, p, d = active[followed], p[followed], d[followed]
+            if not len(active):
+                break
+            inside = self.interiors[index].intersect(p + d * offset, d)
+            # No surface ahead (an open mesh, a grazing float32 miss): leave unbent, as the shader.
+            missed = ~inside.hit
+            if missed.any():
+                leave(active[missed], p[missed], d[missed], weight[active[missed]])
+            active, q, outward, d = active[~missed], inside.position[~missed], inside.normal[~missed], d[~missed]
+            inward = facing(outward, d)
+            out = refract(d, inward, ior)
+            escapes = np.any(out != 0.0, axis=1)
+            reflectance = np.ones(len(active))
+            reflectance[escapes] = schlick(-_dot(out[escapes], inward[escapes]), ior)
+            leaves = reflectance < 1.0
+            if leaves.any():
+                leave(active[leaves], q[leaves], out[leaves], weight[active[leaves]] * (1.0 - reflectance[leaves]))
+            weight[active] *= reflectance
+            p, d = q, reflect(d, inward)
+        return color  # what is still inside carries no light

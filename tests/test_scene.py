@@ -126,7 +126,7 @@ def bounding_radius(shape: Shape) -> float:
 
 def test_lecture_scene_has_8_mirrors_and_9_reflected_objects_clear_of_them() -> None:
     scene = load_scene(REPO / "scenes" / "lecture_8x9.toml")
-    reflected = [o for o in scene.non_mirrors if not isinstance(o.shape, PlaneShape)]
+    reflected = [o for o in scene.diffuse_objects if not isinstance(o.shape, PlaneShape)]
     assert len(scene.mirrors) == 8 and len(reflected) == 9
     for mirror in scene.mirrors:
         assert isinstance(mirror.shape, SphereShape)
@@ -206,7 +206,7 @@ def test_example_values_come_through(tmp_path: Path) -> None:
         SceneObject("knot", TorusKnotShape(2, 3, 0.5, 0.1), DiffuseMaterial((1.0, 1.0, 0.0)), scale=(2.0, 2.0, 2.0)),
     )
     assert [o.name for o in scene.mirrors] == ["mirror"]
-    assert [o.name for o in scene.non_mirrors] == ["floor", "knot"]
+    assert [o.name for o in scene.diffuse_objects] == ["floor", "knot"]
     # Integers written where numbers are expected become floats, so the dataclasses hold one type.
     assert all(isinstance(x, float) for x in scene.objects[1].shape.size)
 
@@ -367,8 +367,14 @@ BAD_CASES = [
      "objects[0].material.color", 'expected 3 numbers in [0, 1], got "red"'),
     ("color_out_of_range", OK + an_object("b", extra='material = { type = "diffuse", color = [1.5, 0, 0] }'),
      "objects[1].material.color", "expected 3 numbers in [0, 1], got [1.5, 0, 0]"),
-    ("unknown_material", an_object(extra='material = { type = "glass" }'), "objects[0].material.type",
-     'expected one of: diffuse, checker, mirror, got "glass"'),
+    ("unknown_material", an_object(extra='material = { type = "crystal" }'), "objects[0].material.type",
+     'expected one of: diffuse, checker, mirror, glass, got "crystal"'),
+    ("glass_ior_below_air", an_object(extra='material = { type = "glass", ior = 0.9 }'), "objects[0].material.ior",
+     "expected a number in [1, 4], got 0.9"),
+    ("glass_plane", an_object(shape='{ type = "plane", size = [1.0, 1.0] }', extra='material = { type = "glass" }'),
+     "objects[0].material", "expected a closed shape for a glass material"),
+    ("glass_tint", an_object(extra='material = { type = "glass", tint = [1.5, 1, 1] }'), "objects[0].material.tint",
+     "expected 3 numbers in [0, 1]"),
     ("checker_scale", an_object(extra='material = { type = "checker", color_a = [1, 1, 1], color_b = [0, 0, 0], '
                                       'scale = 0 }'), "objects[0].material.scale", "expected a number > 0, got 0"),
     ("zero_direction", '[[lights]]\ntype = "directional"\ndirection = [0, 0, 0]\n' + OK, "lights[0].direction",

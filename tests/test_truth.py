@@ -26,7 +26,7 @@ def test_truth_shades_like_the_rasterizer(ctx: moderngl.Context) -> None:
     the same meshes, normals, materials, lights and environment. Only silhouette pixels (where
     the pixel centre and the rasterizer's coverage can disagree) may differ."""
     scene = load_scene(SCENES / "default.toml").with_overrides(size=(240, 135))
-    scene = dataclasses.replace(scene, objects=scene.non_mirrors)
+    scene = dataclasses.replace(scene, objects=scene.diffuse_objects)
     with Renderer(ctx, scene) as renderer:
         renderer.render()
         raster = np.clip(renderer.read_color_float(), 0, 1)

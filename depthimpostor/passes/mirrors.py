@@ -1,5 +1,6 @@
-"""Mirrors: each pixel's reflected ray traced in GLSL against what the method stands in for the
-reflected objects (depth images, or the real triangles), the analytic planes and the environment."""
+"""Mirrors and glass: each pixel's reflected ray (and, for glass, its refracted one) traced in GLSL
+against what the method stands in for the reflected objects (depth images, or the real
+triangles), the analytic planes and the environment."""
 
 from __future__ import annotations
 
@@ -11,8 +12,9 @@ import numpy as np
 from ..constants import Algorithm, Method
 from ..geometry import ObjectGeometry
 from ..ppc import PPC
-from ..scene.model import MirrorMaterial, Scene
+from ..scene.model import GlassMaterial, MirrorMaterial, Scene
 from ..shaders import ProgramCache
+from .glass import GlassInterior, interior_camera, pixel_angle
 from .meshes import GpuMeshes
 from .uniforms import shading_defines, write, write_analytic_planes, write_lighting
 
@@ -38,8 +40,8 @@ class ReflectedObjects(Protocol):
     def release(self) -> None: ...
 
 
-#: The colour outputs the reflection data adds (ray origin, ray direction, hit position).
-REFLECTION_OUTPUTS = 3
+#: The colour outputs the reflection data adds (ray origin, ray direction, hit position, normal).
+REFLECTION_OUTPUTS = 4
 
 
 def reflection_defines(
@@ -58,7 +60,28 @@ def reflection_defines(
     return defines
 
 
+def reflector_tint(item: ObjectGeometry) -> tuple[float, float, float]:
+    """u_tint of a mirror or a glass object: what it multiplies the light it reflects (a mirror)
+    or transmits (glass) by."""
+    material = item.object.material
+    if not isinstance(material, (MirrorMaterial, GlassMaterial)):
+        raise TypeError(f"object {item.object.name!r} is neither a mirror nor glass")
+    return material.tint
+
+
+def write_glass(program: moderngl.Program, item: ObjectGeometry) -> None:
+    """The glass-only uniforms of a GLASS program."""
+    material = item.object.material
+    if not isinstance(material, GlassMaterial):
+        raise TypeError(f"object {item.object.name!r} is not glass")
+    write(program, "u_ior", material.ior)
+
+
 class MirrorPass:
+    """Draws the mirrors and the glass objects (the reflectors) over the frame. Glass has its own
+    program (the GLASS variant), made only when the scene has glass, and its interior image is
+    made from the eye right before each glass object is drawn."""
+
     def __init__(
         self,
         programs: ProgramCache,
@@ -70,23 +93,41 @@ class MirrorPass:
         algorithm: Algorithm,
         write_reflection_data: bool = False,
         count_samples: bool = False,
+        interior: GlassInterior | None = None,
     ) -> None:
         defines = {**reflection_defines(method, algorithm, write_reflection_data, count_samples), **shading_defines(scene)}
-        self.program = programs.get("mesh.vert", "mirror.frag", defines)
+        self.programs = {
+            False: programs.get("mesh.vert", "mirror.frag", defines) if scene.mirrors else None,
+            True: programs.get("mesh.vert", "mirror.frag", {**defines, "GLASS": 1}) if scene.glass else None,
+        }
+        if scene.glass and interior is None:
+            raise ValueError("a scene with glass needs a GlassInterior")
+        self.interior = interior
         self.meshes = meshes
         self.reflected = reflected
-        write_lighting(self.program, scene)
-        write_analytic_planes(self.program, scene, analytic_planes)
+        for program in self.programs.values():
+            if program is not None:
+                write_lighting(program, scene)
+                write_analytic_planes(program, scene, analytic_planes)
 
-    def draw(self, mirrors: list[ObjectGeometry], camera: PPC, view_projection: np.ndarray) -> int:
-        self.reflected.bind(self.program)
-        write(self.program, "u_eye", tuple(camera.C))
-        for mirror in mirrors:
-            material = mirror.object.material
-            if not isinstance(material, MirrorMaterial):
-                raise TypeError(f"object {mirror.object.name!r} is not a mirror")
-            self.reflected.bind_mirror(self.program, mirror)
-            write(self.program, "u_tint", tuple(material.tint))
-            write(self.program, "u_mirror_id", mirror.index)
-            self.meshes.draw(self.program, mirror, view_projection)
-        return len(mirrors)
+    def draw(self, reflectors: list[ObjectGeometry], camera: PPC, framebuffer: moderngl.Framebuffer) -> int:
+        """Draw the reflectors into `framebuffer` as `camera` sees them; returns the draw calls."""
+        draws = 0
+        for item in reflectors:
+            glass = item.object.is_glass
+            program = self.programs[glass]
+            if program is None:
+                raise TypeError(f"object {item.object.name!r} is not a reflector of this pass's scene")
+            if glass and self.interior is not None:
+                draws += self.interior.bake(item, interior_camera(camera.C, item, pixel_angle(camera), self.interior.size))
+                self.interior.bind(program)
+                write_glass(program, item)
+            framebuffer.use()
+            self.reflected.bind(program)
+            self.reflected.bind_mirror(program, item)
+            write(program, "u_eye", tuple(camera.C))
+            write(program, "u_tint", reflector_tint(item))
+            write(program, "u_mirror_id", item.index)
+            self.meshes.draw(program, item, camera.view_projection)
+            draws += 1
+        return draws

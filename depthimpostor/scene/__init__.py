@@ -20,6 +20,7 @@ from depthimpostor.scene.model import (
     CylinderShape,
     DiffuseMaterial,
     Environment,
+    GlassMaterial,
     Light,
     Material,
     MeshShape,
@@ -36,7 +37,7 @@ from depthimpostor.scene.model import (
 
 __all__ = [
     "MODEL_PATH_VARIABLE", "MODEL_SUFFIXES", "BoxShape", "Camera", "CheckerMaterial", "CylinderShape",
-    "DiffuseMaterial", "Environment", "Light", "Material", "MeshShape", "MirrorMaterial", "PlaneShape",
+    "DiffuseMaterial", "Environment", "GlassMaterial", "Light", "Material", "MeshShape", "MirrorMaterial", "PlaneShape",
     "RenderSettings", "Scene", "SceneObject", "Shape", "SphereShape", "TorusKnotShape", "TorusShape", "Vec3",
     "load_scene", "model_folders", "parse_scene",
 ]

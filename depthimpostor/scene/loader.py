@@ -12,12 +12,13 @@ from typing import Any, cast
 
 import numpy as np
 
-from depthimpostor.constants import MAX_BOUNCES, MAX_LIGHTS
+from depthimpostor.constants import MAX_BOUNCES, MAX_IOR, MAX_LIGHTS
 from depthimpostor.errors import SceneError
 from depthimpostor.scene import fields as f
 from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_variant, show
 from depthimpostor.scene.model import (
-    ZERO, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial, Environment, Light, Material,
+    ZERO, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial, Environment, GlassMaterial, Light,
+    Material,
     MeshShape, MirrorMaterial, PlaneShape, RenderSettings, Scene, SceneObject, Shape, SphereShape,
     TorusKnotShape, TorusShape,
 )
@@ -81,6 +82,8 @@ _MATERIALS: dict[str, Variant[Material]] = {
     "checker": Variant(("color_a", "color_b", "scale"), lambda t: CheckerMaterial(
         t.req("color_a", _COLOR), t.req("color_b", _COLOR), t.opt("scale", _LENGTH, 1.0))),
     "mirror": Variant(("tint",), lambda t: MirrorMaterial(t.opt("tint", _COLOR, MirrorMaterial().tint))),
+    "glass": Variant(("ior", "tint"), lambda t: GlassMaterial(
+        t.opt("ior", f.number(f.Bounds(1.0, MAX_IOR)), GlassMaterial().ior), t.opt("tint", _COLOR, GlassMaterial().tint))),
 }
 
 
@@ -159,8 +162,13 @@ def _camera(t: Table) -> Camera:
 
 
 def _object(t: Table) -> SceneObject:
-    return SceneObject(name=t.req("name", NAME), shape=t.variant("shape", _SHAPES),
-                       material=t.variant("material", _MATERIALS, default=DiffuseMaterial()),
+    shape = t.variant("shape", _SHAPES)
+    material = t.variant("material", _MATERIALS, default=DiffuseMaterial())
+    if isinstance(material, GlassMaterial) and isinstance(shape, PlaneShape):
+        # Refraction follows a ray through the object to where it leaves: a plane has no inside.
+        raise t.at.key("material").error('expected a closed shape for a glass material (a ray refracted into it '
+                                         'must leave through its back), got a plane')
+    return SceneObject(name=t.req("name", NAME), shape=shape, material=material,
                        position=t.opt("position", _POINT, SceneObject.position),
                        rotation=t.opt("rotation", _POINT, SceneObject.rotation),
                        scale=t.opt("scale", f.number_or_vec3(f.POSITIVE), SceneObject.scale))

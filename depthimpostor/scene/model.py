@@ -137,7 +137,16 @@ class MirrorMaterial:
     tint: Vec3 = (1.0, 1.0, 1.0)
 
 
-Material = DiffuseMaterial | CheckerMaterial | MirrorMaterial
+@dataclass(frozen=True)
+class GlassMaterial:
+    """A clear dielectric: `ior` its index of refraction (air's is 1), `tint` what the light it
+    transmits is multiplied by (the reflected part is not tinted)."""
+
+    ior: float = 1.5
+    tint: Vec3 = (1.0, 1.0, 1.0)
+
+
+Material = DiffuseMaterial | CheckerMaterial | MirrorMaterial | GlassMaterial
 
 
 def axis_rotation(axis: int, degrees: float) -> np.ndarray:
@@ -162,6 +171,16 @@ class SceneObject:
     def is_mirror(self) -> bool:
         return isinstance(self.material, MirrorMaterial)
 
+    @property
+    def is_glass(self) -> bool:
+        return isinstance(self.material, GlassMaterial)
+
+    @property
+    def is_specular(self) -> bool:
+        """Does what it shows depend on rays traced from its surface (a mirror, glass)? Such an
+        object is drawn by the reflector pass and gets depth images of the others."""
+        return self.is_mirror or self.is_glass
+
     def model_matrix(self) -> np.ndarray:
         """Local to world, 4x4 float64 for column vectors: T @ Rz @ Ry @ Rx @ S, so scale acts first."""
         rx, ry, rz = self.rotation
@@ -185,6 +204,15 @@ class Scene:
         return tuple(o for o in self.objects if o.is_mirror)
 
     @property
+    def glass(self) -> tuple[SceneObject, ...]:
+        return tuple(o for o in self.objects if o.is_glass)
+
+    @property
+    def reflectors(self) -> tuple[SceneObject, ...]:
+        """Mirrors and glass: the objects whose pixels trace rays into the others."""
+        return tuple(o for o in self.objects if o.is_specular)
+
+    @property
     def shadowed_lights(self) -> tuple[int, ...]:
         """Indices of the lights that cast shadows (each gets a shadow map)."""
         return tuple(i for i, light in enumerate(self.lights) if light.casts_shadows)
@@ -201,8 +229,9 @@ class Scene:
         return bool(self.shadowed_lights and self.shadow_casters)
 
     @property
-    def non_mirrors(self) -> tuple[SceneObject, ...]:
-        return tuple(o for o in self.objects if not o.is_mirror)
+    def diffuse_objects(self) -> tuple[SceneObject, ...]:
+        """What the diffuse pass draws and a first bounce sees: everything but mirrors and glass."""
+        return tuple(o for o in self.objects if not o.is_specular)
 
     def with_overrides(self, size: tuple[int, int] | None = None, impostor_resolution: int | None = None,
                        simplified_triangles: int | None = None) -> Scene:

@@ -1,0 +1,141 @@
+"""Glass: the interior image a refracted ray is followed through to where it leaves.
+
+A glass pixel refracts its view ray into the object (lib/glass.glsl); the ray leaves where it
+next crosses the object's surface. As in Wyman's image-space refraction, that surface is taken
+from an image of the glass alone seen from the viewpoint that sees it (the camera; a mirror's
+centre when a bounce is baked), but the exit is then found exactly as reflected rays find their
+hits, by the depth-image march: the interior image is a depth image with two layers, the front
+faces and the nearest back faces, each sample holding its outward normal and window depth.
+Along each line of sight the glass lies between the two, so a ray inside it leaves at the first
+step where it is in front of the one or behind the other.
+
+The image is made again for every glass object at every frame (two draws of that object alone,
+like a depth pre-pass): it depends on the viewpoint, which the reflected objects' depth images
+do not. Its size follows the glass's size on screen, so that a sample covers about one pixel.
+What the glass does not show: objects inside it (the interior image holds the glass alone), a
+second passage through a concave glass, and light reflected back at the exit when the ray can
+leave (its Fresnel share there is not followed; the truth follows the same rules).
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE
+from ..geometry import ObjectGeometry
+from ..ppc import PPC, FrustumFitError
+from ..shaders import ProgramCache
+from .impostors import BAKE_CULLS_FRONT_FACES
+from .meshes import GpuMeshes
+from .uniforms import bind_texture, bind_uniform_block, write
+
+#: Past the other passes' units (0 to 5) and uniform-block bindings (0 to 2).
+GLASS_FRONT_UNIT = 6
+GLASS_BACK_UNIT = 7
+GLASS_INTERIOR_BINDING = 3
+#: The interior image's side at least, in texels (a glass a few pixels wide on screen).
+MIN_INTERIOR_RESOLUTION = 16
+
+
+def interior_camera(eye: np.ndarray, glass: ObjectGeometry, texel_angle: float, largest: int) -> PPC | None:
+    """The interior image's camera: from `eye`, the tightest frustum around the glass, with
+    texels of about `texel_angle` (the tangent a screen pixel spans) and at most `largest` on a
+    side. None when the eye is inside the glass's bounds (no frustum holds it)."""
+    centre, _ = glass.bounding_sphere
+    positions = glass.world_mesh.positions
+    try:
+        probe = PPC.fitted(eye, positions, centre, largest, largest)
+    except FrustumFitError:
+        return None
+    # fitted() spans the object with width |a| per texel at focal length |c . forward|.
+    span = max(np.linalg.norm(probe.a), np.linalg.norm(probe.b)) * largest / probe.focal
+    resolution = int(np.clip(math.ceil(span / max(texel_angle, 1e-12)), MIN_INTERIOR_RESOLUTION, largest))
+    return PPC.fitted(eye, positions, centre, resolution, resolution)
+
+
+def pixel_angle(camera: PPC) -> float:
+    """The tangent one pixel of `camera` spans at its image centre."""
+    return float(max(np.linalg.norm(camera.a), np.linalg.norm(camera.b)) / camera.focal)
+
+
+class GlassInterior:
+    """One interior image at a time (up to `size` texels square): baked for a glass object just
+    before that object is drawn, then bound for its program."""
+
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache, meshes: GpuMeshes, size: int) -> None:
+        self.ctx = ctx
+        self.meshes = meshes
+        self.size = size
+        self.program = programs.get("mesh.vert", "glass_interior.frag")
+        self.front = ctx.texture((size, size), 4, dtype="f4")
+        self.back = ctx.texture((size, size), 4, dtype="f4")
+        # Linear for the normals' bilinear mix; the shader reads depths with texelFetch, unfiltered.
+        for texture in (self.front, self.back):
+            texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self._depth = ctx.depth_renderbuffer((size, size))
+        # (framebuffer, the face GL culls for it): front faces keep GL's "back" culled except
+        # that a depth image's projection flips y (see BAKE_CULLS_FRONT_FACES).
+        keeps_back = BAKE_CULLS_FRONT_FACES
+        keeps_front = "front" if keeps_back == "back" else "back"
+        self._layers = [
+            (ctx.framebuffer([self.front], self._depth), keeps_front),
+            (ctx.framebuffer([self.back], self._depth), keeps_back),
+        ]
+        self._record = ctx.buffer(reserve=DEPTH_IMAGE_DTYPE.itemsize)
+        self.camera: PPC | None = None
+        self.bakes = 0  # interior images made (the tests check when they are)
+
+    def bake(self, glass: ObjectGeometry, camera: PPC | None) -> int:
+        """The glass's front and back layers from `camera` (None: no interior, see
+        interior_camera); returns the draw calls. Leaves some other framebuffer bound."""
+        self.camera = camera
+        if camera is None:
+            return 0
+        if max(camera.width, camera.height) > self.size:
+            raise ValueError(f"an interior image of {camera.width}x{camera.height} does not fit {self.size}^2")
+        viewport = (0, 0, camera.width, camera.height)
+        self.ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        try:
+            for framebuffer, culled in self._layers:
+                framebuffer.use()
+                framebuffer.viewport = viewport
+                framebuffer.clear(0.0, 0.0, 0.0, BACKGROUND_DEPTH, depth=BACKGROUND_DEPTH, viewport=viewport)
+                self.ctx.cull_face = culled
+                self.meshes.draw(self.program, glass, camera.view_projection)
+        finally:
+            self.ctx.disable(moderngl.CULL_FACE)
+        self._record.write(camera.depth_image_record(glass.index, (0, 0)).tobytes())
+        self.bakes += 1
+        return len(self._layers)
+
+    def bind(self, program: moderngl.Program) -> None:
+        """Point a GLASS program at the last interior image made."""
+        bind_texture(program, "u_glass_front", self.front, GLASS_FRONT_UNIT)
+        bind_texture(program, "u_glass_back", self.back, GLASS_BACK_UNIT)
+        bind_uniform_block(program, "GlassInterior", GLASS_INTERIOR_BINDING)
+        self._record.bind_to_uniform_block(GLASS_INTERIOR_BINDING)
+        write(program, "u_glass_has_interior", self.camera is not None)
+
+    def read(self) -> tuple[np.ndarray, np.ndarray]:
+        """The last image's (front, back) layers: (h, w, 4) float32, texture rows in order."""
+        if self.camera is None:
+            raise ValueError("no interior image was made")
+        height, width = self.camera.height, self.camera.width
+
+        def layer(texture: moderngl.Texture) -> np.ndarray:
+            return np.frombuffer(texture.read(), np.float32).reshape(self.size, self.size, 4)[:height, :width].copy()
+
+        return layer(self.front), layer(self.back)
+
+    @property
+    def bytes(self) -> int:
+        return self.size * self.size * (16 + 16 + 4) + self._record.size
+
+    def release(self) -> None:
+        for framebuffer, _ in self._layers:
+            framebuffer.release()
+        for item in (self.front, self.back, self._depth, self._record):
+            item.release()
