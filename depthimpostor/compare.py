@@ -46,6 +46,9 @@ class Figures:
     # Scenes with shadows: the pixels seen directly (outside mirrors) and their colour RMSE.
     direct_pixels: int = 0
     direct_rmse: float = 0.0
+    # Scenes with glass: its pixels (counted among the mirror pixels too) and their colour RMSE.
+    glass_pixels: int = 0
+    glass_rmse: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -140,6 +143,9 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
     squared = ((render - truth_image) ** 2)[mask]
     rmse = float(np.sqrt(squared.mean())) if count else 0.0
     wrong = (data.object_id != truth_object) & mask
+    glass = mask & np.isin(data.mirror_id, [g.index for g in renderer.glass])
+    glass_pixels = int(glass.sum())
+    glass_rmse = float(np.sqrt(((render - truth_image)[glass] ** 2).mean())) if glass_pixels else 0.0
 
     radius = {g.index: g.bounding_sphere[1] for g in renderer.reflected_objects}
     measured = mask & (data.object_id == truth_object) & np.isin(truth_object, list(radius))
@@ -163,6 +169,8 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
         worst_pixels=worst,
         direct_pixels=direct_pixels,
         direct_rmse=direct_rmse,
+        glass_pixels=glass_pixels,
+        glass_rmse=glass_rmse,
     )
     return Comparison(render, truth_image, mask, geometric, figures, truth, direct)
 
@@ -214,7 +222,7 @@ def write_report(comparison: Comparison, folder: Path, settings: dict[str, objec
 
 def format_table(figures: Figures) -> str:
     rows = [
-        ("mirror pixels", f"{figures.mirror_pixels}"),
+        ("mirror and glass pixels" if figures.glass_pixels else "mirror pixels", f"{figures.mirror_pixels}"),
         ("colour RMSE", f"{figures.color_rmse:.4f}"),
         ("PSNR", f"{figures.psnr_db:.2f} dB"),
         ("wrong object", f"{100 * figures.wrong_object_share:.3f} % of mirror pixels"),
@@ -223,6 +231,8 @@ def format_table(figures: Figures) -> str:
         ("geometric error, max", f"{100 * figures.geometric_error_max:.3f} %"),
         ("pixels measured (geometry)", f"{figures.geometric_pixels}"),
     ]
+    if figures.glass_pixels:
+        rows.append(("of which glass: RMSE", f"{figures.glass_rmse:.4f} over {figures.glass_pixels} pixels"))
     if figures.direct_pixels:
         rows.append(("seen directly (shadows): RMSE", f"{figures.direct_rmse:.4f} over {figures.direct_pixels} pixels"))
     width = max(len(name) for name, _ in rows)

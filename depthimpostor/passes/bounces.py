@@ -1,4 +1,5 @@
-"""Mirrors in mirrors (render.max_bounces > 1): depth images of mirrors that show reflections.
+"""Mirrors in mirrors (render.max_bounces > 1): depth images of mirrors and glass that show
+reflections (and refractions).
 
 A mirror seen in another mirror is a reflected object whose colours depend on where it is seen
 from. Its depth image in mirror M's set is baked from M's centre, like every image of M, by
@@ -6,6 +7,9 @@ drawing it with the mirror shader itself, its eye at M's centre and its reflecte
 against its own images of one bounce fewer. So the images of bounce k show bounce k - 1 (the
 lecture's teapots that reflect each other): bounce 2 images read the diffuse objects' images
 (level 0), bounce 3 images read bounce 2's, and so on; the frame reads render.max_bounces'.
+
+Glass is drawn the same way, with the GLASS variant and an interior image of it from M's
+centre (passes/glass.py), made with the image's own camera right before it is drawn.
 
 Each mirror image is drawn into a one-tile scratch atlas and copied into its atlas tile through
 a pixel buffer: drawing into the atlas while its other tiles are read would be a feedback loop,
@@ -19,9 +23,10 @@ from typing import TYPE_CHECKING
 import moderngl
 
 from ..constants import BACKGROUND_DEPTH, Algorithm, Method
-from ..scene.model import MirrorMaterial, Scene
+from ..scene.model import Scene
+from .glass import GlassInterior
 from .impostors import DEPTH_IMAGES_BINDING, DepthImage, ImpostorAtlas, mirror_centre
-from .mirrors import reflection_defines
+from .mirrors import reflection_defines, reflector_tint, write_glass
 from .uniforms import shading_defines, write, write_analytic_planes, write_lighting
 
 if TYPE_CHECKING:
@@ -37,9 +42,14 @@ class BounceBaker:
         # The optimized march: a bake's images are the same whatever the frame's algorithm.
         defines = {**reflection_defines(Method.DEPTH, Algorithm.OPTIMIZED), "WRITE_DEPTH_IMAGE": 1,
                    **shading_defines(scene)}
-        self.program = images.programs.get("mesh.vert", "mirror.frag", defines)
-        write_lighting(self.program, scene)
-        write_analytic_planes(self.program, scene, images.planes)
+        # A program for mirrors and one for glass (the GLASS variant), each only if shown.
+        shown = {image.target.object.is_glass for image in images.depth_images if image.level}
+        self.programs = {glass: images.programs.get("mesh.vert", "mirror.frag", {**defines, **({"GLASS": 1} if glass else {})})
+                         for glass in shown}
+        for program in self.programs.values():
+            write_lighting(program, scene)
+            write_analytic_planes(program, scene, images.planes)
+        self.interior = GlassInterior(ctx, images.programs, images.meshes, resolution) if True in shown else None
         self.scratch = ImpostorAtlas(ctx, 1, resolution)
         self.transfer = ctx.buffer(reserve=resolution * resolution * 8)  # one tile of RG32F
         # Per (mirror, bounces): the records a mirror drawn into a bounce k image reads (k - 1).
@@ -60,9 +70,12 @@ class BounceBaker:
     def _bake(self, image: DepthImage) -> int:
         images, framebuffer = self.images, self.scratch.framebuffer
         shown = image.target
-        material = shown.object.material
-        if not isinstance(material, MirrorMaterial):
-            raise TypeError(f"object {shown.object.name!r} is not a mirror")
+        program = self.programs[shown.object.is_glass]
+        draws = 0
+        if self.interior is not None and shown.object.is_glass:
+            draws += self.interior.bake(shown, image.camera)
+            self.interior.bind(program)
+            write_glass(program, shown)
         tile = (0, 0, image.camera.width, image.camera.height)
         framebuffer.use()
         framebuffer.viewport = tile
@@ -70,15 +83,15 @@ class BounceBaker:
         framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=tile)
         framebuffer.color_mask = ((True,) * 4, (True, False, False, False))
         images.ctx.enable(moderngl.DEPTH_TEST)
-        images.bind(self.program)
+        images.bind(program)
         below = image.level - 1
         self.level_buffers[(shown.index, below)].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
-        write(self.program, "u_depth_image_count", len(images.images_at(shown.index, below)))
-        write(self.program, "u_eye", tuple(mirror_centre(image.mirror)))
-        write(self.program, "u_tint", tuple(material.tint))
-        write(self.program, "u_mirror_id", shown.index)
-        images.meshes.draw(self.program, shown, image.camera.view_projection)
-        draws = 1 + images._bake_back_faces(image, framebuffer, tile)
+        write(program, "u_depth_image_count", len(images.images_at(shown.index, below)))
+        write(program, "u_eye", tuple(mirror_centre(image.mirror)))
+        write(program, "u_tint", reflector_tint(shown))
+        write(program, "u_mirror_id", shown.index)
+        images.meshes.draw(program, shown, image.camera.view_projection)
+        draws += 1 + images._bake_back_faces(image, framebuffer, tile)
         framebuffer.color_mask = ((True,) * 4, (True,) * 4)
         self._copy(tile, image.tile)
         images.bakes += 1
@@ -93,13 +106,16 @@ class BounceBaker:
 
     @property
     def bytes(self) -> int:
-        return self.scratch.bytes + self.transfer.size + sum(b.size for b in self.level_buffers.values())
+        interior = self.interior.bytes if self.interior is not None else 0
+        return self.scratch.bytes + self.transfer.size + sum(b.size for b in self.level_buffers.values()) + interior
 
     def release(self) -> None:
         for buffer in self.level_buffers.values():
             buffer.release()
         self.transfer.release()
         self.scratch.release()
+        if self.interior is not None:
+            self.interior.release()
 
 
 
