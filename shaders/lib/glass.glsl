@@ -22,12 +22,6 @@ uniform sampler2D u_glass_back;   // the same for the nearest back faces
 uniform bool u_glass_has_interior;
 uniform float u_ior;
 
-// Where along a step the surface's depth f (ray depth - surface depth, of one sign at the start)
-// is crossed: the 2-D segment intersection.
-float crossing(float f0, float f1) {
-    return f0 == f1 ? 0.0 : clamp(f0 / (f0 - f1), 0.0, 1.0);
-}
-
 // The normal of a layer at image point s, interpolated bilinearly between its four texels (the
 // nearest one alone would facet the refraction at the texels' size). A texel off the silhouette
 // holds a zero normal, which shortens the mix but does not turn it; `nearest` is for a mix of
@@ -76,10 +70,10 @@ bool glass_exit(vec3 origin, vec3 direction, out vec3 exit_point, out vec3 exit_
                 k = 0.0;
                 exit_normal = abs(s0.z - front0.w) < abs(s0.z - back0.w) ? front0.xyz : back0.xyz;
             } else if (past_back) {
-                k = crossing(s0.z - back0.w, s1.z - back1.w);
+                segments_cross(s0.z - back0.w, s1.z - back1.w, k);  // where along the step
                 exit_normal = k < 0.5 ? back0.xyz : back1.xyz;
             } else {
-                k = crossing(front0.w - s0.z, front1.w - s1.z);
+                segments_cross(front0.w - s0.z, front1.w - s1.z, k);
                 exit_normal = k < 0.5 ? front0.xyz : front1.xyz;
             }
             vec2 s = s0.xy + (s1.xy - s0.xy) * k;
