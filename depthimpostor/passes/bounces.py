@@ -26,8 +26,8 @@ from ..constants import BACKGROUND_DEPTH, Algorithm, Method
 from ..scene.model import Scene
 from .glass import GlassInterior
 from .impostors import DEPTH_IMAGES_BINDING, DepthImage, ImpostorAtlas, mirror_centre
-from .mirrors import reflection_defines, reflector_tint, write_glass
-from .uniforms import shading_defines, write, write_analytic_planes, write_lighting
+from .mirrors import reflection_defines, reflector_program, reflector_tint, write_glass
+from .uniforms import write
 
 if TYPE_CHECKING:
     from .impostors import ImpostorPass
@@ -40,15 +40,11 @@ class BounceBaker:
         self.images = images
         ctx, resolution = images.ctx, images.atlas.resolution
         # The optimized march: a bake's images are the same whatever the frame's algorithm.
-        defines = {**reflection_defines(Method.DEPTH, Algorithm.OPTIMIZED), "WRITE_DEPTH_IMAGE": 1,
-                   **shading_defines(scene)}
+        defines = {**reflection_defines(Method.DEPTH, Algorithm.OPTIMIZED), "WRITE_DEPTH_IMAGE": 1}
         # A program for mirrors and one for glass (the GLASS variant), each only if shown.
         shown = {image.target.object.is_glass for image in images.depth_images if image.level}
-        self.programs = {glass: images.programs.get("mesh.vert", "mirror.frag", {**defines, **({"GLASS": 1} if glass else {})})
+        self.programs = {glass: reflector_program(images.programs, scene, images.planes, defines, glass)
                          for glass in shown}
-        for program in self.programs.values():
-            write_lighting(program, scene)
-            write_analytic_planes(program, scene, images.planes)
         self.interior = GlassInterior(ctx, images.programs, images.meshes, resolution) if True in shown else None
         self.scratch = ImpostorAtlas(ctx, 1, resolution)
         self.transfer = ctx.buffer(reserve=resolution * resolution * 8)  # one tile of RG32F

@@ -60,6 +60,17 @@ def reflection_defines(
     return defines
 
 
+def reflector_program(programs: ProgramCache, scene: Scene, analytic_planes: list[ObjectGeometry],
+                      defines: dict[str, int], glass: bool) -> moderngl.Program:
+    """The mirror shader's variant for mirrors or (GLASS) for glass, with the scene's lighting and
+    analytic planes written: shared by the frame's pass and the bounce bakes."""
+    variant = {**defines, **shading_defines(scene), **({"GLASS": 1} if glass else {})}
+    program = programs.get("mesh.vert", "mirror.frag", variant)
+    write_lighting(program, scene)
+    write_analytic_planes(program, scene, analytic_planes)
+    return program
+
+
 def reflector_tint(item: ObjectGeometry) -> tuple[float, float, float]:
     """u_tint of a mirror or a glass object: what it multiplies the light it reflects (a mirror)
     or transmits (glass) by."""
@@ -95,20 +106,16 @@ class MirrorPass:
         count_samples: bool = False,
         interior: GlassInterior | None = None,
     ) -> None:
-        defines = {**reflection_defines(method, algorithm, write_reflection_data, count_samples), **shading_defines(scene)}
+        defines = reflection_defines(method, algorithm, write_reflection_data, count_samples)
         self.programs = {
-            False: programs.get("mesh.vert", "mirror.frag", defines) if scene.mirrors else None,
-            True: programs.get("mesh.vert", "mirror.frag", {**defines, "GLASS": 1}) if scene.glass else None,
+            glass: reflector_program(programs, scene, analytic_planes, defines, glass) if present else None
+            for glass, present in ((False, bool(scene.mirrors)), (True, bool(scene.glass)))
         }
         if scene.glass and interior is None:
             raise ValueError("a scene with glass needs a GlassInterior")
         self.interior = interior
         self.meshes = meshes
         self.reflected = reflected
-        for program in self.programs.values():
-            if program is not None:
-                write_lighting(program, scene)
-                write_analytic_planes(program, scene, analytic_planes)
 
     def draw(self, reflectors: list[ObjectGeometry], camera: PPC, framebuffer: moderngl.Framebuffer) -> int:
         """Draw the reflectors into `framebuffer` as `camera` sees them; returns the draw calls."""
