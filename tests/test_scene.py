@@ -268,7 +268,8 @@ def test_with_overrides_replaces_render_settings(tmp_path: Path) -> None:
 @pytest.mark.parametrize(("kwargs", "path", "fragment"), [
     ({"size": (0, 200)}, "--size", "expected 2 integers in [1, 16384], got [0, 200]"),
     ({"size": (320,)}, "--size", "expected 2 integers"),
-    ({"impostor_resolution": 5000}, "--impostor-res", "expected an integer in [4, 4096], got 5000"),
+    ({"impostor_resolution": 5000}, "--impostor-res", 'expected an integer in [4, 4096] or "auto", got 5000'),
+    ({"impostor_resolution": "big"}, "--impostor-res", 'expected an integer in [4, 4096] or "auto", got "big"'),
     ({"impostor_resolution": True}, "--impostor-res", "got true"),
     ({"simplified_triangles": 0}, "--simplified-triangles", "expected an integer >= 4, got 0"),
 ])
@@ -339,6 +340,59 @@ def test_file_that_is_not_utf8(tmp_path: Path) -> None:
 # --- Bad values, each named by its dotted path ----------------------------------------------------
 
 LIGHT = '[[lights]]\ntype = "directional"\ndirection = [0, -1, 0]\n'
+POINT_LIGHT = '[[lights]]\ntype = "point"\nposition = [0, 3, 0]\n'
+FLOOR = '{ type = "plane", size = [10.0, 10.0] }'
+
+
+def animated(animation: str, shape: str = '{ type = "sphere", radius = 1.0 }', material: str = "") -> str:
+    """A scene of one object with `animation = {animation}` (and `material` when given)."""
+    return an_object(shape=shape, extra=f"animation = {{ {animation} }}\n{material}")
+
+
+ROTATE = 'type = "rotate", axis = [0, 1, 0], degrees_per_second = 30'
+ORBIT = 'type = "orbit", centre = [0, 0, 0], axis = [0, 1, 0], degrees_per_second = -20'
+
+ANIMATION_CASES = [
+    ("animation_type", animated('type = "spin", axis = [0, 1, 0], degrees_per_second = 30'),
+     "objects[0].animation.type", 'expected one of: rotate, orbit, got "spin"'),
+    ("animation_without_type", animated("axis = [0, 1, 0], degrees_per_second = 30"), "objects[0].animation.type",
+     "missing required field; expected one of: rotate, orbit"),
+    ("animation_not_a_table", an_object(extra='animation = "rotate"'), "objects[0].animation",
+     'expected a table, got "rotate"'),
+    ("animation_unknown_field", animated(ROTATE + ", speed = 2"), "objects[0].animation",
+     'unknown field "speed"; expected one of: type, axis, degrees_per_second, centre'),
+    ("animation_zero_axis", OK.replace('"a"', '"b"') + animated('type = "rotate", axis = [0, 0, 0], '
+                                                                 'degrees_per_second = 30'),
+     "objects[1].animation.axis", "expected 3 numbers, not all zero, got [0, 0, 0]"),
+    ("animation_missing_axis", animated('type = "orbit", centre = [0, 0, 0], degrees_per_second = 30'),
+     "objects[0].animation.axis", "missing required field; expected 3 numbers, not all zero"),
+    *((f"animation_rate_{name}", animated(f'type = "rotate", axis = [0, 1, 0], degrees_per_second = {rate}'),
+       "objects[0].animation.degrees_per_second", fragment)
+      for name, rate, fragment in [
+          ("zero", "0", "expected a number other than 0 (an animation that never turns is a mistake: leave "
+                        "animation out), got 0"),
+          ("infinite", "-inf", "expected a number, got -inf"),
+          ("nan", "nan", "expected a number, got nan"),
+          ("text", '"fast"', 'expected a number, got "fast"'),
+      ]),
+    ("orbit_without_centre", animated('type = "orbit", axis = [0, 1, 0], degrees_per_second = 30'),
+     "objects[0].animation.centre", "missing required field; expected 3 numbers"),
+    ("rotate_with_centre", animated(ROTATE + ", centre = [1, 2, 3]"), "objects[0].animation.centre",
+     'expected no centre with type = "rotate", which turns a thing about its own position '
+     '(type = "orbit" turns it about a centre), got [1, 2, 3]'),
+    ("point_light_rotates", POINT_LIGHT + f"animation = {{ {ROTATE} }}\n" + OK, "lights[0].animation.type",
+     'expected "orbit" for a point light (a point light turned about itself does not move), got "rotate"'),
+    ("directional_light_orbits", LIGHT + f"animation = {{ {ORBIT} }}\n" + OK, "lights[0].animation.type",
+     'expected "rotate" for a directional light (it has no position to orbit'),
+    ("light_animation_zero_axis", LIGHT + 'animation = { type = "rotate", axis = [0, 0, 0], degrees_per_second = 1 }'
+     "\n" + OK, "lights[0].animation.axis", "not all zero"),
+    ("diffuse_plane_animated", OK.replace('"a"', '"b"') + animated(ROTATE, FLOOR), "objects[1].animation",
+     "expected no animation on a plane that is not a mirror (floors and walls that are not mirrors are "
+     "intersected as fixed planes and cannot move), got {type = \"rotate\""),
+    ("checker_plane_animated", animated(ORBIT, FLOOR, 'material = { type = "checker", color_a = [1, 1, 1], '
+                                                      'color_b = [0, 0, 0] }'),
+     "objects[0].animation", "expected no animation on a plane that is not a mirror"),
+]
 
 BAD_CASES = [
     ("bool_as_number", "[render]\nambient = true\n" + OK, "render.ambient", "expected a number in [0, 1], got true"),
@@ -398,8 +452,12 @@ BAD_CASES = [
     ("size_out_of_range", "[render]\nsize = [0, 540]\n" + OK, "render.size",
      "expected 2 integers in [1, 16384], got [0, 540]"),
     ("size_of_floats", "[render]\nsize = [960.0, 540.0]\n" + OK, "render.size", "expected 2 integers"),
-    ("resolution_float", "[render]\nimpostor_resolution = 256.0\n" + OK, "render.impostor_resolution",
-     "expected an integer in [4, 4096], got 256.0"),
+    *((f"resolution_{name}", f"[render]\nimpostor_resolution = {value}\n" + OK, "render.impostor_resolution",
+       f'expected an integer in [4, 4096] or "auto", got {value}')
+      for name, value in [("float", "256.0"), ("word", '"big"'), ("auto_in_capitals", '"AUTO"'), ("too_small", "2"),
+                          ("bool", "true")]),
+    ("shadow_resolution_auto", '[render]\nshadow_resolution = "auto"\n' + OK, "render.shadow_resolution",
+     'expected an integer in [4, 4096], got "auto"'),
     ("unknown_section", '[[object]]\nname = "a"\n' + OK, "",
      'unknown field "object"; expected one of: render, camera, environment, lights, objects'),
     ("unknown_render_field", "[render]\nwidth = 100\n" + OK, "render",
@@ -426,6 +484,7 @@ BAD_CASES = [
      "missing required field; expected 3 numbers >= 0"),
     ("gradient_with_color", '[environment]\ncolor = [1, 1, 1]\n' + OK, "environment",
      'unknown field "color"; expected one of: type, zenith, horizon, ground'),
+    *ANIMATION_CASES,
 ]
 
 

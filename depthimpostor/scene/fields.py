@@ -113,6 +113,11 @@ def number_or_vec3(bounds: Bounds) -> Reader[Vec3]:
     return Reader(f"{one.expected} or {three.expected}", parse)
 
 
+def word_or(word: str, reader: Reader[T]) -> Reader[T | str]:
+    """`word` itself, or what `reader` reads (`impostor_resolution = "auto"` or a number of pixels)."""
+    return Reader(f"{reader.expected} or {json.dumps(word)}", lambda v: v if v == word else reader.parse(v))
+
+
 def choice(options: Sequence[str]) -> Reader[str]:
     return Reader(f"one of: {', '.join(options)}", lambda v: v if isinstance(v, str) and v in options else None)
 

@@ -17,10 +17,9 @@ from depthimpostor.errors import SceneError
 from depthimpostor.scene import fields as f
 from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_variant, show
 from depthimpostor.scene.model import (
-    ZERO, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial, Environment, GlassMaterial, Light,
-    Material,
-    MeshShape, MirrorMaterial, PlaneShape, RenderSettings, Scene, SceneObject, Shape, SphereShape,
-    TorusKnotShape, TorusShape,
+    IMPOSTOR_RESOLUTION, ZERO, Animation, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial,
+    Environment, GlassMaterial, Light, Material, MeshShape, MirrorMaterial, PlaneShape, RenderSettings, Scene,
+    SceneObject, Shape, SphereShape, TorusKnotShape, TorusShape,
 )
 
 MODEL_PATH_VARIABLE = "DEPTHIMPOSTOR_MODEL_PATH"
@@ -87,6 +86,48 @@ _MATERIALS: dict[str, Variant[Material]] = {
 }
 
 
+def _rate(t: Table) -> float:
+    rate = t.req("degrees_per_second", f.number())
+    if rate == 0:
+        raise t.at.key("degrees_per_second").error("expected a number other than 0 (an animation that never "
+                                                   "turns is a mistake: leave animation out), got 0")
+    return rate
+
+
+def _rotate(t: Table) -> Animation:
+    if "centre" in t.data:
+        raise t.at.key("centre").error(f'expected no centre with type = "rotate", which turns a thing about its '
+                                       f'own position (type = "orbit" turns it about a centre), '
+                                       f'got {show(t.data["centre"])}')
+    return Animation("rotate", t.req("axis", _DIRECTION), _rate(t))
+
+
+_ANIMATIONS: dict[str, Variant[Animation]] = {
+    "rotate": Variant(("axis", "degrees_per_second", "centre"), _rotate),
+    "orbit": Variant(("centre", "axis", "degrees_per_second"), lambda t: Animation(
+        "orbit", t.req("axis", _DIRECTION), _rate(t), t.req("centre", _POINT))),
+}
+
+
+def _animation(t: Table, refused: Mapping[str, str] | None = None) -> Animation | None:
+    """The table's optional `animation`; a type in `refused` is an error saying why (its value)."""
+    if "animation" not in t.data:
+        return None
+    animation = t.variant("animation", _ANIMATIONS)
+    why = (refused or {}).get(animation.type)
+    if why is not None:
+        raise t.at.key("animation").key("type").error(why)
+    return animation
+
+
+# What a light's animation cannot be: an explanation per type.
+_LIGHT_ANIMATIONS_REFUSED = {
+    "point": {"rotate": 'expected "orbit" for a point light (a point light turned about itself does not move), '
+                        'got "rotate"'},
+    "directional": {"orbit": 'expected "rotate" for a directional light (it has no position to orbit; "rotate" '
+                             'turns its direction), got "orbit"'},
+}
+
 SHADOW_KINDS = ("none", "hard", "soft")
 
 
@@ -105,13 +146,14 @@ def _light(t: Table, kind: str, direction: Vec3 = ZERO, position: Vec3 = ZERO) -
     else:
         radius = d.radius
     return Light(kind, direction, position, color=t.opt("color", _RADIANCE, d.color),
-                 intensity=t.opt("intensity", f.number(f.NON_NEGATIVE), d.intensity), shadows=shadows, radius=radius)
+                 intensity=t.opt("intensity", f.number(f.NON_NEGATIVE), d.intensity), shadows=shadows, radius=radius,
+                 animation=_animation(t, _LIGHT_ANIMATIONS_REFUSED[kind]))
 
 
 _LIGHTS: dict[str, Variant[Light]] = {
-    "directional": Variant(("direction", "color", "intensity", "shadows"),
+    "directional": Variant(("direction", "color", "intensity", "shadows", "animation"),
                            lambda t: _light(t, "directional", direction=t.req("direction", _DIRECTION))),
-    "point": Variant(("position", "color", "intensity", "shadows", "radius"),
+    "point": Variant(("position", "color", "intensity", "shadows", "radius", "animation"),
                      lambda t: _light(t, "point", position=t.req("position", _POINT))),
 }
 
@@ -137,7 +179,7 @@ _ENVIRONMENTS: dict[str, Variant[Environment]] = {
 def _render(t: Table) -> RenderSettings:
     d = RenderSettings()
     return RenderSettings(size=t.opt("size", SIZE, d.size),
-                          impostor_resolution=t.opt("impostor_resolution", RESOLUTION, d.impostor_resolution),
+                          impostor_resolution=t.opt("impostor_resolution", IMPOSTOR_RESOLUTION, d.impostor_resolution),
                           simplified_triangles=t.opt("simplified_triangles", TRIANGLE_TARGET, d.simplified_triangles),
                           shadow_resolution=t.opt("shadow_resolution", RESOLUTION, d.shadow_resolution),
                           max_bounces=t.opt("max_bounces", f.integer(f.Bounds(1, MAX_BOUNCES)), d.max_bounces),
@@ -168,17 +210,22 @@ def _object(t: Table) -> SceneObject:
         # Refraction follows a ray through the object to where it leaves: a plane has no inside.
         raise t.at.key("material").error('expected a closed shape for a glass material (a ray refracted into it '
                                          'must leave through its back), got a plane')
+    if "animation" in t.data and isinstance(shape, PlaneShape) and not isinstance(material, MirrorMaterial):
+        raise t.at.key("animation").error(f"expected no animation on a plane that is not a mirror (floors and walls "
+                                          f"that are not mirrors are intersected as fixed planes and cannot move), "
+                                          f"got {show(t.data['animation'])}")
     return SceneObject(name=t.req("name", NAME), shape=shape, material=material,
                        position=t.opt("position", _POINT, SceneObject.position),
                        rotation=t.opt("rotation", _POINT, SceneObject.rotation),
-                       scale=t.opt("scale", f.number_or_vec3(f.POSITIVE), SceneObject.scale))
+                       scale=t.opt("scale", f.number_or_vec3(f.POSITIVE), SceneObject.scale),
+                       animation=_animation(t))
 
 
 def _objects(top: Table) -> tuple[SceneObject, ...]:
     objects: list[SceneObject] = []
     index_of: dict[str, int] = {}
     for i, (value, at) in enumerate(top.array("objects", at_least=1)):
-        obj = _object(Table(value, at, ("name", "shape", "material", "position", "rotation", "scale")))
+        obj = _object(Table(value, at, ("name", "shape", "material", "position", "rotation", "scale", "animation")))
         if obj.name in index_of:
             raise at.key("name").error(f"expected a name no other object has, got {json.dumps(obj.name)} "
                                        f"(already used by objects[{index_of[obj.name]}])")

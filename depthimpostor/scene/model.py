@@ -7,20 +7,26 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from depthimpostor.scene.fields import RESOLUTION, SIZE, TRIANGLE_TARGET, At, Vec3
+from depthimpostor.scene.fields import RESOLUTION, SIZE, TRIANGLE_TARGET, At, Reader, Vec3, word_or
 
 ZERO: Vec3 = (0.0, 0.0, 0.0)
+
+#: `impostor_resolution = "auto"`: the renderer picks each depth image's resolution itself.
+AUTO_RESOLUTION = "auto"
+#: What `impostor_resolution` may be, in the file and on the command line alike.
+IMPOSTOR_RESOLUTION: Reader[int | str] = word_or(AUTO_RESOLUTION, RESOLUTION)
 
 
 @dataclass(frozen=True)
 class RenderSettings:
     size: tuple[int, int] = (960, 540)  # output width, height in pixels
-    impostor_resolution: int = 256  # depth-image width and height
+    impostor_resolution: int | str = 256  # depth-image width and height, or AUTO_RESOLUTION
     # color = albedo * (ambient + sum of lights' intensity * color * max(0, N.L))
     ambient: float = 0.15
     # The `simplified` method: each reflected object decimated to at most this many triangles.
@@ -30,6 +36,11 @@ class RenderSettings:
     # Mirror bounces a camera ray may make: at 1 a mirror does not appear in another mirror;
     # at k the depth images of bounce k show mirrors with their reflections of bounce k - 1.
     max_bounces: int = 1
+
+    @property
+    def auto_resolution(self) -> bool:
+        """Is the depth images' resolution left to the renderer (`impostor_resolution = "auto"`)?"""
+        return self.impostor_resolution == AUTO_RESOLUTION
 
 
 @dataclass(frozen=True)
@@ -55,12 +66,71 @@ class Environment:
     ground: Vec3 = (0.3, 0.28, 0.25)
 
 
+def _vec3(v: np.ndarray) -> Vec3:
+    x, y, z = (float(c) for c in v[:3])
+    return (x, y, z)
+
+
+@dataclass(frozen=True)
+class Animation:
+    """A steady turn about a line along `axis`: "rotate" turns a thing about its own position (an
+    object about its local origin, a directional light's direction), "orbit" carries it round `centre`.
+
+    `axis` is kept at unit length (whatever length it is given); the turn is right-handed, like
+    `axis_rotation`: positive angles are counter-clockwise looking down the axis toward the origin.
+    Time 0 is the scene as written.
+    """
+
+    type: str  # "rotate" or "orbit"
+    axis: Vec3
+    degrees_per_second: float  # never 0 from a scene file; negative turns the other way
+    centre: Vec3 | None = None  # the orbit's centre; None for "rotate"
+
+    def __post_init__(self) -> None:
+        # hypot, not sqrt of a sum of squares: a tiny axis (1e-200) would square to 0 and divide by it.
+        length = math.hypot(*self.axis)
+        if not length > 0.0:  # the loader refuses such an axis; this guards code that builds one itself
+            raise ValueError(f"Animation.axis: expected 3 numbers, not all zero, got {self.axis}")
+        object.__setattr__(self, "axis", tuple(float(c) / length for c in self.axis))
+
+    def angle(self, time: float) -> float:
+        """Degrees turned at `time` seconds."""
+        return self.degrees_per_second * time
+
+    def pivot_of(self, position: Sequence[float]) -> Vec3:
+        """The point the turn's line passes through for a thing at `position`."""
+        return self.centre if self.centre is not None else _vec3(np.asarray(position, dtype=np.float64))
+
+    def rotation(self, time: float) -> np.ndarray:
+        """The 3x3 turn at `time` (Rodrigues' formula: c I + s [k]x + (1 - c) k k^T for unit axis k)."""
+        radians = math.radians(self.angle(time))
+        c, s = math.cos(radians), math.sin(radians)
+        k = np.array(self.axis)
+        cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+        return c * np.eye(3) + s * cross + (1.0 - c) * np.outer(k, k)
+
+    def matrix(self, time: float, pivot: Sequence[float]) -> np.ndarray:
+        """The 4x4 float64 rigid transform for column vectors turning by angle(time) about the line
+        through `pivot` along `axis`: T(pivot) @ R @ T(-pivot)."""
+        if self.angle(time) == 0.0:
+            # Exactly the identity (cos 0 and sin 0 are exact, but p - R p need not be), so that a
+            # scene at time 0 is bit for bit the scene as written.
+            return np.eye(4)
+        r, p = self.rotation(time), np.asarray(pivot, dtype=np.float64)
+        m = np.eye(4)
+        m[:3, :3] = r
+        m[:3, 3] = p - r @ p
+        return m
+
+
 @dataclass(frozen=True)
 class Light:
     """A "directional" light (`direction` is where it travels) or a "point" light at `position`.
 
     The vector a type does not use is (0, 0, 0). A point light may cast `shadows`: "hard" ones of
-    its centre, or "soft" ones of a sphere of `radius` about it (an area light).
+    its centre, or "soft" ones of a sphere of `radius` about it (an area light). A point light's
+    `animation` can only orbit (one turned about itself stays put); a directional light's can only
+    rotate its direction (it has no position to orbit).
     """
 
     type: str
@@ -70,10 +140,28 @@ class Light:
     intensity: float = 1.0
     shadows: str = "none"  # "none", "hard" or "soft"
     radius: float = 0.0  # soft shadows' light radius; 0 otherwise
+    animation: Animation | None = None
 
     @property
     def casts_shadows(self) -> bool:
         return self.shadows != "none"
+
+    @property
+    def moves(self) -> bool:
+        return self.animation is not None
+
+    def at(self, time: float) -> Light:
+        """This light at `time` seconds: a point light's position, or a directional light's direction,
+        turned by its animation. Call it on the light as written (the result keeps the animation,
+        so that `moves` still says it moves, and turning it again would turn it twice)."""
+        if self.animation is None:
+            return self
+        if self.type == "point":
+            pivot = self.animation.pivot_of(self.position)
+            position = self.animation.matrix(time, pivot) @ (*self.position, 1.0)
+            return dataclasses.replace(self, position=_vec3(position))
+        direction = self.animation.matrix(time, ZERO)[:3, :3] @ self.direction  # a direction has no pivot
+        return dataclasses.replace(self, direction=_vec3(direction))
 
 
 @dataclass(frozen=True)
@@ -166,6 +254,11 @@ class SceneObject:
     position: Vec3 = ZERO
     rotation: Vec3 = ZERO  # degrees about X, then Y, then Z
     scale: Vec3 = (1.0, 1.0, 1.0)
+    animation: Animation | None = None
+
+    @property
+    def moves(self) -> bool:
+        return self.animation is not None
 
     @property
     def is_mirror(self) -> bool:
@@ -181,13 +274,16 @@ class SceneObject:
         object is drawn by the reflector pass and gets depth images of the others."""
         return self.is_mirror or self.is_glass
 
-    def model_matrix(self) -> np.ndarray:
-        """Local to world, 4x4 float64 for column vectors: T @ Rz @ Ry @ Rx @ S, so scale acts first."""
+    def model_matrix(self, time: float = 0.0) -> np.ndarray:
+        """Local to world at `time` seconds, 4x4 float64 for column vectors: A(time) @ T @ Rz @ Ry @ Rx @ S,
+        so scale acts first and the animation A (the identity without one, or at time 0) last."""
         rx, ry, rz = self.rotation
         m = np.eye(4)
         m[:3, :3] = axis_rotation(2, rz) @ axis_rotation(1, ry) @ axis_rotation(0, rx) @ np.diag(self.scale)
         m[:3, 3] = self.position
-        return m
+        if self.animation is None:
+            return m
+        return self.animation.matrix(time, self.animation.pivot_of(self.position)) @ m
 
 
 @dataclass(frozen=True)
@@ -198,6 +294,15 @@ class Scene:
     environment: Environment
     lights: tuple[Light, ...]
     objects: tuple[SceneObject, ...]
+
+    @property
+    def animated(self) -> bool:
+        """Does anything move (an object or a light with an animation)?"""
+        return any(o.moves for o in self.objects) or any(light.moves for light in self.lights)
+
+    def lights_at(self, time: float) -> tuple[Light, ...]:
+        """The lights at `time` seconds, in the same order as `lights`."""
+        return tuple(light.at(time) for light in self.lights)
 
     @property
     def mirrors(self) -> tuple[SceneObject, ...]:
@@ -233,7 +338,7 @@ class Scene:
         """What the diffuse pass draws and a first bounce sees: everything but mirrors and glass."""
         return tuple(o for o in self.objects if not o.is_specular)
 
-    def with_overrides(self, size: tuple[int, int] | None = None, impostor_resolution: int | None = None,
+    def with_overrides(self, size: tuple[int, int] | None = None, impostor_resolution: int | str | None = None,
                        simplified_triangles: int | None = None) -> Scene:
         """This scene with render settings from the command line, checked as strictly as the file's."""
         at = At("command line", "")
@@ -241,7 +346,7 @@ class Scene:
         if size is not None:
             render = dataclasses.replace(render, size=at.key("--size").read(size, SIZE))
         if impostor_resolution is not None:
-            resolution = at.key("--impostor-res").read(impostor_resolution, RESOLUTION)
+            resolution = at.key("--impostor-res").read(impostor_resolution, IMPOSTOR_RESOLUTION)
             render = dataclasses.replace(render, impostor_resolution=resolution)
         if simplified_triangles is not None:
             target = at.key("--simplified-triangles").read(simplified_triangles, TRIANGLE_TARGET)
