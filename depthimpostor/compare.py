@@ -85,17 +85,23 @@ class Comparison:
 
 def trace_direct(renderer: Renderer, mirror_mask: np.ndarray) -> np.ndarray:
     """The truth of every pixel seen directly: a primary ray through its centre, traced against
-    every object and shaded with real shadow rays. NaN where the ray meets a mirror or glass or the
-    rasterizer saw one (mirror pixels have their own truth)."""
+    every object and shaded with real shadow rays. NaN where the ray meets a mirror (on its
+    reflecting side: its back is a diffuse backing) or glass, or the rasterizer saw one (mirror
+    pixels have their own truth)."""
     camera = renderer.camera
     rows, columns = np.mgrid[0:camera.height, 0:camera.width] + 0.5
     directions = camera.ray_direction(columns.ravel(), rows.ravel())
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
     origins = np.broadcast_to(camera.C, directions.shape)
     casters = renderer.shadow_casters
-    hits = TruthTracer(renderer.scene, casters, renderer.analytic_planes, casters).trace(origins, directions)
+    # Every object but the analytic planes: the casters, and the reflectors that cast no shadow
+    # (planar mirrors), whose backs are seen directly.
+    caster_ids = {g.index for g in casters}
+    seen = [*casters, *(g for g in renderer.reflectors if g.index not in caster_ids)]
+    hits = TruthTracer(renderer.scene, seen, renderer.analytic_planes, casters).trace(origins, directions)
     reflectors = [g.index for g in renderer.reflectors]
-    seen_mirror = np.isin(hits.object_id, reflectors).reshape(mirror_mask.shape) | mirror_mask
+    reflecting = np.isin(hits.object_id, reflectors) & ~hits.backing
+    seen_mirror = reflecting.reshape(mirror_mask.shape) | mirror_mask
     return np.where(seen_mirror[..., None], np.nan, hits.color.reshape(mirror_mask.shape + (3,)))
 
 

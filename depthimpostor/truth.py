@@ -8,7 +8,8 @@ inside them only the approximation differs. The reflected rays are traced on the
 intersected as in the shader, and hits are shaded with the same model as shaders/lib/shading.glsl
 (albedo * (ambient + lights), smooth normals interpolated from the same vertex normals). Shadows
 are the real ones: the rays the shadow maps are marched with (lights.py) traced against the real
-casters.
+casters. A mirror reflects on its front side alone (where its counter-clockwise faces face): a ray
+that meets one from behind sees its backing, a diffuse grey (MIRROR_BACKING_ALBEDO).
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ class TruthHits:
     object_id: Array  # (n,) int, NO_OBJECT for the environment
     color: Array  # (n, 3), the environment's where nothing was hit
     normal: Array  # (n, 3) the unit smooth normal at the hit (0 where nothing was hit)
+    backing: Array  # (n,) bool: the hit is on a mirror's back (its backing, diffuse), not its mirror side
 
 
 def environment(scene: Scene, directions: Array) -> Array:
@@ -58,6 +60,10 @@ def material_albedo(material: Material, local_positions: Array) -> Array:
         return np.broadcast_to(np.asarray(material.color, float), local_positions.shape).copy()
     raise TypeError(f"{material!r} is not a diffuse material")
 
+
+#: The grey albedo of a mirror's back (shaders/mirror.frag's u_backing_albedo, written from here by
+#: passes/mirrors.py): dark, as the painted back of a real mirror, and a diffuse surface like any.
+MIRROR_BACKING_ALBEDO = 0.2
 
 #: A ray that leaves a surface starts this share of a length off it (a shadow ray: of its own
 #: length, along the normal; a ray leaving a mirror: of the mirror's radius, along the ray):
@@ -99,7 +105,8 @@ class TruthTracer:
     """Traces rays against the scene's reflected meshes (Embree) and analytic planes (exactly):
     the same two lists the renderer splits the scene into (`reflected_objects`, `analytic_planes`).
     Shadow rays are traced against `casters` (the renderer's `shadow_casters`), in scenes with
-    shadows. Hits on objects that are not diffuse (mirrors, when traced) get no colour."""
+    shadows. Hits on glass and on a mirror's reflecting side get no colour (SpecularTruth gives
+    theirs); a mirror's back is its backing, shaded as a diffuse surface."""
 
     def __init__(
         self, scene: Scene, meshes: Sequence[ObjectGeometry], planes: Sequence[ObjectGeometry],
@@ -136,8 +143,10 @@ class TruthTracer:
         """The nearest hits, shaded (the environment where nothing was hit)."""
         hits, albedo = self._intersect(origins, directions)
         hit = hits.hit
+        # A mirror's backing is shaded with its normal facing the ray, as mirror.frag does.
+        normals = np.where(hits.backing[:, None], facing(hits.normal, directions), hits.normal)
         if hit.any():
-            hits.color[hit] = shade(self.scene, albedo[hit], hits.position[hit], hits.normal[hit], self.visibility)
+            hits.color[hit] = shade(self.scene, albedo[hit], hits.position[hit], normals[hit], self.visibility)
         return hits
 
     def intersect(self, origins: Array, directions: Array) -> TruthHits:
@@ -154,14 +163,17 @@ class TruthTracer:
         position = np.zeros((count, 3))
         normal = np.zeros((count, 3))
         albedo = np.zeros((count, 3))
+        backing = np.zeros(count, bool)
         if self.meshes and count:
-            self._trace_meshes(origins, directions, hit, t, object_id, normal, albedo)
-        self._trace_planes(origins, directions, hit, t, object_id, normal, albedo)
+            self._trace_meshes(origins, directions, hit, t, object_id, normal, albedo, backing)
+        self._trace_planes(origins, directions, hit, t, object_id, normal, albedo, backing)
         position[hit] = origins[hit] + directions[hit] * t[hit, None]
-        return TruthHits(hit, np.where(hit, t, 0.0), position, object_id, environment(self.scene, directions), normal), albedo
+        hits = TruthHits(hit, np.where(hit, t, 0.0), position, object_id, environment(self.scene, directions), normal,
+                         backing)
+        return hits, albedo
 
     def _trace_meshes(self, origins: Array, directions: Array, hit: Array, t: Array,
-                      object_id: Array, normal: Array, albedo: Array) -> None:
+                      object_id: Array, normal: Array, albedo: Array, backing: Array) -> None:
         result = self._embree.run(
             np.ascontiguousarray(origins, np.float32), np.ascontiguousarray(directions, np.float32), output=1
         )
@@ -184,9 +196,14 @@ class TruthTracer:
             local = (np.linalg.inv(item.model_matrix) @ np.c_[points, np.ones(len(points))].T).T[:, :3]
             if isinstance(item.object.material, (DiffuseMaterial, CheckerMaterial)):
                 albedo[mask] = material_albedo(item.object.material, local)
+            elif isinstance(item.object.material, MirrorMaterial):
+                # Seen from behind: the ray runs along the outward face normal.
+                behind = np.flatnonzero(mask)[_dot(directions[mask], face_normals(mesh.positions, triangles)) > 0.0]
+                backing[behind] = True
+                albedo[behind] = MIRROR_BACKING_ALBEDO
 
     def _trace_planes(self, origins: Array, directions: Array, hit: Array, t: Array,
-                      object_id: Array, normal: Array, albedo: Array) -> None:
+                      object_id: Array, normal: Array, albedo: Array, backing: Array) -> None:
         """The shader's nearest_plane_hit: the rectangle |x| <= w/2, |z| <= d/2 of local y = 0."""
         for item in self.planes:
             world_to_local = np.linalg.inv(item.model_matrix)
@@ -204,12 +221,20 @@ class TruthTracer:
             hit[closer] = True
             t[closer] = t_plane[closer]
             object_id[closer] = item.index
+            backing[closer] = False  # a plane before a mirror's back hides it
             normal[closer] = plane_normal / np.linalg.norm(plane_normal)
             albedo[closer] = material_albedo(item.object.material, local[closer])
 
 
 def _dot(a: Array, b: Array) -> Array:
     return np.einsum("ij,ij->i", a, b)
+
+
+def face_normals(positions: Array, triangles: Array) -> Array:
+    """The geometric normals (not unit) of `triangles` (rows of vertex indices): outward for the
+    counter-clockwise winding every mesh has (meshes.py), whatever its vertex normals say."""
+    p0, p1, p2 = (positions[triangles[:, k]] for k in range(3))
+    return np.cross(p1 - p0, p2 - p0)
 
 
 def facing(normals: Array, directions: Array) -> Array:
@@ -264,7 +289,8 @@ class SpecularTruth:
         if bounces <= 1 or self.with_reflectors is None:
             return self.last.trace(start, directions)
         hits = self.with_reflectors.trace(start, directions)
-        on = np.isin(hits.object_id, list(self.reflectors))
+        # A mirror's backing is a diffuse surface, shaded by the tracer already.
+        on = np.isin(hits.object_id, list(self.reflectors)) & ~hits.backing
         if on.any():
             normals = facing(hits.normal[on], directions[on])
             hits.color[on] = self.surface_color(hits.object_id[on], hits.position[on], normals, directions[on],

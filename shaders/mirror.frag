@@ -1,7 +1,9 @@
 #version 330 core
 // A mirror: the reflected ray of each pixel, from the interpolated normal, traced against this
-// mirror's depth images, the analytic planes and the environment. The GLASS variant draws glass:
-// the same reflected ray, blended with the refracted one (lib/glass.glsl).
+// mirror's depth images, the analytic planes and the environment. A mirror reflects on its front
+// side alone, as a real one: its back faces are its backing, a matte grey shaded like any diffuse
+// surface (truth.py's MIRROR_BACKING_ALBEDO). The GLASS variant draws glass: the same reflected
+// ray, blended with the refracted one (lib/glass.glsl), on both sides (the eye may be inside).
 #include "lib/common.glsl"
 #include "lib/reflected_scene.glsl"
 #ifdef GLASS
@@ -16,6 +18,9 @@ in vec3 v_local_position;
 in vec3 v_world_normal;
 
 uniform int u_mirror_id;
+#ifndef GLASS
+uniform float u_backing_albedo;  // grey, written by passes/mirrors.py from truth.py
+#endif
 
 layout(location = 0) out vec4 out_color;
 #ifdef WRITE_DEPTH_IMAGE
@@ -36,11 +41,41 @@ layout(location = 4) out vec4 out_normal;         // (the unit normal facing the
 layout(location = COUNT_SAMPLES) out float out_samples;
 #endif
 
+#ifndef GLASS
+// A back face of a mirror: its backing, lit as diffuse.frag lights a surface, with the normal
+// facing the eye. It is no mirror pixel: its reflection outputs are those outside the mirrors
+// (all zero, as cleared); in a depth image it is this object's surface like any other.
+void write_backing(vec3 normal) {
+    out_color = vec4(shade(vec3(u_backing_albedo), v_world_position, normal), 1.0);
+#ifdef WRITE_DEPTH_IMAGE
+    out_depth_and_object = vec2(gl_FragCoord.z, float(u_mirror_id));
+#endif
+#ifdef WRITE_REFLECTION_DATA
+    out_ray_origin = vec4(0.0);
+    out_ray_direction = vec4(0.0);
+    out_hit_position = vec4(0.0);
+    out_normal = vec4(0.0);
+#endif
+#ifdef COUNT_SAMPLES
+    out_samples = 0.0;
+#endif
+}
+#endif
+
 void main() {
     vec3 view = safe_normalize(v_world_position - u_eye, vec3(0.0, 0.0, -1.0));
     vec3 normal = safe_normalize(v_world_normal, -view);
-    // A mirror seen from behind (a planar mirror's back) reflects on that side too.
+    // The interpolated normal can face away from the eye near a curved reflector's silhouette
+    // (and does on the back of a mirror, or inside glass): turn it to the eye.
     normal = faceforward(normal, view, normal);
+#ifndef GLASS
+    // GL's front faces are the outward ones: the passes draw mirrors with front_face set for
+    // their flipped projections (passes/mirrors.py, outward_faces_front).
+    if (!gl_FrontFacing) {
+        write_backing(normal);
+        return;
+    }
+#endif
     vec3 direction = reflect(view, normal);
     RayHit hit = trace_reflected(v_world_position, direction);
 #ifdef GLASS

@@ -26,7 +26,7 @@ from ..constants import BACKGROUND_DEPTH, Algorithm, Method
 from ..scene.model import Scene
 from .glass import GlassInterior
 from .impostors import DEPTH_IMAGES_BINDING, DepthImage, ImpostorAtlas, mirror_centre
-from .mirrors import reflection_defines, reflector_program, reflector_tint, write_glass
+from .mirrors import outward_faces_front, reflection_defines, reflector_program, reflector_tint, write_glass
 from .uniforms import write
 
 if TYPE_CHECKING:
@@ -86,7 +86,8 @@ class BounceBaker:
         write(program, "u_eye", tuple(mirror_centre(image.mirror)))
         write(program, "u_tint", reflector_tint(shown))
         write(program, "u_mirror_id", shown.index)
-        images.meshes.draw(program, shown, image.camera.view_projection)
+        with outward_faces_front(images.ctx):  # the image's flip, for the mirror's backing
+            images.meshes.draw(program, shown, image.camera.view_projection)
         draws += 1 + images._bake_back_faces(image, framebuffer, tile)
         framebuffer.color_mask = ((True,) * 4, (True,) * 4)
         self._copy(tile, image.tile)

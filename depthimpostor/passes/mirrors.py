@@ -4,6 +4,8 @@ triangles), the analytic planes and the environment."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Protocol
 
 import moderngl
@@ -14,7 +16,9 @@ from ..geometry import ObjectGeometry
 from ..ppc import PPC
 from ..scene.model import GlassMaterial, MirrorMaterial, Scene
 from ..shaders import ProgramCache
+from ..truth import MIRROR_BACKING_ALBEDO
 from .glass import GlassInterior, interior_camera, pixel_angle
+from .impostors import BAKE_CULLS_FRONT_FACES
 from .meshes import GpuMeshes
 from .uniforms import shading_defines, write, write_analytic_planes, write_lighting
 
@@ -68,6 +72,7 @@ def reflector_program(programs: ProgramCache, scene: Scene, analytic_planes: lis
     program = programs.get("mesh.vert", "mirror.frag", variant)
     write_lighting(program, scene)
     write_analytic_planes(program, scene, analytic_planes)
+    write(program, "u_backing_albedo", MIRROR_BACKING_ALBEDO)
     return program
 
 
@@ -78,6 +83,24 @@ def reflector_tint(item: ObjectGeometry) -> tuple[float, float, float]:
     if not isinstance(material, (MirrorMaterial, GlassMaterial)):
         raise TypeError(f"object {item.object.name!r} is neither a mirror nor glass")
     return material.tint
+
+
+#: GL's front_face that makes a mirror's outward (counter-clockwise) faces GL's front faces, for
+#: mirror.frag's gl_FrontFacing (a mirror's back is its backing): every PPC projection, the
+#: frame's and a depth image's alike, puts image row 0 at window y = 0 and so turns them clockwise.
+OUTWARD_FRONT_FACE = "cw" if BAKE_CULLS_FRONT_FACES == "back" else "ccw"
+
+
+@contextmanager
+def outward_faces_front(ctx: moderngl.Context) -> Iterator[None]:
+    """Draw reflectors with OUTWARD_FRONT_FACE, restoring GL's face winding after: the culling
+    of the other passes (BAKE_CULLS_FRONT_FACES) is set for the default one."""
+    previous = ctx.front_face
+    ctx.front_face = OUTWARD_FRONT_FACE
+    try:
+        yield
+    finally:
+        ctx.front_face = previous
 
 
 def write_glass(program: moderngl.Program, item: ObjectGeometry) -> None:
@@ -135,6 +158,7 @@ class MirrorPass:
             write(program, "u_eye", tuple(camera.C))
             write(program, "u_tint", reflector_tint(item))
             write(program, "u_mirror_id", item.index)
-            self.meshes.draw(program, item, camera.view_projection)
+            with outward_faces_front(program.ctx):
+                self.meshes.draw(program, item, camera.view_projection)
             draws += 1
         return draws
