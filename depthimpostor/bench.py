@@ -58,7 +58,7 @@ class Technique:
 class BenchSettings:
     methods: tuple[Method, ...]
     algorithms: tuple[Algorithm, ...]  # for the depth-image method
-    resolutions: tuple[int, ...]
+    resolutions: tuple[int | str, ...]  # sides in texels, or "auto" (resolution.py)
     size: tuple[int, int]
     frames: int  # timed frames per configuration
     warmup: int  # untimed frames before them
@@ -72,7 +72,7 @@ class BenchRow:
     scene: str
     method: str
     algorithm: str  # the depth-image intersection; "-" for the other methods
-    resolution: int
+    resolution: int | str  # "auto": each image sized from the pixels it covers
     stand_in: str
     frame_ms_median: float
     frame_ms_p10: float
@@ -301,10 +301,17 @@ def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[
         labels = list(dict.fromkeys(_label(row) for row in mine))
         figure, axis = plt.subplots(figsize=(7.5, 5.0))
         for label in labels:
-            points = sorted((row for row in mine if _label(row) == label), key=lambda row: row.resolution)
+            points = sorted((row for row in mine if _label(row) == label and isinstance(row.resolution, int)),
+                            key=lambda row: int(row.resolution))
             times = [row.frame_ms_median for row in points]
             errors = [max(row.color_rmse, 1e-6) for row in points]  # the exact method sits on the floor
-            axis.plot(times, errors, marker="o", label=label)
+            (line,) = axis.plot(times, errors, marker="o", label=label)
+            # "auto" is one point beside its method's curve of fixed resolutions: on the frontier
+            # when no fixed resolution is both faster and more accurate.
+            for row in (row for row in mine if _label(row) == label and not isinstance(row.resolution, int)):
+                axis.plot([row.frame_ms_median], [max(row.color_rmse, 1e-6)], marker="*", markersize=12,
+                          color=line.get_color(), linestyle="none")
+                points.append(row)
             for row in points:
                 if row.resolution:
                     axis.annotate(str(row.resolution), (row.frame_ms_median, max(row.color_rmse, 1e-6)),
@@ -323,7 +330,8 @@ def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[
 
         figure, axis = plt.subplots(figsize=(7.5, 5.0))
         for label in labels:
-            points = sorted((row for row in mine if _label(row) == label and row.resolution), key=lambda r: r.resolution)
+            points = sorted((row for row in mine if _label(row) == label and isinstance(row.resolution, int)
+                             and row.resolution), key=lambda r: int(r.resolution))
             if points:
                 (mean,) = axis.plot([row.resolution for row in points], [row.samples_per_ray_mean for row in points],
                                     marker="o", label=f"{label}, mean")

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import statistics
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import moderngl
@@ -15,9 +17,11 @@ from .constants import Algorithm, Method
 from .context import create_context, describe
 from .errors import DepthImpostorError, SceneError
 from .compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
-from .renderer import Renderer, to_uint8
+from .plan import RenderPlan, plan_render
+from .renderer import Renderer, RenderStats, to_uint8
 from .resources import default_scene_path
 from .scene import Scene, load_scene
+from .scene.model import AUTO_RESOLUTION
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -33,6 +37,33 @@ def _positive(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text}")
     return value
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    value = _finite(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
+    return value
+
+
+def _resolution(text: str) -> int | str:
+    """--impostor-res: an integer, or "auto" (checked, with the file's rules, by with_overrides)."""
+    if text == AUTO_RESOLUTION:
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected an integer or "{AUTO_RESOLUTION}", got {text!r}') from None
 
 
 def _load(args: argparse.Namespace) -> Scene:
@@ -59,10 +90,12 @@ def _render(args: argparse.Namespace) -> int:
     method = Method.from_option(args.method)
     try:
         with Renderer(ctx, scene, algorithm, method=method) as renderer:
-            for _ in range(args.frames + 1):  # the first frame bakes the depth images and warms up
+            for frame in range(args.frames + 1):  # the first frame bakes the depth images and warms up
+                renderer.set_time(args.time + frame / args.fps)
                 stats = renderer.render()
             image = renderer.read_color()
             stand_in = _stand_in(renderer)
+            plan = renderer.plan
     finally:
         ctx.release()
     timed = stats.draw_seconds[1:]
@@ -74,6 +107,37 @@ def _render(args: argparse.Namespace) -> int:
         f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)}), {stand_in}, "
         f"{scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}"
     )
+    if args.stats:
+        print(format_stats(stats, plan, args.time, args.fps))
+    return 0
+
+
+def format_stats(stats: RenderStats, plan: RenderPlan, start: float, fps: float) -> str:
+    """The work the frames did, beside what the plan said they would do."""
+    end = start + (stats.frames - 1) / fps
+    lines = [f"work over {stats.frames} frames (scene time {start:g} to {end:g} s at {fps:g} frames/s):"]
+    runs = ", ".join(f"{planned.stage.value} {stats.passes[planned.stage.value]}" for planned in plan.passes)
+    lines.append(f"  passes run (frames): {runs}")
+    unplanned = sorted(set(stats.passes) - {planned.stage.value for planned in plan.passes})
+    if unplanned:
+        lines.append(f"  passes run that the plan lacks: {', '.join(unplanned)}")
+    planned_images = {image.label for image in plan.images}
+    once = sorted(label for label, count in stats.images_baked.items() if count == 1)
+    again = {label: count for label, count in sorted(stats.images_baked.items()) if count > 1}
+    lines.append(f"  images baked: {stats.depth_images_baked} bakes of the {len(planned_images)} planned images: "
+                 f"{len(once)} baked once, {len(again)} more than once"
+                 + "".join(f"\n    {label}: {count} times" for label, count in again.items()))
+    never = sorted(planned_images - set(stats.images_baked))
+    if never:
+        lines.append(f"  planned images never baked: {', '.join(never)}")
+    lines.append(f"  shadow maps baked: {stats.shadow_maps_baked}, glass interiors made: {stats.interiors_made}, "
+                 f"draw calls: {stats.draw_calls}")
+    return "\n".join(lines)
+
+
+def _plan(args: argparse.Namespace) -> int:
+    plan = plan_render(_load(args), Method.from_option(args.method), Algorithm[args.algorithm.upper()])
+    print(json.dumps(plan.to_json(), indent=2) if args.json else plan.format())
     return 0
 
 
@@ -145,15 +209,15 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def _list_of(kind: type[int] | type[str]) -> object:
-    def parse(text: str) -> list[int] | list[str]:
+def _list_of(kind: Callable[[str], object]) -> object:
+    def parse(text: str) -> list[object]:
         parts = [part.strip() for part in text.split(",") if part.strip()]
         if not parts:
             raise argparse.ArgumentTypeError(f"expected a comma-separated list, got {text!r}")
         try:
-            return [kind(part) for part in parts]  # type: ignore[return-value]
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a comma-separated list of {kind.__name__}s, got {text!r}") from None
+            return [kind(part) for part in parts]
+        except (ValueError, argparse.ArgumentTypeError) as error:
+            raise argparse.ArgumentTypeError(f"expected a comma-separated list, got {text!r}: {error}") from None
     return parse
 
 
@@ -214,8 +278,9 @@ def _view(args: argparse.Namespace) -> int:
 def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) -> None:
     command.add_argument("scene", nargs="?", help="scene file (TOML); the built-in default scene if omitted")
     command.add_argument("--size", type=_size, help="output size WxH, overriding the scene's render.size")
-    command.add_argument("--impostor-res", type=int,
-                         help="resolution of depth images, cube-map faces and billboards, overriding the scene's")
+    command.add_argument("--impostor-res", type=_resolution,
+                         help="resolution of depth images, cube-map faces and billboards, or auto (each image "
+                              "sized so that a sample covers about one reflected pixel), overriding the scene's")
     command.add_argument("--simplified-triangles", type=int,
                          help="--method simplified: triangles per reflected object at most, overriding the scene's")
     if not headless:
@@ -246,7 +311,19 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("-o", "--output", default="render.png", help="output PNG (default: render.png)")
     _method_arguments(render)
     render.add_argument("--frames", type=_positive, default=3, help="frames timed after the first (default 3)")
+    render.add_argument("--time", type=_finite, default=0.0,
+                        help="scene time of the first frame, in seconds, for animated scenes (default 0)")
+    render.add_argument("--fps", type=_positive_float, default=30.0,
+                        help="frames per second of scene time between frames (default 30); the PNG is the last frame")
+    render.add_argument("--stats", action="store_true",
+                        help="print the work done (passes run, images baked, draw calls) beside the plan")
     render.set_defaults(run=_render)
+
+    plan = commands.add_parser("plan", help="the passes, depth images and shader variants a scene calls for, and why")
+    _scene_arguments(plan, headless=False)
+    _method_arguments(plan)
+    plan.add_argument("--json", action="store_true", help="print the plan as JSON")
+    plan.set_defaults(run=_plan)
 
     truth = commands.add_parser("truth", help="ray-trace the mirrors' reflections against the real triangles")
     _scene_arguments(truth)
@@ -266,8 +343,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--algorithms", type=_list_of(str), default=["optimized", "hierarchical"],
                        help="the depth-image method's intersection algorithms, comma-separated "
                             "(default: optimized,hierarchical)")
-    bench.add_argument("--resolutions", type=_list_of(int), default=[64, 128, 256, 512, 1024],
-                       help="image resolutions of the methods that bake images (default 64,128,256,512,1024)")
+    bench.add_argument("--resolutions", type=_list_of(_resolution), default=[64, 128, 256, 512, 1024],
+                       help="image resolutions of the methods that bake images, auto among them if wanted "
+                            "(default 64,128,256,512,1024)")
     bench.add_argument("--size", type=_size, help="frame size WxH (default: the first scene's render.size)")
     bench.add_argument("--frames", type=_positive, default=10, help="timed frames per configuration (default 10)")
     bench.add_argument("--warmup", type=int, default=2, help="untimed frames before them (default 2)")

@@ -43,15 +43,23 @@ def mesh_for_shape(shape: Shape) -> Mesh:
 
 @dataclass(frozen=True, eq=False)
 class ObjectGeometry:
-    """One scene object's mesh, transform and world-space bounds."""
+    """One scene object's mesh, transform and world-space bounds, at a time of its animation."""
 
     index: int  # position in scene.objects: the object id the shaders report
     object: SceneObject
     local_mesh: Mesh
+    time: float = 0.0  # seconds into the scene's animation
 
     @cached_property
     def model_matrix(self) -> np.ndarray:
-        return self.object.model_matrix()
+        return self.object.model_matrix(self.time)
+
+    def at(self, time: float) -> ObjectGeometry:
+        """The object at `time`: itself when it does not move (its GPU buffers and bounds are
+        kept either way: the mesh is the same, only its transform changes)."""
+        if not self.object.moves or time == self.time:
+            return self
+        return ObjectGeometry(self.index, self.object, self.local_mesh, time)
 
     @cached_property
     def normal_matrix(self) -> np.ndarray:

@@ -7,7 +7,9 @@ The renderer owns every GL object it makes and frees them in `release()`, before
 
 from __future__ import annotations
 
+import dataclasses
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 
 import moderngl
@@ -15,20 +17,20 @@ import numpy as np
 
 from .constants import NO_OBJECT, Algorithm, Method
 from .context import bind_default_framebuffer
+from .culling import may_shadow
 from .errors import SceneError
 from .geometry import ObjectGeometry, scene_geometry
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
 from .passes.glass import GlassInterior
-from .passes.billboards import BillboardPass
-from .passes.cubemaps import CubeMapPass
 from .passes.impostors import BakedImages, ImpostorPass
 from .passes.meshes import GpuMeshes
 from .passes.mirrors import REFLECTION_OUTPUTS, MirrorPass, ReflectedObjects
 from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
-from .passes.simplified import SimplifiedPass
 from .passes.triangles import TrianglePass
+from .passes.uniforms import write_lighting
+from .plan import STAND_INS, Pass, RenderPlan, plan_render
 from .ppc import PPC
 from .scene.model import Camera, Scene
 from .shaders import ProgramCache, ShaderLibrary
@@ -36,12 +38,15 @@ from .shaders import ProgramCache, ShaderLibrary
 
 @dataclass
 class RenderStats:
-    """Counters of the work done (tests read them; the CLI prints the timings)."""
+    """Counters of the work done (tests read them; `render --stats` prints them)."""
 
     frames: int = 0
-    depth_images_baked: int = 0
+    depth_images_baked: int = 0  # every baked image: depth images, cube-map faces, billboards
     shadow_maps_baked: int = 0
+    interiors_made: int = 0  # glass interior images
     draw_calls: int = 0
+    passes: Counter[str] = field(default_factory=Counter)  # frames each pass ran in, by Pass value
+    images_baked: Counter[str] = field(default_factory=Counter)  # bakes of each image, by its label
     bake_seconds: list[float] = field(default_factory=list)  # one entry per bake (shadow maps and stand-in)
     draw_seconds: list[float] = field(default_factory=list)  # one entry per frame
     # The mirror pass's share of each frame, when the renderer was asked to time it.
@@ -76,18 +81,6 @@ def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC
     has already built it."""
     spheres = [g.bounding_sphere for g in (geometry if geometry is not None else scene_geometry(scene.objects))]
     return fitted_camera(scene.camera, scene.render.size, spheres)
-
-
-#: Each method's pass. Both cube-map methods look up the same cube map: switching between them
-#: keeps it (only the mirror shader's variant changes).
-STAND_INS: dict[Method, type[BakedImages] | type[TrianglePass]] = {
-    Method.DEPTH: ImpostorPass,
-    Method.CUBEMAP: CubeMapPass,
-    Method.CUBEMAP_PARALLAX: CubeMapPass,
-    Method.BILLBOARD: BillboardPass,
-    Method.SIMPLIFIED: SimplifiedPass,
-    Method.RAYTRACE: TrianglePass,
-}
 
 
 @dataclass(frozen=True)
@@ -132,10 +125,20 @@ class Renderer:
         self.time_mirror_pass = time_mirror_pass
         self.stats = RenderStats()
         self.programs = ProgramCache(ctx, shaders)
-        geometry = scene_geometry(scene.objects)
-        self.bounds: list[Sphere] = [g.bounding_sphere for g in geometry]
+        self.time = 0.0  # seconds into the scene's animation
+        self.lit_scene = scene  # the scene with its lights where they are at `time`
+        self._classify(scene_geometry(scene.objects))
         self.view = scene.camera
         self.camera = fitted_camera(self.view, scene.render.size, self.bounds)
+        self.plan: RenderPlan = plan_render(scene, method, algorithm, self.geometry)
+        self.meshes = GpuMeshes(ctx)
+        self._make_targets(scene.render.size)
+        self._build_passes()
+
+    def _classify(self, geometry: list[ObjectGeometry]) -> None:
+        """The scene's objects (at the renderer's time) in the lists the passes draw."""
+        self.geometry = geometry
+        self.bounds: list[Sphere] = [g.bounding_sphere for g in geometry]
         self.mirrors: list[ObjectGeometry] = [g for g in geometry if g.object.is_mirror]
         self.glass: list[ObjectGeometry] = [g for g in geometry if g.object.is_glass]
         # Mirrors and glass: drawn by the mirror pass, each with depth images of the others.
@@ -143,11 +146,8 @@ class Renderer:
         self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
         self.diffuse_objects = [g for g in geometry if not g.object.is_specular]
         self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
-        casters = set(scene.shadow_casters)
+        casters = set(self.scene.shadow_casters)
         self.shadow_casters = [g for g in geometry if g.object in casters]
-        self.meshes = GpuMeshes(ctx)
-        self._make_targets(scene.render.size)
-        self._build_passes()
 
     def _make_targets(self, size: tuple[int, int]) -> None:
         ctx = self.ctx
@@ -173,17 +173,20 @@ class Renderer:
         self.environment = EnvironmentPass(ctx, self.programs, scene)
         # Made (and baked) before anything that shades: depth images show the shadows too.
         self.shadow_maps = (
-            ShadowMaps(ctx, self.programs, scene, self.meshes, self.shadow_casters) if scene.has_shadows else None
+            ShadowMaps(ctx, self.programs, scene, self.meshes, self.shadow_casters)
+            if self.plan.runs(Pass.SHADOW_MAPS) else None
         )
-        self._shadows_baked = False
-        self.diffuse = DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
+        self.diffuse = (DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
+                        if self.plan.runs(Pass.DIFFUSE) else None)
         self.stand_in: ReflectedObjects | None = None
         self.mirror_pass: MirrorPass | None = None
         self.samples: SamplesPass | None = None
-        # One interior image at a time, as large as the frame's larger side (passes/glass.py).
-        self.glass_interior = (
-            GlassInterior(ctx, self.programs, self.meshes, max(scene.render.size)) if self.glass else None
-        )
+        # An interior image per glass object, as large as the frame's larger side (passes/glass.py).
+        self.glass_interiors = {
+            item.index: GlassInterior(ctx, self.programs, self.meshes, max(scene.render.size)) for item in self.glass
+        }
+        if self.lit_scene is not scene:  # rebuilt while the lights have moved
+            self._write_lighting()
         if self.reflectors:
             self._make_stand_in(self.method, self.scene)
             self.mirror_pass = self._mirror_pass()
@@ -242,8 +245,11 @@ class Renderer:
             raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
         return MirrorPass(
             self.programs, self.scene, self.meshes, self.stand_in, self.analytic_planes, self.method, self.algorithm,
-            self.reflection_data, self.count_samples, self.glass_interior,
+            self.reflection_data, self.count_samples, self.glass_interiors,
         )
+
+    def _replan(self) -> None:
+        self.plan = plan_render(self.scene, self.method, self.algorithm, self.geometry)
 
     # ------------------------------------------------------------------ settings
     def look_at(self, view: Camera) -> None:
@@ -255,6 +261,54 @@ class Renderer:
         """Use this exact camera (tests); nothing is re-baked. A later `look_at` or `resize`
         replaces it with the fitted camera of a view."""
         self.camera = camera
+
+    def set_time(self, seconds: float) -> None:
+        """Move the scene's animated objects and lights to where they are at `seconds`. Only what
+        depends on what moved is baked again at the next frame: a shadow map when its light or a
+        caster moved; an image when its reflector or its object moved, when a light moved (lights
+        shade every image), or when a caster moved whose shadow may fall on its object; a glass
+        interior when its glass moved."""
+        if seconds == self.time or not self.scene.animated:
+            self.time = seconds
+            return
+        before = {g.index: g for g in self.geometry}
+        geometry = [g.at(seconds) for g in self.geometry]
+        moved = {g.index for g in geometry if g is not before[g.index]}
+        lights = self.scene.lights_at(seconds)
+        moved_lights = {i for i, (new, old) in enumerate(zip(lights, self.lit_scene.lights)) if new != old}
+        self.time = seconds
+        self.lit_scene = dataclasses.replace(self.scene, lights=lights)
+        self._classify(geometry)
+        self.look_at(self.view)  # the near and far planes follow the scene's bounds
+        if moved_lights:
+            self._write_lighting()
+        moved_casters = [g for g in self.shadow_casters if g.index in moved]
+        shadowed = set(self.lit_scene.shadowed_lights)
+        if self.shadow_maps is not None:
+            self.shadow_maps.move(self.lit_scene, self.shadow_casters,
+                                  (moved_lights | (shadowed if moved_casters else set())) & shadowed)
+        if self.stand_in is None or not (moved or moved_lights):
+            return
+        baked = self.baked_images
+        if baked is None:  # the triangle methods' BVH: built again around the moved objects
+            if any(g.index in moved for g in self.reflected_objects):
+                self._make_stand_in(self.method, self.scene)
+                self.mirror_pass = self._mirror_pass()
+            return
+        relit = {g.index for g in self.reflected_objects} if moved_lights else set()
+        shadows = {
+            receiver.index for receiver in self.reflected_objects for light in shadowed
+            for caster in moved_casters if receiver is not caster
+            for sphere in (before[caster.index].bounding_sphere, caster.bounding_sphere)
+            if may_shadow(np.asarray(lights[light].position, float), lights[light].radius, sphere,
+                          receiver.bounding_sphere)
+        }
+        baked.move({g.index: g for g in geometry}, moved, relit | shadows)
+
+    def _write_lighting(self) -> None:
+        """Every compiled program's lights, where they are now (a uniform a program lacks is skipped)."""
+        for program in self.programs.programs():
+            write_lighting(program, self.lit_scene)
 
     def resize(self, size: tuple[int, int]) -> None:
         """Render frames of another size; depth images do not depend on it."""
@@ -272,6 +326,7 @@ class Renderer:
         without compute shaders raises ContextError for the hierarchical one and keeps the old."""
         self._keep_pyramids(algorithm)
         self.algorithm = algorithm
+        self._replan()
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
 
@@ -282,6 +337,7 @@ class Renderer:
         if self.reflectors and STAND_INS[method] is not STAND_INS[self.method]:
             self._make_stand_in(method, self.scene)
         self.method = method
+        self._replan()
         if self.reflectors:
             self.mirror_pass = self._mirror_pass()
             if self.sampled is None:
@@ -300,6 +356,7 @@ class Renderer:
         if self.baked_images is not None:
             self._make_stand_in(self.method, scene)
         self.scene = scene
+        self._replan()
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
 
@@ -314,6 +371,8 @@ class Renderer:
         """Bake the method's images again at the next frame, although nothing changed: for
         timing bakes (the benchmark); a renderer re-bakes by itself whenever it must."""
         self._baked = False
+        if self.baked_images is not None:
+            self.baked_images.bake_again()
 
     def reload_shaders(self) -> None:
         """Compile every program again from the files as they are now, and re-bake.
@@ -338,13 +397,13 @@ class Renderer:
         shadow_maps, stand_in = self.shadow_maps, self.stand_in
         if shadow_maps is not None:
             shadow_maps.use()
-        shadows_stale = shadow_maps is not None and not self._shadows_baked
-        if shadows_stale or (stand_in is not None and not self._baked):
+        shadows_stale = shadow_maps is not None and bool(shadow_maps.stale)
+        if shadows_stale or (stand_in is not None and self._stand_in_stale()):
             self.ctx.finish()
             start = time.perf_counter()
             if shadow_maps is not None and shadows_stale:
                 self._bake_shadow_maps(shadow_maps)
-            if stand_in is not None:  # stale, or showing shadows that are
+            if stand_in is not None and self._stand_in_stale():  # the images show shadows: maps first
                 self._bake_stand_in(stand_in)
             self.ctx.finish()
             self.stats.bake_seconds.append(time.perf_counter() - start)
@@ -355,6 +414,7 @@ class Renderer:
         self.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.color_framebuffer.use()
         self.environment.draw(self.camera)
+        self.stats.passes[Pass.ENVIRONMENT.value] += 1
         view_projection = self.camera.view_projection
         sampled = self.sampled
         if self.show_samples and self.samples is not None and sampled is not None:
@@ -362,13 +422,21 @@ class Renderer:
             self.stats.draw_calls += self.samples.draw(sampled, self.camera)
         else:
             drawn = self.diffuse_objects
-        self.stats.draw_calls += self.diffuse.draw(drawn, view_projection)
+        if self.diffuse is not None:
+            self.stats.draw_calls += self.diffuse.draw(drawn, view_projection)
+            self.stats.passes[Pass.DIFFUSE.value] += 1
         mirror_start: float | None = None  # set when the mirror pass is timed
         if self.mirror_pass is not None:
             if self.time_mirror_pass:
                 self.ctx.finish()
                 mirror_start = time.perf_counter()
+            interiors_before = self._interiors_made()
             self.stats.draw_calls += self.mirror_pass.draw(self.reflectors, self.camera, self.framebuffer)
+            self.stats.passes[Pass.REFLECTORS.value] += 1
+            made = self._interiors_made() - interiors_before
+            if made:
+                self.stats.interiors_made += made
+                self.stats.passes[Pass.GLASS_INTERIORS.value] += 1
         self.ctx.finish()
         end = time.perf_counter()
         self.stats.draw_seconds.append(end - start)
@@ -377,16 +445,35 @@ class Renderer:
         self.stats.frames += 1
         return self.stats
 
+    def _interiors_made(self) -> int:
+        return sum(interior.bakes for interior in self.glass_interiors.values())
+
+    def _stand_in_stale(self) -> bool:
+        baked = self.baked_images
+        return baked.needs_bake if baked is not None else not self._baked
+
     def _bake_shadow_maps(self, shadow_maps: ShadowMaps) -> None:
+        before = shadow_maps.bakes
         self.stats.draw_calls += shadow_maps.bake()
-        self.stats.shadow_maps_baked += len(shadow_maps.cameras)
-        self._shadows_baked = True
+        self.stats.shadow_maps_baked += shadow_maps.bakes - before
+        self.stats.passes[Pass.SHADOW_MAPS.value] += 1
 
     def _bake_stand_in(self, stand_in: ReflectedObjects) -> None:
-        """Bake the method's images; they show the shadows, so the shadow maps come first."""
+        """Bake the method's stale images (or upload its triangles)."""
+        baked = self.baked_images
+        before = baked.bake_counts.copy() if baked is not None else Counter()
+        pyramids = self.impostors is not None and self.impostors.pyramid is not None
+        bounces_before = baked.bounce_bakes if baked is not None else 0
         self.stats.draw_calls += stand_in.bake()
-        if self.baked_images is not None:
-            self.stats.depth_images_baked += len(self.baked_images.depth_images)
+        self.stats.passes[Pass.STAND_IN.value] += 1
+        if baked is not None:
+            new = baked.bake_counts - before
+            self.stats.images_baked += new
+            self.stats.depth_images_baked += sum(new.values())
+            if baked.bounce_bakes > bounces_before:
+                self.stats.passes[Pass.BOUNCES.value] += 1
+            if pyramids:
+                self.stats.passes[Pass.PYRAMIDS.value] += 1
         self._baked = True
 
     def read_color_float(self) -> np.ndarray:
@@ -436,7 +523,7 @@ class Renderer:
 
     def _release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
-        for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps, self.glass_interior):
+        for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps, *self.glass_interiors.values()):
             if owner is not None:
                 owner.release()
 

@@ -149,6 +149,11 @@ def _format_compile_error(
 ProgramKey = tuple[tuple[str, ...], tuple[tuple[str, str], ...]]
 
 
+def program_key(stages: tuple[str, ...], defines: Defines | None = None) -> ProgramKey:
+    """What identifies a compiled program: the cache's key, and what a render plan lists."""
+    return stages, tuple(sorted((k, str(v)) for k, v in (defines or {}).items()))
+
+
 class ProgramCache:
     """Compiles each program (vertex + fragment, or compute) once per (files, defines) per
     context and owns them."""
@@ -171,7 +176,7 @@ class ProgramCache:
 
     def _get(self, stages: tuple[str, ...], defines: Defines | None) -> moderngl.Program | moderngl.ComputeShader:
         defines = dict(defines or {})
-        key = (stages, tuple(sorted((k, str(v)) for k, v in defines.items())))
+        key = program_key(stages, defines)
         program = self._programs.get(key)
         if program is None:
             program = self._build(stages, defines)
@@ -183,6 +188,15 @@ class ProgramCache:
         """(vertex, fragment, defines) of every vertex + fragment program compiled so far (for
         plans, stats and tests)."""
         return [(stages[0], stages[1], defines) for stages, defines in self._programs if len(stages) == 2]
+
+    def programs(self) -> list[moderngl.Program]:
+        """Every vertex + fragment program compiled so far."""
+        return [program for program in self._programs.values() if isinstance(program, moderngl.Program)]
+
+    @property
+    def keys(self) -> set[ProgramKey]:
+        """Every program compiled so far, as `program_key` names it."""
+        return set(self._programs)
 
     @property
     def compute_variants(self) -> list[tuple[str, tuple[tuple[str, str], ...]]]:

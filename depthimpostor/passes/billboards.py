@@ -26,6 +26,9 @@ class BillboardPass(BakedImages):
     second_layer = SecondLayer.NONE
     image_noun = "billboard"
 
+    def _forget_fits(self) -> None:
+        self.__dict__.pop("quad_depths", None)  # the cached property below
+
     @cached_property
     def quad_depths(self) -> dict[int, np.ndarray]:
         """Per mirror, each quad's plane as the camera depth w of its object's centre (w is

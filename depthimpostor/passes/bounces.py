@@ -22,11 +22,11 @@ from typing import TYPE_CHECKING
 
 import moderngl
 
-from ..constants import BACKGROUND_DEPTH, Algorithm, Method
+from ..constants import BACKGROUND_DEPTH
 from ..scene.model import Scene
 from .glass import GlassInterior
 from .impostors import DEPTH_IMAGES_BINDING, DepthImage, ImpostorAtlas, mirror_centre
-from .mirrors import outward_faces_front, reflection_defines, reflector_program, reflector_tint, write_glass
+from .mirrors import bounce_defines, outward_faces_front, reflector_program, reflector_tint, write_glass
 from .uniforms import write
 
 if TYPE_CHECKING:
@@ -39,8 +39,7 @@ class BounceBaker:
     def __init__(self, images: ImpostorPass, scene: Scene) -> None:
         self.images = images
         ctx, resolution = images.ctx, images.atlas.resolution
-        # The optimized march: a bake's images are the same whatever the frame's algorithm.
-        defines = {**reflection_defines(Method.DEPTH, Algorithm.OPTIMIZED), "WRITE_DEPTH_IMAGE": 1}
+        defines = bounce_defines()
         # A program for mirrors and one for glass (the GLASS variant), each only if shown.
         shown = {image.target.object.is_glass for image in images.depth_images if image.level}
         self.programs = {glass: reflector_program(images.programs, scene, images.planes, defines, glass)
@@ -55,11 +54,11 @@ class BounceBaker:
         }
 
     def bake(self) -> int:
-        """Every mirror image, level by level (level k reads level k - 1); returns draw calls."""
+        """The stale mirror images, level by level (level k reads level k - 1); returns draw calls."""
         draws = 0
         for level in range(2, self.images.final_level + 1):
             for image in self.images.depth_images:
-                if image.level == level:
+                if image.level == level and image.slot in self.images.stale:
                     draws += self._bake(image)
         return draws
 
@@ -91,7 +90,7 @@ class BounceBaker:
         draws += 1 + images._bake_back_faces(image, framebuffer, tile)
         framebuffer.color_mask = ((True,) * 4, (True,) * 4)
         self._copy(tile, image.tile)
-        images.bakes += 1
+        images.baked(image)
         return draws
 
     def _copy(self, source: tuple[int, int, int, int], destination: tuple[int, ...]) -> None:

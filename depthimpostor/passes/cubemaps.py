@@ -21,7 +21,8 @@ from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..ppc import PPC
 from ..scene.model import Scene
-from .impostors import BakedImages, ImagePlan, SecondLayer, mirror_centre
+from ..resolution import MIN_AUTO_RESOLUTION
+from .impostors import BakedImages, DepthImage, ImagePlan, SecondLayer, mirror_centre, per_object_plan
 from .uniforms import write
 
 #: The faces in the order lib/cube_map.glsl's cube_face() numbers them: +x, -x, +y, -y, +z, -z,
@@ -74,23 +75,41 @@ class CubeMapPass(BakedImages):
 
     second_layer = SecondLayer.OBJECT_ID
     image_noun = "cube-map face"
+    per_object = False
 
-    def plan(
-        self, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
+    @classmethod
+    def plan_images(
+        cls, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
     ) -> dict[int, list[ImagePlan]]:
-        resolution = scene.render.impostor_resolution
-        return {
-            mirror.index: [ImagePlan(tuple(reflected), camera) for camera in cube_cameras(scene, mirror, reflected, resolution)]
-            for mirror in mirrors
-        }
+        """Six faces per mirror showing what it may reflect; "auto" gives the faces the largest
+        resolution its objects' depth images would get (per_object_plan)."""
+        plan = {}
+        for mirror, images in zip(mirrors, per_object_plan(scene, mirrors, reflected).values()):
+            shown = [image.targets[0] for image in images]
+            if not shown:  # it reflects nothing but the planes and the environment
+                plan[mirror.index] = []
+                continue
+            resolution = (max((image.camera.width for image in images), default=MIN_AUTO_RESOLUTION)
+                          if scene.render.auto_resolution else int(scene.render.impostor_resolution))
+            plan[mirror.index] = [ImagePlan(tuple(shown), camera)
+                                  for camera in cube_cameras(scene, mirror, shown, resolution)]
+        return plan
+
+    def refit(self, image: DepthImage, mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...]) -> PPC:
+        face = self.images_by_mirror[mirror.index].index(image)
+        return cube_cameras(self.scene, mirror, list(targets), image.camera.width)[face]
+
+    def _forget_fits(self) -> None:
+        self.__dict__.pop("proxies", None)  # the cached property below
 
     @cached_property
     def proxies(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         """Per mirror, the parallax correction's box around it and what its faces show."""
-        return {index: proxy_box(images[0].mirror, list(images[0].targets)) for index, images in self.images_by_mirror.items()}
+        return {index: proxy_box(images[0].mirror, list(images[0].targets))
+                for index, images in self.images_by_mirror.items() if images}
 
     def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
         super().bind_mirror(program, mirror)
-        lower, upper = self.proxies[mirror.index]
+        lower, upper = self.proxies.get(mirror.index, proxy_box(mirror, []))
         write(program, "u_proxy_lower", tuple(lower))
         write(program, "u_proxy_upper", tuple(upper))

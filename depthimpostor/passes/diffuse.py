@@ -16,12 +16,19 @@ from .meshes import GpuMeshes
 from .uniforms import shading_defines, write, write_lighting, write_material
 
 
+DIFFUSE_PROGRAM = ("mesh.vert", "diffuse.frag")
+
+
+def diffuse_defines(scene: Scene, write_depth_image: bool) -> dict[str, int]:
+    """The variant drawing into the frame, or (`write_depth_image`) into baked images."""
+    return {"WRITE_DEPTH_IMAGE": int(write_depth_image), **shading_defines(scene)}
+
+
 class DiffusePass:
     def __init__(
         self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, *, write_depth_image: bool
     ) -> None:
-        defines = {"WRITE_DEPTH_IMAGE": int(write_depth_image), **shading_defines(scene)}
-        self.program = programs.get("mesh.vert", "diffuse.frag", defines)
+        self.program = programs.get(*DIFFUSE_PROGRAM, diffuse_defines(scene, write_depth_image))
         self.meshes = meshes
         write_lighting(self.program, scene)
 

@@ -9,11 +9,13 @@ from ..scene.model import Scene
 from ..shaders import ProgramCache
 from .uniforms import write, write_lighting
 
+ENVIRONMENT_PROGRAM = ("fullscreen.vert", "environment.frag")
+
 
 class EnvironmentPass:
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene) -> None:
         self.ctx = ctx
-        self.program = programs.get("fullscreen.vert", "environment.frag")
+        self.program = programs.get(*ENVIRONMENT_PROGRAM)
         write_lighting(self.program, scene)
         self.vertex_array = ctx.vertex_array(self.program, [])
 

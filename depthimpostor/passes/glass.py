@@ -32,6 +32,7 @@ from .impostors import BAKE_CULLS_FRONT_FACES
 from .meshes import GpuMeshes
 from .uniforms import bind_texture, bind_uniform_block, write
 
+INTERIOR_PROGRAM = ("mesh.vert", "glass_interior.frag")
 #: Past the other passes' units (0 to 5) and uniform-block bindings (0 to 2).
 GLASS_FRONT_UNIT = 6
 GLASS_BACK_UNIT = 7
@@ -61,6 +62,11 @@ def pixel_angle(camera: PPC) -> float:
     return float(max(np.linalg.norm(camera.a), np.linalg.norm(camera.b)) / camera.focal)
 
 
+def interior_bytes(size: int) -> int:
+    """GPU memory of an interior image `size` texels square: two RGBA32F layers and a depth buffer."""
+    return size * size * (16 + 16 + 4)
+
+
 class GlassInterior:
     """One interior image at a time (up to `size` texels square): baked for a glass object just
     before that object is drawn, then bound for its program."""
@@ -69,7 +75,7 @@ class GlassInterior:
         self.ctx = ctx
         self.meshes = meshes
         self.size = size
-        self.program = programs.get("mesh.vert", "glass_interior.frag")
+        self.program = programs.get(*INTERIOR_PROGRAM)
         self.front = ctx.texture((size, size), 4, dtype="f4")
         self.back = ctx.texture((size, size), 4, dtype="f4")
         # Linear for the normals' bilinear mix; the shader reads depths with texelFetch, unfiltered.
@@ -86,6 +92,7 @@ class GlassInterior:
         ]
         self._record = ctx.buffer(reserve=DEPTH_IMAGE_DTYPE.itemsize)
         self.camera: PPC | None = None
+        self.seen_from: object = None  # what the owner made the last image for (passes/mirrors.py)
         self.bakes = 0  # interior images made (the tests check when they are)
 
     def bake(self, glass: ObjectGeometry, camera: PPC | None) -> int:
@@ -132,7 +139,7 @@ class GlassInterior:
 
     @property
     def bytes(self) -> int:
-        return self.size * self.size * (16 + 16 + 4) + self._record.size
+        return interior_bytes(self.size) + self._record.size
 
     def release(self) -> None:
         for framebuffer, _ in self._layers:

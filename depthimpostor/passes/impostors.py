@@ -18,7 +18,9 @@ plans its own images and keeps its own second layer.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections import Counter
 from dataclasses import dataclass
 from enum import Enum
 from typing import TYPE_CHECKING, ClassVar, NamedTuple
@@ -30,8 +32,10 @@ from ..context import bind_default_framebuffer
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, NO_OBJECT
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
+from ..culling import reachable_targets
 from ..ppc import PPC, FrustumFitError
 from ..reference import DepthImageData
+from ..resolution import MIN_AUTO_RESOLUTION, auto_resolution, scene_view
 from ..scene.model import Scene
 from ..shaders import ProgramCache
 from .diffuse import DiffusePass
@@ -69,6 +73,11 @@ class DepthImage:
     tile_origin: tuple[int, int]
     pyramid: tuple[int, int, int] = (0, 0, 0)
     level: int = 0  # see ImagePlan
+    slot: int = 0  # its place in the atlas: what names it while its objects move
+    label: str = ""  # how plans and stats name it (image_label)
+
+    def moved(self, mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...], camera: PPC) -> DepthImage:
+        return dataclasses.replace(self, mirror=mirror, targets=targets, camera=camera)
 
     @property
     def target(self) -> ObjectGeometry:
@@ -88,10 +97,20 @@ class DepthImage:
         return self.camera.depth_image_record(object_id, self.tile_origin, self.pyramid)
 
 
+#: Draws the nearest back face's window depth into the second layer.
+BACK_FACE_PROGRAM = ("mesh.vert", "window_depth.frag")
+
+
 #: The face GL culls to keep the back faces. A depth image's projection puts image row 0 (the top)
 #: at window y = 0, a mirror image of GL's usual y-up window: counter-clockwise outward faces
 #: arrive clockwise, so GL's "front" faces are the back ones and culling GL's "back" keeps them.
 BAKE_CULLS_FRONT_FACES = "back"
+
+
+def image_label(mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...], level: int, face: int | None) -> str:
+    """How plans and stats name an image: "mirror -> object", or a cube-map face by its number."""
+    shows = targets[0].object.name if face is None else f"face {face}"
+    return f"{mirror.object.name} -> {shows}" + (f" (bounce {level})" if level else "")
 
 
 def mirror_centre(mirror: ObjectGeometry) -> np.ndarray:
@@ -136,6 +155,7 @@ class ImpostorAtlas:
                 f"over this GL's limit of {limit}; lower the impostor resolution",
             )
         self.ctx = ctx
+        self.count = count
         self.columns = columns
         self.resolution = resolution
         self.pyramid_layout = PyramidLayout.of_grid(columns, rows, resolution)
@@ -154,9 +174,14 @@ class ImpostorAtlas:
 
     @property
     def bytes(self) -> int:
-        """GPU memory of the images: colour, float layers and the depth buffer used to bake."""
-        width, height = self.size
-        return width * height * (4 + (8 if self.depth is not None else 0) + 4)
+        return self.bytes_for(self.count, self.resolution, self.depth is not None)
+
+    @staticmethod
+    def bytes_for(count: int, resolution: int, layers: bool) -> int:
+        """GPU memory of an atlas of `count` slots: colour, float layers (unless not `layers`) and
+        the depth buffer used to bake."""
+        columns, rows = atlas_grid(count)
+        return columns * rows * resolution * resolution * (4 + (8 if layers else 0) + 4)
 
     @property
     def slot_count(self) -> int:
@@ -234,6 +259,8 @@ class BakedImages:
     second_layer: ClassVar[SecondLayer]
     #: What one image is called in the CLI's and the viewer's summaries.
     image_noun: ClassVar[str]
+    #: One image per reflected object (False: faces that show them all).
+    per_object: ClassVar[bool] = True
 
     def __init__(
         self,
@@ -247,7 +274,7 @@ class BakedImages:
     ) -> None:
         """`planes`, the analytic planes, are what a mirror shown in an image reflects besides
         the images (render.max_bounces > 1)."""
-        plan = self.plan(scene, mirrors, reflected)
+        plan = self.plan_images(scene, mirrors, reflected)
         self.ctx = ctx
         self.planes = planes or []
         self.programs = programs
@@ -255,28 +282,75 @@ class BakedImages:
         self.meshes = meshes
         layers = self.second_layer != SecondLayer.NONE
         self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=layers)
-        self.back_faces = programs.get("mesh.vert", "window_depth.frag") if self.second_layer == SecondLayer.BACK_FACE else None
+        self.back_faces = programs.get(*BACK_FACE_PROGRAM) if self.second_layer == SecondLayer.BACK_FACE else None
         count = sum(len(images) for images in plan.values())
-        self.atlas = ImpostorAtlas(ctx, count, scene.render.impostor_resolution, layers)
+        # Slots as large as the largest image ("auto" sizes each image apart).
+        sides = [max(camera.width, camera.height) for images in plan.values() for _, camera, _ in images]
+        self.atlas = ImpostorAtlas(ctx, count, max(sides, default=1), layers)
         self.images_by_mirror: dict[int, list[DepthImage]] = {}
         slot = 0
         for mirror in mirrors:
             images = []
             for targets, camera, level in plan[mirror.index]:
                 pyramid = self.atlas.pyramid_layout.entry(slot, camera.width, camera.height)
-                images.append(DepthImage(mirror, targets, camera, self.atlas.tile_origin(slot), pyramid, level))
+                label = image_label(mirror, targets, level, None if self.per_object else len(images))
+                images.append(DepthImage(mirror, targets, camera, self.atlas.tile_origin(slot), pyramid, level, slot, label))
                 slot += 1
             self.images_by_mirror[mirror.index] = images
         self.final_level = scene.render.max_bounces
         self.uniform_buffers = {index: self._uniform_buffer(self.images_at(index, self.final_level))
                                 for index in self.images_by_mirror}
         self.bakes = 0  # images rendered so far (tests and stats check that nothing re-bakes)
+        self.bake_counts: Counter[str] = Counter()  # by image label
+        self.bounce_bakes = 0  # of them, images of reflectors (render.max_bounces > 1)
+        self.stale: set[int] = {image.slot for image in self.depth_images}  # slots the next bake renders
 
-    def plan(
-        self, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
+    @property
+    def needs_bake(self) -> bool:
+        return bool(self.stale)
+
+    def bake_again(self) -> None:
+        """Render every image at the next bake, although nothing moved (the benchmark's)."""
+        self.stale = {image.slot for image in self.depth_images}
+
+    def refit(self, image: DepthImage, mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...]) -> PPC:
+        """The camera of `image` once its mirror or objects moved, at the image's own size."""
+        return fit_depth_image_camera(self.scene, mirror, targets[0], image.camera.width)
+
+    def move(self, geometry: dict[int, ObjectGeometry], moved: set[int], stale_targets: set[int]) -> None:
+        """Objects (by index) moved to `geometry`: their images are fitted again and, with every
+        image showing an object of `stale_targets` (a light that shades it moved, or a shadow
+        that may fall on it), baked at the next bake. Bounce images follow what they show."""
+        for index, images in self.images_by_mirror.items():
+            for i, image in enumerate(images):
+                mirror, targets = geometry[index], tuple(geometry[t.index] for t in image.targets)
+                if index in moved or any(t.index in moved for t in targets):
+                    images[i] = image.moved(mirror, targets, self.refit(image, mirror, targets))
+                    self.stale.add(image.slot)
+                elif not image.level and any(t.index in stale_targets for t in targets):
+                    self.stale.add(image.slot)
+        self._spread_staleness()
+        for index, buffer in self.uniform_buffers.items():
+            buffer.write(self._records(self.images_at(index, self.final_level)))
+        self._forget_fits()
+
+    def _spread_staleness(self) -> None:
+        """A bounce-k image of reflector B shows B's images of levels 0 and k - 1: stale with them."""
+        for level in range(2, self.final_level + 1):
+            for image in self.depth_images:
+                shown = image.targets[0].index if image.level == level else None
+                if shown is not None and any(other.slot in self.stale for other in self.images_at(shown, level - 1)):
+                    self.stale.add(image.slot)
+
+    def _forget_fits(self) -> None:
+        """Drop what a method derived from its images' cameras (cube-map boxes, billboard planes)."""
+
+    @classmethod
+    def plan_images(
+        cls, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
     ) -> dict[int, list[ImagePlan]]:
         """The images to bake for each mirror (by its index): by default one per reflected
-        object (depth images, billboards); cube maps bake six faces instead."""
+        object it may show (depth images, billboards); cube maps bake six faces instead."""
         return per_object_plan(scene, mirrors, reflected)
 
     def images_at(self, mirror_index: int, bounces: int) -> list[DepthImage]:
@@ -293,16 +367,21 @@ class BakedImages:
         return self.atlas.bytes + sum(buffer.size for buffer in self.uniform_buffers.values())
 
     def describe(self) -> str:
-        resolution = self.atlas.resolution
-        return f"{plural(len(self.depth_images), self.image_noun)} of {resolution}x{resolution}"
+        sides = sorted({image.camera.width for image in self.depth_images}) or [self.atlas.resolution]
+        sizes = " to ".join(f"{side}x{side}" for side in dict.fromkeys((sides[0], sides[-1])))
+        return f"{plural(len(self.depth_images), self.image_noun)} of {sizes}"
 
     def _uniform_buffer(self, images: list[DepthImage]) -> moderngl.Buffer:
+        return self.ctx.buffer(self._records(images))
+
+    @staticmethod
+    def _records(images: list[DepthImage]) -> bytes:
         # The block is declared with MAX_DEPTH_IMAGES_PER_MIRROR entries; a smaller buffer would
         # leave part of it unbacked, which GL leaves undefined.
         records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, dtype=DEPTH_IMAGE_DTYPE)
         for i, image in enumerate(images):
             records[i] = image.record()
-        return self.ctx.buffer(records.tobytes())
+        return records.tobytes()
 
     def bind(self, program: moderngl.Program) -> None:
         bind_impostors(program, self.atlas)
@@ -312,7 +391,7 @@ class BakedImages:
         write(program, "u_depth_image_count", len(self.images_at(mirror.index, self.final_level)))
 
     def bake(self) -> int:
-        """Render every image into its tile; returns the number of draw calls."""
+        """Render the stale images into their tiles; returns the number of draw calls."""
         framebuffer = self.atlas.framebuffer
         framebuffer.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
@@ -326,7 +405,7 @@ class BakedImages:
         draws = 0
         try:
             for image in self.depth_images:
-                if image.level:  # images of mirrors: ImpostorPass bakes them after these
+                if image.level or image.slot not in self.stale:  # ImpostorPass bakes images of mirrors after these
                     continue
                 framebuffer.viewport = image.tile
                 # Cleared colour alpha 0 marks "nothing here"; both depth layers clear to
@@ -337,11 +416,17 @@ class BakedImages:
                 draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
                 if self.back_faces is not None:
                     draws += self._bake_back_faces(image, framebuffer, image.tile)
-                self.bakes += 1
+                self.baked(image)
         finally:
             framebuffer.color_mask = everything
             self.ctx.disable(moderngl.CULL_FACE)
         return draws
+
+    def baked(self, image: DepthImage) -> None:
+        self.bakes += 1
+        self.bounce_bakes += bool(image.level)
+        self.bake_counts[image.label] += 1
+        self.stale.discard(image.slot)
 
     def _bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, ...]) -> int:
         """The nearest back face: the G layer alone, against a fresh depth buffer."""
@@ -382,24 +467,27 @@ class ImpostorPass(BakedImages):
 
             self.bounces = BounceBaker(self, scene)
 
-    def plan(
-        self, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
+    @classmethod
+    def plan_images(
+        cls, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
     ) -> dict[int, list[ImagePlan]]:
-        """Per mirror, one depth image per reflected object and, for each bounce k from 2 to
-        render.max_bounces, one of every other mirror showing its bounce k - 1 reflections."""
+        """Per mirror, one depth image per reflected object it may show and, for each bounce k
+        from 2 to render.max_bounces, one of every other mirror it may show, showing its bounce
+        k - 1 reflections."""
         plan = per_object_plan(scene, mirrors, reflected)
-        resolution = scene.render.impostor_resolution
         if scene.render.max_bounces > 1 and len(reflected) + len(mirrors) - 1 > MAX_DEPTH_IMAGES_PER_MIRROR:
             raise SceneError(
                 scene.source, "render.max_bounces",
                 f"expected 1 with {len(reflected)} reflected objects and {len(mirrors)} mirrors: a mirror's images of "
                 f"the others would pass the {MAX_DEPTH_IMAGES_PER_MIRROR} one mirror may hold",
             )
+        view = scene_view(scene)
         for mirror in mirrors:
-            others = [other for other in mirrors if other is not mirror]
+            others = reachable_targets(mirror, [other for other in mirrors if other is not mirror])
+            cameras = [image_camera(scene, view, mirror, other) for other in others]
             plan[mirror.index] += [
-                ImagePlan((other,), fit_depth_image_camera(scene, mirror, other, resolution), level)
-                for level in range(2, scene.render.max_bounces + 1) for other in others
+                ImagePlan((other,), camera, level)
+                for level in range(2, scene.render.max_bounces + 1) for other, camera in zip(others, cameras)
             ]
         return plan
 
@@ -423,10 +511,11 @@ class ImpostorPass(BakedImages):
         return super().describe() + (" with depth pyramids" if self.pyramid is not None else "")
 
     def bake(self) -> int:
+        baking = self.needs_bake
         draws = super().bake()
         if self.bounces is not None:
             draws += self.bounces.bake()
-        if self.pyramid is not None:
+        if self.pyramid is not None and baking:
             self.pyramid.build(self.atlas.depth_layers())
         return draws
 
@@ -442,16 +531,27 @@ class ImpostorPass(BakedImages):
         super().release()
 
 
+def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: ObjectGeometry) -> PPC:
+    """The camera of `target`'s image for `mirror`: fitted at render.impostor_resolution, or at
+    the resolution `view` (the scene's camera) asks for when it is "auto" (resolution.py)."""
+    if not scene.render.auto_resolution:
+        return fit_depth_image_camera(scene, mirror, target, int(scene.render.impostor_resolution))
+    probe = fit_depth_image_camera(scene, mirror, target, MIN_AUTO_RESOLUTION)
+    return fit_depth_image_camera(scene, mirror, target, auto_resolution(view, mirror, target, probe))
+
+
 def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]) -> dict[int, list[ImagePlan]]:
-    """One image per mirror and reflected object, its frustum fitted to the object. The images
-    of one mirror share its uniform block, which has a fixed size."""
-    if len(reflected) > MAX_DEPTH_IMAGES_PER_MIRROR:
-        raise SceneError(
-            scene.source, "objects",
-            f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} reflected objects per mirror, got {len(reflected)}",
-        )
-    resolution = scene.render.impostor_resolution
-    return {
-        mirror.index: [ImagePlan((target,), fit_depth_image_camera(scene, mirror, target, resolution)) for target in reflected]
-        for mirror in mirrors
-    }
+    """One image per mirror and reflected object it may show (culling.py), its frustum fitted to
+    the object. The images of one mirror share its uniform block, which has a fixed size."""
+    view = scene_view(scene)
+    plan = {}
+    for mirror in mirrors:
+        shown = reachable_targets(mirror, reflected)
+        if len(shown) > MAX_DEPTH_IMAGES_PER_MIRROR:
+            raise SceneError(
+                scene.source, "objects",
+                f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} objects a mirror may reflect, got {len(shown)} "
+                f"for \"{mirror.object.name}\"",
+            )
+        plan[mirror.index] = [ImagePlan((target,), image_camera(scene, view, mirror, target)) for target in shown]
+    return plan

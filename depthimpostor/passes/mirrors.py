@@ -64,12 +64,25 @@ def reflection_defines(
     return defines
 
 
+REFLECTOR_PROGRAM = ("mesh.vert", "mirror.frag")
+
+
+def reflector_defines(scene: Scene, defines: dict[str, int], glass: bool) -> dict[str, int]:
+    """The mirror shader's variant for mirrors or (GLASS) for glass, under the scene's lights."""
+    return {**defines, **shading_defines(scene), **({"GLASS": 1} if glass else {})}
+
+
+def bounce_defines() -> dict[str, int]:
+    """The variant drawing a reflector into another's depth image (render.max_bounces > 1): the
+    optimized march, since a bake's images are the same whatever the frame's algorithm."""
+    return {**reflection_defines(Method.DEPTH, Algorithm.OPTIMIZED), "WRITE_DEPTH_IMAGE": 1}
+
+
 def reflector_program(programs: ProgramCache, scene: Scene, analytic_planes: list[ObjectGeometry],
                       defines: dict[str, int], glass: bool) -> moderngl.Program:
     """The mirror shader's variant for mirrors or (GLASS) for glass, with the scene's lighting and
     analytic planes written: shared by the frame's pass and the bounce bakes."""
-    variant = {**defines, **shading_defines(scene), **({"GLASS": 1} if glass else {})}
-    program = programs.get("mesh.vert", "mirror.frag", variant)
+    program = programs.get(*REFLECTOR_PROGRAM, reflector_defines(scene, defines, glass))
     write_lighting(program, scene)
     write_analytic_planes(program, scene, analytic_planes)
     write(program, "u_backing_albedo", MIRROR_BACKING_ALBEDO)
@@ -113,8 +126,8 @@ def write_glass(program: moderngl.Program, item: ObjectGeometry) -> None:
 
 class MirrorPass:
     """Draws the mirrors and the glass objects (the reflectors) over the frame. Glass has its own
-    program (the GLASS variant), made only when the scene has glass, and its interior image is
-    made from the eye right before each glass object is drawn."""
+    program (the GLASS variant), made only when the scene has glass, and an interior image per
+    glass object, made again only when the eye or the glass has moved since it was made."""
 
     def __init__(
         self,
@@ -127,16 +140,16 @@ class MirrorPass:
         algorithm: Algorithm,
         write_reflection_data: bool = False,
         count_samples: bool = False,
-        interior: GlassInterior | None = None,
+        interiors: dict[int, GlassInterior] | None = None,
     ) -> None:
         defines = reflection_defines(method, algorithm, write_reflection_data, count_samples)
         self.programs = {
             glass: reflector_program(programs, scene, analytic_planes, defines, glass) if present else None
             for glass, present in ((False, bool(scene.mirrors)), (True, bool(scene.glass)))
         }
-        if scene.glass and interior is None:
-            raise ValueError("a scene with glass needs a GlassInterior")
-        self.interior = interior
+        self.interiors = interiors or {}
+        if len(self.interiors) != len(scene.glass):
+            raise ValueError("a scene with glass needs a GlassInterior per glass object")
         self.meshes = meshes
         self.reflected = reflected
 
@@ -148,9 +161,13 @@ class MirrorPass:
             program = self.programs[glass]
             if program is None:
                 raise TypeError(f"object {item.object.name!r} is not a reflector of this pass's scene")
-            if glass and self.interior is not None:
-                draws += self.interior.bake(item, interior_camera(camera.C, item, pixel_angle(camera), self.interior.size))
-                self.interior.bind(program)
+            if glass:
+                interior = self.interiors[item.index]
+                seen_from = (tuple(camera.C), pixel_angle(camera), item.time)  # what the image depends on
+                if interior.seen_from != seen_from:
+                    draws += interior.bake(item, interior_camera(camera.C, item, seen_from[1], interior.size))
+                    interior.seen_from = seen_from
+                interior.bind(program)
                 write_glass(program, item)
             framebuffer.use()
             self.reflected.bind(program)

@@ -35,6 +35,7 @@ from ..errors import ContextError
 from ..shaders import ProgramCache
 from .uniforms import bind_texture, write
 
+PYRAMID_PROGRAM = "depth_pyramid.comp"
 #: Compute shaders and image load/store arrived with GL 4.3.
 REQUIRED_GL_VERSION = 430
 #: Texture unit of the pyramid in the mirror shader (after the atlas's colour and depth).
@@ -99,7 +100,7 @@ class DepthPyramid:
         self.ctx = ctx
         self.layout = layout
         self.tile_count = len(tiles)
-        self.program = programs.compute("depth_pyramid.comp")
+        self.program = programs.compute(PYRAMID_PROGRAM)
         self.texture = ctx.texture(layout.size, 2, dtype="f4")
         # Allocates mips 1.. (their contents are overwritten by `build`) and sets the texture's
         # level range, so that texelFetch may read every level.

@@ -19,9 +19,14 @@ from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
 from ..scene.model import Scene
 from ..shaders import ProgramCache
-from .impostors import BAKE_CULLS_FRONT_FACES, atlas_grid, plural
+from .impostors import BACK_FACE_PROGRAM, BAKE_CULLS_FRONT_FACES, atlas_grid, plural
 from .meshes import GpuMeshes
 from .uniforms import SHADOW_MAP_UNIT, SHADOW_MAPS_BINDING
+
+
+#: A shadow map's single float attachment takes the window depth at location 0.
+SHADOW_MAP_PROGRAM = BACK_FACE_PROGRAM
+SHADOW_MAP_DEFINES = {"OUTPUT_LOCATION": 0}
 
 
 def fit_shadow_camera(scene: Scene, light_index: int, casters: list[ObjectGeometry], resolution: int) -> PPC:
@@ -39,6 +44,12 @@ def fit_shadow_camera(scene: Scene, light_index: int, casters: list[ObjectGeomet
         ) from None
 
 
+def shadow_map_bytes(count: int, resolution: int) -> int:
+    """GPU memory of `count` shadow maps: the two float layers and the depth buffer used to bake them."""
+    columns, rows = atlas_grid(count)
+    return columns * rows * resolution * resolution * (8 + 4)
+
+
 class ShadowMaps:
     """The shadow maps of a scene's shadowed lights in one RG32F atlas, and the uniform buffer
     of their records (indexed by light) that lib/shadows.glsl reads."""
@@ -51,6 +62,7 @@ class ShadowMaps:
         self.ctx = ctx
         self.meshes = meshes
         self.casters = casters
+        self.scene = scene
         self.cameras = {i: fit_shadow_camera(scene, i, casters, resolution) for i in scene.shadowed_lights}
         columns, rows = atlas_grid(len(self.cameras))
         self.tiles = {
@@ -61,31 +73,45 @@ class ShadowMaps:
         self.layers.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._depth_buffer = ctx.depth_renderbuffer(self.layers.size)
         self.framebuffer = ctx.framebuffer([self.layers], self._depth_buffer)
-        self.program = programs.get("mesh.vert", "window_depth.frag", {"OUTPUT_LOCATION": 0})
+        self.program = programs.get(*SHADOW_MAP_PROGRAM, SHADOW_MAP_DEFINES)
+        self.uniform_buffer = ctx.buffer(self._records())
+        self.bakes = 0  # shadow maps rendered so far (tests check that nothing re-bakes)
+        self.stale: set[int] = set(self.cameras)  # lights whose map the next bake renders
+
+    def _records(self) -> bytes:
         records = np.zeros(MAX_LIGHTS, dtype=DEPTH_IMAGE_DTYPE)
         for light, camera in self.cameras.items():
             records[light] = camera.depth_image_record(NO_OBJECT, self.tiles[light][:2])
-        self.uniform_buffer = ctx.buffer(records.tobytes())
-        self.bakes = 0  # shadow maps rendered so far (tests check that nothing re-bakes)
+        return records.tobytes()
+
+    def move(self, scene: Scene, casters: list[ObjectGeometry], lights: set[int]) -> None:
+        """The casters or the lights (`scene`'s, by index) moved: the maps of `lights` are fitted
+        again and baked at the next bake."""
+        self.scene, self.casters = scene, casters
+        resolution = scene.render.shadow_resolution
+        for light in lights & set(self.cameras):
+            self.cameras[light] = fit_shadow_camera(scene, light, casters, resolution)
+            self.stale.add(light)
+        self.uniform_buffer.write(self._records())
 
     @property
     def bytes(self) -> int:
-        """GPU memory: the two float layers and the depth buffer used to bake them."""
-        width, height = self.layers.size
-        return width * height * (8 + 4) + self.uniform_buffer.size
+        return shadow_map_bytes(len(self.cameras), self.layers.height if self.cameras else 0) + self.uniform_buffer.size
 
     def describe(self) -> str:
         resolution = self.layers.height if len(self.cameras) else 0
         return f"{plural(len(self.cameras), 'shadow map')} of {resolution}x{resolution}"
 
     def bake(self) -> int:
-        """Render every shadow map: the casters' visible surface into R, their nearest back face
-        into G. Returns the number of draw calls."""
+        """Render the stale shadow maps: the casters' visible surface into R, their nearest back
+        face into G. Returns the number of draw calls."""
         self.framebuffer.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
         draws = 0
         try:
             for light, camera in self.cameras.items():
+                if light not in self.stale:
+                    continue
                 tile = self.tiles[light]
                 self.framebuffer.viewport = tile
                 self.framebuffer.color_mask = (True,) * 4
@@ -101,6 +127,7 @@ class ShadowMaps:
                 draws += self._draw_casters(camera)
                 self.ctx.disable(moderngl.CULL_FACE)
                 self.bakes += 1
+                self.stale.discard(light)
         finally:
             self.framebuffer.color_mask = (True,) * 4
             self.ctx.disable(moderngl.CULL_FACE)

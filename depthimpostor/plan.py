@@ -1,0 +1,259 @@
+"""The render plan: from the scene alone, the passes, images and shader variants a frame needs,
+and why each is there. The renderer builds exactly these (tests compare the two), and
+`depthimpostor plan` prints them.
+
+Nothing else is made: no reflection pass without a mirror or glass, no image of an object a
+mirror can never show (culling.py), no shadow map for a light without shadows, no GLASS or
+SHADOWS variant in a scene without glass or shadows, no depth pyramid unless the hierarchical
+algorithm reads it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+from .constants import Algorithm, Method
+from .culling import Reach, reach
+from .geometry import ObjectGeometry, scene_geometry
+from .passes.billboards import BillboardPass
+from .passes.cubemaps import CubeMapPass
+from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
+from .passes.environment import ENVIRONMENT_PROGRAM
+from .passes.glass import INTERIOR_PROGRAM, interior_bytes
+from .passes.impostors import BACK_FACE_PROGRAM, BakedImages, ImpostorAtlas, ImpostorPass, SecondLayer, image_label, plural
+from .passes.mirrors import REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
+from .passes.pyramid import PYRAMID_PROGRAM
+from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, shadow_map_bytes
+from .passes.simplified import SimplifiedPass
+from .passes.triangles import TrianglePass
+from .scene.model import Scene
+from .shaders import ProgramKey, program_key
+
+#: Each method's stand-in for the reflected objects. Both cube-map methods look up the same cube
+#: map: switching between them keeps it (only the mirror shader's variant changes).
+STAND_INS: dict[Method, type[BakedImages] | type[TrianglePass]] = {
+    Method.DEPTH: ImpostorPass,
+    Method.CUBEMAP: CubeMapPass,
+    Method.CUBEMAP_PARALLAX: CubeMapPass,
+    Method.BILLBOARD: BillboardPass,
+    Method.SIMPLIFIED: SimplifiedPass,
+    Method.RAYTRACE: TrianglePass,
+}
+
+
+class Pass(Enum):
+    """The render passes, in the order a frame runs them; the value names them in plans and stats."""
+
+    SHADOW_MAPS = "shadow maps"
+    STAND_IN = "reflected objects"  # the method's bake: depth images, cube maps, billboards, triangles
+    BOUNCES = "reflections of reflections"
+    PYRAMIDS = "depth pyramids"
+    ENVIRONMENT = "environment"
+    DIFFUSE = "diffuse objects"
+    GLASS_INTERIORS = "glass interiors"
+    REFLECTORS = "mirrors and glass"
+
+
+#: When each pass runs: the passes that bake run again only for what moved.
+WHEN: dict[Pass, str] = {
+    Pass.SHADOW_MAPS: "once; a light's map again when it or a caster moves",
+    Pass.STAND_IN: "once; an image again when its reflector, its object or a light shading it moves",
+    Pass.BOUNCES: "once; again when an image it shows is re-baked",
+    Pass.PYRAMIDS: "after each bake",
+    Pass.ENVIRONMENT: "every frame",
+    Pass.DIFFUSE: "every frame",
+    Pass.GLASS_INTERIORS: "once; a glass's again when the eye or the glass moves",
+    Pass.REFLECTORS: "every frame",
+}
+
+
+@dataclass(frozen=True)
+class PlannedPass:
+    stage: Pass
+    reason: str
+
+    @property
+    def when(self) -> str:
+        return WHEN[self.stage]
+
+
+@dataclass(frozen=True)
+class PlannedImage:
+    """One baked image (named "reflector -> what it shows" as the renderer's stats name it), its
+    bounce level and size."""
+
+    label: str
+    level: int
+    width: int
+    height: int
+    reason: str
+
+
+@dataclass(frozen=True)
+class SkippedImage:
+    reflector: str
+    target: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class PlannedVariant:
+    key: ProgramKey
+    reason: str
+
+    @property
+    def name(self) -> str:
+        stages, defines = self.key
+        settings = ", ".join(f"{k}={v}" for k, v in defines)
+        return " + ".join(stages) + (f" [{settings}]" if settings else "")
+
+
+@dataclass(frozen=True)
+class RenderPlan:
+    scene: str
+    method: Method
+    algorithm: Algorithm
+    passes: tuple[PlannedPass, ...]
+    images: tuple[PlannedImage, ...]
+    skipped: tuple[SkippedImage, ...]
+    variants: tuple[PlannedVariant, ...]
+    memory: dict[str, int] = field(default_factory=dict)  # bytes per resource
+
+    def runs(self, stage: Pass) -> bool:
+        return any(planned.stage is stage for planned in self.passes)
+
+    @property
+    def program_keys(self) -> set[ProgramKey]:
+        return {variant.key for variant in self.variants}
+
+    def counts(self) -> dict[str, int]:
+        return {"passes": len(self.passes), "images": len(self.images), "skipped": len(self.skipped),
+                "variants": len(self.variants)}
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "scene": self.scene,
+            "method": self.method.option,
+            "algorithm": self.algorithm.name.lower(),
+            "counts": self.counts(),
+            "passes": [{"name": p.stage.value, "when": p.when, "why": p.reason} for p in self.passes],
+            "images": [{"image": i.label, "level": i.level, "width": i.width,
+                        "height": i.height, "why": i.reason} for i in self.images],
+            "skipped": [{"reflector": s.reflector, "object": s.target, "why": s.reason} for s in self.skipped],
+            "variants": [{"stages": list(v.key[0]), "defines": dict(v.key[1]), "why": v.reason} for v in self.variants],
+            "memory_bytes": dict(self.memory),
+        }
+
+    def format(self) -> str:
+        lines = [f"plan of {self.scene} ({self.method.option}"
+                 + (f", {self.algorithm.name.lower()} algorithm" if self.method == Method.DEPTH else "") + ")"]
+        lines.append(f"passes ({len(self.passes)}):")
+        lines += [f"  {p.stage.value:<28} {p.when}\n  {'':<28} why: {p.reason}" for p in self.passes]
+        lines.append(f"images ({len(self.images)}):")
+        for image in self.images:
+            lines.append(f"  {image.label}: {image.width}x{image.height} ({image.reason})")
+        if self.skipped:
+            lines.append(f"skipped ({len(self.skipped)}):")
+            lines += [f"  {s.reflector} -> {s.target}: {s.reason}" for s in self.skipped]
+        lines.append(f"shader variants ({len(self.variants)}):")
+        lines += [f"  {v.name}\n      why: {v.reason}" for v in self.variants]
+        total = sum(self.memory.values())
+        parts = ", ".join(f"{name} {size / 2**20:.2f}" for name, size in self.memory.items())
+        lines.append(f"memory: {total / 2**20:.2f} MiB" + (f" ({parts})" if parts else ""))
+        return "\n".join(lines)
+
+
+def _names(items: list[ObjectGeometry]) -> str:
+    return ", ".join(f'"{item.object.name}"' for item in items)
+
+
+def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorithm = Algorithm.OPTIMIZED,
+                geometry: list[ObjectGeometry] | None = None) -> RenderPlan:
+    """The plan of `scene` drawn with `method` (and, for depth images, `algorithm`)."""
+    geometry = geometry if geometry is not None else scene_geometry(scene.objects)
+    mirrors = [g for g in geometry if g.object.is_mirror]
+    glass = [g for g in geometry if g.object.is_glass]
+    reflectors = [g for g in geometry if g.object.is_specular]
+    diffuse = [g for g in geometry if not g.object.is_specular]
+    reflected = [g for g in diffuse if not g.is_analytic_plane]
+    passes: list[PlannedPass] = []
+    variants: dict[ProgramKey, str] = {}
+    memory: dict[str, int] = {}
+
+    def variant(stages: tuple[str, ...], defines: dict[str, int] | None, reason: str) -> None:
+        variants.setdefault(program_key(stages, defines), reason)
+
+    if scene.has_shadows:
+        lights = [f"lights[{i}] ({scene.lights[i].shadows})" for i in scene.shadowed_lights]
+        passes.append(PlannedPass(Pass.SHADOW_MAPS, f"{', '.join(lights)} cast shadows"))
+        variant(SHADOW_MAP_PROGRAM, SHADOW_MAP_DEFINES, "shadow maps: the casters' depth from each shadowed light")
+        memory["shadow maps"] = shadow_map_bytes(len(scene.shadowed_lights), scene.render.shadow_resolution)
+
+    images: list[PlannedImage] = []
+    skipped: list[SkippedImage] = []
+    stand_in = STAND_INS[method]
+    if reflectors:
+        for reflector in reflectors:
+            for target in reflected + [r for r in reflectors if r is not reflector and scene.render.max_bounces > 1]:
+                why = reach(reflector, target)
+                if why is not Reach.REACHABLE:
+                    skipped.append(SkippedImage(reflector.object.name, target.object.name, why.value))
+        shown_in_bounces: set[bool] = set()  # is_glass of the reflectors bounce images show
+        if issubclass(stand_in, BakedImages):
+            planned = stand_in.plan_images(scene, reflectors, reflected)
+            by_index = {g.index: g for g in geometry}
+            for index, plans in planned.items():
+                for face, (targets, camera, level) in enumerate(plans):
+                    label = image_label(by_index[index], targets, level, None if stand_in.per_object else face)
+                    reason = (f"bounce {level}: shows its reflections of bounce {level - 1}" if level
+                              else "a reflected object it may show" if stand_in.per_object
+                              else f"a cube-map face showing {_names(list(targets))}")
+                    images.append(PlannedImage(label, level, camera.width, camera.height, reason))
+                    if level:
+                        shown_in_bounces.add(targets[0].object.is_glass)
+            side = max((max(i.width, i.height) for i in images), default=1)
+            memory[stand_in.image_noun + "s"] = ImpostorAtlas.bytes_for(
+                len(images), side, stand_in.second_layer != SecondLayer.NONE)
+        noun = stand_in.image_noun if issubclass(stand_in, BakedImages) else "BVH of triangles"
+        passes.append(PlannedPass(Pass.STAND_IN, f"{_names(reflectors)} may reflect "
+                                  f"{plural(len(reflected), 'object')}, seen through {noun}s"))
+        if issubclass(stand_in, BakedImages) and images:
+            variant(DIFFUSE_PROGRAM, diffuse_defines(scene, stand_in.second_layer != SecondLayer.NONE),
+                    f"{stand_in.image_noun}s: the reflected objects shaded into them")
+            if stand_in.second_layer == SecondLayer.BACK_FACE:
+                variant(BACK_FACE_PROGRAM, None, "depth images: the back-face layer (what lies behind a silhouette)")
+        if shown_in_bounces:
+            passes.append(PlannedPass(Pass.BOUNCES, f"render.max_bounces = {scene.render.max_bounces}: reflectors "
+                                      "show each other's reflections"))
+            for shown_glass in sorted(shown_in_bounces):
+                variant(REFLECTOR_PROGRAM, reflector_defines(scene, bounce_defines(), shown_glass),
+                        f"a {'glass' if shown_glass else 'mirror'} drawn into another reflector's depth image")
+            if True in shown_in_bounces:
+                variant(INTERIOR_PROGRAM, None, "glass seen in a mirror: its interior from the mirror's centre")
+        if method == Method.DEPTH and algorithm == Algorithm.HIERARCHICAL and images:
+            passes.append(PlannedPass(Pass.PYRAMIDS, "the hierarchical algorithm skips spans by min/max depth"))
+            variant((PYRAMID_PROGRAM,), None, "the hierarchical algorithm's min/max pyramid")
+
+    passes.append(PlannedPass(Pass.ENVIRONMENT, f"the {scene.environment.type} sky behind everything"))
+    variant(ENVIRONMENT_PROGRAM, None, "the sky")
+    if diffuse:
+        passes.append(PlannedPass(Pass.DIFFUSE, f"{plural(len(diffuse), 'object')} with diffuse materials"))
+        variant(DIFFUSE_PROGRAM, diffuse_defines(scene, False),
+                "diffuse objects in the frame" + (" (SHADOWS: a light casts shadows)" if scene.has_shadows else ""))
+    if glass:
+        passes.append(PlannedPass(Pass.GLASS_INTERIORS, f"glass ({_names(glass)}): where refracted rays leave"))
+        variant(INTERIOR_PROGRAM, None, "glass: its front and back faces from the eye")
+        memory["glass interiors"] = len(glass) * interior_bytes(max(scene.render.size))
+    if reflectors:
+        kinds = [f"mirrors ({_names(mirrors)})"] * bool(mirrors) + [f"glass ({_names(glass)})"] * bool(glass)
+        passes.append(PlannedPass(Pass.REFLECTORS, " and ".join(kinds)))
+        defines = reflection_defines(method, algorithm)
+        if mirrors:
+            variant(REFLECTOR_PROGRAM, reflector_defines(scene, defines, False), f"mirrors, {method.option} method")
+        if glass:
+            variant(REFLECTOR_PROGRAM, reflector_defines(scene, defines, True), f"glass (GLASS), {method.option} method")
+    return RenderPlan(scene.source, method, algorithm, tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage))),
+                      tuple(images), tuple(skipped), tuple(PlannedVariant(k, r) for k, r in variants.items()), memory)
+

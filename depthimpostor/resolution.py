@@ -1,0 +1,106 @@
+"""`impostor_resolution = "auto"`: each depth image's resolution from what the camera sees of it.
+
+A depth image's sample should cover about one reflected pixel: fewer samples blur and bend what
+the mirror shows, more cost bake time, memory and march steps for nothing. How many pixels show
+the object in the mirror is measured on the mirror's triangles, from the scene's camera:
+
+- for each front-facing triangle in view, its area on screen (pixels^2) and the solid angle its
+  three reflected directions span (Van Oosterom and Strackee's formula for a spherical triangle);
+- the triangles whose reflected rays may reach the object (its bounding sphere, widened by the
+  spread of the triangle's reflected directions and of its points) give the mirror's density there,
+  rho = sqrt(sum of areas / sum of solid angles), in reflected pixels per radian;
+- the depth image spans the angle `span` of its fitted frustum, so span * rho samples across it
+  put one sample on each reflected pixel. A planar mirror has rho = the camera's pixels per
+  radian; a convex one compresses the reflection (a sphere D pixels across gives D / 4 pixels per
+  radian at its centre, fewer toward its rim), and so needs fewer samples.
+
+The result is rounded up to a power of two (one to two samples per reflected pixel) and clamped
+to [MIN_AUTO_RESOLUTION, MAX_AUTO_RESOLUTION]. It is chosen once, from the scene's camera:
+moving the camera re-bakes nothing, so the images keep the resolution the scene's view asked for.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .geometry import ObjectGeometry
+from .ppc import PPC
+from .scene.model import Scene
+
+#: An object the camera does not see in the mirror still gets a small image (the viewer's camera
+#: may find it later); no image needs more than the largest the bench measures.
+MIN_AUTO_RESOLUTION = 16
+MAX_AUTO_RESOLUTION = 1024
+
+
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    length = np.linalg.norm(vectors, axis=-1, keepdims=True)
+    return vectors / np.where(length > 0.0, length, 1.0)
+
+
+def frustum_span(camera: PPC) -> float:
+    """The larger angle (radians) between opposite edges of a camera's image, through its centre."""
+    spans = []
+    for start, end in (((0.0, camera.height / 2), (camera.width, camera.height / 2)),
+                       ((camera.width / 2, 0.0), (camera.width / 2, camera.height))):
+        first, second = _unit(camera.ray_direction(*start)), _unit(camera.ray_direction(*end))
+        spans.append(math.acos(float(np.clip(first @ second, -1.0, 1.0))))
+    return max(spans)
+
+
+def reflected_pixels_per_radian(view: PPC, mirror: ObjectGeometry, target: ObjectGeometry) -> float:
+    """rho: screen pixels per radian of reflected direction, over the mirror's triangles that
+    `view` sees and whose reflected rays may reach `target`; 0 when there are none."""
+    mesh = mirror.world_mesh
+    corners = mesh.positions[mesh.indices].astype(np.float64)  # (T, 3, 3)
+    normals = _unit(mesh.normals[mesh.indices].astype(np.float64))
+    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    incoming = _unit(corners - view.C)
+    projected = view.project(corners)  # (T, 3, (u, v, w))
+    inside = (projected[..., 0] >= 0) & (projected[..., 0] <= view.width) & \
+             (projected[..., 1] >= 0) & (projected[..., 1] <= view.height)
+    seen = (np.einsum("tj,tj->t", face, corners[:, 0] - view.C) < 0.0) & np.all(projected[..., 2] > 0.0, axis=1) \
+        & np.any(inside, axis=1)
+    reflected = incoming - 2.0 * np.einsum("tij,tij->ti", incoming, normals)[..., None] * normals
+    mean = _unit(reflected.sum(axis=1))
+    spread = np.arccos(np.clip(np.einsum("tij,tj->ti", reflected, mean), -1.0, 1.0)).max(axis=1)
+    centre, radius = target.bounding_sphere
+    centroid = corners.mean(axis=1)
+    toward = np.asarray(centre, np.float64) - centroid
+    distance = np.maximum(np.linalg.norm(toward, axis=1), 1e-300)
+    sphere_angle = np.arcsin(np.clip(radius / distance, 0.0, 1.0))
+    # A ray leaves from anywhere on the triangle, up to `extent` from its centroid: that turns the
+    # direction to the sphere's centre by up to asin(extent / distance).
+    extent = np.linalg.norm(corners - centroid[:, None], axis=2).max(axis=1)
+    apex_angle = np.arcsin(np.clip(extent / distance, 0.0, 1.0))
+    angle = np.arccos(np.clip(np.einsum("tj,tj->t", _unit(toward), mean), -1.0, 1.0))
+    chosen = seen & (angle <= sphere_angle + spread + apex_angle)
+    if not chosen.any():
+        return 0.0
+    uv, r = projected[chosen][..., :2], reflected[chosen]
+    edge_1, edge_2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    area = 0.5 * np.abs(edge_1[:, 0] * edge_2[:, 1] - edge_1[:, 1] * edge_2[:, 0])
+    triple = np.abs(np.einsum("tj,tj->t", r[:, 0], np.cross(r[:, 1], r[:, 2])))
+    denominator = 1.0 + np.einsum("tj,tj->t", r[:, 0], r[:, 1]) + np.einsum("tj,tj->t", r[:, 1], r[:, 2]) \
+        + np.einsum("tj,tj->t", r[:, 2], r[:, 0])
+    solid_angle = 2.0 * np.arctan2(triple, denominator)
+    total = float(solid_angle.sum())
+    return math.sqrt(float(area.sum()) / total) if total > 0.0 else 0.0
+
+
+def auto_resolution(view: PPC, mirror: ObjectGeometry, target: ObjectGeometry, image: PPC) -> int:
+    """The resolution at which a sample of `image` (the depth image of `target` for `mirror`)
+    covers about one of `view`'s reflected pixels (see the module's note)."""
+    samples = frustum_span(image) * reflected_pixels_per_radian(view, mirror, target)
+    if samples <= MIN_AUTO_RESOLUTION:
+        return MIN_AUTO_RESOLUTION
+    return int(min(MAX_AUTO_RESOLUTION, 2 ** math.ceil(math.log2(samples))))
+
+
+def scene_view(scene: Scene) -> PPC:
+    """The scene's own camera, as far as projecting points to pixels goes (its near and far
+    planes play no part in that)."""
+    view = scene.camera
+    return PPC.look_at(view.eye, view.target, view.up, view.fov_y, *scene.render.size, 1.0, 2.0)
