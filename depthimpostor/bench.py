@@ -199,7 +199,7 @@ def techniques(settings: BenchSettings) -> list[Technique]:
     ]
 
 
-def configurations(settings: BenchSettings) -> list[tuple[int, list[Technique]]]:
+def configurations(settings: BenchSettings) -> list[tuple[int | str, list[Technique]]]:
     """The configurations of one scene, by resolution. The methods without a resolution are
     made with the first (resolution 0 in their rows)."""
     resolution_methods = [t for t in techniques(settings) if t.method in RESOLUTION_METHODS]

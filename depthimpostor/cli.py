@@ -209,7 +209,7 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def _list_of(kind: Callable[[str], object]) -> object:
+def _list_of(kind: Callable[[str], object]) -> Callable[[str], list[object]]:
     def parse(text: str) -> list[object]:
         parts = [part.strip() for part in text.split(",") if part.strip()]
         if not parts:

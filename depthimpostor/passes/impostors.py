@@ -107,6 +107,15 @@ BACK_FACE_PROGRAM = ("mesh.vert", "window_depth.frag")
 BAKE_CULLS_FRONT_FACES = "back"
 
 
+def image_records(images: list[DepthImage]) -> bytes:
+    """A mirror's uniform block. It is declared with MAX_DEPTH_IMAGES_PER_MIRROR entries; a smaller
+    buffer would leave part of it unbacked, which GL leaves undefined."""
+    records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, dtype=DEPTH_IMAGE_DTYPE)
+    for i, image in enumerate(images):
+        records[i] = image.record()
+    return records.tobytes()
+
+
 def image_label(mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...], level: int, face: int | None) -> str:
     """How plans and stats name an image: "mirror -> object", or a cube-map face by its number."""
     shows = targets[0].object.name if face is None else f"face {face}"
@@ -290,7 +299,7 @@ class BakedImages:
         self.images_by_mirror: dict[int, list[DepthImage]] = {}
         slot = 0
         for mirror in mirrors:
-            images = []
+            images: list[DepthImage] = []
             for targets, camera, level in plan[mirror.index]:
                 pyramid = self.atlas.pyramid_layout.entry(slot, camera.width, camera.height)
                 label = image_label(mirror, targets, level, None if self.per_object else len(images))
@@ -331,7 +340,7 @@ class BakedImages:
                     self.stale.add(image.slot)
         self._spread_staleness()
         for index, buffer in self.uniform_buffers.items():
-            buffer.write(self._records(self.images_at(index, self.final_level)))
+            buffer.write(image_records(self.images_at(index, self.final_level)))
         self._forget_fits()
 
     def _spread_staleness(self) -> None:
@@ -372,16 +381,7 @@ class BakedImages:
         return f"{plural(len(self.depth_images), self.image_noun)} of {sizes}"
 
     def _uniform_buffer(self, images: list[DepthImage]) -> moderngl.Buffer:
-        return self.ctx.buffer(self._records(images))
-
-    @staticmethod
-    def _records(images: list[DepthImage]) -> bytes:
-        # The block is declared with MAX_DEPTH_IMAGES_PER_MIRROR entries; a smaller buffer would
-        # leave part of it unbacked, which GL leaves undefined.
-        records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, dtype=DEPTH_IMAGE_DTYPE)
-        for i, image in enumerate(images):
-            records[i] = image.record()
-        return records.tobytes()
+        return self.ctx.buffer(image_records(images))
 
     def bind(self, program: moderngl.Program) -> None:
         bind_impostors(program, self.atlas)

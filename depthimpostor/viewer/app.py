@@ -280,7 +280,10 @@ class Viewer:
         self.cursor = None
 
     def _change_resolution(self, up: bool) -> str:
-        current = self.renderer.scene.render.impostor_resolution
+        setting = self.renderer.scene.render.impostor_resolution
+        baked_before = self.renderer.baked_images
+        # From "auto", the keys step from the largest image's side.
+        current = setting if isinstance(setting, int) else baked_before.atlas.resolution if baked_before else 256
         resolution = next_resolution(current, up)
         if resolution == current:
             return f"baked images stay at {current}x{current}: the end of the range"
