@@ -51,7 +51,7 @@ class Technique:
 
     @property
     def algorithm_name(self) -> str:
-        return self.algorithm.name.lower() if self.method == Method.DEPTH else "-"
+        return self.algorithm.name.lower() if self.method.marches_depth_images else "-"
 
 
 @dataclass(frozen=True)
@@ -195,7 +195,7 @@ def techniques(settings: BenchSettings) -> list[Technique]:
     return [
         Technique(method, algorithm)
         for method in settings.methods
-        for algorithm in (settings.algorithms if method == Method.DEPTH else (Algorithm.OPTIMIZED,))
+        for algorithm in (settings.algorithms if method.marches_depth_images else (Algorithm.OPTIMIZED,))
     ]
 
 

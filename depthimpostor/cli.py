@@ -77,7 +77,7 @@ def _stand_in(renderer: Renderer) -> str:
     stand_in = renderer.stand_in
     if stand_in is None:
         return "no mirror"
-    algorithm = f"{renderer.algorithm.name.lower()} algorithm, " if renderer.method == Method.DEPTH else ""
+    algorithm = f"{renderer.algorithm.name.lower()} algorithm, " if renderer.method.marches_depth_images else ""
     bake = f", bake {1000 * sum(renderer.stats.bake_seconds):.1f} ms" if renderer.baked_images is not None else ""
     return f"{renderer.method.option}: {algorithm}{_kept(renderer)}{bake}"
 

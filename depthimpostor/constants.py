@@ -30,6 +30,12 @@ class Method(IntEnum):
     BILLBOARD = 3  # one textured quad per mirror and reflected object
     SIMPLIFIED = 4  # decimated triangles, through the ray-traced method's BVH
     RAYTRACE = 5  # the real triangles, through a BVH traversed in the mirror shader
+    HYBRID = 6  # depth images, and the real triangles for the rays they cannot answer (Unseen)
+
+    @property
+    def marches_depth_images(self) -> bool:
+        """Does it intersect depth images (and so take an --algorithm)?"""
+        return self in (Method.DEPTH, Method.HYBRID)
 
     @property
     def option(self) -> str:
@@ -39,6 +45,22 @@ class Method(IntEnum):
     @classmethod
     def from_option(cls, option: str) -> Method:
         return cls[option.upper().replace("-", "_")]
+
+
+class Unseen(IntEnum):
+    """Why a depth image's answer to a ray rests on what the image does not hold (the first reason
+    met along the ray; shaders/lib/depth_image.glsl and depthimpostor/reference.py define them
+    with these names). A depth image holds, per sample, the visible surface and the back of its
+    first solid run: the space in front of the surface is known empty, the run is known solid, and
+    nothing is known behind the run or between samples across a silhouette."""
+
+    NONE = 0  # the answer rests on seen surface and seen empty space alone
+    HIDDEN_ENTRY = 1  # the ray is inside a solid run without crossing the visible surface: it
+    #                   entered through a side the image's eye does not see (where, and its colour, unknown)
+    OCCLUDED = 2  # the ray passed behind a solid run: space the object hides from the eye
+    SILHOUETTE = 3  # the ray crossed a silhouette (two samples that are not one surface) no farther in
+    #                 front of the nearer surface than SILHOUETTE_BAND_TEXELS of its steepest slope: a
+    #                 hit between the samples and a miss are both consistent with them
 
 
 class MaterialKind(IntEnum):
@@ -102,6 +124,13 @@ NO_OBJECT = -1
 #: would make a "rubber sheet" that reflected rays hit where nothing is. tan(86.4 deg) = 16: a
 #: sphere loses only the last ~0.2 % of its radius at the silhouette to this rule.
 MAX_SURFACE_SLOPE = 16.0
+#: Near a silhouette the surface between two samples is not sampled; it may come nearer the eye
+#: than the sample beside it by up to this many texels of the steepest slope two samples are joined
+#: across (MAX_SURFACE_SLOPE): half a texel because a sample stands for its texel's centre while
+#: the march reads it anywhere in the texel, and the rest for surfaces that steepen toward their
+#: silhouette (a sphere's rim). A ray that crosses a silhouette nearer to the surface's depth than
+#: that is Unseen.SILHOUETTE.
+SILHOUETTE_BAND_TEXELS = 2.0
 #: The ray counts as touching the surface where their OpenGL depths differ by at most this (8
 #: float32 steps of depths in [0.5, 1]). Both are rounded float32 values: without a tolerance, a
 #: ray lying in a surface sees the sign of (ray - surface) flip at random from pixel to pixel,
@@ -194,6 +223,7 @@ def glsl_constants() -> dict[str, str]:
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
         "NO_OBJECT": str(NO_OBJECT),
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",
+        "SILHOUETTE_BAND_TEXELS": f"{SILHOUETTE_BAND_TEXELS!r}",
         "CLIP_TOLERANCE_PIXELS": f"{CLIP_TOLERANCE_PIXELS!r}",
         "MIN_LINES_SINE_SQUARED": f"{MIN_LINES_SINE_SQUARED!r}",
         "EMPTY_SPAN_MIN": f"{EMPTY_SPAN_MIN!r}",
@@ -206,7 +236,7 @@ def glsl_constants() -> dict[str, str]:
         "MIN_PATH_WEIGHT": f"{MIN_PATH_WEIGHT!r}",
     }
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",
-                ShadowKind: "SHADOW"}
+                ShadowKind: "SHADOW", Unseen: "UNSEEN"}
     for enum, prefix in prefixes.items():
         defines.update({f"{prefix}_{member.name}": str(int(member)) for member in enum})
     return defines

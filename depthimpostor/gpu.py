@@ -58,7 +58,9 @@ class RayQuery:
         self.ctx = ctx
         self.atlas = atlas
         self.image_count = len(images)
-        self.program = programs.get("fullscreen.vert", "ray_query.frag", reflection_defines(Method.DEPTH, algorithm))
+        # TRACK_UNSEEN: the query reports what each answer rests on that the images do not hold.
+        defines = {**reflection_defines(Method.DEPTH, algorithm), "TRACK_UNSEEN": 1}
+        self.program = programs.get("fullscreen.vert", "ray_query.frag", defines)
         records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, dtype=DEPTH_IMAGE_DTYPE)
         for i, image in enumerate(images):
             records[i] = image.record()
@@ -121,6 +123,9 @@ class RayQuery:
             conditioning=np.full(count, np.nan),
             texel_margin=np.full(count, np.nan),
             depth_margin=np.full(count, np.nan),
+            # The shader's UNBOUNDED_RAY (nothing unseen) is the reference's inf.
+            unseen_t=np.where(stats[:, 1] >= 1e38, np.inf, stats[:, 1]),
+            unseen=np.rint(stats[:, 2]).astype(np.int64),
         )
 
     def release(self) -> None:

@@ -22,6 +22,7 @@ from .passes.cubemaps import CubeMapPass
 from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
 from .passes.environment import ENVIRONMENT_PROGRAM
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
+from .passes.hybrid import HybridPass
 from .passes.impostors import BACK_FACE_PROGRAM, BakedImages, ImpostorAtlas, ImpostorPass, SecondLayer, image_label, plural
 from .passes.mirrors import REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
 from .passes.pyramid import PYRAMID_PROGRAM
@@ -40,6 +41,7 @@ STAND_INS: dict[Method, type[BakedImages] | type[TrianglePass]] = {
     Method.BILLBOARD: BillboardPass,
     Method.SIMPLIFIED: SimplifiedPass,
     Method.RAYTRACE: TrianglePass,
+    Method.HYBRID: HybridPass,
 }
 
 
@@ -148,7 +150,7 @@ class RenderPlan:
 
     def format(self) -> str:
         lines = [f"plan of {self.scene} ({self.method.option}"
-                 + (f", {self.algorithm.name.lower()} algorithm" if self.method == Method.DEPTH else "") + ")"]
+                 + (f", {self.algorithm.name.lower()} algorithm" if self.method.marches_depth_images else "") + ")"]
         lines.append(f"passes ({len(self.passes)}):")
         lines += [f"  {p.stage.value:<28} {p.when}\n  {'':<28} why: {p.reason}" for p in self.passes]
         lines.append(f"images ({len(self.images)}):")
@@ -217,8 +219,9 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             memory[stand_in.image_noun + "s"] = ImpostorAtlas.bytes_for(
                 len(images), side, stand_in.second_layer != SecondLayer.NONE)
         noun = stand_in.image_noun if issubclass(stand_in, BakedImages) else "BVH of triangles"
+        also = ", and a BVH of their triangles for the rays those cannot answer" if stand_in is HybridPass else ""
         passes.append(PlannedPass(Pass.STAND_IN, f"{_names(reflectors)} may reflect "
-                                  f"{plural(len(reflected), 'object')}, seen through {noun}s"))
+                                  f"{plural(len(reflected), 'object')}, seen through {noun}s{also}"))
         if issubclass(stand_in, BakedImages) and images:
             variant(DIFFUSE_PROGRAM, diffuse_defines(scene, stand_in.second_layer != SecondLayer.NONE),
                     f"{stand_in.image_noun}s: the reflected objects shaded into them")
@@ -232,7 +235,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                         f"a {'glass' if shown_glass else 'mirror'} drawn into another reflector's depth image")
             if True in shown_in_bounces:
                 variant(INTERIOR_PROGRAM, None, "glass seen in a mirror: its interior from the mirror's centre")
-        if method == Method.DEPTH and algorithm == Algorithm.HIERARCHICAL and images:
+        if method.marches_depth_images and algorithm == Algorithm.HIERARCHICAL and images:
             passes.append(PlannedPass(Pass.PYRAMIDS, "the hierarchical algorithm skips spans by min/max depth"))
             variant((PYRAMID_PROGRAM,), None, "the hierarchical algorithm's min/max pyramid")
 

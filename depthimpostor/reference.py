@@ -16,7 +16,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .constants import (
-    BACKGROUND_DEPTH, CLIP_TOLERANCE_PIXELS, CONTACT_DEPTH_TOLERANCE, MIN_LINES_SINE_SQUARED, NO_OBJECT, Algorithm,
+    BACKGROUND_DEPTH, CLIP_TOLERANCE_PIXELS, CONTACT_DEPTH_TOLERANCE, MIN_LINES_SINE_SQUARED, NO_OBJECT,
+    SILHOUETTE_BAND_TEXELS, Algorithm, Unseen,
 )
 from .ppc import PPC
 
@@ -62,14 +63,25 @@ class RayHits:
     # otherwise, and the GPU and the reference can legitimately disagree.
     texel_margin: Array
     depth_margin: Array
+    # The ray parameter from which the answer rests on what the images do not hold, and why (an
+    # Unseen kind): inf and Unseen.NONE where it rests on nothing unseen (see "What the image
+    # does not hold" in the GLSL).
+    unseen_t: Array
+    unseen: NDArray[np.int64]
 
     @classmethod
     def misses(cls, count: int) -> RayHits:
         return cls(
             np.zeros(count, bool), np.zeros(count), np.zeros((count, 2)), np.zeros((count, 3)),
             np.full(count, NO_OBJECT), np.zeros(count, np.int64), np.full(count, np.inf),
-            np.full(count, np.inf), np.full(count, np.inf),
+            np.full(count, np.inf), np.full(count, np.inf), np.full(count, np.inf),
+            np.full(count, int(Unseen.NONE), np.int64),
         )
+
+    @property
+    def certain(self) -> NDArray[np.bool_]:
+        """Does the answer rest on nothing unseen before it (a hit's t; a miss: anywhere)?"""
+        return (self.unseen == Unseen.NONE) | (self.hit & (self.unseen_t > self.t))
 
 
 def texel_of(image: DepthImageData, s: Array) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -96,6 +108,12 @@ def inside_solid(r: Array, layers: Array) -> NDArray[np.bool_]:
 def sample_color(image: DepthImageData, s: Array) -> Array:
     row, column = texel_of(image, s)
     return image.color[row, column]
+
+
+def nearer_sample(k: Array, s0: Array, s1: Array) -> Array:
+    """The sample (of a step's two) nearer the crossing at k, whose texel's colour a hit shows:
+    both are surface, while the point between them can lie over a third, background texel."""
+    return np.where((k < 0.5)[:, None], s0, s1)
 
 
 def step_count(image: DepthImageData, sa: Array, sb: Array) -> NDArray[np.int64]:
@@ -129,6 +147,48 @@ def samples_connected(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1
     """Are two neighbouring samples one surface (neither background, no depth discontinuity)?"""
     background = (z0 >= BACKGROUND_DEPTH) | (z1 >= BACKGROUND_DEPTH)
     return ~background & (connection_slack(image, s0, s1, z0, z1) >= 0.0)
+
+
+def behind_solid(r: Array, layers: Array) -> NDArray[np.bool_]:
+    """Is the ray, at OpenGL depth r, behind the solid run: in space the object hides?"""
+    front, back = layers[..., 0], layers[..., 1]
+    return (front < BACKGROUND_DEPTH) & (r > back + CONTACT_DEPTH_TOLERANCE)
+
+
+def silhouette_clear_depth(image: DepthImageData, z: Array) -> Array:
+    """The OpenGL depth a ray must stay in front of to be clear of a silhouette at a sample of
+    depth z: 1/w larger by SILHOUETTE_BAND_TEXELS texels of the steepest joined slope."""
+    camera = image.camera
+    inverse_w = camera.inverse_w_from_opengl_depth(z)
+    clear = inverse_w * (1.0 + SILHOUETTE_BAND_TEXELS * camera.max_relative_depth_step)
+    return (1.0 / camera.w_near - clear) / (1.0 / camera.w_near - 1.0 / camera.w_far)
+
+
+def step_unseen(image: DepthImageData, s0: Array, s1: Array, r0: Array, r1: Array, z0: Array, z1: Array) -> Array:
+    """What a step that did not hit through the visible surface relies on that the image does
+    not hold (an Unseen kind per ray; see the GLSL)."""
+    nearer = np.minimum(z0[:, 0], z1[:, 0])
+    silhouette = ((nearer < BACKGROUND_DEPTH) & ~samples_connected(image, s0, s1, z0[:, 0], z1[:, 0])
+                  & (np.maximum(r0, r1) >= silhouette_clear_depth(image, nearer)))
+    kind = np.where(silhouette, int(Unseen.SILHOUETTE), int(Unseen.NONE))
+    kind = np.where(behind_solid(r1, z1), int(Unseen.OCCLUDED), kind)
+    return np.where(inside_solid(r1, z1), int(Unseen.HIDDEN_ENTRY), kind)
+
+
+def note_unseen(result: RayHits, active: NDArray[np.bool_], kind: Array, sigma0: Array, rays: ClippedRays) -> None:
+    """Record the step from screen parameter sigma0's kind where nothing unseen came before it."""
+    first = active & (kind != Unseen.NONE) & (result.unseen == Unseen.NONE)
+    if first.any():
+        result.unseen[first] = kind[first]
+        t = ray_parameter(np.broadcast_to(sigma0, first.shape), rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
+        result.unseen_t[first] = t[first]
+
+
+def start_unseen(r: Array, layers: Array) -> Array:
+    """What sample 0 relies on that the image does not hold: the ray enters the frustum inside
+    the run or behind it (the object reaches the frustum's side there, edge-on to the eye)."""
+    kind = np.where(behind_solid(r, layers), int(Unseen.OCCLUDED), int(Unseen.NONE))
+    return np.where(inside_solid(r, layers), int(Unseen.HIDDEN_ENTRY), kind)
 
 
 def ray_parameter(sigma: Array, w_a: Array, w_b: Array, t_enter: Array, t_exit: Array) -> Array:
@@ -181,6 +241,7 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
     s0 = rays.sa.copy()
     z0 = sample_layers(image, s0[:, :2])
     _track_margins(result, active, s0, z0)
+    note_unseen(result, active, start_unseen(s0[:, 2], z0), np.zeros(len(origins)), rays)
     starts_inside = active & inside_solid(s0[:, 2], z0)
     _record(result, starts_inside, rays.t_enter, s0[:, :2], sample_color(image, s0[:, :2]), image.object_id, 1)
     active &= ~starts_inside
@@ -195,13 +256,16 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
         _track_connection(result, active, slack, z0[:, 0], z1[:, 0])
         cross, k = segments_cross(s0[:, 2] - z0[:, 0], s1[:, 2] - z1[:, 0])
         through_surface = samples_connected(image, s0[:, :2], s1[:, :2], z0[:, 0], z1[:, 0]) & cross
+        kind = step_unseen(image, s0[:, :2], s1[:, :2], s0[:, 2], s1[:, 2], z0, z1)
+        note_unseen(result, active & ~through_surface, kind, i / np.maximum(steps, 1), rays)
         k = np.where(through_surface, k, 1.0)
         new_hit = active & (through_surface | inside_solid(s1[:, 2], z1))
         if new_hit.any():
             s = s0[:, :2] + (s1[:, :2] - s0[:, :2]) * k[:, None]
             sigma = (i + k) / np.maximum(steps, 1)
             t = ray_parameter(sigma, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
-            _record(result, new_hit, t, s, sample_color(image, s), image.object_id, i + 2)
+            color = sample_color(image, nearer_sample(k, s0[:, :2], s1[:, :2]))
+            _record(result, new_hit, t, s, color, image.object_id, i + 2)
             surface_hit = new_hit & through_surface
             result.conditioning[surface_hit] = np.abs((s0[:, 2] - z0[:, 0]) - (s1[:, 2] - z1[:, 0]))[surface_hit]
             active &= ~new_hit
@@ -224,6 +288,7 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
     active = rays.inside.copy()
     s0 = rays.sa[:, :2].copy()
     z0 = sample_layers(image, s0)
+    note_unseen(result, active, start_unseen(rays.sa[:, 2], z0), np.zeros(len(origins)), rays)
     starts_inside = active & inside_solid(rays.sa[:, 2], z0)
     _record(result, starts_inside, rays.t_enter, s0, sample_color(image, s0), image.object_id, 1)
     active &= ~starts_inside
@@ -260,7 +325,8 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
             p = ray_a + ray_ab * lam[:, None]
             s = camera.project(np.where(surface_hit[:, None], p, camera.C + camera.c))[:, :2]
             t = rays.t_enter + lam * (rays.t_exit - rays.t_enter)
-            _record(result, surface_hit, t, s, sample_color(image, s), image.object_id, i + 2)
+            color = sample_color(image, nearer_sample(np.where(surface_hit, mu, 0.0), s0, s1))
+            _record(result, surface_hit, t, s, color, image.object_id, i + 2)
             active &= ~surface_hit
         # A point-like or ray-parallel 3-D segment: the 2-D intersection in depth (see the GLSL).
         r0 = rays.sa[:, 2] + (rays.sb[:, 2] - rays.sa[:, 2]) * sigma0
@@ -270,8 +336,9 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
         if degenerate_hit.any():
             t = ray_parameter(sigma0 + (sigma1 - sigma0) * k, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
             s = s0 + (s1 - s0) * k[:, None]
-            _record(result, degenerate_hit, t, s, sample_color(image, s), image.object_id, i + 2)
+            _record(result, degenerate_hit, t, s, sample_color(image, nearer_sample(k, s0, s1)), image.object_id, i + 2)
             active &= ~degenerate_hit
+        note_unseen(result, active, step_unseen(image, s0, s1, r0, r1, z0, z1), sigma0, rays)
         entered = active & inside_solid(r1, z1)
         if entered.any():
             t = ray_parameter(sigma1, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
@@ -332,5 +399,8 @@ def nearest_depth_image_hit(
         best.conditioning[closer] = candidate.conditioning[closer]
         best.texel_margin[:] = np.minimum(best.texel_margin, candidate.texel_margin)
         best.depth_margin[:] = np.minimum(best.depth_margin, candidate.depth_margin)
+        earlier = (candidate.unseen != Unseen.NONE) & (candidate.unseen_t < best.unseen_t)
+        best.unseen_t[earlier] = candidate.unseen_t[earlier]
+        best.unseen[earlier] = candidate.unseen[earlier]
     best.samples[:] = samples
     return best

@@ -33,7 +33,7 @@ layout(location = 1) out vec2 out_depth_and_object;
 layout(location = 1) out vec4 out_ray_origin;     // (origin, mirror's object id + 1): 0 outside mirrors
 layout(location = 2) out vec4 out_ray_direction;  // (unit direction, object id hit or NO_OBJECT)
 layout(location = 3) out vec4 out_hit_position;   // (world position of the hit, 1 if hit)
-layout(location = 4) out vec4 out_normal;         // (the unit normal facing the eye, 0)
+layout(location = 4) out vec4 out_normal;         // (the unit normal facing the eye, 1 if re-traced)
 #endif
 #ifdef COUNT_SAMPLES
 // For the benchmark alone: the samples (depth-image texels, BVH nodes) this ray read. The
@@ -90,7 +90,7 @@ void main() {
     out_ray_origin = vec4(v_world_position, float(u_mirror_id + 1));
     out_ray_direction = vec4(direction, hit.hit ? hit.object_id : float(NO_OBJECT));
     out_hit_position = vec4(v_world_position + direction * hit.t, hit.hit ? 1.0 : 0.0);
-    out_normal = vec4(normal, 0.0);
+    out_normal = vec4(normal, hit.retraced ? 1.0 : 0.0);
 #endif
 #ifdef COUNT_SAMPLES
     out_samples = float(hit.samples);

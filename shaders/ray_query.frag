@@ -9,7 +9,7 @@ uniform sampler2D u_ray_directions;  // RGBA32F, xyz
 
 layout(location = 0) out vec4 out_hit;    // (hit, t, u, v)
 layout(location = 1) out vec4 out_color;  // (r, g, b, object id)
-layout(location = 2) out vec4 out_stats;  // (samples read, 0, 0, 0)
+layout(location = 2) out vec4 out_stats;  // (samples read, unseen_t, UNSEEN_* kind, 0)
 
 void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
@@ -18,5 +18,5 @@ void main() {
     RayHit hit = nearest_depth_image_hit(origin, direction);
     out_hit = vec4(hit.hit ? 1.0 : 0.0, hit.t, hit.image_position);
     out_color = vec4(hit.color, hit.object_id);
-    out_stats = vec4(float(hit.samples), 0.0, 0.0, 0.0);
+    out_stats = vec4(float(hit.samples), hit.unseen_t, float(hit.unseen), 0.0);
 }

@@ -55,7 +55,7 @@ def reflection_defines(
     (the other methods have none, so that no two identical programs are compiled). The counting
     variant (the benchmark's) writes each ray's samples to the output after the others."""
     defines = {"METHOD": int(method)}
-    if method == Method.DEPTH:
+    if method.marches_depth_images:
         defines["ALGORITHM"] = int(algorithm)
     if write_reflection_data:
         defines["WRITE_REFLECTION_DATA"] = 1

@@ -26,8 +26,8 @@ from ..scene.model import Scene
 from .impostors import plural
 from .uniforms import bind_texture, bind_uniform_block, material_fields
 
-NODES_UNIT = 2
-TRIANGLES_UNIT = 3
+NODES_UNIT = 8  # after the atlas (0, 1), the pyramid (2), shadow maps (5) and glass (6, 7): the hybrid method binds both
+TRIANGLES_UNIT = 9
 TRIANGLE_OBJECTS_BINDING = 1
 
 

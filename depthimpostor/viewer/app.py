@@ -58,6 +58,7 @@ METHOD_LABELS = {
     Method.BILLBOARD: "billboards",
     Method.SIMPLIFIED: "simplified triangles",
     Method.RAYTRACE: "ray-traced triangles",
+    Method.HYBRID: "depth images, uncertain rays ray-traced",
 }
 
 

@@ -44,6 +44,3 @@ ivec2 texel_of(DepthImage image, vec2 s) {
     return image.tile.xy + texel;
 }
 
-vec3 sample_color(DepthImage image, vec2 s) {
-    return texelFetch(u_impostor_color, texel_of(image, s), 0).rgb;
-}

@@ -26,7 +26,7 @@ RayHit nearest_billboard_hit(vec3 origin, vec3 direction) {
         vec4 color = texelFetch(u_impostor_color, image.tile.xy + ivec2(s), 0);
         ++samples;
         if (color.a == 0.0) continue;  // a transparent texel: the ray goes on to what lies behind
-        best = RayHit(true, t, s, color.rgb, image.eye.w, 0);
+        best = make_hit(true, t, s, color.rgb, image.eye.w, 0);
     }
     best.samples = samples;
     return best;

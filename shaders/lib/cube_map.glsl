@@ -51,5 +51,5 @@ RayHit cube_map_hit(vec3 origin, vec3 direction) {
     // orders against the analytic planes by its distance from the ray's origin).
     vec2 surface = texelFetch(u_impostor_depth, texel, 0).rg;
     vec3 position = unproject(face, s, w_from_opengl_depth(face, surface.x));
-    return RayHit(true, distance(origin, position), s, color.rgb, surface.y, 1);
+    return make_hit(true, distance(origin, position), s, color.rgb, surface.y, 1);
 }

@@ -9,9 +9,6 @@
 #include "baked_images.glsl"
 #include "solid_run.glsl"
 
-// No bound on a ray's parameter but the frustum's: every frustum is bounded.
-#define UNBOUNDED_RAY 3.0e38
-
 // (visible surface, back of its solid run) at an atlas texel.
 vec2 layers_at(sampler2D layers, ivec2 texel) {
     return solid_run(texelFetch(layers, texel, 0).rg);
@@ -121,9 +118,66 @@ bool inside_solid(float r, vec2 layers) {
 }
 
 // A hit without its colour: the mirror's search reads it once, for the nearest hit over all its
-// depth images (a shadow ray needs none).
-RayHit hit_at(DepthImage image, float t, vec2 s, int samples) {
-    return RayHit(true, t, s, vec3(0.0), image.eye.w, samples);
+// depth images (a shadow ray needs none), from `texel`, a sample the march read and found
+// surface at. (Not the texel under s: between two diagonal samples s can lie over a third,
+// background texel, whose cleared colour is white.)
+RayHit hit_at(DepthImage image, float t, vec2 s, int samples, ivec2 texel) {
+    RayHit hit = make_hit(true, t, s, vec3(0.0), image.eye.w, samples);
+    hit.texel = texel;
+    return hit;
+}
+
+RayHit with_unseen(RayHit hit, float unseen_t, int unseen) {
+    hit.unseen_t = unseen_t;
+    hit.unseen = unseen;
+    return hit;
+}
+
+// ------------------------------------------------------------------ What the image does not hold
+// Per sample, a depth image holds the visible surface and the back of its first solid run: in
+// front of the surface is seen empty space, the run is solid, and what lies behind the run, or
+// between two samples across a silhouette, is not held at all. An answer (a hit, or a miss) is
+// certain when the ray reached it through seen empty space alone, and a hit is on the visible
+// surface. The marches record the first place where that fails (constants.py's Unseen):
+// UNSEEN_HIDDEN_ENTRY, the ray is inside a solid run without having crossed the visible surface
+// (it came in through a side the eye does not see); UNSEEN_OCCLUDED, the ray is behind a solid
+// run; UNSEEN_SILHOUETTE, a step between two samples that are not one surface, with the ray no
+// farther in front of the nearer one than SILHOUETTE_BAND_TEXELS of the steepest slope two
+// samples are joined across (a surface may reach that far toward the eye between them). The
+// record is the ray parameter of the step's start (the ray left seen space somewhere after it)
+// and the kind. Only the variants that act on it track it (TRACK_UNSEEN: the hybrid method and the
+// ray query); the reference (depthimpostor/reference.py) has the same functions.
+
+// Is the ray, at OpenGL depth r, behind the solid run at this sample: in space the object hides?
+bool behind_solid(float r, vec2 layers) {
+    return layers.x < BACKGROUND_DEPTH && r > layers.y + CONTACT_DEPTH_TOLERANCE;
+}
+
+// The OpenGL depth a ray must stay in front of to be clear of a silhouette at a sample of depth
+// z: 1/w larger than the sample's by SILHOUETTE_BAND_TEXELS texels of the steepest joined slope
+// (surface.x is its relative change in w per texel; 1/w = surface.y - depth surface.z).
+float silhouette_clear_depth(DepthImage image, float z) {
+    float inverse_w = image.surface.y - z * image.surface.z;
+    return (image.surface.y - inverse_w * (1.0 + SILHOUETTE_BAND_TEXELS * image.surface.x)) / image.surface.z;
+}
+
+// What a step from sample 0 to sample 1 (ray depths r0, r1; layers z0, z1) that did not hit
+// through the visible surface relies on that the image does not hold (UNSEEN_NONE: nothing).
+int step_unseen(DepthImage image, ivec2 texel0, ivec2 texel1, float r0, float r1, vec2 z0, vec2 z1) {
+    if (inside_solid(r1, z1)) return UNSEEN_HIDDEN_ENTRY;
+    if (behind_solid(r1, z1)) return UNSEEN_OCCLUDED;
+    float nearer = min(z0.x, z1.x);
+    // The ray's depth is affine along a step: its larger end is the nearest it comes to the eye's far side.
+    if (nearer < BACKGROUND_DEPTH && !samples_connected(image, texel0, texel1, z0.x, z1.x)
+        && max(r0, r1) >= silhouette_clear_depth(image, nearer)) return UNSEEN_SILHOUETTE;
+    return UNSEEN_NONE;
+}
+
+// Record the step from screen parameter sigma0's kind, unless something unseen came before it.
+void note_unseen(int kind, float sigma0, ClippedRay ray, inout float unseen_t, inout int unseen) {
+    if (kind == UNSEEN_NONE || unseen != UNSEEN_NONE) return;
+    unseen = kind;
+    unseen_t = ray_parameter(sigma0, ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
 }
 
 // Sample i of the march's `steps` along a'b': (u, v, OpenGL depth). Both marches compute every
@@ -134,7 +188,8 @@ vec3 march_sample(ClippedRay ray, int i, int steps) {
 
 // The start of both marches: the ray clipped and projected, its step count, and sample 0 (its
 // texel and layers). False, with the answer in `early`, when the ray misses the frustum or starts
-// inside the object (a ray that touches the mirror), where it hits at once.
+// inside the object (a ray that touches the mirror), where it hits at once. `early` also holds
+// what sample 0 already relies on that the image does not hold (TRACK_UNSEEN).
 bool march_start(sampler2D layers, DepthImage image, vec3 origin, vec3 direction, float t_limit, out ClippedRay ray,
                  out int steps, out ivec2 texel0, out vec2 z0, out RayHit early) {
     early = no_hit(0);
@@ -142,8 +197,14 @@ bool march_start(sampler2D layers, DepthImage image, vec3 origin, vec3 direction
     steps = step_count(image, ray.sa, ray.sb);
     texel0 = texel_of(image, ray.sa.xy);
     z0 = layers_at(layers, texel0);
+#ifdef TRACK_UNSEEN
+    // Entering the frustum already inside the run or behind it: the object reaches the frustum's
+    // side there, where its surface is edge-on to the eye and unseen.
+    int kind = inside_solid(ray.sa.z, z0) ? UNSEEN_HIDDEN_ENTRY : behind_solid(ray.sa.z, z0) ? UNSEEN_OCCLUDED : UNSEEN_NONE;
+    note_unseen(kind, 0.0, ray, early.unseen_t, early.unseen);
+#endif
     if (!inside_solid(ray.sa.z, z0)) return true;
-    early = hit_at(image, ray.t_enter, ray.sa.xy, 1);
+    early = with_unseen(hit_at(image, ray.t_enter, ray.sa.xy, 1, texel0), early.unseen_t, early.unseen);
     return false;
 }
 
@@ -155,37 +216,44 @@ bool march_start(sampler2D layers, DepthImage image, vec3 origin, vec3 direction
 // s1, within one step of where it entered. A ray that passes behind the solid run (behind a thin
 // foreground) is inside nothing and goes on to what lies behind, as the truth does.
 bool march_step(sampler2D layers, DepthImage image, ClippedRay ray, int i, int steps, vec3 s0, ivec2 texel0, vec2 z0,
-                out vec3 s1, out ivec2 texel1, out vec2 z1, out float t, out vec2 s) {
+                out vec3 s1, out ivec2 texel1, out vec2 z1, out float t, out vec2 s, out ivec2 hit_texel,
+                inout float unseen_t, inout int unseen) {
     s1 = march_sample(ray, i + 1, steps);
     texel1 = texel_of(image, s1.xy);
     z1 = layers_at(layers, texel1);
     float k;
     bool through_surface = samples_connected(image, texel0, texel1, z0.x, z1.x)
         && segments_cross(s0.z - z0.x, s1.z - z1.x, k);
+#ifdef TRACK_UNSEEN
+    if (!through_surface) note_unseen(step_unseen(image, texel0, texel1, s0.z, s1.z, z0, z1), float(i) / float(steps),
+                                      ray, unseen_t, unseen);
+#endif
     if (!through_surface && !inside_solid(s1.z, z1)) return false;
     if (!through_surface) k = 1.0;
     s = s0.xy + (s1.xy - s0.xy) * k;
+    hit_texel = k < 0.5 ? texel0 : texel1;  // the sample nearer the crossing: both are surface
     t = ray_parameter((float(i) + k) / float(steps), ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
     return true;
 }
 
 // The optimized march's loop from sample `first` (s0, its texel and layers) to the end; `reads`
-// texels were read before it.
+// texels were read before it, and `unseen` is what sample 0 relies on that the image lacks.
 RayHit march_linear(sampler2D layers, DepthImage image, ClippedRay ray, int steps, int first, vec3 s0, ivec2 texel0,
-                    vec2 z0, int reads) {
+                    vec2 z0, int reads, RayHit unseen) {
     for (int i = first; i < steps; ++i) {
         vec3 s1;
-        ivec2 texel1;
+        ivec2 texel1, hit_texel;
         vec2 z1, s;
         float t;
-        if (march_step(layers, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) {
-            return hit_at(image, t, s, reads + i - first + 1);
+        if (march_step(layers, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s, hit_texel, unseen.unseen_t,
+                       unseen.unseen)) {
+            return with_unseen(hit_at(image, t, s, reads + i - first + 1, hit_texel), unseen.unseen_t, unseen.unseen);
         }
         s0 = s1;
         texel0 = texel1;
         z0 = z1;
     }
-    return no_hit(reads + steps - first);
+    return with_unseen(no_hit(reads + steps - first), unseen.unseen_t, unseen.unseen);
 }
 
 // The lecture's optimized algorithm: clip, project both ends, step along the projection and
@@ -198,7 +266,7 @@ RayHit intersect_optimized(sampler2D layers, DepthImage image, vec3 origin, vec3
     vec2 z0;
     RayHit early;
     if (!march_start(layers, image, origin, direction, t_limit, ray, steps, texel0, z0, early)) return early;
-    return march_linear(layers, image, ray, steps, 0, ray.sa, texel0, z0, 1);
+    return march_linear(layers, image, ray, steps, 0, ray.sa, texel0, z0, 1, early);
 }
 
 #if ALGORITHM == ALGORITHM_HIERARCHICAL
@@ -231,7 +299,10 @@ int span_end(ClippedRay ray, vec2 samples_per_texel, int steps, int i, ivec2 cel
 // index, cannot meet the footprint's [nearest, farthest] (with a margin beyond the march's own
 // tolerances), no step of the span can hit: skip it and climb a level. Otherwise descend; at
 // level 0 run the march's own step. Every step that could hit is run, in order, by march_step
-// itself: the first hit is the linear march's, bit for bit (tests/test_hierarchical.py).
+// itself: the first hit is the linear march's, bit for bit (tests/test_hierarchical.py). So is
+// the first thing unseen (TRACK_UNSEEN): until one is found, a span is skipped only where the ray
+// is clear of every silhouette band in it, and never behind (whether a sample there is behind a
+// run or over background, only the step itself can tell).
 RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
     ClippedRay ray;
     int steps;
@@ -239,6 +310,7 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
     vec2 z0;
     RayHit early;
     if (!march_start(u_impostor_depth, image, origin, direction, UNBOUNDED_RAY, ray, steps, texel0, z0, early)) return early;
+    RayHit unseen = early;
     vec3 s0 = ray.sa;
     bool z0_read = true;
     int reads = 1;
@@ -265,7 +337,15 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
             if (all(greaterThanEqual(relative_end, (cell << level) - 1)) && all(lessThanEqual(relative_end, (cell + 1) << level))) {
                 vec2 span = texelFetch(u_impostor_pyramid, (image.pyramid.xy >> (level - 1)) + cell, level - 1).rg;
                 reads += 1;
-                if (max(s0.z, s_end.z) < span.x - margin || min(s0.z, s_end.z) > span.y + margin) {
+                float in_front = span.x - margin;
+                bool behind = min(s0.z, s_end.z) > span.y + margin;
+#ifdef TRACK_UNSEEN
+                if (unseen.unseen == UNSEEN_NONE) {
+                    in_front = min(in_front, silhouette_clear_depth(image, span.x));
+                    behind = false;
+                }
+#endif
+                if (max(s0.z, s_end.z) < in_front || behind) {
                     i = end;
                     s0 = s_end;
                     texel0 = texel_end;
@@ -282,12 +362,13 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
             reads += 1;
         }
         vec3 s1;
-        ivec2 texel1;
+        ivec2 texel1, hit_texel;
         vec2 z1, s;
         float t;
         reads += 1;
-        if (march_step(u_impostor_depth, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s)) {
-            return hit_at(image, t, s, reads);
+        if (march_step(u_impostor_depth, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s, hit_texel,
+                       unseen.unseen_t, unseen.unseen)) {
+            return with_unseen(hit_at(image, t, s, reads, hit_texel), unseen.unseen_t, unseen.unseen);
         }
         i += 1;
         // Climb only on entering another level-1 cell: within the same one, a level-1 test would
@@ -299,7 +380,7 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
         z0 = z1;
         z0_read = true;
     }
-    return no_hit(reads);
+    return with_unseen(no_hit(reads), unseen.unseen_t, unseen.unseen);
 }
 #endif
 
@@ -317,7 +398,13 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
     vec2 s0 = sa.xy;
     ivec2 texel0 = texel_of(image, s0);
     vec2 z0 = layers_at(u_impostor_depth, texel0);
-    if (inside_solid(sa.z, z0)) return hit_at(image, ray.t_enter, s0, 1);
+    float unseen_t = UNBOUNDED_RAY;
+    int unseen = UNSEEN_NONE;
+#ifdef TRACK_UNSEEN
+    note_unseen(inside_solid(sa.z, z0) ? UNSEEN_HIDDEN_ENTRY : behind_solid(sa.z, z0) ? UNSEEN_OCCLUDED : UNSEEN_NONE,
+                0.0, ray, unseen_t, unseen);
+#endif
+    if (inside_solid(sa.z, z0)) return with_unseen(hit_at(image, ray.t_enter, s0, 1, texel0), unseen_t, unseen);
     vec3 q0 = unproject(image, s0, w_from_opengl_depth(image, z0.x));
     for (int i = 0; i < steps; ++i) {
         float sigma0 = float(i) / float(steps);
@@ -345,26 +432,30 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
                     vec3 p = ray_a + ray_ab * lambda;
                     vec3 pc = camera_coordinates(image, p - image.eye.xyz);
                     float t = ray.t_enter + lambda * (ray.t_exit - ray.t_enter);
-                    return hit_at(image, t, pc.xy / pc.z, i + 2);
+                    return with_unseen(hit_at(image, t, pc.xy / pc.z, i + 2, mu < 0.5 ? texel0 : texel1), unseen_t, unseen);
                 }
             } else {
                 float k;
                 if (segments_cross(sa.z + (sb.z - sa.z) * sigma0 - z0.x, sa.z + (sb.z - sa.z) * sigma1 - z1.x, k)) {
                     float t = ray_parameter(sigma0 + (sigma1 - sigma0) * k, ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
-                    return hit_at(image, t, s0 + (s1 - s0) * k, i + 2);
+                    return with_unseen(hit_at(image, t, s0 + (s1 - s0) * k, i + 2, k < 0.5 ? texel0 : texel1), unseen_t, unseen);
                 }
             }
         }
+#ifdef TRACK_UNSEEN
+        note_unseen(step_unseen(image, texel0, texel1, sa.z + (sb.z - sa.z) * sigma0, sa.z + (sb.z - sa.z) * sigma1, z0, z1),
+                    sigma0, ray, unseen_t, unseen);
+#endif
         if (inside_solid(sa.z + (sb.z - sa.z) * sigma1, z1)) {
             float t = ray_parameter(sigma1, ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
-            return hit_at(image, t, s1, i + 2);
+            return with_unseen(hit_at(image, t, s1, i + 2, texel1), unseen_t, unseen);
         }
         s0 = s1;
         texel0 = texel1;
         z0 = z1;
         q0 = q1;
     }
-    return no_hit(steps + 1);
+    return with_unseen(no_hit(steps + 1), unseen_t, unseen);
 }
 
 // A ray against one of the mirror's depth images, with the algorithm of this variant (the hit's

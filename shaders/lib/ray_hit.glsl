@@ -1,4 +1,9 @@
 // What a reflected ray found, whichever method found it.
+#ifndef UNBOUNDED_RAY
+// No bound on a ray's parameter (the depth-image marches: but the frustum's, which is bounded).
+#define UNBOUNDED_RAY 3.0e38
+#endif
+
 struct RayHit {
     bool hit;
     float t;              // ray parameter: hit point = origin + t * direction
@@ -6,8 +11,20 @@ struct RayHit {
     vec3 color;
     float object_id;
     int samples;          // depth-image samples (ray-traced: BVH nodes) read
+    // Depth images: the atlas texel whose colour the hit shows (a sample the march read).
+    ivec2 texel;
+    // Depth images: the ray parameter from which the answer rests on what the image does not
+    // hold (lib/depth_image.glsl, "What the image does not hold"), and why (an UNSEEN_* kind);
+    // UNBOUNDED_RAY and UNSEEN_NONE where it rests on nothing unseen. Other methods: the same.
+    float unseen_t;
+    int unseen;
+    bool retraced;        // the hybrid method traced this ray against the real triangles
 };
 
+RayHit make_hit(bool hit, float t, vec2 image_position, vec3 color, float object_id, int samples) {
+    return RayHit(hit, t, image_position, color, object_id, samples, ivec2(0), UNBOUNDED_RAY, UNSEEN_NONE, false);
+}
+
 RayHit no_hit(int samples) {
-    return RayHit(false, 0.0, vec2(0.0), vec3(0.0), float(NO_OBJECT), samples);
+    return make_hit(false, 0.0, vec2(0.0), vec3(0.0), float(NO_OBJECT), samples);
 }

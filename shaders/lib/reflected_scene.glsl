@@ -1,15 +1,23 @@
 // Everything a reflected ray can hit: the reflected objects as the method stands them in (this
 // mirror's depth images, its cube map, its billboards, or triangles: simplified or the real
-// ones), the analytic planes (floors and walls, intersected exactly by every method), and the
+// ones; the hybrid method: the depth images, and the real triangles where they cannot answer),
+// the analytic planes (floors and walls, intersected exactly by every method), and the
 // environment.
 #ifndef METHOD
 #define METHOD METHOD_DEPTH
+#endif
+#if METHOD == METHOD_HYBRID && !defined(TRACK_UNSEEN)
+// Before any chunk includes the marches (the shadow chunk does, through shading.glsl).
+#define TRACK_UNSEEN 1
 #endif
 #include "ray_hit.glsl"
 #include "shading.glsl"
 #include "environment.glsl"
 #if METHOD == METHOD_DEPTH
 #include "depth_image.glsl"
+#elif METHOD == METHOD_HYBRID
+#include "depth_image.glsl"
+#include "triangles.glsl"
 #elif METHOD == METHOD_CUBEMAP || METHOD == METHOD_CUBEMAP_PARALLAX
 #include "cube_map.glsl"
 #elif METHOD == METHOD_BILLBOARD
@@ -25,28 +33,31 @@ uniform vec3 u_plane_normal[MAX_ANALYTIC_PLANES];  // world space, unit
 uniform Material u_plane_material[MAX_ANALYTIC_PLANES];
 uniform int u_plane_object_id[MAX_ANALYTIC_PLANES];
 
-#if METHOD == METHOD_DEPTH
-// The nearest hit over all depth images of this mirror.
+#if METHOD == METHOD_DEPTH || METHOD == METHOD_HYBRID
+// The nearest hit over all depth images of this mirror, and the first place along the ray where
+// one of them relied on what it does not hold (TRACK_UNSEEN).
 RayHit nearest_depth_image_hit(vec3 origin, vec3 direction) {
     RayHit best = no_hit(0);
-    int best_image = 0;
     int samples = 0;
+    float unseen_t = UNBOUNDED_RAY;
+    int unseen = UNSEEN_NONE;
     for (int i = 0; i < u_depth_image_count; ++i) {
         RayHit candidate = intersect_depth_image(u_depth_images[i], origin, direction);
         samples += candidate.samples;
-        if (candidate.hit && (!best.hit || candidate.t < best.t)) {
-            best = candidate;
-            best_image = i;
+        if (candidate.unseen != UNSEEN_NONE && candidate.unseen_t < unseen_t) {
+            unseen_t = candidate.unseen_t;
+            unseen = candidate.unseen;
         }
+        if (candidate.hit && (!best.hit || candidate.t < best.t)) best = candidate;
     }
-    if (best.hit) best.color = sample_color(u_depth_images[best_image], best.image_position);
+    if (best.hit) best.color = texelFetch(u_impostor_color, best.texel, 0).rgb;
     best.samples = samples;
-    return best;
+    return with_unseen(best, unseen_t, unseen);
 }
 #endif
 
 RayHit nearest_object_hit(vec3 origin, vec3 direction) {
-#if METHOD == METHOD_DEPTH
+#if METHOD == METHOD_DEPTH || METHOD == METHOD_HYBRID
     return nearest_depth_image_hit(origin, direction);
 #elif METHOD == METHOD_CUBEMAP || METHOD == METHOD_CUBEMAP_PARALLAX
     return cube_map_hit(origin, direction);
@@ -72,18 +83,40 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
         if (t > 0.0 && all(lessThanEqual(abs(p.xz), u_plane_half_size[i])) && (!best.hit || t < best.t)) {
             vec3 albedo = material_albedo(u_plane_material[i], p);
             vec3 color = shade(albedo, origin + direction * t, u_plane_normal[i]);
-            best = RayHit(true, t, p.xz, color, float(u_plane_object_id[i]), 0);
+            best = make_hit(true, t, p.xz, color, float(u_plane_object_id[i]), 0);
         }
     }
     return best;
 }
 
+#if METHOD == METHOD_HYBRID
+// The hybrid method's answer: the depth images' where it rests on nothing they do not hold before
+// the nearest thing found (an object, or a plane, which is exact), and otherwise the real
+// triangles', traced through the BVH (in the same pass: see the README's "Hybrid").
+RayHit resolve_unseen(RayHit hit, RayHit plane, vec3 origin, vec3 direction) {
+    float answer_t = UNBOUNDED_RAY;
+    if (hit.hit) answer_t = hit.t;
+    if (plane.hit) answer_t = min(answer_t, plane.t);
+    if (hit.unseen == UNSEEN_NONE || hit.unseen_t > answer_t) return hit;
+    RayHit traced = nearest_triangle_hit(origin, direction);
+    traced.samples += hit.samples;
+    traced.unseen_t = hit.unseen_t;
+    traced.unseen = hit.unseen;
+    traced.retraced = true;
+    return traced;
+}
+#endif
+
 // What the reflected ray origin + t * direction sees: the nearest hit, or the environment.
 RayHit trace_reflected(vec3 origin, vec3 direction) {
     RayHit hit = nearest_object_hit(origin, direction);
     RayHit plane = nearest_plane_hit(origin, direction);
+#if METHOD == METHOD_HYBRID
+    hit = resolve_unseen(hit, plane, origin, direction);
+#endif
     if (plane.hit && (!hit.hit || plane.t < hit.t)) {
         plane.samples = hit.samples;
+        plane.retraced = hit.retraced;
         hit = plane;
     }
     if (!hit.hit) hit.color = environment(direction);

@@ -87,5 +87,5 @@ RayHit nearest_triangle_hit(vec3 origin, vec3 direction) {
     vec3 position = origin + direction * best_t;
     Material material = Material(object.kind_and_id.x, object.color_a.xyz, object.color_b.xyz, object.color_a.w);
     vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz);
-    return RayHit(true, best_t, best_uv, shade(albedo, position, normal), float(object.kind_and_id.y), visited);
+    return make_hit(true, best_t, best_uv, shade(albedo, position, normal), float(object.kind_and_id.y), visited);
 }

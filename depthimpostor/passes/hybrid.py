@@ -1,0 +1,60 @@
+"""The hybrid method: depth images first, and the real triangles for the rays they cannot answer.
+
+Every reflected ray is marched through the mirror's depth images as the depth method marches it,
+and the march records where its answer starts to rest on what the images do not hold (a side of
+an object hidden from the mirror's centre, space behind an object, a silhouette passed too close:
+shaders/lib/depth_image.glsl, "What the image does not hold"). A ray whose answer rests on nothing
+unseen keeps it; the others, and only they, are traced through the ray-traced method's BVH of the
+real triangles, in the same pass (README, "Hybrid reflections", says why not in a second one).
+"""
+
+from __future__ import annotations
+
+import moderngl
+
+from ..geometry import ObjectGeometry
+from ..scene.model import Scene
+from ..shaders import ProgramCache
+from .impostors import ImpostorPass
+from .meshes import GpuMeshes
+from .triangles import TrianglePass
+
+
+class HybridPass(ImpostorPass):
+    """The depth method's images (and pyramids, with the hierarchical algorithm) beside the
+    ray-traced method's BVH of the same reflected objects."""
+
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
+                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
+                 planes: list[ObjectGeometry] | None = None) -> None:
+        super().__init__(ctx, programs, scene, meshes, mirrors, reflected, planes)
+        self.reflected = list(reflected)
+        try:
+            self.triangles = TrianglePass(ctx, scene, self.reflected)
+        except BaseException:
+            super().release()
+            raise
+
+    @property
+    def bytes(self) -> int:
+        return super().bytes + self.triangles.bytes
+
+    def describe(self) -> str:
+        return f"{super().describe()}, and {self.triangles.describe()} for the rays they cannot answer"
+
+    def move(self, geometry: dict[int, ObjectGeometry], moved: set[int], stale_targets: set[int]) -> None:
+        """Images as the depth method moves them; the BVH built again when a reflected object moved."""
+        super().move(geometry, moved, stale_targets)
+        if any(item.index in moved for item in self.reflected):
+            self.reflected = [geometry[item.index] for item in self.reflected]
+            triangles = TrianglePass(self.ctx, self.scene, self.reflected)
+            self.triangles.release()
+            self.triangles = triangles
+
+    def bind(self, program: moderngl.Program) -> None:
+        super().bind(program)
+        self.triangles.bind(program)
+
+    def release(self) -> None:
+        self.triangles.release()
+        super().release()
