@@ -59,8 +59,9 @@ class Unseen(IntEnum):
     #                   entered through a side the image's eye does not see (where, and its colour, unknown)
     OCCLUDED = 2  # the ray passed behind a solid run: space the object hides from the eye
     SILHOUETTE = 3  # the ray crossed a silhouette (two samples that are not one surface) no farther in
-    #                 front of the nearer surface than SILHOUETTE_BAND_TEXELS of its steepest slope: a
-    #                 hit between the samples and a miss are both consistent with them
+    #                 front of the nearer surface than SILHOUETTE_BAND_TEXELS of its steepest slope, or
+    #                 hit a join steeper than STEEP_JOIN_SHARE of the steepest: a hit between the
+    #                 samples and a miss are both consistent with them
 
 
 class MaterialKind(IntEnum):
@@ -131,6 +132,10 @@ MAX_SURFACE_SLOPE = 16.0
 #: silhouette (a sphere's rim). A ray that crosses a silhouette nearer to the surface's depth than
 #: that is Unseen.SILHOUETTE.
 SILHOUETTE_BAND_TEXELS = 2.0
+#: A hit between two joined samples whose depth step is steeper than this share of the steepest
+#: join (MAX_SURFACE_SLOPE) may be on a "rubber sheet" over a gap between two surfaces close in
+#: depth (strands of a knot, one behind the other): it is Unseen.SILHOUETTE too.
+STEEP_JOIN_SHARE = 0.5
 #: The ray counts as touching the surface where their OpenGL depths differ by at most this (8
 #: float32 steps of depths in [0.5, 1]). Both are rounded float32 values: without a tolerance, a
 #: ray lying in a surface sees the sign of (ray - surface) flip at random from pixel to pixel,
@@ -224,6 +229,7 @@ def glsl_constants() -> dict[str, str]:
         "NO_OBJECT": str(NO_OBJECT),
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",
         "SILHOUETTE_BAND_TEXELS": f"{SILHOUETTE_BAND_TEXELS!r}",
+        "STEEP_JOIN_SHARE": f"{STEEP_JOIN_SHARE!r}",
         "CLIP_TOLERANCE_PIXELS": f"{CLIP_TOLERANCE_PIXELS!r}",
         "MIN_LINES_SINE_SQUARED": f"{MIN_LINES_SINE_SQUARED!r}",
         "EMPTY_SPAN_MIN": f"{EMPTY_SPAN_MIN!r}",

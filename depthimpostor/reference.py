@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from .constants import (
     BACKGROUND_DEPTH, CLIP_TOLERANCE_PIXELS, CONTACT_DEPTH_TOLERANCE, MIN_LINES_SINE_SQUARED, NO_OBJECT,
-    SILHOUETTE_BAND_TEXELS, Algorithm, Unseen,
+    SILHOUETTE_BAND_TEXELS, STEEP_JOIN_SHARE, Algorithm, Unseen,
 )
 from .ppc import PPC
 
@@ -130,17 +130,23 @@ def segments_cross(f0: Array, f1: Array) -> tuple[NDArray[np.bool_], Array]:
     return (f0 <= CONTACT_DEPTH_TOLERANCE) & (f1 >= -CONTACT_DEPTH_TOLERANCE), k
 
 
-def connection_slack(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> Array:
-    """How far the depth step between two samples is under the largest one surface may make, in
-    OpenGL depth: >= 0 joins them (see samples_connected in the GLSL), < 0 is a discontinuity."""
+def allowed_step(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> Array:
+    """The largest depth step (OpenGL depth) that joins the two samples."""
     row0, column0 = texel_of(image, s0)
     row1, column1 = texel_of(image, s1)
     texels = np.hypot(row1 - row0, column1 - column0)
     inverse_w0 = image.camera.inverse_w_from_opengl_depth(z0)
     inverse_w1 = image.camera.inverse_w_from_opengl_depth(z1)
     allowed = image.camera.max_relative_depth_step * texels * np.minimum(inverse_w0, inverse_w1)
+    return allowed / (1.0 / image.camera.w_near - 1.0 / image.camera.w_far)
+
+
+def connection_slack(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> Array:
+    """How far the depth step between two samples is under the largest one surface may make, in
+    OpenGL depth: >= 0 joins them (see samples_connected in the GLSL), < 0 is a discontinuity."""
+    step = np.abs(image.camera.inverse_w_from_opengl_depth(z1) - image.camera.inverse_w_from_opengl_depth(z0))
     depth_per_inverse_w = 1.0 / (1.0 / image.camera.w_near - 1.0 / image.camera.w_far)
-    return (allowed - np.abs(inverse_w1 - inverse_w0)) * depth_per_inverse_w
+    return allowed_step(image, s0, s1, z0, z1) - step * depth_per_inverse_w
 
 
 def samples_connected(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> NDArray[np.bool_]:
@@ -173,6 +179,13 @@ def step_unseen(image: DepthImageData, s0: Array, s1: Array, r0: Array, r1: Arra
     kind = np.where(silhouette, int(Unseen.SILHOUETTE), int(Unseen.NONE))
     kind = np.where(behind_solid(r1, z1), int(Unseen.OCCLUDED), kind)
     return np.where(inside_solid(r1, z1), int(Unseen.HIDDEN_ENTRY), kind)
+
+
+def steep_join(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> NDArray[np.bool_]:
+    """Is a step between joined samples steeper than STEEP_JOIN_SHARE of the steepest join? Two
+    surfaces close in depth (strands of a knot, one behind the other) are joined across the gap
+    between them, and a ray through the gap hits the join: such a hit is a silhouette's."""
+    return connection_slack(image, s0, s1, z0, z1) < (1.0 - STEEP_JOIN_SHARE) * allowed_step(image, s0, s1, z0, z1)
 
 
 def note_unseen(result: RayHits, active: NDArray[np.bool_], kind: Array, sigma0: Array, rays: ClippedRays) -> None:
@@ -257,7 +270,9 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
         cross, k = segments_cross(s0[:, 2] - z0[:, 0], s1[:, 2] - z1[:, 0])
         through_surface = samples_connected(image, s0[:, :2], s1[:, :2], z0[:, 0], z1[:, 0]) & cross
         kind = step_unseen(image, s0[:, :2], s1[:, :2], s0[:, 2], s1[:, 2], z0, z1)
-        note_unseen(result, active & ~through_surface, kind, i / np.maximum(steps, 1), rays)
+        kind = np.where(through_surface, np.where(steep_join(image, s0[:, :2], s1[:, :2], z0[:, 0], z1[:, 0]),
+                                                  int(Unseen.SILHOUETTE), int(Unseen.NONE)), kind)
+        note_unseen(result, active, kind, i / np.maximum(steps, 1), rays)
         k = np.where(through_surface, k, 1.0)
         new_hit = active & (through_surface | inside_solid(s1[:, 2], z1))
         if new_hit.any():
@@ -313,6 +328,8 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
             mu = (bb * ee - cc * dd) / denominator
             lam = (aa * ee - bb * dd) / denominator
         connected = active & samples_connected(image, s0, s1, z0[:, 0], z1[:, 0])
+        note_unseen(result, connected & steep_join(image, s0, s1, z0[:, 0], z1[:, 0]), np.full(len(origins), int(Unseen.SILHOUETTE)),
+                    sigma0, rays)
         row0, column0 = texel_of(image, s0)
         row1, column1 = texel_of(image, s1)
         one_texel = (row0 == row1) & (column0 == column1)

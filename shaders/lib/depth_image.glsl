@@ -90,15 +90,22 @@ bool segments_cross(float f0, float f1, out float k) {
 // Are two neighbouring samples one surface? Background (nothing rasterized) ends a surface, and
 // a jump in depth steeper than MAX_SURFACE_SLOPE is a silhouette in front of something farther:
 // the segment joining the two would be a "rubber sheet" over empty space, which a ray passing
-// behind the silhouette would hit. 1/w is affine in OpenGL depth (surface.y - z * surface.z),
-// and |w1 - w0| / min(w0, w1) = |1/w0 - 1/w1| / min(1/w0, 1/w1): no division needed.
+// behind the silhouette would hit.
 // The marches pass the samples' texels (texel_of), which they have already computed.
-bool samples_connected(DepthImage image, ivec2 texel0, ivec2 texel1, float z0, float z1) {
-    if (z0 >= BACKGROUND_DEPTH || z1 >= BACKGROUND_DEPTH) return false;
+// A step in depth between two samples as a share of the steepest that joins them: 1/w is affine
+// in OpenGL depth (surface.y - z * surface.z), and |w1 - w0| / min(w0, w1) = |1/w0 - 1/w1| /
+// min(1/w0, 1/w1). Multiplied out, not divided: two samples of one texel (0 texels apart) give
+// 0 <= 0 for equal depths, as they should.
+bool depth_step_within(DepthImage image, ivec2 texel0, ivec2 texel1, float z0, float z1, float share) {
     float texels = length(vec2(texel1 - texel0));
     float inverse_w0 = image.surface.y - z0 * image.surface.z;
     float inverse_w1 = image.surface.y - z1 * image.surface.z;
-    return abs(inverse_w1 - inverse_w0) <= image.surface.x * texels * min(inverse_w0, inverse_w1);
+    return abs(inverse_w1 - inverse_w0) <= share * image.surface.x * texels * min(inverse_w0, inverse_w1);
+}
+
+bool samples_connected(DepthImage image, ivec2 texel0, ivec2 texel1, float z0, float z1) {
+    if (z0 >= BACKGROUND_DEPTH || z1 >= BACKGROUND_DEPTH) return false;
+    return depth_step_within(image, texel0, texel1, z0, z1, 1.0);
 }
 
 // The number of steps: one per pixel along the projection's major axis, at most what the image
@@ -225,8 +232,11 @@ bool march_step(sampler2D layers, DepthImage image, ClippedRay ray, int i, int s
     bool through_surface = samples_connected(image, texel0, texel1, z0.x, z1.x)
         && segments_cross(s0.z - z0.x, s1.z - z1.x, k);
 #ifdef TRACK_UNSEEN
-    if (!through_surface) note_unseen(step_unseen(image, texel0, texel1, s0.z, s1.z, z0, z1), float(i) / float(steps),
-                                      ray, unseen_t, unseen);
+    // A hit on a steep join may be on a sheet over the gap between two surfaces close in depth.
+    int kind = through_surface
+        ? (depth_step_within(image, texel0, texel1, z0.x, z1.x, STEEP_JOIN_SHARE) ? UNSEEN_NONE : UNSEEN_SILHOUETTE)
+        : step_unseen(image, texel0, texel1, s0.z, s1.z, z0, z1);
+    note_unseen(kind, float(i) / float(steps), ray, unseen_t, unseen);
 #endif
     if (!through_surface && !inside_solid(s1.z, z1)) return false;
     if (!through_surface) k = 1.0;
@@ -414,6 +424,11 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
         vec2 z1 = layers_at(u_impostor_depth, texel1);
         vec3 q1 = unproject(image, s1, w_from_opengl_depth(image, z1.x));
         if (samples_connected(image, texel0, texel1, z0.x, z1.x)) {
+#ifdef TRACK_UNSEEN
+            if (!depth_step_within(image, texel0, texel1, z0.x, z1.x, STEEP_JOIN_SHARE)) {
+                note_unseen(UNSEEN_SILHOUETTE, sigma0, ray, unseen_t, unseen);
+            }
+#endif
             // Closest approach of the lines q0 + mu (q1 - q0) and ray_a + lambda ray_ab.
             vec3 d1 = q1 - q0, d2 = ray_ab, r = q0 - ray_a;
             float aa = dot(d1, d1), bb = dot(d1, d2), cc = dot(d2, d2), dd = dot(d1, r), ee = dot(d2, r);
