@@ -3,7 +3,10 @@
 Median splits along the longest axis of the triangles' centroids: no SAH, but a balanced tree
 of depth about log2(n / LEAF_TRIANGLES), which bounds the traversal stack the shader needs.
 Nodes are stored so that an inner node's children are adjacent (right = left + 1); the shader
-reads `first` as the left child of an inner node and as the first triangle of a leaf.
+reads `first` as the left child of an inner node and as the first triangle of a leaf. Each node
+also has a skip link, the node a depth-first traversal visits after this one's subtree, so that
+the shader walks the tree without a stack (a per-pixel stack array slows every fragment of a
+shader that merely contains it on llvmpipe).
 """
 
 from __future__ import annotations
@@ -23,7 +26,8 @@ class Bvh:
     first: np.ndarray  # (nodes,) int: left child (inner) or first triangle (leaf)
     count: np.ndarray  # (nodes,) int: triangles in a leaf, 0 for an inner node
     order: np.ndarray  # (triangles,) the input triangles in leaf order
-    depth: int  # levels below the root: the traversal stack needs depth + 1 entries
+    depth: int  # levels below the root
+    skip: np.ndarray  # (nodes,) int: the next node after this one's subtree, -1 after the last
 
     @property
     def node_count(self) -> int:
@@ -63,6 +67,13 @@ def build_bvh(triangles: np.ndarray) -> Bvh:
         first[node], count[node] = left, 0
         stack.append((left, start, start + middle, level + 1))
         stack.append((left + 1, start + middle, end, level + 1))
-    return Bvh(
-        lower[:used].astype(np.float32), upper[:used].astype(np.float32), first[:used], count[:used], order, depth
-    )
+    first, count = first[:used], count[:used]
+    # Depth-first, left child first: the right child follows the left's subtree, and the node
+    # after a right child's subtree is the one after its parent's. A child's index is larger
+    # than its parent's, so one pass in index order sees every parent first.
+    skip = np.full(used, -1, np.int64)
+    for node in range(used):
+        if count[node] == 0:
+            skip[first[node]] = first[node] + 1
+            skip[first[node] + 1] = skip[node]
+    return Bvh(lower[:used].astype(np.float32), upper[:used].astype(np.float32), first, count, order, depth, skip)

@@ -136,6 +136,11 @@ SILHOUETTE_BAND_TEXELS = 2.0
 #: join (MAX_SURFACE_SLOPE) may be on a "rubber sheet" over a gap between two surfaces close in
 #: depth (strands of a knot, one behind the other): it is Unseen.SILHOUETTE too.
 STEEP_JOIN_SHARE = 0.5
+#: The hybrid method makes a certain hit exact by intersecting the ray with the triangles the
+#: samples around it show; an intersection farther than this share of the hit's t from it is
+#: another surface (the hit's own is within the image's sampling of it: a few texels' footprint,
+#: over the cosine of a steep surface's slope), and without one the ray is traced instead.
+EXACT_SURFACE_WINDOW = 0.05
 #: The ray counts as touching the surface where their OpenGL depths differ by at most this (8
 #: float32 steps of depths in [0.5, 1]). Both are rounded float32 values: without a tolerance, a
 #: ray lying in a surface sees the sign of (ray - surface) flip at random from pixel to pixel,
@@ -192,8 +197,6 @@ TRIANGLE_OBJECT_FIELDS: tuple[tuple[str, str], ...] = (
 #: (i % width, i / width). 1024 is the smallest GL_MAX_TEXTURE_SIZE GL 3.3 allows; the height
 #: grows with the count and is checked against the driver's own limit.
 BVH_TEXTURE_WIDTH = 1024
-#: Entries of the traversal stack: the BVH's depth may not exceed this (see bvh.py).
-BVH_STACK_SIZE = 48
 
 
 def _std140_dtype(fields: tuple[tuple[str, str], ...]) -> np.dtype:
@@ -230,12 +233,12 @@ def glsl_constants() -> dict[str, str]:
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",
         "SILHOUETTE_BAND_TEXELS": f"{SILHOUETTE_BAND_TEXELS!r}",
         "STEEP_JOIN_SHARE": f"{STEEP_JOIN_SHARE!r}",
+        "EXACT_SURFACE_WINDOW": f"{EXACT_SURFACE_WINDOW!r}",
         "CLIP_TOLERANCE_PIXELS": f"{CLIP_TOLERANCE_PIXELS!r}",
         "MIN_LINES_SINE_SQUARED": f"{MIN_LINES_SINE_SQUARED!r}",
         "EMPTY_SPAN_MIN": f"{EMPTY_SPAN_MIN!r}",
         "EMPTY_SPAN_MAX": f"{EMPTY_SPAN_MAX!r}",
         "BVH_TEXTURE_WIDTH": str(BVH_TEXTURE_WIDTH),
-        "BVH_STACK_SIZE": str(BVH_STACK_SIZE),
         "SOFT_SHADOW_RAYS": str(SOFT_SHADOW_RAYS),
         "SHADOW_NORMAL_OFFSET_TEXELS": f"{SHADOW_NORMAL_OFFSET_TEXELS!r}",
         "MAX_INTERNAL_REFLECTIONS": str(MAX_INTERNAL_REFLECTIONS),

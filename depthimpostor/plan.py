@@ -217,14 +217,16 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                         shown_in_bounces.add(targets[0].object.is_glass)
             side = max((max(i.width, i.height) for i in images), default=1)
             memory[stand_in.image_noun + "s"] = ImpostorAtlas.bytes_for(
-                len(images), side, stand_in.second_layer != SecondLayer.NONE)
+                len(images), side, stand_in.second_layer != SecondLayer.NONE, stand_in.keeps_triangle_ids)
         noun = stand_in.image_noun if issubclass(stand_in, BakedImages) else "BVH of triangles"
         also = ", and a BVH of their triangles for the rays those cannot answer" if stand_in is HybridPass else ""
         passes.append(PlannedPass(Pass.STAND_IN, f"{_names(reflectors)} may reflect "
                                   f"{plural(len(reflected), 'object')}, seen through {noun}s{also}"))
         if issubclass(stand_in, BakedImages) and images:
-            variant(DIFFUSE_PROGRAM, diffuse_defines(scene, stand_in.second_layer != SecondLayer.NONE),
-                    f"{stand_in.image_noun}s: the reflected objects shaded into them")
+            variant(DIFFUSE_PROGRAM, diffuse_defines(scene, stand_in.second_layer != SecondLayer.NONE,
+                                                     stand_in.keeps_triangle_ids),
+                    f"{stand_in.image_noun}s: the reflected objects shaded into them"
+                    + (", with the triangle each sample shows" if stand_in.keeps_triangle_ids else ""))
             if stand_in.second_layer == SecondLayer.BACK_FACE:
                 variant(BACK_FACE_PROGRAM, None, "depth images: the back-face layer (what lies behind a silhouette)")
         if shown_in_bounces:

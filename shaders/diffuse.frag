@@ -16,11 +16,21 @@ layout(location = 0) out vec4 out_color;
 layout(location = 1) out vec2 out_depth_and_object;
 uniform int u_object_id;
 #endif
+#ifdef WRITE_TRIANGLE_ID
+// The hybrid method's depth images: the triangle seen, as its place in the list the BVH is built
+// from (passes/triangles.py: the object's offset plus its index in the object's mesh). A float
+// holds every integer below 2^24 exactly; TrianglePass refuses more triangles.
+layout(location = 2) out float out_triangle;
+uniform int u_triangle_offset;
+#endif
 
 void main() {
     vec3 normal = safe_normalize(v_world_normal, vec3(0.0, 1.0, 0.0));
     out_color = vec4(shade(material_albedo(u_material, v_local_position), v_world_position, normal), 1.0);
 #if WRITE_DEPTH_IMAGE
     out_depth_and_object = vec2(gl_FragCoord.z, float(u_object_id));
+#endif
+#ifdef WRITE_TRIANGLE_ID
+    out_triangle = float(u_triangle_offset + gl_PrimitiveID);
 #endif
 }

@@ -49,6 +49,32 @@ def test_bvh_holds_every_triangle_once_inside_nested_boxes() -> None:
             assert (bvh.lower[child] >= bvh.lower[node]).all() and (bvh.upper[child] <= bvh.upper[node]).all()
 
 
+def test_bvh_skip_links_walk_the_tree_depth_first() -> None:
+    """The shader's stackless walk: descending into every node and following the skip link out
+    of every leaf visits each node once, in the order a stack (right pushed before left) would;
+    skipping a node passes over exactly its subtree."""
+    mesh = trimesh.creation.icosphere(subdivisions=3)
+    bvh = build_bvh(np.asarray(mesh.vertices)[np.asarray(mesh.faces)])
+    expected, stack = [], [0]
+    while stack:
+        node = stack.pop()
+        expected.append(node)
+        if bvh.count[node] == 0:
+            stack += [bvh.first[node] + 1, bvh.first[node]]
+    walked, node = [], 0
+    while node >= 0:
+        walked.append(node)
+        node = bvh.first[node] if bvh.count[node] == 0 else bvh.skip[node]
+    assert walked == expected
+    position = {node: i for i, node in enumerate(walked)}
+    for node in range(bvh.node_count):
+        after = position[bvh.skip[node]] if bvh.skip[node] >= 0 else len(walked)
+        subtree = [n for n in walked[position[node]:after]]
+        assert subtree[0] == node and all(position[n] >= position[node] for n in subtree)
+        if bvh.count[node]:
+            assert after == position[node] + 1
+
+
 @pytest.mark.parametrize("method", list(Method), ids=lambda m: m.option)
 @pytest.mark.parametrize("path", SCENE_FILES, ids=lambda p: p.stem)
 def test_every_method_renders_every_scene_finite(ctx: moderngl.Context, path: Path, method: Method) -> None:

@@ -19,17 +19,24 @@ from .uniforms import shading_defines, write, write_lighting, write_material
 DIFFUSE_PROGRAM = ("mesh.vert", "diffuse.frag")
 
 
-def diffuse_defines(scene: Scene, write_depth_image: bool) -> dict[str, int]:
-    """The variant drawing into the frame, or (`write_depth_image`) into baked images."""
-    return {"WRITE_DEPTH_IMAGE": int(write_depth_image), **shading_defines(scene)}
+def diffuse_defines(scene: Scene, write_depth_image: bool, write_triangle_ids: bool = False) -> dict[str, int]:
+    """The variant drawing into the frame, or (`write_depth_image`) into baked images, and
+    (`write_triangle_ids`: the hybrid method's) the triangle seen at each sample too."""
+    return {"WRITE_DEPTH_IMAGE": int(write_depth_image), **({"WRITE_TRIANGLE_ID": 1} if write_triangle_ids else {}),
+            **shading_defines(scene)}
 
 
 class DiffusePass:
     def __init__(
-        self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, *, write_depth_image: bool
+        self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, *, write_depth_image: bool,
+        triangle_offsets: dict[int, int] | None = None,
     ) -> None:
-        self.program = programs.get(*DIFFUSE_PROGRAM, diffuse_defines(scene, write_depth_image))
+        """`triangle_offsets` (by object index: where the object's triangles start in the list the
+        ray-traced method's BVH is built from) makes the variant that writes each sample's triangle."""
+        defines = diffuse_defines(scene, write_depth_image, triangle_offsets is not None)
+        self.program = programs.get(*DIFFUSE_PROGRAM, defines)
         self.meshes = meshes
+        self.triangle_offsets = triangle_offsets
         write_lighting(self.program, scene)
 
     def draw(self, items: list[ObjectGeometry], view_projection: np.ndarray) -> int:
@@ -37,6 +44,8 @@ class DiffusePass:
         for item in items:
             write_material(self.program, "u_material", item.object.material)
             write(self.program, "u_object_id", item.index)
+            if self.triangle_offsets is not None:
+                write(self.program, "u_triangle_offset", self.triangle_offsets[item.index])
             self.meshes.draw(self.program, item, view_projection)
         return len(items)
 

@@ -18,11 +18,17 @@ from ..shaders import ProgramCache
 from .impostors import ImpostorPass
 from .meshes import GpuMeshes
 from .triangles import TrianglePass
+from .uniforms import bind_texture
+
+#: The atlas's triangle ids, after the BVH's textures (passes/triangles.py).
+TRIANGLE_IDS_UNIT = 11
 
 
 class HybridPass(ImpostorPass):
-    """The depth method's images (and pyramids, with the hierarchical algorithm) beside the
-    ray-traced method's BVH of the same reflected objects."""
+    """The depth method's images (and pyramids, with the hierarchical algorithm), each sample
+    naming the triangle it shows, beside the ray-traced method's BVH of the same objects."""
+
+    keeps_triangle_ids = True
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
                  mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
@@ -30,7 +36,7 @@ class HybridPass(ImpostorPass):
         super().__init__(ctx, programs, scene, meshes, mirrors, reflected, planes)
         self.reflected = list(reflected)
         try:
-            self.triangles = TrianglePass(ctx, scene, self.reflected)
+            self.triangles = TrianglePass(ctx, scene, self.reflected, places=True)
         except BaseException:
             super().release()
             raise
@@ -47,13 +53,15 @@ class HybridPass(ImpostorPass):
         super().move(geometry, moved, stale_targets)
         if any(item.index in moved for item in self.reflected):
             self.reflected = [geometry[item.index] for item in self.reflected]
-            triangles = TrianglePass(self.ctx, self.scene, self.reflected)
+            triangles = TrianglePass(self.ctx, self.scene, self.reflected, places=True)
             self.triangles.release()
             self.triangles = triangles
 
     def bind(self, program: moderngl.Program) -> None:
         super().bind(program)
         self.triangles.bind(program)
+        if self.atlas.triangles is not None:
+            bind_texture(program, "u_impostor_triangles", self.atlas.triangles, TRIANGLE_IDS_UNIT)
 
     def release(self) -> None:
         self.triangles.release()

@@ -31,7 +31,7 @@ import numpy as np
 from ..context import bind_default_framebuffer
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, NO_OBJECT
 from ..errors import SceneError
-from ..geometry import ObjectGeometry
+from ..geometry import ObjectGeometry, triangle_offsets
 from ..culling import reachable_targets
 from ..ppc import PPC, FrustumFitError
 from ..reference import DepthImageData
@@ -149,10 +149,12 @@ def atlas_grid(count: int) -> tuple[int, int]:
 
 
 class ImpostorAtlas:
-    """The textures and framebuffer that hold every baked image of the scene: colour, and (unless
-    `layers` is False: billboards need colour alone) the two float depth layers."""
+    """The textures and framebuffer that hold every baked image of the scene: colour, (unless
+    `layers` is False: billboards need colour alone) the two float depth layers, and (with
+    `triangle_ids`: the hybrid method's) the triangle each sample shows."""
 
-    def __init__(self, ctx: moderngl.Context, count: int, resolution: int, layers: bool = True) -> None:
+    def __init__(self, ctx: moderngl.Context, count: int, resolution: int, layers: bool = True,
+                 triangle_ids: bool = False) -> None:
         columns, rows = atlas_grid(count)
         size = (columns * resolution, rows * resolution)
         limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
@@ -171,7 +173,11 @@ class ImpostorAtlas:
         self.color = ctx.texture(size, 4, dtype="f1")
         # (visible surface, second layer): see lib/baked_images.glsl.
         self.depth = ctx.texture(size, 2, dtype="f4") if layers else None
+        # R32F: a triangle's place in the BVH's list (diffuse.frag's WRITE_TRIANGLE_ID).
+        self.triangles = ctx.texture(size, 1, dtype="f4") if triangle_ids else None
         self.textures = [self.color] if self.depth is None else [self.color, self.depth]
+        if self.triangles is not None:
+            self.textures.append(self.triangles)
         for texture in self.textures:
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._depth_buffer = ctx.depth_renderbuffer(size)
@@ -183,14 +189,20 @@ class ImpostorAtlas:
 
     @property
     def bytes(self) -> int:
-        return self.bytes_for(self.count, self.resolution, self.depth is not None)
+        return self.bytes_for(self.count, self.resolution, self.depth is not None, self.triangles is not None)
 
     @staticmethod
-    def bytes_for(count: int, resolution: int, layers: bool) -> int:
-        """GPU memory of an atlas of `count` slots: colour, float layers (unless not `layers`) and
-        the depth buffer used to bake."""
+    def bytes_for(count: int, resolution: int, layers: bool, triangle_ids: bool = False) -> int:
+        """GPU memory of an atlas of `count` slots: colour, float layers (unless not `layers`),
+        triangle ids (with `triangle_ids`) and the depth buffer used to bake."""
         columns, rows = atlas_grid(count)
-        return columns * rows * resolution * resolution * (4 + (8 if layers else 0) + 4)
+        return columns * rows * resolution * resolution * (4 + (8 if layers else 0) + (4 if triangle_ids else 0) + 4)
+
+    def masks(self, *per_attachment: tuple[bool, ...]) -> tuple[tuple[bool, ...], ...] | tuple[bool, ...]:
+        """A colour mask in moderngl's form for the attachments given (colour, then the layers),
+        the rest masked off; one attachment's mask is a plain 4-tuple."""
+        given = list(per_attachment) + [(False,) * 4] * (len(self.textures) - len(per_attachment))
+        return given[0] if len(self.textures) == 1 else tuple(given)
 
     @property
     def slot_count(self) -> int:
@@ -266,6 +278,8 @@ class BakedImages:
     they plan (per object, or six faces) and in the second layer they keep."""
 
     second_layer: ClassVar[SecondLayer]
+    #: Does each sample also record the triangle it shows (the hybrid method's exact surfaces)?
+    keeps_triangle_ids: ClassVar[bool] = False
     #: What one image is called in the CLI's and the viewer's summaries.
     image_noun: ClassVar[str]
     #: One image per reflected object (False: faces that show them all).
@@ -290,12 +304,13 @@ class BakedImages:
         self.scene = scene
         self.meshes = meshes
         layers = self.second_layer != SecondLayer.NONE
-        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=layers)
+        offsets = triangle_offsets(reflected) if self.keeps_triangle_ids else None
+        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=layers, triangle_offsets=offsets)
         self.back_faces = programs.get(*BACK_FACE_PROGRAM) if self.second_layer == SecondLayer.BACK_FACE else None
         count = sum(len(images) for images in plan.values())
         # Slots as large as the largest image ("auto" sizes each image apart).
         sides = [max(camera.width, camera.height) for images in plan.values() for _, camera, _ in images]
-        self.atlas = ImpostorAtlas(ctx, count, max(sides, default=1), layers)
+        self.atlas = ImpostorAtlas(ctx, count, max(sides, default=1), layers, self.keeps_triangle_ids)
         self.images_by_mirror: dict[int, list[DepthImage]] = {}
         slot = 0
         for mirror in mirrors:
@@ -395,13 +410,11 @@ class BakedImages:
         framebuffer = self.atlas.framebuffer
         framebuffer.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
-        # The visible surface writes colour, R, and G when G is the object id. (moderngl takes
-        # one attachment's mask as a plain 4-tuple.)
-        if self.atlas.depth is None:
-            everything = surface_mask = (True,) * 4
-        else:
-            everything = ((True,) * 4, (True,) * 4)
-            surface_mask = ((True,) * 4, (True, self.second_layer == SecondLayer.OBJECT_ID, False, False))
+        # The visible surface writes colour, R, G when G is the object id, and the triangle ids.
+        atlas = self.atlas
+        everything = atlas.masks(*[(True,) * 4] * len(atlas.textures))
+        surface_mask = atlas.masks((True,) * 4, (True, self.second_layer == SecondLayer.OBJECT_ID, False, False),
+                                   (True, False, False, False))
         draws = 0
         try:
             for image in self.depth_images:
@@ -431,9 +444,9 @@ class BakedImages:
     def _bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, ...]) -> int:
         """The nearest back face: the G layer alone, against a fresh depth buffer."""
         assert self.back_faces is not None
-        framebuffer.color_mask = ((False,) * 4, (False,) * 4)
+        framebuffer.color_mask = self.atlas.masks()
         framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=tile)
-        framebuffer.color_mask = ((False,) * 4, (False, True, False, False))
+        framebuffer.color_mask = self.atlas.masks((False,) * 4, (False, True, False, False))
         self.ctx.enable(moderngl.CULL_FACE)
         self.ctx.cull_face = BAKE_CULLS_FRONT_FACES
         for target in image.targets:

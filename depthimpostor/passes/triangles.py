@@ -14,7 +14,6 @@ import numpy as np
 
 from ..bvh import build_bvh
 from ..constants import (
-    BVH_STACK_SIZE,
     BVH_TEXTURE_WIDTH,
     MAX_DEPTH_IMAGES_PER_MIRROR,
     TRIANGLE_OBJECT_DTYPE,
@@ -28,6 +27,9 @@ from .uniforms import bind_texture, bind_uniform_block, material_fields
 
 NODES_UNIT = 8  # after the atlas (0, 1), the pyramid (2), shadow maps (5) and glass (6, 7): the hybrid method binds both
 TRIANGLES_UNIT = 9
+BVH_PLACES_UNIT = 10  # the hybrid method's: each triangle's place in the BVH's order
+#: Triangles the hybrid method's depth images can name: a float32 sample holds integers below 2^24.
+MAX_NAMED_TRIANGLES = 2**24
 TRIANGLE_OBJECTS_BINDING = 1
 
 
@@ -62,10 +64,13 @@ class TrianglePass:
     noun = "triangle"
 
     def __init__(
-        self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry], world_meshes: list[Mesh] | None = None
+        self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry], world_meshes: list[Mesh] | None = None,
+        places: bool = False,
     ) -> None:
         """`world_meshes` are the triangles to trace, one per reflected object, in world space:
-        their own by default (the simplified method passes decimated ones)."""
+        their own by default (the simplified method passes decimated ones). `places` (the hybrid
+        method's) also uploads where each triangle of the list (geometry.triangle_offsets) sits in
+        the BVH's order, so that a triangle a depth image names can be intersected."""
         if len(reflected) > MAX_DEPTH_IMAGES_PER_MIRROR:
             raise SceneError(
                 scene.source, "objects",
@@ -77,13 +82,11 @@ class TrianglePass:
         normals = np.concatenate([mesh.normals[mesh.indices] for mesh in worlds])
         slots = np.concatenate([np.full(len(mesh.indices), slot) for slot, mesh in enumerate(worlds)])
         bvh = build_bvh(triangles)
-        if bvh.depth + 1 > BVH_STACK_SIZE:
-            raise SceneError(scene.source, "objects", f"the BVH is {bvh.depth} levels deep, over the shader's "
-                             f"stack of {BVH_STACK_SIZE}")
         self.triangle_count = len(triangles)
-        nodes = np.zeros((bvh.node_count, 2, 4), np.float32)
+        nodes = np.zeros((bvh.node_count, 3, 4), np.float32)
         nodes[:, 0, :3], nodes[:, 0, 3] = bvh.lower, bvh.first
         nodes[:, 1, :3], nodes[:, 1, 3] = bvh.upper, bvh.count
+        nodes[:, 2, 0] = bvh.skip
         ordered = np.zeros((len(triangles), 6, 4), np.float32)
         ordered[:, :3, :3] = triangles[bvh.order]
         ordered[:, 0, 3] = slots[bvh.order]
@@ -91,10 +94,22 @@ class TrianglePass:
         self.nodes = _texture(ctx, nodes.reshape(-1, 4), scene.source)
         self.triangles = _texture(ctx, ordered.reshape(-1, 4), scene.source)
         self.objects = ctx.buffer(object_records(reflected).tobytes())
+        self.places: moderngl.Texture | None = None
+        if places:
+            if len(triangles) > MAX_NAMED_TRIANGLES:
+                raise SceneError(scene.source, "objects", f"expected at most {MAX_NAMED_TRIANGLES} reflected triangles "
+                                 f"with --method hybrid, got {len(triangles)}")
+            place = np.zeros((len(triangles), 4), np.float32)
+            place[bvh.order, 0] = np.arange(len(triangles))
+            self.places = _texture(ctx, place, scene.source)
+
+    @property
+    def textures(self) -> list[moderngl.Texture]:
+        return [self.nodes, self.triangles] + ([self.places] if self.places is not None else [])
 
     @property
     def bytes(self) -> int:
-        return sum(texture.width * texture.height * 16 for texture in (self.nodes, self.triangles)) + self.objects.size
+        return sum(texture.width * texture.height * 16 for texture in self.textures) + self.objects.size
 
     def describe(self) -> str:
         return f"{plural(self.triangle_count, self.noun)} in a BVH"
@@ -108,10 +123,12 @@ class TrianglePass:
         bind_texture(program, "u_bvh_triangles", self.triangles, TRIANGLES_UNIT)
         bind_uniform_block(program, "TriangleObjects", TRIANGLE_OBJECTS_BINDING)
         self.objects.bind_to_uniform_block(TRIANGLE_OBJECTS_BINDING)
+        if self.places is not None:
+            bind_texture(program, "u_bvh_places", self.places, BVH_PLACES_UNIT)
 
     def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
         """Every mirror traces the same triangles: nothing per mirror."""
 
     def release(self) -> None:
-        for item in (self.nodes, self.triangles, self.objects):
+        for item in (*self.textures, self.objects):
             item.release()

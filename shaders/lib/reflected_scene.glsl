@@ -90,14 +90,55 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
 }
 
 #if METHOD == METHOD_HYBRID
+uniform sampler2D u_impostor_triangles;  // per atlas sample: the triangle it shows (its place in the BVH's list)
+uniform sampler2D u_bvh_places;          // per triangle of that list: its place in the BVH's order
+
+// The ray against the triangle the sample at `texel` shows: its place in the BVH's order, or -1
+// where the ray meets it no nearer than `best_t` or outside EXACT_SURFACE_WINDOW of the hit's t.
+int sample_triangle(RayHit hit, ivec2 texel, vec3 origin, vec3 direction, inout float best_t, inout vec2 best_uv) {
+    int listed = int(texelFetch(u_impostor_triangles, texel, 0).r);
+    int triangle = int(bvh_fetch(u_bvh_places, listed).x);
+    vec2 uv;
+    float t = intersect_triangle(origin, direction, triangle, uv);
+    if (!(t > 0.0 && abs(t - hit.t) <= EXACT_SURFACE_WINDOW * hit.t && t < best_t)) return -1;
+    best_t = t;
+    best_uv = uv;
+    return triangle;
+}
+
+// A certain hit made exact: the ray against the real triangle that the sample of the hit shows,
+// or, where it misses that one, against those of the 8 samples around it (a triangle smaller than
+// a texel can fall between samples): the nearest intersection within EXACT_SURFACE_WINDOW of the
+// hit's t. The hit is then shaded as the ray-traced method shades it (the true normal, the
+// material at the true point). False when none is there: the ray is traced instead.
+bool exact_surface(RayHit hit, vec3 origin, vec3 direction, out RayHit exact) {
+    float best_t = UNBOUNDED_RAY;
+    vec2 best_uv = vec2(0.0);
+    int best = sample_triangle(hit, hit.texel, origin, direction, best_t, best_uv);
+    ivec2 size = textureSize(u_impostor_triangles, 0);
+    for (int k = 0; k < 9 && best < 0; ++k) {
+        if (k == 4) continue;  // the hit's own sample, tried first
+        ivec2 texel = clamp(hit.texel + ivec2(k % 3 - 1, k / 3 - 1), ivec2(0), size - 1);
+        int triangle = sample_triangle(hit, texel, origin, direction, best_t, best_uv);
+        if (triangle >= 0) best = triangle;
+    }
+    if (best < 0) return false;
+    exact = triangle_hit(origin, direction, best, best_t, best_uv, hit.samples);
+    return true;
+}
+
 // The hybrid method's answer: the depth images' where it rests on nothing they do not hold before
-// the nearest thing found (an object, or a plane, which is exact), and otherwise the real
-// triangles', traced through the BVH (in the same pass: see the README's "Hybrid").
+// the nearest thing found (an object, made exact, or a plane, which is), and otherwise the real
+// triangles', traced through the BVH (in the same pass: see the README's "Hybrid reflections").
 RayHit resolve_unseen(RayHit hit, RayHit plane, vec3 origin, vec3 direction) {
     float answer_t = UNBOUNDED_RAY;
     if (hit.hit) answer_t = hit.t;
     if (plane.hit) answer_t = min(answer_t, plane.t);
-    if (hit.unseen == UNSEEN_NONE || hit.unseen_t > answer_t) return hit;
+    if (hit.unseen == UNSEEN_NONE || hit.unseen_t > answer_t) {
+        if (!hit.hit || (plane.hit && plane.t < hit.t)) return hit;
+        RayHit exact;
+        if (exact_surface(hit, origin, direction, exact)) return exact;
+    }
     RayHit traced = nearest_triangle_hit(origin, direction);
     traced.samples += hit.samples;
     traced.unseen_t = hit.unseen_t;

@@ -5,7 +5,7 @@
 #include "ray_hit.glsl"
 #include "shading.glsl"
 
-uniform sampler2D u_bvh_nodes;      // 2 texels a node: (lower, first), (upper, count)
+uniform sampler2D u_bvh_nodes;      // 3 texels a node: (lower, first), (upper, count), (skip, 0, 0, 0)
 uniform sampler2D u_bvh_triangles;  // 6 texels a triangle: p0 (w: object slot), p1, p2, n0, n1, n2
 layout(std140) uniform TriangleObjects {
     TriangleObject u_triangle_objects[MAX_DEPTH_IMAGES_PER_MIRROR];
@@ -45,31 +45,53 @@ float ray_triangle(vec3 origin, vec3 direction, vec3 p0, vec3 p1, vec3 p2, out v
     return dot(edge2, q) * inverse;
 }
 
+// The ray against triangle i (of the BVH's order): t (or -1) and the barycentrics.
+float intersect_triangle(vec3 origin, vec3 direction, int i, out vec2 uv) {
+    return ray_triangle(origin, direction, bvh_fetch(u_bvh_triangles, 6 * i).xyz, bvh_fetch(u_bvh_triangles, 6 * i + 1).xyz,
+                        bvh_fetch(u_bvh_triangles, 6 * i + 2).xyz, uv);
+}
+
+// The hit on triangle i at t (barycentrics uv), shaded as the rasterizer shades the object.
+RayHit triangle_hit(vec3 origin, vec3 direction, int i, float t, vec2 uv, int samples) {
+    int base = 6 * i;
+    int slot = int(bvh_fetch(u_bvh_triangles, base).w);
+    vec3 normal = safe_normalize((1.0 - uv.x - uv.y) * bvh_fetch(u_bvh_triangles, base + 3).xyz
+                                 + uv.x * bvh_fetch(u_bvh_triangles, base + 4).xyz
+                                 + uv.y * bvh_fetch(u_bvh_triangles, base + 5).xyz, -direction);
+    TriangleObject object = u_triangle_objects[slot];
+    vec3 position = origin + direction * t;
+    Material material = Material(object.kind_and_id.x, object.color_a.xyz, object.color_b.xyz, object.color_a.w);
+    vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz);
+    return make_hit(true, t, uv, shade(albedo, position, normal), float(object.kind_and_id.y), samples);
+}
+
 RayHit nearest_triangle_hit(vec3 origin, vec3 direction) {
     vec3 inverse_direction = 1.0 / direction;
     float best_t = 3.0e38;
     int best_triangle = -1;
     vec2 best_uv = vec2(0.0);
     int visited = 0;
-    int stack[BVH_STACK_SIZE];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-        int node = stack[--top];
-        vec4 lower = bvh_fetch(u_bvh_nodes, 2 * node), upper = bvh_fetch(u_bvh_nodes, 2 * node + 1);
+    // Depth-first through the skip links (bvh.py): into an inner node's left child when the ray
+    // meets its box, else past its subtree. The node count bounds the walk.
+    int node = 0;
+    while (node >= 0) {
+        vec4 lower = bvh_fetch(u_bvh_nodes, 3 * node), upper = bvh_fetch(u_bvh_nodes, 3 * node + 1);
+        int skip = int(bvh_fetch(u_bvh_nodes, 3 * node + 2).x);
         float t_near;
         ++visited;
-        if (!ray_meets_box(origin, inverse_direction, lower.xyz, upper.xyz, best_t, t_near)) continue;
-        int first = int(lower.w), count = int(upper.w);
-        if (count == 0) {
-            stack[top++] = first + 1;
-            stack[top++] = first;
+        if (!ray_meets_box(origin, inverse_direction, lower.xyz, upper.xyz, best_t, t_near)) {
+            node = skip;
             continue;
         }
+        int first = int(lower.w), count = int(upper.w);
+        if (count == 0) {
+            node = first;
+            continue;
+        }
+        node = skip;
         for (int i = first; i < first + count; ++i) {
             vec2 uv;
-            float t = ray_triangle(origin, direction, bvh_fetch(u_bvh_triangles, 6 * i).xyz,
-                                   bvh_fetch(u_bvh_triangles, 6 * i + 1).xyz, bvh_fetch(u_bvh_triangles, 6 * i + 2).xyz, uv);
+            float t = intersect_triangle(origin, direction, i, uv);
             if (t > 0.0 && t < best_t) {
                 best_t = t;
                 best_triangle = i;
@@ -78,14 +100,5 @@ RayHit nearest_triangle_hit(vec3 origin, vec3 direction) {
         }
     }
     if (best_triangle < 0) return no_hit(visited);
-    int base = 6 * best_triangle;
-    int slot = int(bvh_fetch(u_bvh_triangles, base).w);
-    vec3 normal = safe_normalize((1.0 - best_uv.x - best_uv.y) * bvh_fetch(u_bvh_triangles, base + 3).xyz
-                                 + best_uv.x * bvh_fetch(u_bvh_triangles, base + 4).xyz
-                                 + best_uv.y * bvh_fetch(u_bvh_triangles, base + 5).xyz, -direction);
-    TriangleObject object = u_triangle_objects[slot];
-    vec3 position = origin + direction * best_t;
-    Material material = Material(object.kind_and_id.x, object.color_a.xyz, object.color_b.xyz, object.color_a.w);
-    vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz);
-    return make_hit(true, best_t, best_uv, shade(albedo, position, normal), float(object.kind_and_id.y), visited);
+    return triangle_hit(origin, direction, best_triangle, best_t, best_uv, visited);
 }
