@@ -26,9 +26,9 @@ from .shaders import ProgramCache
 
 #: Rays per row of the query framebuffer.
 _ROW = 1024
-#: Texture units of the ray inputs (after the atlas's and the pyramid's).
-_ORIGINS_UNIT = 3
-_DIRECTIONS_UNIT = 4
+#: Texture units of the ray inputs (after every unit the reflected-scene chunks use).
+_ORIGINS_UNIT = 12
+_DIRECTIONS_UNIT = 13
 
 
 class QueriedImage(Protocol):
@@ -160,7 +160,8 @@ def query_depth_images(
     """Intersect rays with depth images given as data (hand-made or read back) on the GPU: the
     images go into an atlas of their own, so the GLSL sees exactly the texels the reference sees."""
     resolution = max(max(image.depth.shape) for image in images)
-    atlas = ImpostorAtlas(ctx, len(images), resolution)
+    # Back colours always (alpha 0 for an image without): the march reads them for every depth image.
+    atlas = ImpostorAtlas(ctx, len(images), resolution, back_colors=True)
     query = None
     try:
         uploaded = []

@@ -223,15 +223,17 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         passes.append(PlannedPass(Pass.STAND_IN, f"{_names(reflectors)} may reflect "
                                   f"{plural(len(reflected), 'object')}, seen through {noun}s{also}"))
         if issubclass(stand_in, BakedImages) and images:
-            variant(DIFFUSE_PROGRAM, diffuse_defines(scene, stand_in.second_layer != SecondLayer.NONE,
-                                                     stand_in.keeps_triangle_ids),
-                    f"{stand_in.image_noun}s: the reflected objects shaded into them"
-                    + (", with the triangle each sample shows" if stand_in.keeps_triangle_ids else ""))
-            if stand_in.second_layer == SecondLayer.BACK_FACE:
-                variant(BACK_FACE_PROGRAM, None, "depth images: the back-face layer (what lies behind a silhouette)")
+            ids = stand_in.keeps_triangle_ids
+            with_ids = ", with the triangle each sample shows" if ids else ""
+            variant(DIFFUSE_PROGRAM, diffuse_defines(scene, stand_in.second_layer != SecondLayer.NONE, ids),
+                    f"{stand_in.image_noun}s: the reflected objects shaded into them{with_ids}")
+            if stand_in.keeps_back_colors:
+                variant(DIFFUSE_PROGRAM, diffuse_defines(scene, True, ids, back_layer=True),
+                        f"depth images: the back layer's colour and depth (a ray may come in through it){with_ids}")
         if shown_in_bounces:
             passes.append(PlannedPass(Pass.BOUNCES, f"render.max_bounces = {scene.render.max_bounces}: reflectors "
                                       "show each other's reflections"))
+            variant(BACK_FACE_PROGRAM, None, "a reflector drawn into another's depth image: its back-face layer")
             for shown_glass in sorted(shown_in_bounces):
                 variant(REFLECTOR_PROGRAM, reflector_defines(scene, bounce_defines(), shown_glass),
                         f"a {'glass' if shown_glass else 'mirror'} drawn into another reflector's depth image")

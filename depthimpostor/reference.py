@@ -35,6 +35,9 @@ class DepthImageData:
     # The nearest back face behind each sample (BACKGROUND_DEPTH where there is none); None for
     # a surface with nothing behind it (as thin as it looks).
     back_depth: NDArray[np.float32] | None = None
+    # The back face's colour (height, width, 3), NaN where none was drawn; None: no back colours
+    # (a ray coming in through the back layer is then a hidden entry, as without the layer).
+    back_color: Array | None = None
 
     @property
     def back_layer(self) -> NDArray[np.float32]:
@@ -108,6 +111,23 @@ def inside_solid(r: Array, layers: Array) -> NDArray[np.bool_]:
 def sample_color(image: DepthImageData, s: Array) -> Array:
     row, column = texel_of(image, s)
     return image.color[row, column]
+
+
+def sample_back_color(image: DepthImageData, s: Array) -> Array:
+    """The back layer's colour under s (NaN where none was drawn, or the image keeps none)."""
+    if image.back_color is None:
+        return np.full(s.shape[:-1] + (3,), np.nan)
+    row, column = texel_of(image, s)
+    return image.back_color[row, column]
+
+
+def back_crossing(image: DepthImageData, s0: Array, s1: Array, r0: Array, r1: Array, z0: Array, z1: Array
+                  ) -> tuple[NDArray[np.bool_], Array]:
+    """Does a step come in through the back layer (see the GLSL), and where along it (k)?"""
+    real_back = (z0[:, 1] > z0[:, 0]) & (z1[:, 1] > z1[:, 0])  # sample_layers: back = front where none
+    cross, k = segments_cross(z0[:, 1] - r0, z1[:, 1] - r1)
+    colored = np.isfinite(sample_back_color(image, nearer_sample(k, s0, s1))).all(axis=-1)
+    return real_back & samples_connected(image, s0, s1, z0[:, 1], z1[:, 1]) & cross & colored, k
 
 
 def nearer_sample(k: Array, s0: Array, s1: Array) -> Array:
@@ -269,17 +289,24 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
         _track_connection(result, active, slack, z0[:, 0], z1[:, 0])
         cross, k = segments_cross(s0[:, 2] - z0[:, 0], s1[:, 2] - z1[:, 0])
         through_surface = samples_connected(image, s0[:, :2], s1[:, :2], z0[:, 0], z1[:, 0]) & cross
+        through_back, k_back = back_crossing(image, s0[:, :2], s1[:, :2], s0[:, 2], s1[:, 2], z0, z1)
+        through_back &= ~through_surface
+        k = np.where(through_back, k_back, k)
+        crossed = np.where(through_back[:, None], z0[:, [1]] * [1, 0] + z1[:, [1]] * [0, 1],
+                           z0[:, [0]] * [1, 0] + z1[:, [0]] * [0, 1])
         kind = step_unseen(image, s0[:, :2], s1[:, :2], s0[:, 2], s1[:, 2], z0, z1)
-        kind = np.where(through_surface, np.where(steep_join(image, s0[:, :2], s1[:, :2], z0[:, 0], z1[:, 0]),
-                                                  int(Unseen.SILHOUETTE), int(Unseen.NONE)), kind)
+        steep = steep_join(image, s0[:, :2], s1[:, :2], crossed[:, 0], crossed[:, 1])
+        kind = np.where(through_surface | through_back, np.where(steep, int(Unseen.SILHOUETTE), int(Unseen.NONE)), kind)
         note_unseen(result, active, kind, i / np.maximum(steps, 1), rays)
-        k = np.where(through_surface, k, 1.0)
-        new_hit = active & (through_surface | inside_solid(s1[:, 2], z1))
+        through = through_surface | through_back
+        k = np.where(through, k, 1.0)
+        new_hit = active & (through | inside_solid(s1[:, 2], z1))
         if new_hit.any():
             s = s0[:, :2] + (s1[:, :2] - s0[:, :2]) * k[:, None]
             sigma = (i + k) / np.maximum(steps, 1)
             t = ray_parameter(sigma, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
-            color = sample_color(image, nearer_sample(k, s0[:, :2], s1[:, :2]))
+            nearer = nearer_sample(k, s0[:, :2], s1[:, :2])
+            color = np.where(through_back[:, None], sample_back_color(image, nearer), sample_color(image, nearer))
             _record(result, new_hit, t, s, color, image.object_id, i + 2)
             surface_hit = new_hit & through_surface
             result.conditioning[surface_hit] = np.abs((s0[:, 2] - z0[:, 0]) - (s1[:, 2] - z1[:, 0]))[surface_hit]
@@ -355,6 +382,15 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
             s = s0 + (s1 - s0) * k[:, None]
             _record(result, degenerate_hit, t, s, sample_color(image, nearer_sample(k, s0, s1)), image.object_id, i + 2)
             active &= ~degenerate_hit
+        through_back, k_back = back_crossing(image, s0, s1, r0, r1, z0, z1)
+        back_hit = active & through_back
+        if back_hit.any():
+            note_unseen(result, back_hit & steep_join(image, s0, s1, z0[:, 1], z1[:, 1]),
+                        np.full(len(origins), int(Unseen.SILHOUETTE)), sigma0, rays)
+            t = ray_parameter(sigma0 + (sigma1 - sigma0) * k_back, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
+            s = s0 + (s1 - s0) * k_back[:, None]
+            _record(result, back_hit, t, s, sample_back_color(image, nearer_sample(k_back, s0, s1)), image.object_id, i + 2)
+            active &= ~back_hit
         note_unseen(result, active, step_unseen(image, s0, s1, r0, r1, z0, z1), sigma0, rays)
         entered = active & inside_solid(r1, z1)
         if entered.any():

@@ -19,8 +19,9 @@ uniform int u_object_id;
 #ifdef WRITE_TRIANGLE_ID
 // The hybrid method's depth images: the triangle seen, as its place in the list the BVH is built
 // from (passes/triangles.py: the object's offset plus its index in the object's mesh). A float
-// holds every integer below 2^24 exactly; TrianglePass refuses more triangles.
-layout(location = 2) out float out_triangle;
+// holds every integer below 2^24 exactly; TrianglePass refuses more triangles. Both channels
+// hold it: the visible surface's pass keeps R, the back layer's (BACK_LAYER) G.
+layout(location = 2) out vec2 out_triangle;
 uniform int u_triangle_offset;
 #endif
 
@@ -28,9 +29,15 @@ void main() {
     vec3 normal = safe_normalize(v_world_normal, vec3(0.0, 1.0, 0.0));
     out_color = vec4(shade(material_albedo(u_material, v_local_position), v_world_position, normal), 1.0);
 #if WRITE_DEPTH_IMAGE
+#ifdef BACK_LAYER
+    // The back layer of a depth image (drawn with front faces culled): its colour, the outward
+    // face lit as it is (diffuse shading does not depend on the viewer), and its depth in G.
+    out_depth_and_object = vec2(gl_FragCoord.z);
+#else
     out_depth_and_object = vec2(gl_FragCoord.z, float(u_object_id));
 #endif
+#endif
 #ifdef WRITE_TRIANGLE_ID
-    out_triangle = float(u_triangle_offset + gl_PrimitiveID);
+    out_triangle = vec2(float(u_triangle_offset + gl_PrimitiveID));
 #endif
 }

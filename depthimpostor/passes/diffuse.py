@@ -19,21 +19,24 @@ from .uniforms import shading_defines, write, write_lighting, write_material
 DIFFUSE_PROGRAM = ("mesh.vert", "diffuse.frag")
 
 
-def diffuse_defines(scene: Scene, write_depth_image: bool, write_triangle_ids: bool = False) -> dict[str, int]:
-    """The variant drawing into the frame, or (`write_depth_image`) into baked images, and
+def diffuse_defines(scene: Scene, write_depth_image: bool, write_triangle_ids: bool = False,
+                    back_layer: bool = False) -> dict[str, int]:
+    """The variant drawing into the frame, or (`write_depth_image`) into baked images: their
+    visible surface, or (`back_layer`) the colour and depth of the nearest back face; and
     (`write_triangle_ids`: the hybrid method's) the triangle seen at each sample too."""
     return {"WRITE_DEPTH_IMAGE": int(write_depth_image), **({"WRITE_TRIANGLE_ID": 1} if write_triangle_ids else {}),
-            **shading_defines(scene)}
+            **({"BACK_LAYER": 1} if back_layer else {}), **shading_defines(scene)}
 
 
 class DiffusePass:
     def __init__(
         self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, *, write_depth_image: bool,
-        triangle_offsets: dict[int, int] | None = None,
+        triangle_offsets: dict[int, int] | None = None, back_layer: bool = False,
     ) -> None:
         """`triangle_offsets` (by object index: where the object's triangles start in the list the
-        ray-traced method's BVH is built from) makes the variant that writes each sample's triangle."""
-        defines = diffuse_defines(scene, write_depth_image, triangle_offsets is not None)
+        ray-traced method's BVH is built from) makes the variant that writes each sample's triangle;
+        `back_layer` the one drawing a depth image's back layer (see diffuse_defines)."""
+        defines = diffuse_defines(scene, write_depth_image, triangle_offsets is not None, back_layer)
         self.program = programs.get(*DIFFUSE_PROGRAM, defines)
         self.meshes = meshes
         self.triangle_offsets = triangle_offsets

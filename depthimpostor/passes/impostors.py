@@ -50,6 +50,7 @@ if TYPE_CHECKING:
 #: Texture units and the uniform-block binding the reflected-scene chunk reads.
 COLOR_ATLAS_UNIT = 0
 DEPTH_ATLAS_UNIT = 1
+BACK_COLOR_ATLAS_UNIT = 3  # after the pyramid's (2)
 DEPTH_IMAGES_BINDING = 0
 
 
@@ -58,6 +59,8 @@ def bind_impostors(program: moderngl.Program, atlas: ImpostorAtlas) -> None:
     bind_texture(program, "u_impostor_color", atlas.color, COLOR_ATLAS_UNIT)
     if atlas.depth is not None:
         bind_texture(program, "u_impostor_depth", atlas.depth, DEPTH_ATLAS_UNIT)
+    if atlas.back_color is not None:
+        bind_texture(program, "u_impostor_back_color", atlas.back_color, BACK_COLOR_ATLAS_UNIT)
     bind_uniform_block(program, "DepthImages", DEPTH_IMAGES_BINDING)
 
 
@@ -142,6 +145,16 @@ def fit_depth_image_camera(scene: Scene, mirror: ObjectGeometry, target: ObjectG
         ) from None
 
 
+ColorMask = tuple[tuple[bool, ...], ...] | tuple[bool, ...]
+
+
+def color_mask(attachments: int, *per_attachment: tuple[bool, ...]) -> ColorMask:
+    """A colour mask in moderngl's form for a framebuffer of `attachments` colour attachments: the
+    masks given for the first ones, the rest masked off; one attachment's mask is a plain 4-tuple."""
+    given = list(per_attachment) + [(False,) * 4] * (attachments - len(per_attachment))
+    return given[0] if attachments == 1 else tuple(given)
+
+
 def atlas_grid(count: int) -> tuple[int, int]:
     """Columns and rows of a near-square grid holding `count` tiles."""
     columns = max(1, math.ceil(math.sqrt(count)))
@@ -149,12 +162,13 @@ def atlas_grid(count: int) -> tuple[int, int]:
 
 
 class ImpostorAtlas:
-    """The textures and framebuffer that hold every baked image of the scene: colour, (unless
-    `layers` is False: billboards need colour alone) the two float depth layers, and (with
-    `triangle_ids`: the hybrid method's) the triangle each sample shows."""
+    """The textures and framebuffers that hold every baked image of the scene: colour, (unless
+    `layers` is False: billboards need colour alone) the two float depth layers, (with
+    `back_colors`: depth images) the colour of the back layer, and (with `triangle_ids`: the
+    hybrid method's) the triangles each sample shows on both layers."""
 
     def __init__(self, ctx: moderngl.Context, count: int, resolution: int, layers: bool = True,
-                 triangle_ids: bool = False) -> None:
+                 triangle_ids: bool = False, back_colors: bool = False) -> None:
         columns, rows = atlas_grid(count)
         size = (columns * resolution, rows * resolution)
         limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
@@ -173,15 +187,26 @@ class ImpostorAtlas:
         self.color = ctx.texture(size, 4, dtype="f1")
         # (visible surface, second layer): see lib/baked_images.glsl.
         self.depth = ctx.texture(size, 2, dtype="f4") if layers else None
-        # R32F: a triangle's place in the BVH's list (diffuse.frag's WRITE_TRIANGLE_ID).
-        self.triangles = ctx.texture(size, 1, dtype="f4") if triangle_ids else None
+        # RG32F: the places in the BVH's list (diffuse.frag's WRITE_TRIANGLE_ID) of the triangles
+        # seen on the visible surface (R) and the back layer (G).
+        self.triangles = ctx.texture(size, 2, dtype="f4") if triangle_ids else None
         self.textures = [self.color] if self.depth is None else [self.color, self.depth]
         if self.triangles is not None:
             self.textures.append(self.triangles)
-        for texture in self.textures:
+        # RGBA8: the back layer's colour (alpha 0: none drawn, as the colour atlas).
+        self.back_color = ctx.texture(size, 4, dtype="f1") if back_colors and layers else None
+        for texture in self.textures + ([self.back_color] if self.back_color is not None else []):
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._depth_buffer = ctx.depth_renderbuffer(size)
         self.framebuffer = ctx.framebuffer(self.textures, self._depth_buffer)
+        # The back layer's pass writes its colour at location 0, and G of the layers behind it.
+        self.back_framebuffer: moderngl.Framebuffer | None = None
+        if self.back_color is not None:
+            self.back_framebuffer = ctx.framebuffer([self.back_color, *self.textures[1:]], self._depth_buffer)
+            # Images baked otherwise (reflectors at bounce k, copied in) have no back colour.
+            self.back_framebuffer.color_mask = self.masks((True,) * 4)
+            self.back_framebuffer.clear(1.0, 1.0, 1.0, 0.0)
+            self.back_framebuffer.color_mask = self.masks(*[(True,) * 4] * len(self.textures))
 
     @property
     def size(self) -> tuple[int, int]:
@@ -189,20 +214,21 @@ class ImpostorAtlas:
 
     @property
     def bytes(self) -> int:
-        return self.bytes_for(self.count, self.resolution, self.depth is not None, self.triangles is not None)
+        return self.bytes_for(self.count, self.resolution, self.depth is not None, self.triangles is not None,
+                              self.back_color is not None)
 
     @staticmethod
-    def bytes_for(count: int, resolution: int, layers: bool, triangle_ids: bool = False) -> int:
+    def bytes_for(count: int, resolution: int, layers: bool, triangle_ids: bool = False, back_colors: bool = False) -> int:
         """GPU memory of an atlas of `count` slots: colour, float layers (unless not `layers`),
-        triangle ids (with `triangle_ids`) and the depth buffer used to bake."""
+        triangle ids (with `triangle_ids`), back colours (with `back_colors`) and the depth buffer
+        used to bake."""
         columns, rows = atlas_grid(count)
-        return columns * rows * resolution * resolution * (4 + (8 if layers else 0) + (4 if triangle_ids else 0) + 4)
+        texel = 4 + (8 if layers else 0) + (8 if triangle_ids else 0) + (4 if back_colors and layers else 0) + 4
+        return columns * rows * resolution * resolution * texel
 
-    def masks(self, *per_attachment: tuple[bool, ...]) -> tuple[tuple[bool, ...], ...] | tuple[bool, ...]:
-        """A colour mask in moderngl's form for the attachments given (colour, then the layers),
-        the rest masked off; one attachment's mask is a plain 4-tuple."""
-        given = list(per_attachment) + [(False,) * 4] * (len(self.textures) - len(per_attachment))
-        return given[0] if len(self.textures) == 1 else tuple(given)
+    def masks(self, *per_attachment: tuple[bool, ...]) -> ColorMask:
+        """A colour mask for this atlas's framebuffer (see color_mask)."""
+        return color_mask(len(self.textures), *per_attachment)
 
     @property
     def slot_count(self) -> int:
@@ -230,9 +256,14 @@ class ImpostorAtlas:
         layers = np.frombuffer(
             self.framebuffer.read(viewport=viewport, components=2, attachment=1, dtype="f4"), np.float32
         ).reshape(height, width, 2)
+        back_color = None
+        if self.back_framebuffer is not None:
+            rgba = np.frombuffer(self.back_framebuffer.read(viewport=viewport, components=4, attachment=0), np.uint8)
+            rgba = rgba.reshape(height, width, 4)
+            back_color = np.where(rgba[..., 3:] > 0, rgba[..., :3] / 255.0, np.nan)
         return DepthImageData(
             image.camera, color.reshape(height, width, 4)[..., :3] / 255.0, layers[..., 0].copy(),
-            image.target.index, layers[..., 1].copy(),
+            image.target.index, layers[..., 1].copy(), back_color,
         )
 
     def write(self, tile_origin: tuple[int, int], data: DepthImageData) -> None:
@@ -243,10 +274,18 @@ class ImpostorAtlas:
         self.color.write(np.ascontiguousarray(rgba, np.uint8).tobytes(), viewport=viewport)
         layers = np.stack([data.depth, data.back_layer], axis=2)
         self.depth_layers().write(np.ascontiguousarray(layers, np.float32).tobytes(), viewport=viewport)
+        if self.back_color is not None:
+            back = np.zeros((height, width, 4))
+            if data.back_color is not None:
+                drawn = np.isfinite(data.back_color).all(axis=2)
+                back[drawn] = np.concatenate([np.rint(np.clip(data.back_color[drawn], 0, 1) * 255),
+                                              np.full((int(drawn.sum()), 1), 255)], axis=1)
+            self.back_color.write(np.ascontiguousarray(back, np.uint8).tobytes(), viewport=viewport)
 
     def release(self) -> None:
         bind_default_framebuffer(self.ctx)
-        for item in (self.framebuffer, self._depth_buffer, *self.textures):
+        extra = [self.back_framebuffer, self.back_color] if self.back_framebuffer is not None else []
+        for item in (*extra, self.framebuffer, self._depth_buffer, *self.textures):
             item.release()
 
 
@@ -280,6 +319,8 @@ class BakedImages:
     second_layer: ClassVar[SecondLayer]
     #: Does each sample also record the triangle it shows (the hybrid method's exact surfaces)?
     keeps_triangle_ids: ClassVar[bool] = False
+    #: Is the back layer drawn with its colour (depth images: a ray may come in through it)?
+    keeps_back_colors: ClassVar[bool] = False
     #: What one image is called in the CLI's and the viewer's summaries.
     image_noun: ClassVar[str]
     #: One image per reflected object (False: faces that show them all).
@@ -306,11 +347,13 @@ class BakedImages:
         layers = self.second_layer != SecondLayer.NONE
         offsets = triangle_offsets(reflected) if self.keeps_triangle_ids else None
         self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=layers, triangle_offsets=offsets)
-        self.back_faces = programs.get(*BACK_FACE_PROGRAM) if self.second_layer == SecondLayer.BACK_FACE else None
+        self.back_layer = (DiffusePass(programs, scene, meshes, write_depth_image=True, triangle_offsets=offsets,
+                                       back_layer=True) if self.keeps_back_colors else None)
         count = sum(len(images) for images in plan.values())
         # Slots as large as the largest image ("auto" sizes each image apart).
         sides = [max(camera.width, camera.height) for images in plan.values() for _, camera, _ in images]
-        self.atlas = ImpostorAtlas(ctx, count, max(sides, default=1), layers, self.keeps_triangle_ids)
+        self.atlas = ImpostorAtlas(ctx, count, max(sides, default=1), layers, self.keeps_triangle_ids,
+                                   self.keeps_back_colors)
         self.images_by_mirror: dict[int, list[DepthImage]] = {}
         slot = 0
         for mirror in mirrors:
@@ -414,7 +457,7 @@ class BakedImages:
         atlas = self.atlas
         everything = atlas.masks(*[(True,) * 4] * len(atlas.textures))
         surface_mask = atlas.masks((True,) * 4, (True, self.second_layer == SecondLayer.OBJECT_ID, False, False),
-                                   (True, False, False, False))
+                                   (True, False, False, False))  # triangle ids: R, the visible surface's
         draws = 0
         try:
             for image in self.depth_images:
@@ -427,7 +470,10 @@ class BakedImages:
                 framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
                 framebuffer.color_mask = surface_mask
                 draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
-                if self.back_faces is not None:
+                if self.back_layer is not None:
+                    draws += self._bake_back_layer(image)
+                    framebuffer.use()
+                elif self.second_layer == SecondLayer.BACK_FACE:
                     draws += self._bake_back_faces(image, framebuffer, image.tile)
                 self.baked(image)
         finally:
@@ -442,17 +488,36 @@ class BakedImages:
         self.stale.discard(image.slot)
 
     def _bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, ...]) -> int:
-        """The nearest back face: the G layer alone, against a fresh depth buffer."""
-        assert self.back_faces is not None
-        framebuffer.color_mask = self.atlas.masks()
+        """The nearest back face: the G layer alone, against a fresh depth buffer (images of
+        reflectors at bounce k >= 2, which have no colour of their backs to show)."""
+        back_faces = self.programs.get(*BACK_FACE_PROGRAM)
+        attachments = len(framebuffer.color_attachments)
+        framebuffer.color_mask = color_mask(attachments)
         framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=tile)
-        framebuffer.color_mask = self.atlas.masks((False,) * 4, (False, True, False, False))
+        framebuffer.color_mask = color_mask(attachments, (False,) * 4, (False, True, False, False))
         self.ctx.enable(moderngl.CULL_FACE)
         self.ctx.cull_face = BAKE_CULLS_FRONT_FACES
         for target in image.targets:
-            self.meshes.draw(self.back_faces, target, image.camera.view_projection)
+            self.meshes.draw(back_faces, target, image.camera.view_projection)
         self.ctx.disable(moderngl.CULL_FACE)
         return len(image.targets)
+
+    def _bake_back_layer(self, image: DepthImage) -> int:
+        """The nearest back face's colour, depth (G) and triangle (G), against a fresh depth buffer."""
+        assert self.back_layer is not None and self.atlas.back_framebuffer is not None
+        framebuffer, atlas = self.atlas.back_framebuffer, self.atlas
+        framebuffer.use()
+        framebuffer.viewport = image.tile
+        framebuffer.color_mask = atlas.masks((True,) * 4)
+        framebuffer.clear(1.0, 1.0, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
+        framebuffer.color_mask = atlas.masks((True,) * 4, (False, True, False, False), (False, True, False, False))
+        self.ctx.enable(moderngl.CULL_FACE)
+        self.ctx.cull_face = BAKE_CULLS_FRONT_FACES
+        try:
+            return self.back_layer.draw(list(image.targets), image.camera.view_projection)
+        finally:
+            self.ctx.disable(moderngl.CULL_FACE)
+            framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
 
     def release(self) -> None:
         for buffer in self.uniform_buffers.values():
@@ -466,6 +531,7 @@ class ImpostorPass(BakedImages):
     min/max depth pyramid of every image too, built after each bake."""
 
     second_layer = SecondLayer.BACK_FACE
+    keeps_back_colors = True
     image_noun = "depth image"
 
     pyramid: DepthPyramid | None = None

@@ -15,6 +15,8 @@ uniform sampler2D u_impostor_color;  // atlas of every image's colours (RGBA8; a
 // Atlas of their OpenGL window depths (RG32F): R the visible surface, G the method's second layer
 // (depth images: the nearest back face; cube maps: the visible surface's object id); 1.0 = nothing.
 uniform sampler2D u_impostor_depth;
+// Depth images: the colour of the back layer, where a ray may come in (RGBA8; alpha 0: none drawn).
+uniform sampler2D u_impostor_back_color;
 
 // (u w, v w, w) of a world-space vector: [a b c]^-1 applied row by row.
 vec3 camera_coordinates(DepthImage image, vec3 world_vector) {

@@ -2,7 +2,8 @@
 // shared by the mirror pass and the GPU ray query. depthimpostor/reference.py implements the
 // lecture's two with the same function names; the hierarchical one finds the optimized one's hit.
 // The marches take the texture of depth layers they read as an argument (`layers`): the mirror's
-// depth images are in u_impostor_depth, the lights' shadow maps (lib/shadows.glsl) in another.
+// depth images are in u_impostor_depth, with back colours in u_impostor_back_color; the lights'
+// shadow maps (lib/shadows.glsl) are in another, without (`back_colors` false).
 #ifndef ALGORITHM
 #define ALGORITHM ALGORITHM_OPTIMIZED
 #endif
@@ -128,10 +129,24 @@ bool inside_solid(float r, vec2 layers) {
 // depth images (a shadow ray needs none), from `texel`, a sample the march read and found
 // surface at. (Not the texel under s: between two diagonal samples s can lie over a third,
 // background texel, whose cleared colour is white.)
-RayHit hit_at(DepthImage image, float t, vec2 s, int samples, ivec2 texel) {
+RayHit hit_at(DepthImage image, float t, vec2 s, int samples, ivec2 texel, int layer) {
     RayHit hit = make_hit(true, t, s, vec3(0.0), image.eye.w, samples);
     hit.texel = texel;
+    hit.layer = layer;
     return hit;
+}
+
+// Does a step come in through the back layer: from behind the nearest back face (f0 = back - r
+// <= tolerance) to in front of it (f1 >= -tolerance), between two samples of one back surface
+// whose colour the back layer's pass drew? A face turned away from the image's eye is seen by a
+// ray that comes from behind it (a box's far side seen in a large mirror): without this the ray
+// would only find itself inside the solid run a step later, at a hidden entry of unknown colour.
+bool back_crossing(DepthImage image, ivec2 texel0, ivec2 texel1, float r0, float r1, vec2 z0, vec2 z1, out float k) {
+    k = 1.0;
+    // solid_run() gives back = front where no back face was drawn (an open surface).
+    if (!(z0.y > z0.x && z1.y > z1.x) || !samples_connected(image, texel0, texel1, z0.y, z1.y)
+        || !segments_cross(z0.y - r0, z1.y - r1, k)) return false;
+    return texelFetch(u_impostor_back_color, k < 0.5 ? texel0 : texel1, 0).a > 0.0;
 }
 
 RayHit with_unseen(RayHit hit, float unseen_t, int unseen) {
@@ -211,7 +226,7 @@ bool march_start(sampler2D layers, DepthImage image, vec3 origin, vec3 direction
     note_unseen(kind, 0.0, ray, early.unseen_t, early.unseen);
 #endif
     if (!inside_solid(ray.sa.z, z0)) return true;
-    early = with_unseen(hit_at(image, ray.t_enter, ray.sa.xy, 1, texel0), early.unseen_t, early.unseen);
+    early = with_unseen(hit_at(image, ray.t_enter, ray.sa.xy, 1, texel0, 0), early.unseen_t, early.unseen);
     return false;
 }
 
@@ -222,24 +237,28 @@ bool march_start(sampler2D layers, DepthImage image, vec3 origin, vec3 direction
 // ray is inside the solid run at s1 without crossing the visible surface, and the hit is put at
 // s1, within one step of where it entered. A ray that passes behind the solid run (behind a thin
 // foreground) is inside nothing and goes on to what lies behind, as the truth does.
-bool march_step(sampler2D layers, DepthImage image, ClippedRay ray, int i, int steps, vec3 s0, ivec2 texel0, vec2 z0,
+bool march_step(sampler2D layers, bool back_colors, DepthImage image, ClippedRay ray, int i, int steps, vec3 s0,
+                ivec2 texel0, vec2 z0,
                 out vec3 s1, out ivec2 texel1, out vec2 z1, out float t, out vec2 s, out ivec2 hit_texel,
-                inout float unseen_t, inout int unseen) {
+                out int hit_layer, inout float unseen_t, inout int unseen) {
     s1 = march_sample(ray, i + 1, steps);
     texel1 = texel_of(image, s1.xy);
     z1 = layers_at(layers, texel1);
     float k;
     bool through_surface = samples_connected(image, texel0, texel1, z0.x, z1.x)
         && segments_cross(s0.z - z0.x, s1.z - z1.x, k);
+    bool through_back = back_colors && !through_surface && back_crossing(image, texel0, texel1, s0.z, s1.z, z0, z1, k);
+    hit_layer = through_back ? 1 : 0;
 #ifdef TRACK_UNSEEN
     // A hit on a steep join may be on a sheet over the gap between two surfaces close in depth.
-    int kind = through_surface
-        ? (depth_step_within(image, texel0, texel1, z0.x, z1.x, STEEP_JOIN_SHARE) ? UNSEEN_NONE : UNSEEN_SILHOUETTE)
+    vec2 crossed = through_back ? vec2(z0.y, z1.y) : vec2(z0.x, z1.x);
+    int kind = through_surface || through_back
+        ? (depth_step_within(image, texel0, texel1, crossed.x, crossed.y, STEEP_JOIN_SHARE) ? UNSEEN_NONE : UNSEEN_SILHOUETTE)
         : step_unseen(image, texel0, texel1, s0.z, s1.z, z0, z1);
     note_unseen(kind, float(i) / float(steps), ray, unseen_t, unseen);
 #endif
-    if (!through_surface && !inside_solid(s1.z, z1)) return false;
-    if (!through_surface) k = 1.0;
+    if (!through_surface && !through_back && !inside_solid(s1.z, z1)) return false;
+    if (!through_surface && !through_back) k = 1.0;
     s = s0.xy + (s1.xy - s0.xy) * k;
     hit_texel = k < 0.5 ? texel0 : texel1;  // the sample nearer the crossing: both are surface
     t = ray_parameter((float(i) + k) / float(steps), ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
@@ -248,16 +267,19 @@ bool march_step(sampler2D layers, DepthImage image, ClippedRay ray, int i, int s
 
 // The optimized march's loop from sample `first` (s0, its texel and layers) to the end; `reads`
 // texels were read before it, and `unseen` is what sample 0 relies on that the image lacks.
-RayHit march_linear(sampler2D layers, DepthImage image, ClippedRay ray, int steps, int first, vec3 s0, ivec2 texel0,
+RayHit march_linear(sampler2D layers, bool back_colors, DepthImage image, ClippedRay ray, int steps, int first, vec3 s0,
+                    ivec2 texel0,
                     vec2 z0, int reads, RayHit unseen) {
     for (int i = first; i < steps; ++i) {
         vec3 s1;
         ivec2 texel1, hit_texel;
         vec2 z1, s;
         float t;
-        if (march_step(layers, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s, hit_texel, unseen.unseen_t,
-                       unseen.unseen)) {
-            return with_unseen(hit_at(image, t, s, reads + i - first + 1, hit_texel), unseen.unseen_t, unseen.unseen);
+        int hit_layer;
+        if (march_step(layers, back_colors, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s, hit_texel, hit_layer,
+                       unseen.unseen_t, unseen.unseen)) {
+            return with_unseen(hit_at(image, t, s, reads + i - first + 1, hit_texel, hit_layer), unseen.unseen_t,
+                               unseen.unseen);
         }
         s0 = s1;
         texel0 = texel1;
@@ -269,14 +291,15 @@ RayHit march_linear(sampler2D layers, DepthImage image, ClippedRay ray, int step
 // The lecture's optimized algorithm: clip, project both ends, step along the projection and
 // intersect 2-D segments in OpenGL depth, which is affine in screen space: no unprojection. It
 // reads one texel per step: up to max(w, h) of them. Only hits with t <= t_limit are looked for.
-RayHit intersect_optimized(sampler2D layers, DepthImage image, vec3 origin, vec3 direction, float t_limit) {
+RayHit intersect_optimized(sampler2D layers, bool back_colors, DepthImage image, vec3 origin, vec3 direction,
+                          float t_limit) {
     ClippedRay ray;
     int steps;
     ivec2 texel0;
     vec2 z0;
     RayHit early;
     if (!march_start(layers, image, origin, direction, t_limit, ray, steps, texel0, z0, early)) return early;
-    return march_linear(layers, image, ray, steps, 0, ray.sa, texel0, z0, 1, early);
+    return march_linear(layers, back_colors, image, ray, steps, 0, ray.sa, texel0, z0, 1, early);
 }
 
 #if ALGORITHM == ALGORITHM_HIERARCHICAL
@@ -375,10 +398,11 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
         ivec2 texel1, hit_texel;
         vec2 z1, s;
         float t;
+        int hit_layer;
         reads += 1;
-        if (march_step(u_impostor_depth, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s, hit_texel,
+        if (march_step(u_impostor_depth, true, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s, hit_texel, hit_layer,
                        unseen.unseen_t, unseen.unseen)) {
-            return with_unseen(hit_at(image, t, s, reads, hit_texel), unseen.unseen_t, unseen.unseen);
+            return with_unseen(hit_at(image, t, s, reads, hit_texel, hit_layer), unseen.unseen_t, unseen.unseen);
         }
         i += 1;
         // Climb only on entering another level-1 cell: within the same one, a level-1 test would
@@ -414,7 +438,7 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
     note_unseen(inside_solid(sa.z, z0) ? UNSEEN_HIDDEN_ENTRY : behind_solid(sa.z, z0) ? UNSEEN_OCCLUDED : UNSEEN_NONE,
                 0.0, ray, unseen_t, unseen);
 #endif
-    if (inside_solid(sa.z, z0)) return with_unseen(hit_at(image, ray.t_enter, s0, 1, texel0), unseen_t, unseen);
+    if (inside_solid(sa.z, z0)) return with_unseen(hit_at(image, ray.t_enter, s0, 1, texel0, 0), unseen_t, unseen);
     vec3 q0 = unproject(image, s0, w_from_opengl_depth(image, z0.x));
     for (int i = 0; i < steps; ++i) {
         float sigma0 = float(i) / float(steps);
@@ -447,23 +471,34 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
                     vec3 p = ray_a + ray_ab * lambda;
                     vec3 pc = camera_coordinates(image, p - image.eye.xyz);
                     float t = ray.t_enter + lambda * (ray.t_exit - ray.t_enter);
-                    return with_unseen(hit_at(image, t, pc.xy / pc.z, i + 2, mu < 0.5 ? texel0 : texel1), unseen_t, unseen);
+                    return with_unseen(hit_at(image, t, pc.xy / pc.z, i + 2, mu < 0.5 ? texel0 : texel1, 0), unseen_t, unseen);
                 }
             } else {
                 float k;
                 if (segments_cross(sa.z + (sb.z - sa.z) * sigma0 - z0.x, sa.z + (sb.z - sa.z) * sigma1 - z1.x, k)) {
                     float t = ray_parameter(sigma0 + (sigma1 - sigma0) * k, ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
-                    return with_unseen(hit_at(image, t, s0 + (s1 - s0) * k, i + 2, k < 0.5 ? texel0 : texel1), unseen_t, unseen);
+                    return with_unseen(hit_at(image, t, s0 + (s1 - s0) * k, i + 2, k < 0.5 ? texel0 : texel1, 0), unseen_t, unseen);
                 }
             }
         }
+        // In through the back layer: the 2-D crossing in depth, as the optimized march finds it.
+        float r0 = sa.z + (sb.z - sa.z) * sigma0, r1 = sa.z + (sb.z - sa.z) * sigma1, k_back;
+        if (back_crossing(image, texel0, texel1, r0, r1, z0, z1, k_back)) {
 #ifdef TRACK_UNSEEN
-        note_unseen(step_unseen(image, texel0, texel1, sa.z + (sb.z - sa.z) * sigma0, sa.z + (sb.z - sa.z) * sigma1, z0, z1),
-                    sigma0, ray, unseen_t, unseen);
+            if (!depth_step_within(image, texel0, texel1, z0.y, z1.y, STEEP_JOIN_SHARE)) {
+                note_unseen(UNSEEN_SILHOUETTE, sigma0, ray, unseen_t, unseen);
+            }
+#endif
+            float t = ray_parameter(sigma0 + (sigma1 - sigma0) * k_back, ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
+            return with_unseen(hit_at(image, t, s0 + (s1 - s0) * k_back, i + 2, k_back < 0.5 ? texel0 : texel1, 1),
+                               unseen_t, unseen);
+        }
+#ifdef TRACK_UNSEEN
+        note_unseen(step_unseen(image, texel0, texel1, r0, r1, z0, z1), sigma0, ray, unseen_t, unseen);
 #endif
         if (inside_solid(sa.z + (sb.z - sa.z) * sigma1, z1)) {
             float t = ray_parameter(sigma1, ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
-            return with_unseen(hit_at(image, t, s1, i + 2, texel1), unseen_t, unseen);
+            return with_unseen(hit_at(image, t, s1, i + 2, texel1, 0), unseen_t, unseen);
         }
         s0 = s1;
         texel0 = texel1;
@@ -481,6 +516,6 @@ RayHit intersect_depth_image(DepthImage image, vec3 origin, vec3 direction) {
 #elif ALGORITHM == ALGORITHM_HIERARCHICAL
     return intersect_hierarchical(image, origin, direction);
 #else
-    return intersect_optimized(u_impostor_depth, image, origin, direction, UNBOUNDED_RAY);
+    return intersect_optimized(u_impostor_depth, true, image, origin, direction, UNBOUNDED_RAY);
 #endif
 }

@@ -11,8 +11,10 @@ struct RayHit {
     vec3 color;
     float object_id;
     int samples;          // depth-image samples (ray-traced: BVH nodes) read
-    // Depth images: the atlas texel whose colour the hit shows (a sample the march read).
+    // Depth images: the atlas texel whose colour the hit shows (a sample the march read), and
+    // the layer it is on (0: the visible surface; 1: the back layer, come in through from behind).
     ivec2 texel;
+    int layer;
     // Depth images: the ray parameter from which the answer rests on what the image does not
     // hold (lib/depth_image.glsl, "What the image does not hold"), and why (an UNSEEN_* kind);
     // UNBOUNDED_RAY and UNSEEN_NONE where it rests on nothing unseen. Other methods: the same.
@@ -22,7 +24,7 @@ struct RayHit {
 };
 
 RayHit make_hit(bool hit, float t, vec2 image_position, vec3 color, float object_id, int samples) {
-    return RayHit(hit, t, image_position, color, object_id, samples, ivec2(0), UNBOUNDED_RAY, UNSEEN_NONE, false);
+    return RayHit(hit, t, image_position, color, object_id, samples, ivec2(0), 0, UNBOUNDED_RAY, UNSEEN_NONE, false);
 }
 
 RayHit no_hit(int samples) {

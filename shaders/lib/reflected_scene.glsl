@@ -50,7 +50,8 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction) {
         }
         if (candidate.hit && (!best.hit || candidate.t < best.t)) best = candidate;
     }
-    if (best.hit) best.color = texelFetch(u_impostor_color, best.texel, 0).rgb;
+    if (best.hit) best.color = (best.layer == 1 ? texelFetch(u_impostor_back_color, best.texel, 0)
+                                                : texelFetch(u_impostor_color, best.texel, 0)).rgb;
     best.samples = samples;
     return with_unseen(best, unseen_t, unseen);
 }
@@ -96,7 +97,7 @@ uniform sampler2D u_bvh_places;          // per triangle of that list: its place
 // The ray against the triangle the sample at `texel` shows: its place in the BVH's order, or -1
 // where the ray meets it no nearer than `best_t` or outside EXACT_SURFACE_WINDOW of the hit's t.
 int sample_triangle(RayHit hit, ivec2 texel, vec3 origin, vec3 direction, inout float best_t, inout vec2 best_uv) {
-    int listed = int(texelFetch(u_impostor_triangles, texel, 0).r);
+    int listed = int(texelFetch(u_impostor_triangles, texel, 0)[hit.layer]);
     int triangle = int(bvh_fetch(u_bvh_places, listed).x);
     vec2 uv;
     float t = intersect_triangle(origin, direction, triangle, uv);
