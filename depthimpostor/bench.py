@@ -85,6 +85,8 @@ class BenchRow:
     samples_per_ray_max: float
     mirror_pixels: int
     wrong_object_percent: float
+    wrong_surface_percent: float  # of the mirror pixels that show an object (compare.py)
+    retraced_percent: float  # of the mirror pixels: the hybrid method's rays traced against the triangles
     color_rmse: float
     psnr_db: float
     geometric_error_median_percent: float
@@ -182,6 +184,8 @@ def _measure(
             "samples_per_ray_max": float(samples.max()) if len(samples) else 0.0,
             "mirror_pixels": figures.mirror_pixels,
             "wrong_object_percent": 100.0 * figures.wrong_object_share,
+            "wrong_surface_percent": 100.0 * figures.wrong_surface_share,
+            "retraced_percent": 100.0 * figures.retraced_share,
             "color_rmse": figures.color_rmse,
             "psnr_db": figures.psnr_db,
             "geometric_error_median_percent": 100.0 * figures.geometric_error_median,
@@ -268,15 +272,16 @@ def markdown(rows: Sequence[BenchRow], header: Sequence[str]) -> str:
     lines = [f"{line}  " for line in header] + [""]
     lines += [
         "| scene | method | resolution | frame ms (median, p10-p90) | mirror pass ms | bake ms | MiB "
-        "| samples/ray mean / max | wrong object | colour RMSE | geometric error median / p95 |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| samples/ray mean / max | wrong object | wrong surface | re-traced | colour RMSE | geometric error median / p95 |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         lines.append(
             f"| {r.scene} | `{r.method}`{'' if r.algorithm == '-' else ' ' + r.algorithm} | {r.resolution or '-'} "
             f"| {r.frame_ms_median:.1f} ({r.frame_ms_p10:.1f}-{r.frame_ms_p90:.1f}) | {r.mirror_pass_ms_median:.1f} "
             f"| {r.bake_ms_median:.1f} | {r.memory_mib:.2f} | {r.samples_per_ray_mean:.1f} / "
-            f"{r.samples_per_ray_max:.0f} | {r.wrong_object_percent:.2f} % | {r.color_rmse:.4f} | "
+            f"{r.samples_per_ray_max:.0f} | {r.wrong_object_percent:.2f} % | {r.wrong_surface_percent:.2f} % "
+            f"| {r.retraced_percent:.2f} % | {r.color_rmse:.4f} | "
             f"{r.geometric_error_median_percent:.2f} % / {r.geometric_error_p95_percent:.1f} % |"
         )
     return "\n".join(lines) + "\n"

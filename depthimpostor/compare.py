@@ -5,6 +5,11 @@ reflected ray is the one measured for objects and geometry, its colour blends in
 - colour RMSE and PSNR of the displayed (clamped) colours;
 - the share of pixels whose reflected ray hit another object than the truth's (the environment
   counting as an object);
+- over the mirror pixels that show a reflected object (in the truth), the share that show the
+  wrong surface: another object, or a colour off by more than WRONG_SURFACE_COLOR_ERROR. On
+  textured objects this is where an image from the mirror's centre shows the right object and the
+  wrong part of it (a side it does not see), which the share of wrong objects cannot tell;
+- for the hybrid method, the share of mirror pixels whose ray was traced against the real triangles;
 - the geometric error where both hit the same depth-image object: the distance between the two
   hit points as a fraction of that object's bounding-sphere radius (median, 95th percentile, max).
   Analytic planes are exact by construction and are left out of this figure.
@@ -30,6 +35,10 @@ from .renderer import ReflectionData, Renderer, to_uint8
 from .truth import SpecularTruth, TruthTracer
 
 WORST_PIXELS = 8
+#: A pixel showing a reflected object shows the wrong surface when its colour is off by more than
+#: this in its largest channel: 8-bit rounding and shading from interpolated normals stay far below
+#: it, a checker square of the wrong colour (or a side coloured like another) far above.
+WRONG_SURFACE_COLOR_ERROR = 0.1
 
 
 @dataclass(frozen=True)
@@ -49,6 +58,13 @@ class Figures:
     # Scenes with glass: its pixels (counted among the mirror pixels too) and their colour RMSE.
     glass_pixels: int = 0
     glass_rmse: float = 0.0
+    # Mirror pixels that show a reflected object in the truth, and the share of them that show
+    # the wrong surface (see the module's docstring).
+    object_pixels: int = 0
+    wrong_surface_share: float = 0.0
+    # The hybrid method: mirror pixels whose ray was traced against the real triangles.
+    retraced_pixels: int = 0
+    retraced_share: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,6 +179,10 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
 
     color_error = np.abs(render - truth_image).max(axis=2)
     worst = _worst_pixels(mask, wrong, geometric, color_error, data.object_id, truth_object)
+    shows_object = mask & np.isin(truth_object, list(radius))
+    wrong_surface = shows_object & (wrong | (color_error > WRONG_SURFACE_COLOR_ERROR))
+    object_pixels = int(shows_object.sum())
+    retraced = int((data.retraced & mask).sum())
     figures = Figures(
         mirror_pixels=count,
         color_rmse=rmse,
@@ -177,6 +197,10 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
         direct_rmse=direct_rmse,
         glass_pixels=glass_pixels,
         glass_rmse=glass_rmse,
+        object_pixels=object_pixels,
+        wrong_surface_share=float(wrong_surface.sum() / object_pixels) if object_pixels else 0.0,
+        retraced_pixels=retraced,
+        retraced_share=float(retraced / count) if count else 0.0,
     )
     return Comparison(render, truth_image, mask, geometric, figures, truth, direct)
 
@@ -232,11 +256,15 @@ def format_table(figures: Figures) -> str:
         ("colour RMSE", f"{figures.color_rmse:.4f}"),
         ("PSNR", f"{figures.psnr_db:.2f} dB"),
         ("wrong object", f"{100 * figures.wrong_object_share:.3f} % of mirror pixels"),
+        ("wrong surface", (f"{100 * figures.wrong_surface_share:.2f} % of the {figures.object_pixels} mirror pixels "
+                           "that show an object")),
         ("geometric error, median", f"{100 * figures.geometric_error_median:.3f} % of the object's radius"),
         ("geometric error, 95th pct", f"{100 * figures.geometric_error_p95:.3f} %"),
         ("geometric error, max", f"{100 * figures.geometric_error_max:.3f} %"),
         ("pixels measured (geometry)", f"{figures.geometric_pixels}"),
     ]
+    if figures.retraced_pixels:
+        rows.append(("re-traced rays", f"{100 * figures.retraced_share:.2f} % of mirror pixels ({figures.retraced_pixels})"))
     if figures.glass_pixels:
         rows.append(("of which glass: RMSE", f"{figures.glass_rmse:.4f} over {figures.glass_pixels} pixels"))
     if figures.direct_pixels:
@@ -285,12 +313,13 @@ def side_by_side(comparisons: dict[str, Comparison]) -> np.ndarray:
 def markdown_table(rows: dict[str, tuple[str, Figures]]) -> str:
     """One row per method: what it keeps, and its figures against the truth."""
     lines = [
-        "| method | stand-in | wrong object | colour RMSE | PSNR | geometric error, median / 95th pct |",
-        "|---|---|---:|---:|---:|---:|",
+        "| method | stand-in | wrong object | wrong surface | colour RMSE | PSNR | geometric error, median / 95th pct |",
+        "|---|---|---:|---:|---:|---:|---:|",
     ]
     for name, (stand_in, f) in rows.items():
         lines.append(
-            f"| `{name}` | {stand_in} | {100 * f.wrong_object_share:.2f} % | {f.color_rmse:.4f} | "
+            f"| `{name}` | {stand_in} | {100 * f.wrong_object_share:.2f} % | {100 * f.wrong_surface_share:.2f} % | "
+            f"{f.color_rmse:.4f} | "
             f"{f.psnr_db:.1f} dB | {100 * f.geometric_error_median:.2f} % / {100 * f.geometric_error_p95:.1f} % |"
         )
     return "\n".join(lines) + "\n"

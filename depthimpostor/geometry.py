@@ -83,9 +83,11 @@ def triangle_offsets(objects: list[ObjectGeometry]) -> dict[int, int]:
     """Where each object's triangles start (by object index) in the list of all their triangles,
     in this order: the list the ray-traced method's BVH is built from (passes/triangles.py), whose
     places the hybrid method's depth images record."""
-    counts = [len(item.local_mesh.indices) for item in objects]
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(int) if counts else []
-    return {item.index: int(start) for item, start in zip(objects, starts)}
+    offsets, start = {}, 0
+    for item in objects:
+        offsets[item.index] = start
+        start += len(item.local_mesh.indices)
+    return offsets
 
 
 def scene_geometry(objects: tuple[SceneObject, ...]) -> list[ObjectGeometry]:

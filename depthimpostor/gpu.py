@@ -161,7 +161,7 @@ def query_depth_images(
     images go into an atlas of their own, so the GLSL sees exactly the texels the reference sees."""
     resolution = max(max(image.depth.shape) for image in images)
     # Back colours always (alpha 0 for an image without): the march reads them for every depth image.
-    atlas = ImpostorAtlas(ctx, len(images), resolution, back_colors=True)
+    atlas = ImpostorAtlas(ctx, len(images), resolution, back_colors=True, beyond=True)
     query = None
     try:
         uploaded = []

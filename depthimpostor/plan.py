@@ -23,7 +23,7 @@ from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
 from .passes.environment import ENVIRONMENT_PROGRAM
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .passes.hybrid import HybridPass
-from .passes.impostors import BACK_FACE_PROGRAM, BakedImages, ImpostorAtlas, ImpostorPass, SecondLayer, image_label, plural
+from .passes.impostors import BACK_FACE_PROGRAM, BEYOND_PROGRAM, BakedImages, ImpostorAtlas, ImpostorPass, SecondLayer, image_label, plural
 from .passes.mirrors import REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
 from .passes.pyramid import PYRAMID_PROGRAM
 from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, shadow_map_bytes
@@ -217,7 +217,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                         shown_in_bounces.add(targets[0].object.is_glass)
             side = max((max(i.width, i.height) for i in images), default=1)
             memory[stand_in.image_noun + "s"] = ImpostorAtlas.bytes_for(
-                len(images), side, stand_in.second_layer != SecondLayer.NONE, stand_in.keeps_triangle_ids)
+                len(images), side, stand_in.second_layer != SecondLayer.NONE, stand_in.keeps_triangle_ids,
+                stand_in.keeps_back_colors, stand_in.keeps_beyond)
         noun = stand_in.image_noun if issubclass(stand_in, BakedImages) else "BVH of triangles"
         also = ", and a BVH of their triangles for the rays those cannot answer" if stand_in is HybridPass else ""
         passes.append(PlannedPass(Pass.STAND_IN, f"{_names(reflectors)} may reflect "
@@ -230,6 +231,9 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             if stand_in.keeps_back_colors:
                 variant(DIFFUSE_PROGRAM, diffuse_defines(scene, True, ids, back_layer=True),
                         f"depth images: the back layer's colour and depth (a ray may come in through it){with_ids}")
+            if stand_in.keeps_beyond:
+                variant(BEYOND_PROGRAM, None, "depth images: where a second solid run begins (the space before it "
+                        "is seen empty)")
         if shown_in_bounces:
             passes.append(PlannedPass(Pass.BOUNCES, f"render.max_bounces = {scene.render.max_bounces}: reflectors "
                                       "show each other's reflections"))

@@ -38,6 +38,9 @@ class DepthImageData:
     # The back face's colour (height, width, 3), NaN where none was drawn; None: no back colours
     # (a ray coming in through the back layer is then a hidden entry, as without the layer).
     back_color: Array | None = None
+    # Where a second solid run begins behind the first (OpenGL depth; BACKGROUND_DEPTH: none);
+    # None: not known, and everything behind the first run is unseen.
+    beyond_depth: NDArray[np.float32] | None = None
 
     @property
     def back_layer(self) -> NDArray[np.float32]:
@@ -181,12 +184,22 @@ def behind_solid(r: Array, layers: Array) -> NDArray[np.bool_]:
     return (front < BACKGROUND_DEPTH) & (r > back + CONTACT_DEPTH_TOLERANCE)
 
 
-def silhouette_clear_depth(image: DepthImageData, z: Array) -> Array:
-    """The OpenGL depth a ray must stay in front of to be clear of a silhouette at a sample of
-    depth z: 1/w larger by SILHOUETTE_BAND_TEXELS texels of the steepest joined slope."""
+def occluded(image: DepthImageData, s: Array, r: Array, layers: Array) -> NDArray[np.bool_]:
+    """Is the ray, at OpenGL depth r over image point s, in space the object hides from the eye:
+    behind the first solid run, and at or behind where a second one begins (see the GLSL)?"""
+    if image.beyond_depth is None:
+        return behind_solid(r, layers)
+    row, column = texel_of(image, s)
+    return behind_solid(r, layers) & (r >= image.beyond_depth[row, column] - CONTACT_DEPTH_TOLERANCE)
+
+
+def silhouette_clear_depth(image: DepthImageData, z: Array, side: float) -> Array:
+    """The OpenGL depth a ray must stay in front of (side 1) or behind (side -1) to be clear of a
+    silhouette at a sample of depth z: 1/w larger (smaller) by SILHOUETTE_BAND_TEXELS texels of
+    the steepest joined slope."""
     camera = image.camera
     inverse_w = camera.inverse_w_from_opengl_depth(z)
-    clear = inverse_w * (1.0 + SILHOUETTE_BAND_TEXELS * camera.max_relative_depth_step)
+    clear = inverse_w * (1.0 + side * SILHOUETTE_BAND_TEXELS * camera.max_relative_depth_step)
     return (1.0 / camera.w_near - clear) / (1.0 / camera.w_near - 1.0 / camera.w_far)
 
 
@@ -194,10 +207,14 @@ def step_unseen(image: DepthImageData, s0: Array, s1: Array, r0: Array, r1: Arra
     """What a step that did not hit through the visible surface relies on that the image does
     not hold (an Unseen kind per ray; see the GLSL)."""
     nearer = np.minimum(z0[:, 0], z1[:, 0])
+    farther_back = np.maximum(np.where(z0[:, 0] < BACKGROUND_DEPTH, z0[:, 1], 0.0),
+                              np.where(z1[:, 0] < BACKGROUND_DEPTH, z1[:, 1], 0.0))
+    in_front = np.maximum(r0, r1) < silhouette_clear_depth(image, nearer, 1.0)
+    behind = np.minimum(r0, r1) > silhouette_clear_depth(image, farther_back, -1.0)
     silhouette = ((nearer < BACKGROUND_DEPTH) & ~samples_connected(image, s0, s1, z0[:, 0], z1[:, 0])
-                  & (np.maximum(r0, r1) >= silhouette_clear_depth(image, nearer)))
+                  & ~in_front & ~behind)
     kind = np.where(silhouette, int(Unseen.SILHOUETTE), int(Unseen.NONE))
-    kind = np.where(behind_solid(r1, z1), int(Unseen.OCCLUDED), kind)
+    kind = np.where(occluded(image, s1, r1, z1), int(Unseen.OCCLUDED), kind)
     return np.where(inside_solid(r1, z1), int(Unseen.HIDDEN_ENTRY), kind)
 
 
@@ -217,10 +234,10 @@ def note_unseen(result: RayHits, active: NDArray[np.bool_], kind: Array, sigma0:
         result.unseen_t[first] = t[first]
 
 
-def start_unseen(r: Array, layers: Array) -> Array:
+def start_unseen(image: DepthImageData, s: Array, r: Array, layers: Array) -> Array:
     """What sample 0 relies on that the image does not hold: the ray enters the frustum inside
     the run or behind it (the object reaches the frustum's side there, edge-on to the eye)."""
-    kind = np.where(behind_solid(r, layers), int(Unseen.OCCLUDED), int(Unseen.NONE))
+    kind = np.where(occluded(image, s, r, layers), int(Unseen.OCCLUDED), int(Unseen.NONE))
     return np.where(inside_solid(r, layers), int(Unseen.HIDDEN_ENTRY), kind)
 
 
@@ -274,7 +291,7 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
     s0 = rays.sa.copy()
     z0 = sample_layers(image, s0[:, :2])
     _track_margins(result, active, s0, z0)
-    note_unseen(result, active, start_unseen(s0[:, 2], z0), np.zeros(len(origins)), rays)
+    note_unseen(result, active, start_unseen(image, s0[:, :2], s0[:, 2], z0), np.zeros(len(origins)), rays)
     starts_inside = active & inside_solid(s0[:, 2], z0)
     _record(result, starts_inside, rays.t_enter, s0[:, :2], sample_color(image, s0[:, :2]), image.object_id, 1)
     active &= ~starts_inside
@@ -330,7 +347,7 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
     active = rays.inside.copy()
     s0 = rays.sa[:, :2].copy()
     z0 = sample_layers(image, s0)
-    note_unseen(result, active, start_unseen(rays.sa[:, 2], z0), np.zeros(len(origins)), rays)
+    note_unseen(result, active, start_unseen(image, s0, rays.sa[:, 2], z0), np.zeros(len(origins)), rays)
     starts_inside = active & inside_solid(rays.sa[:, 2], z0)
     _record(result, starts_inside, rays.t_enter, s0, sample_color(image, s0), image.object_id, 1)
     active &= ~starts_inside

@@ -94,6 +94,7 @@ class ReflectionData:
     object_id: np.ndarray  # (h, w) int, NO_OBJECT for the environment (and outside mirrors)
     hit_position: np.ndarray  # (h, w, 3) world position of the hit (meaningless where no hit)
     normal: np.ndarray  # (h, w, 3) the reflector's unit normal, facing the eye
+    retraced: np.ndarray  # (h, w) bool: the hybrid method traced this pixel's ray against the real triangles
 
 
 class Renderer:
@@ -509,7 +510,7 @@ class Renderer:
         mirror_id = np.where(mask, np.rint(origin[..., 3]) - 1, NO_OBJECT).astype(np.int64)
         object_id = np.where(mask, np.rint(direction[..., 3]), NO_OBJECT).astype(np.int64)
         return ReflectionData(mask, mirror_id, origin[..., :3], direction[..., :3], object_id, hit[..., :3],
-                              normal[..., :3])
+                              normal[..., :3], mask & (normal[..., 3] > 0.5))
 
     # ------------------------------------------------------------------ lifetime
     def _release_targets(self) -> None:

@@ -10,13 +10,13 @@ from collections.abc import Iterator
 import moderngl
 import numpy as np
 import pytest
+import synthetic
+from conftest import SCENES
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
-import synthetic
-from conftest import SCENES
 from depthimpostor import reference
-from depthimpostor.constants import Algorithm, Unseen
+from depthimpostor.constants import Algorithm, Method, Unseen
 from depthimpostor.geometry import ObjectGeometry
 from depthimpostor.gpu import query_depth_images
 from depthimpostor.renderer import Renderer
@@ -138,12 +138,13 @@ def _rays_at(image_target: ObjectGeometry, mirror: ObjectGeometry, rng: np.rando
 @pytest.fixture(scope="module")
 def baked(ctx: moderngl.Context) -> list[tuple[reference.DepthImageData, ObjectGeometry, np.ndarray, np.ndarray]]:
     """Every depth image of the default scene and of the checker scene (boxes, a plate edge-on
-    from the mirror's centre, knots, spheres, a cylinder, a torus) at 128^2, with its rays."""
+    from the mirror's centre, knots, spheres, a cylinder, a torus) at 128^2, with its rays; as
+    the hybrid method bakes them (with where second solid runs begin)."""
     rng = np.random.default_rng(7)
     found = []
     for name in ("default.toml", "checker_near_mirror.toml"):
         scene = load_scene(SCENES / name).with_overrides(size=(32, 18), impostor_resolution=128)
-        with Renderer(ctx, scene) as renderer:
+        with Renderer(ctx, scene, method=Method.HYBRID) as renderer:
             renderer.render()
             assert renderer.impostors is not None
             for image in renderer.impostors.depth_images:

@@ -29,6 +29,7 @@ class HybridPass(ImpostorPass):
     naming the triangle it shows, beside the ray-traced method's BVH of the same objects."""
 
     keeps_triangle_ids = True
+    keeps_beyond = True
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
                  mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],

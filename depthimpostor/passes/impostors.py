@@ -23,7 +23,7 @@ import math
 from collections import Counter
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, ClassVar, NamedTuple
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 import moderngl
 import numpy as np
@@ -51,6 +51,7 @@ if TYPE_CHECKING:
 COLOR_ATLAS_UNIT = 0
 DEPTH_ATLAS_UNIT = 1
 BACK_COLOR_ATLAS_UNIT = 3  # after the pyramid's (2)
+BEYOND_ATLAS_UNIT = 4
 DEPTH_IMAGES_BINDING = 0
 
 
@@ -61,6 +62,8 @@ def bind_impostors(program: moderngl.Program, atlas: ImpostorAtlas) -> None:
         bind_texture(program, "u_impostor_depth", atlas.depth, DEPTH_ATLAS_UNIT)
     if atlas.back_color is not None:
         bind_texture(program, "u_impostor_back_color", atlas.back_color, BACK_COLOR_ATLAS_UNIT)
+    if atlas.beyond is not None:
+        bind_texture(program, "u_impostor_beyond", atlas.beyond, BEYOND_ATLAS_UNIT)
     bind_uniform_block(program, "DepthImages", DEPTH_IMAGES_BINDING)
 
 
@@ -102,6 +105,8 @@ class DepthImage:
 
 #: Draws the nearest back face's window depth into the second layer.
 BACK_FACE_PROGRAM = ("mesh.vert", "window_depth.frag")
+#: Draws where a second solid run begins behind the first (the hybrid method's).
+BEYOND_PROGRAM = ("mesh.vert", "beyond_run.frag")
 
 
 #: The face GL culls to keep the back faces. A depth image's projection puts image row 0 (the top)
@@ -145,7 +150,9 @@ def fit_depth_image_camera(scene: Scene, mirror: ObjectGeometry, target: ObjectG
         ) from None
 
 
-ColorMask = tuple[tuple[bool, ...], ...] | tuple[bool, ...]
+#: moderngl's colour mask: a 4-tuple for one attachment, a tuple of them for several (its stub
+#: knows the first form alone, hence Any).
+ColorMask = Any
 
 
 def color_mask(attachments: int, *per_attachment: tuple[bool, ...]) -> ColorMask:
@@ -168,7 +175,7 @@ class ImpostorAtlas:
     hybrid method's) the triangles each sample shows on both layers."""
 
     def __init__(self, ctx: moderngl.Context, count: int, resolution: int, layers: bool = True,
-                 triangle_ids: bool = False, back_colors: bool = False) -> None:
+                 triangle_ids: bool = False, back_colors: bool = False, beyond: bool = False) -> None:
         columns, rows = atlas_grid(count)
         size = (columns * resolution, rows * resolution)
         limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
@@ -207,6 +214,14 @@ class ImpostorAtlas:
             self.back_framebuffer.color_mask = self.masks((True,) * 4)
             self.back_framebuffer.clear(1.0, 1.0, 1.0, 0.0)
             self.back_framebuffer.color_mask = self.masks(*[(True,) * 4] * len(self.textures))
+        # R32F: where a second solid run begins behind the first (beyond_run.frag); 0 where not
+        # known (written by hand for tests): everything behind the first run is then unseen.
+        self.beyond = ctx.texture(size, 1, dtype="f4") if beyond and layers else None
+        self.beyond_framebuffer: moderngl.Framebuffer | None = None
+        if self.beyond is not None:
+            self.beyond.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self.beyond_framebuffer = ctx.framebuffer([self.beyond], self._depth_buffer)
+            self.beyond_framebuffer.clear(0.0)
 
     @property
     def size(self) -> tuple[int, int]:
@@ -215,15 +230,17 @@ class ImpostorAtlas:
     @property
     def bytes(self) -> int:
         return self.bytes_for(self.count, self.resolution, self.depth is not None, self.triangles is not None,
-                              self.back_color is not None)
+                              self.back_color is not None, self.beyond is not None)
 
     @staticmethod
-    def bytes_for(count: int, resolution: int, layers: bool, triangle_ids: bool = False, back_colors: bool = False) -> int:
+    def bytes_for(count: int, resolution: int, layers: bool, triangle_ids: bool = False, back_colors: bool = False,
+                  beyond: bool = False) -> int:
         """GPU memory of an atlas of `count` slots: colour, float layers (unless not `layers`),
-        triangle ids (with `triangle_ids`), back colours (with `back_colors`) and the depth buffer
-        used to bake."""
+        triangle ids (with `triangle_ids`), back colours (with `back_colors`), where second runs
+        begin (with `beyond`) and the depth buffer used to bake."""
         columns, rows = atlas_grid(count)
         texel = 4 + (8 if layers else 0) + (8 if triangle_ids else 0) + (4 if back_colors and layers else 0) + 4
+        texel += 4 if beyond and layers else 0
         return columns * rows * resolution * resolution * texel
 
     def masks(self, *per_attachment: tuple[bool, ...]) -> ColorMask:
@@ -261,9 +278,13 @@ class ImpostorAtlas:
             rgba = np.frombuffer(self.back_framebuffer.read(viewport=viewport, components=4, attachment=0), np.uint8)
             rgba = rgba.reshape(height, width, 4)
             back_color = np.where(rgba[..., 3:] > 0, rgba[..., :3] / 255.0, np.nan)
+        beyond = None
+        if self.beyond_framebuffer is not None:
+            beyond = np.frombuffer(self.beyond_framebuffer.read(viewport=viewport, components=1, dtype="f4"), np.float32)
+            beyond = beyond.reshape(height, width).copy()
         return DepthImageData(
             image.camera, color.reshape(height, width, 4)[..., :3] / 255.0, layers[..., 0].copy(),
-            image.target.index, layers[..., 1].copy(), back_color,
+            image.target.index, layers[..., 1].copy(), back_color, beyond,
         )
 
     def write(self, tile_origin: tuple[int, int], data: DepthImageData) -> None:
@@ -281,10 +302,17 @@ class ImpostorAtlas:
                 back[drawn] = np.concatenate([np.rint(np.clip(data.back_color[drawn], 0, 1) * 255),
                                               np.full((int(drawn.sum()), 1), 255)], axis=1)
             self.back_color.write(np.ascontiguousarray(back, np.uint8).tobytes(), viewport=viewport)
+        if self.beyond is not None:
+            beyond = data.beyond_depth if data.beyond_depth is not None else np.zeros((height, width))
+            self.beyond.write(np.ascontiguousarray(beyond, np.float32).tobytes(), viewport=viewport)
 
     def release(self) -> None:
         bind_default_framebuffer(self.ctx)
-        extra = [self.back_framebuffer, self.back_color] if self.back_framebuffer is not None else []
+        extra: list[moderngl.Framebuffer | moderngl.Texture] = []
+        if self.back_framebuffer is not None and self.back_color is not None:
+            extra += [self.back_framebuffer, self.back_color]
+        if self.beyond_framebuffer is not None and self.beyond is not None:
+            extra += [self.beyond_framebuffer, self.beyond]
         for item in (*extra, self.framebuffer, self._depth_buffer, *self.textures):
             item.release()
 
@@ -321,6 +349,9 @@ class BakedImages:
     keeps_triangle_ids: ClassVar[bool] = False
     #: Is the back layer drawn with its colour (depth images: a ray may come in through it)?
     keeps_back_colors: ClassVar[bool] = False
+    #: Is it known where a second solid run begins (the hybrid method's: space behind the first
+    #: run up to there is seen empty)?
+    keeps_beyond: ClassVar[bool] = False
     #: What one image is called in the CLI's and the viewer's summaries.
     image_noun: ClassVar[str]
     #: One image per reflected object (False: faces that show them all).
@@ -353,7 +384,7 @@ class BakedImages:
         # Slots as large as the largest image ("auto" sizes each image apart).
         sides = [max(camera.width, camera.height) for images in plan.values() for _, camera, _ in images]
         self.atlas = ImpostorAtlas(ctx, count, max(sides, default=1), layers, self.keeps_triangle_ids,
-                                   self.keeps_back_colors)
+                                   self.keeps_back_colors, self.keeps_beyond)
         self.images_by_mirror: dict[int, list[DepthImage]] = {}
         slot = 0
         for mirror in mirrors:
@@ -472,6 +503,8 @@ class BakedImages:
                 draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
                 if self.back_layer is not None:
                     draws += self._bake_back_layer(image)
+                    if self.atlas.beyond is not None:
+                        draws += self._bake_beyond(image)
                     framebuffer.use()
                 elif self.second_layer == SecondLayer.BACK_FACE:
                     draws += self._bake_back_faces(image, framebuffer, image.tile)
@@ -518,6 +551,25 @@ class BakedImages:
         finally:
             self.ctx.disable(moderngl.CULL_FACE)
             framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
+
+    def _bake_beyond(self, image: DepthImage) -> int:
+        """Where a second solid run begins behind the first (beyond_run.frag): the nearest front
+        face behind the layers just baked, which it reads (they are not attached here)."""
+        assert self.atlas.beyond_framebuffer is not None
+        program = self.programs.get(*BEYOND_PROGRAM)
+        framebuffer = self.atlas.beyond_framebuffer
+        framebuffer.use()
+        framebuffer.viewport = image.tile
+        framebuffer.clear(BACKGROUND_DEPTH, depth=BACKGROUND_DEPTH, viewport=image.tile)
+        bind_texture(program, "u_impostor_depth", self.atlas.depth_layers(), DEPTH_ATLAS_UNIT)
+        self.ctx.enable(moderngl.CULL_FACE)
+        self.ctx.cull_face = "front" if BAKE_CULLS_FRONT_FACES == "back" else "back"  # keep the front faces
+        try:
+            for target in image.targets:
+                self.meshes.draw(program, target, image.camera.view_projection)
+        finally:
+            self.ctx.disable(moderngl.CULL_FACE)
+        return len(image.targets)
 
     def release(self) -> None:
         for buffer in self.uniform_buffers.values():

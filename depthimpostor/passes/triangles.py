@@ -130,5 +130,6 @@ class TrianglePass:
         """Every mirror traces the same triangles: nothing per mirror."""
 
     def release(self) -> None:
-        for item in (*self.textures, self.objects):
-            item.release()
+        for texture in self.textures:
+            texture.release()
+        self.objects.release()

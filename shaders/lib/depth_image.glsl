@@ -170,29 +170,50 @@ RayHit with_unseen(RayHit hit, float unseen_t, int unseen) {
 // and the kind. Only the variants that act on it track it (TRACK_UNSEEN: the hybrid method and the
 // ray query); the reference (depthimpostor/reference.py) has the same functions.
 
-// Is the ray, at OpenGL depth r, behind the solid run at this sample: in space the object hides?
+#ifdef TRACK_UNSEEN
+// Where a second solid run begins behind the first (passes/impostors.py, beyond_run.frag): up to
+// there the space behind the first run is seen empty too. 0 where that is not known.
+uniform sampler2D u_impostor_beyond;
+#endif
+
+// Is the ray, at OpenGL depth r, behind the solid run at this sample?
 bool behind_solid(float r, vec2 layers) {
     return layers.x < BACKGROUND_DEPTH && r > layers.y + CONTACT_DEPTH_TOLERANCE;
 }
 
-// The OpenGL depth a ray must stay in front of to be clear of a silhouette at a sample of depth
-// z: 1/w larger than the sample's by SILHOUETTE_BAND_TEXELS texels of the steepest joined slope
-// (surface.x is its relative change in w per texel; 1/w = surface.y - depth surface.z).
-float silhouette_clear_depth(DepthImage image, float z) {
+// Is the ray, at OpenGL depth r, in space the object hides from the eye at this sample: behind
+// the first solid run, and at or behind where a second one begins?
+bool occluded(ivec2 texel, float r, vec2 layers) {
+#ifdef TRACK_UNSEEN
+    return behind_solid(r, layers) && r >= texelFetch(u_impostor_beyond, texel, 0).r - CONTACT_DEPTH_TOLERANCE;
+#else
+    return behind_solid(r, layers);
+#endif
+}
+
+// The OpenGL depth a ray must stay in front of (side 1) or behind (side -1) to be clear of a
+// silhouette at a sample of depth z: 1/w larger (smaller) than the sample's by
+// SILHOUETTE_BAND_TEXELS texels of the steepest joined slope (surface.x is its relative change in w
+// per texel; 1/w = surface.y - depth surface.z).
+float silhouette_clear_depth(DepthImage image, float z, float side) {
     float inverse_w = image.surface.y - z * image.surface.z;
-    return (image.surface.y - inverse_w * (1.0 + SILHOUETTE_BAND_TEXELS * image.surface.x)) / image.surface.z;
+    return (image.surface.y - inverse_w * (1.0 + side * SILHOUETTE_BAND_TEXELS * image.surface.x)) / image.surface.z;
 }
 
 // What a step from sample 0 to sample 1 (ray depths r0, r1; layers z0, z1) that did not hit
 // through the visible surface relies on that the image does not hold (UNSEEN_NONE: nothing).
 int step_unseen(DepthImage image, ivec2 texel0, ivec2 texel1, float r0, float r1, vec2 z0, vec2 z1) {
     if (inside_solid(r1, z1)) return UNSEEN_HIDDEN_ENTRY;
-    if (behind_solid(r1, z1)) return UNSEEN_OCCLUDED;
+    if (occluded(texel1, r1, z1)) return UNSEEN_OCCLUDED;
     float nearer = min(z0.x, z1.x);
-    // The ray's depth is affine along a step: its larger end is the nearest it comes to the eye's far side.
-    if (nearer < BACKGROUND_DEPTH && !samples_connected(image, texel0, texel1, z0.x, z1.x)
-        && max(r0, r1) >= silhouette_clear_depth(image, nearer)) return UNSEEN_SILHOUETTE;
-    return UNSEEN_NONE;
+    if (nearer >= BACKGROUND_DEPTH || samples_connected(image, texel0, texel1, z0.x, z1.x)) return UNSEEN_NONE;
+    // Clear in front of the nearer surface, or behind the farther back face (in space seen empty:
+    // the samples are not occluded, or the step before this one said so). The ray's depth is
+    // affine along a step: its ends bound it.
+    float farther_back = max(z0.x < BACKGROUND_DEPTH ? z0.y : 0.0, z1.x < BACKGROUND_DEPTH ? z1.y : 0.0);
+    bool in_front = max(r0, r1) < silhouette_clear_depth(image, nearer, 1.0);
+    bool behind = min(r0, r1) > silhouette_clear_depth(image, farther_back, -1.0);
+    return in_front || behind ? UNSEEN_NONE : UNSEEN_SILHOUETTE;
 }
 
 // Record the step from screen parameter sigma0's kind, unless something unseen came before it.
@@ -222,7 +243,8 @@ bool march_start(sampler2D layers, DepthImage image, vec3 origin, vec3 direction
 #ifdef TRACK_UNSEEN
     // Entering the frustum already inside the run or behind it: the object reaches the frustum's
     // side there, where its surface is edge-on to the eye and unseen.
-    int kind = inside_solid(ray.sa.z, z0) ? UNSEEN_HIDDEN_ENTRY : behind_solid(ray.sa.z, z0) ? UNSEEN_OCCLUDED : UNSEEN_NONE;
+    int kind = inside_solid(ray.sa.z, z0) ? UNSEEN_HIDDEN_ENTRY : occluded(texel0, ray.sa.z, z0) ? UNSEEN_OCCLUDED
+                                                                                                 : UNSEEN_NONE;
     note_unseen(kind, 0.0, ray, early.unseen_t, early.unseen);
 #endif
     if (!inside_solid(ray.sa.z, z0)) return true;
@@ -374,7 +396,7 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
                 bool behind = min(s0.z, s_end.z) > span.y + margin;
 #ifdef TRACK_UNSEEN
                 if (unseen.unseen == UNSEEN_NONE) {
-                    in_front = min(in_front, silhouette_clear_depth(image, span.x));
+                    in_front = min(in_front, silhouette_clear_depth(image, span.x, 1.0));
                     behind = false;
                 }
 #endif
@@ -435,7 +457,7 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
     float unseen_t = UNBOUNDED_RAY;
     int unseen = UNSEEN_NONE;
 #ifdef TRACK_UNSEEN
-    note_unseen(inside_solid(sa.z, z0) ? UNSEEN_HIDDEN_ENTRY : behind_solid(sa.z, z0) ? UNSEEN_OCCLUDED : UNSEEN_NONE,
+    note_unseen(inside_solid(sa.z, z0) ? UNSEEN_HIDDEN_ENTRY : occluded(texel0, sa.z, z0) ? UNSEEN_OCCLUDED : UNSEEN_NONE,
                 0.0, ray, unseen_t, unseen);
 #endif
     if (inside_solid(sa.z, z0)) return with_unseen(hit_at(image, ray.t_enter, s0, 1, texel0, 0), unseen_t, unseen);

@@ -94,34 +94,42 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
 uniform sampler2D u_impostor_triangles;  // per atlas sample: the triangle it shows (its place in the BVH's list)
 uniform sampler2D u_bvh_places;          // per triangle of that list: its place in the BVH's order
 
-// The ray against the triangle the sample at `texel` shows: its place in the BVH's order, or -1
-// where the ray meets it no nearer than `best_t` or outside EXACT_SURFACE_WINDOW of the hit's t.
-int sample_triangle(RayHit hit, ivec2 texel, vec3 origin, vec3 direction, inout float best_t, inout vec2 best_uv) {
-    int listed = int(texelFetch(u_impostor_triangles, texel, 0)[hit.layer]);
-    int triangle = int(bvh_fetch(u_bvh_places, listed).x);
+// The ray against a triangle a sample shows (`listed`: its place in the BVH's list): its place in
+// the BVH's order, or -1 where the ray meets it no nearer than `best_t` or outside
+// EXACT_SURFACE_WINDOW of the hit's t.
+int listed_triangle(RayHit hit, float listed, vec3 origin, vec3 direction, inout float best_t, inout vec2 best_uv) {
+    int triangle = int(bvh_fetch(u_bvh_places, int(listed)).x);
     vec2 uv;
     float t = intersect_triangle(origin, direction, triangle, uv);
     if (!(t > 0.0 && abs(t - hit.t) <= EXACT_SURFACE_WINDOW * hit.t && t < best_t)) return -1;
+    // A ray coming from outside meets a closed surface first where it enters: a triangle met from
+    // behind (the box's bottom, met from inside where the ray comes down through the box) is where
+    // it leaves, and the entry is elsewhere. (An open mesh met from behind is traced instead.)
+    if (dot(triangle_normal(triangle), direction) >= 0.0) return -1;
     best_t = t;
     best_uv = uv;
     return triangle;
 }
 
-// A certain hit made exact: the ray against the real triangle that the sample of the hit shows,
-// or, where it misses that one, against those of the 8 samples around it (a triangle smaller than
-// a texel can fall between samples): the nearest intersection within EXACT_SURFACE_WINDOW of the
-// hit's t. The hit is then shaded as the ray-traced method shades it (the true normal, the
-// material at the true point). False when none is there: the ray is traced instead.
+// A certain hit made exact: the ray against the real triangles that the 3 x 3 samples around the
+// hit show on both layers (a triangle smaller than a texel can fall between samples; a hit on one
+// layer can be on the other's triangle, where a box's faces meet), the nearest intersection within
+// EXACT_SURFACE_WINDOW of the hit's t. The nearest, not the first found: a face beyond the true one
+// (the box's bottom, on the floor) also lies within the window. The hit is then shaded as the
+// ray-traced method shades it (the true normal, the material at the true point). False when none
+// is there: the ray is traced instead.
 bool exact_surface(RayHit hit, vec3 origin, vec3 direction, out RayHit exact) {
     float best_t = UNBOUNDED_RAY;
     vec2 best_uv = vec2(0.0);
-    int best = sample_triangle(hit, hit.texel, origin, direction, best_t, best_uv);
+    int best = -1;
     ivec2 size = textureSize(u_impostor_triangles, 0);
-    for (int k = 0; k < 9 && best < 0; ++k) {
-        if (k == 4) continue;  // the hit's own sample, tried first
+    for (int k = 0; k < 9; ++k) {
         ivec2 texel = clamp(hit.texel + ivec2(k % 3 - 1, k / 3 - 1), ivec2(0), size - 1);
-        int triangle = sample_triangle(hit, texel, origin, direction, best_t, best_uv);
-        if (triangle >= 0) best = triangle;
+        vec2 listed = texelFetch(u_impostor_triangles, texel, 0).rg;
+        for (int layer = 0; layer < 2; ++layer) {
+            int triangle = listed_triangle(hit, listed[layer], origin, direction, best_t, best_uv);
+            if (triangle >= 0) best = triangle;
+        }
     }
     if (best < 0) return false;
     exact = triangle_hit(origin, direction, best, best_t, best_uv, hit.samples);
@@ -136,7 +144,9 @@ RayHit resolve_unseen(RayHit hit, RayHit plane, vec3 origin, vec3 direction) {
     if (hit.hit) answer_t = hit.t;
     if (plane.hit) answer_t = min(answer_t, plane.t);
     if (hit.unseen == UNSEEN_NONE || hit.unseen_t > answer_t) {
-        if (!hit.hit || (plane.hit && plane.t < hit.t)) return hit;
+        // The images' t is as good as their sampling: a plane within the window of it (a box
+        // standing on the floor) is ordered against the exact hit instead.
+        if (!hit.hit || (plane.hit && plane.t < (1.0 - EXACT_SURFACE_WINDOW) * hit.t)) return hit;
         RayHit exact;
         if (exact_surface(hit, origin, direction, exact)) return exact;
     }

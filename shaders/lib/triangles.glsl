@@ -51,6 +51,13 @@ float intersect_triangle(vec3 origin, vec3 direction, int i, out vec2 uv) {
                         bvh_fetch(u_bvh_triangles, 6 * i + 2).xyz, uv);
 }
 
+// Triangle i's geometric normal, outward (meshes wind their triangles counter-clockwise seen from
+// outside, and keep that under mirroring transforms: meshes.py), not unit length.
+vec3 triangle_normal(int i) {
+    vec3 p0 = bvh_fetch(u_bvh_triangles, 6 * i).xyz;
+    return cross(bvh_fetch(u_bvh_triangles, 6 * i + 1).xyz - p0, bvh_fetch(u_bvh_triangles, 6 * i + 2).xyz - p0);
+}
+
 // The hit on triangle i at t (barycentrics uv), shaded as the rasterizer shades the object.
 RayHit triangle_hit(vec3 origin, vec3 direction, int i, float t, vec2 uv, int samples) {
     int base = 6 * i;
