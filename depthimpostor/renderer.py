@@ -121,6 +121,7 @@ class Renderer:
         self.algorithm = algorithm
         self.method = method
         self.show_samples = False
+        self.tint_retraced = False  # the hybrid method's re-traced rays tinted (the viewer's T)
         self.reflection_data = reflection_data
         self.count_samples = count_samples
         self.time_mirror_pass = time_mirror_pass
@@ -432,7 +433,8 @@ class Renderer:
                 self.ctx.finish()
                 mirror_start = time.perf_counter()
             interiors_before = self._interiors_made()
-            self.stats.draw_calls += self.mirror_pass.draw(self.reflectors, self.camera, self.framebuffer)
+            self.stats.draw_calls += self.mirror_pass.draw(self.reflectors, self.camera, self.framebuffer,
+                                                           self.tint_retraced)
             self.stats.passes[Pass.REFLECTORS.value] += 1
             made = self._interiors_made() - interiors_before
             if made:

@@ -18,6 +18,10 @@ in vec3 v_local_position;
 in vec3 v_world_normal;
 
 uniform int u_mirror_id;
+#if METHOD == METHOD_HYBRID
+// The viewer's view of where the depth images could not answer: those rays tinted magenta.
+uniform bool u_tint_retraced;
+#endif
 #ifndef GLASS
 uniform float u_backing_albedo;  // grey, written by passes/mirrors.py from truth.py
 #endif
@@ -82,6 +86,9 @@ void main() {
     out_color = vec4(glass_color(v_world_position, view, normal, hit.color, u_tint, hit.samples), 1.0);
 #else
     out_color = vec4(u_tint * hit.color, 1.0);
+#endif
+#if METHOD == METHOD_HYBRID
+    if (u_tint_retraced && hit.retraced) out_color.rgb = mix(out_color.rgb, vec3(1.0, 0.0, 1.0), 0.6);
 #endif
 #ifdef WRITE_DEPTH_IMAGE
     out_depth_and_object = vec2(gl_FragCoord.z, float(u_mirror_id));

@@ -84,3 +84,18 @@ def test_hybrid_refuses_reflections_of_reflections(ctx) -> None:
     scene = load_scene(SCENES / "two_mirrors.toml")
     with pytest.raises(SceneError, match="max_bounces"):
         Renderer(ctx, scene, method=Method.HYBRID)
+
+
+def test_tint_shows_the_retraced_rays(ctx) -> None:
+    """The viewer's T: the hybrid method's re-traced pixels, and only they, turn toward magenta."""
+    scene = load_scene(SCENES / "checker_near_mirror.toml").with_overrides(size=(320, 180), impostor_resolution=128)
+    with Renderer(ctx, scene, reflection_data=True, method=Method.HYBRID) as renderer:
+        renderer.render()
+        plain, data = renderer.read_color_float(), renderer.read_reflection_data()
+        renderer.tint_retraced = True
+        renderer.render()
+        tinted = renderer.read_color_float()
+    changed = np.abs(tinted - plain).max(axis=2) > 1e-6
+    assert data.retraced.any()
+    assert np.array_equal(changed, data.retraced & (np.abs(plain - [1.0, 0.0, 1.0]).max(axis=2) > 1e-6))
+    assert (tinted[data.retraced][:, 1] <= plain[data.retraced][:, 1] + 1e-6).all()

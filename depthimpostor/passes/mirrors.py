@@ -153,8 +153,10 @@ class MirrorPass:
         self.meshes = meshes
         self.reflected = reflected
 
-    def draw(self, reflectors: list[ObjectGeometry], camera: PPC, framebuffer: moderngl.Framebuffer) -> int:
-        """Draw the reflectors into `framebuffer` as `camera` sees them; returns the draw calls."""
+    def draw(self, reflectors: list[ObjectGeometry], camera: PPC, framebuffer: moderngl.Framebuffer,
+             tint_retraced: bool = False) -> int:
+        """Draw the reflectors into `framebuffer` as `camera` sees them; returns the draw calls.
+        `tint_retraced` tints the pixels whose ray the hybrid method traced (other methods have none)."""
         draws = 0
         for item in reflectors:
             glass = item.object.is_glass
@@ -175,6 +177,7 @@ class MirrorPass:
             write(program, "u_eye", tuple(camera.C))
             write(program, "u_tint", reflector_tint(item))
             write(program, "u_mirror_id", item.index)
+            write(program, "u_tint_retraced", tint_retraced)
             with outward_faces_front(program.ctx):
                 self.meshes.draw(program, item, camera.view_projection)
             draws += 1

@@ -263,6 +263,12 @@ class Viewer:
                                                  f"{METHOD_LABELS[renderer.method]} keep no depth")
             renderer.set_show_samples(not renderer.show_samples)
             return "showing the baked images' samples" if renderer.show_samples else "showing objects"
+        elif action == Action.TOGGLE_RETRACED:
+            renderer.tint_retraced = not renderer.tint_retraced
+            shown = "tinted magenta" if renderer.tint_retraced else "not tinted"
+            if renderer.method != Method.HYBRID:
+                return f"re-traced rays {shown} (only the hybrid method re-traces: M selects it)"
+            return f"re-traced rays {shown}"
         elif action == Action.RELOAD_SHADERS:
             return self.reload_shaders()
         elif action == Action.SCREENSHOT:

@@ -30,6 +30,7 @@ class Action(Enum):
     RESOLUTION_UP = auto()
     RESOLUTION_DOWN = auto()
     TOGGLE_SAMPLES = auto()
+    TOGGLE_RETRACED = auto()
     RELOAD_SHADERS = auto()
     SCREENSHOT = auto()
     TOGGLE_HELP = auto()
@@ -61,6 +62,7 @@ BINDINGS: tuple[Binding, ...] = (
     Binding(Action.RESOLUTION_UP, ("]", "="), "double the depth-image resolution (re-bakes them)"),
     Binding(Action.RESOLUTION_DOWN, ("[", "-"), "halve the depth-image resolution (re-bakes them)"),
     Binding(Action.TOGGLE_SAMPLES, ("v",), "show the depth images' samples instead of the objects"),
+    Binding(Action.TOGGLE_RETRACED, ("t",), "hybrid method: tint magenta the rays traced against the real triangles"),
     Binding(Action.RELOAD_SHADERS, ("r",), "reload the shaders (a broken one is reported, the last good kept)"),
     Binding(Action.SCREENSHOT, ("f12", "p"), "save a numbered screenshot, without the overlay"),
     Binding(Action.TOGGLE_HELP, ("h", "f1"), "show or hide this help"),

@@ -118,9 +118,9 @@ int listed_triangle(RayHit hit, float listed, vec3 origin, vec3 direction, inout
 // (the box's bottom, on the floor) also lies within the window. The hit is then shaded as the
 // ray-traced method shades it (the true normal, the material at the true point). False when none
 // is there: the ray is traced instead.
-bool exact_surface(RayHit hit, vec3 origin, vec3 direction, out RayHit exact) {
-    float best_t = UNBOUNDED_RAY;
-    vec2 best_uv = vec2(0.0);
+int exact_surface(RayHit hit, vec3 origin, vec3 direction, out float best_t, out vec2 best_uv) {
+    best_t = UNBOUNDED_RAY;
+    best_uv = vec2(0.0);
     int best = -1;
     ivec2 size = textureSize(u_impostor_triangles, 0);
     for (int k = 0; k < 9; ++k) {
@@ -131,9 +131,7 @@ bool exact_surface(RayHit hit, vec3 origin, vec3 direction, out RayHit exact) {
             if (triangle >= 0) best = triangle;
         }
     }
-    if (best < 0) return false;
-    exact = triangle_hit(origin, direction, best, best_t, best_uv, hit.samples);
-    return true;
+    return best;
 }
 
 // The hybrid method's answer: the depth images' where it rests on nothing they do not hold before
@@ -147,15 +145,21 @@ RayHit resolve_unseen(RayHit hit, RayHit plane, vec3 origin, vec3 direction) {
         // The images' t is as good as their sampling: a plane within the window of it (a box
         // standing on the floor) is ordered against the exact hit instead.
         if (!hit.hit || (plane.hit && plane.t < (1.0 - EXACT_SURFACE_WINDOW) * hit.t)) return hit;
-        RayHit exact;
-        if (exact_surface(hit, origin, direction, exact)) return exact;
     }
-    RayHit traced = nearest_triangle_hit(origin, direction);
-    traced.samples += hit.samples;
-    traced.unseen_t = hit.unseen_t;
-    traced.unseen = hit.unseen;
-    traced.retraced = true;
-    return traced;
+    // One triangle, found either way, shaded once (llvmpipe's shaders slow down with every copy
+    // of the shading code they hold, run or not).
+    float t;
+    vec2 uv;
+    int visited = 0;
+    int triangle = hit.unseen == UNSEEN_NONE || hit.unseen_t > answer_t ? exact_surface(hit, origin, direction, t, uv) : -1;
+    bool retraced = triangle < 0;
+    if (retraced) triangle = nearest_triangle(origin, direction, t, uv, visited);
+    RayHit found = triangle < 0 ? no_hit(0) : triangle_hit(origin, direction, triangle, t, uv, 0);
+    found.samples = hit.samples + visited;
+    found.unseen_t = hit.unseen_t;
+    found.unseen = hit.unseen;
+    found.retraced = retraced;
+    return found;
 }
 #endif
 

@@ -72,12 +72,14 @@ RayHit triangle_hit(vec3 origin, vec3 direction, int i, float t, vec2 uv, int sa
     return make_hit(true, t, uv, shade(albedo, position, normal), float(object.kind_and_id.y), samples);
 }
 
-RayHit nearest_triangle_hit(vec3 origin, vec3 direction) {
+// The nearest triangle the ray meets through the BVH (-1: none), with its t and barycentrics, and
+// the nodes visited.
+int nearest_triangle(vec3 origin, vec3 direction, out float best_t, out vec2 best_uv, out int visited) {
     vec3 inverse_direction = 1.0 / direction;
-    float best_t = 3.0e38;
+    best_t = 3.0e38;
     int best_triangle = -1;
-    vec2 best_uv = vec2(0.0);
-    int visited = 0;
+    best_uv = vec2(0.0);
+    visited = 0;
     // Depth-first through the skip links (bvh.py): into an inner node's left child when the ray
     // meets its box, else past its subtree. The node count bounds the walk.
     int node = 0;
@@ -106,6 +108,13 @@ RayHit nearest_triangle_hit(vec3 origin, vec3 direction) {
             }
         }
     }
-    if (best_triangle < 0) return no_hit(visited);
-    return triangle_hit(origin, direction, best_triangle, best_t, best_uv, visited);
+    return best_triangle;
+}
+
+RayHit nearest_triangle_hit(vec3 origin, vec3 direction) {
+    float t;
+    vec2 uv;
+    int visited;
+    int triangle = nearest_triangle(origin, direction, t, uv, visited);
+    return triangle < 0 ? no_hit(visited) : triangle_hit(origin, direction, triangle, t, uv, visited);
 }
