@@ -154,7 +154,7 @@ def baked(ctx: moderngl.Context) -> list[tuple[reference.DepthImageData, ObjectG
 
 
 def test_certain_answers_are_the_exact_ones(baked) -> None:
-    """On 44,000 rays at 9 objects, the reference's certain answers (hit or miss) are the exact
+    """On 36,000 rays at 9 objects, the reference's certain answers (hit or miss) are the exact
     intersection with the triangles up to sampling. Not quite all: 2 or 3 in 100,000 (hits on a
     knot whose strands cross close in depth) are not, and the test holds that share, so that a
     change which makes the flag less sound fails here."""
