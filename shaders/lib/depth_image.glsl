@@ -159,13 +159,15 @@ RayHit with_unseen(RayHit hit, float unseen_t, int unseen) {
 // Per sample, a depth image holds the visible surface and the back of its first solid run: in
 // front of the surface is seen empty space, the run is solid, and what lies behind the run, or
 // between two samples across a silhouette, is not held at all. An answer (a hit, or a miss) is
-// certain when the ray reached it through seen empty space alone, and a hit is on the visible
-// surface. The marches record the first place where that fails (constants.py's Unseen):
-// UNSEEN_HIDDEN_ENTRY, the ray is inside a solid run without having crossed the visible surface
-// (it came in through a side the eye does not see); UNSEEN_OCCLUDED, the ray is behind a solid
-// run; UNSEEN_SILHOUETTE, a step between two samples that are not one surface, with the ray no
-// farther in front of the nearer one than SILHOUETTE_BAND_TEXELS of the steepest slope two
-// samples are joined across (a surface may reach that far toward the eye between them). The
+// certain when the ray reached it through seen empty space alone, and a hit is on a surface the
+// image holds (the visible one, or the back layer). The marches record the first place where that
+// fails (constants.py's Unseen): UNSEEN_HIDDEN_ENTRY, the ray is inside a solid run without
+// having crossed either (it came in through a side the image holds nothing of); UNSEEN_OCCLUDED,
+// the ray is behind a solid run and at or behind where a second one begins (u_impostor_beyond;
+// between the two, space is seen empty); UNSEEN_SILHOUETTE, a step between two samples that are
+// not one surface, with the ray no farther in front of the nearer one (or behind the farther back
+// face) than SILHOUETTE_BAND_TEXELS of the steepest slope two samples are joined across (a surface
+// may reach that far between them), or a hit on a join steeper than STEEP_JOIN_SHARE of it. The
 // record is the ray parameter of the step's start (the ray left seen space somewhere after it)
 // and the kind. Only the variants that act on it track it (TRACK_UNSEEN: the hybrid method and the
 // ray query); the reference (depthimpostor/reference.py) has the same functions.
@@ -253,16 +255,17 @@ bool march_start(sampler2D layers, DepthImage image, vec3 origin, vec3 direction
 }
 
 // Step i of the optimized march, from sample i (s0, its texel and layers) to sample i + 1 (s1,
-// texel1, z1, returned for the next step). A step hits in one of two ways. Through the visible
-// surface: the 2-D segment intersection, between samples of one surface (samples_connected). Or
-// into the object through a side the eye cannot see (behind a silhouette, or from behind): the
-// ray is inside the solid run at s1 without crossing the visible surface, and the hit is put at
-// s1, within one step of where it entered. A ray that passes behind the solid run (behind a thin
-// foreground) is inside nothing and goes on to what lies behind, as the truth does.
+// texel1, z1, returned for the next step). A step hits in one of three ways. Through the visible
+// surface: the 2-D segment intersection, between samples of one surface (samples_connected).
+// Through the back layer from behind it (back_crossing; `back_colors`: the images keep its
+// colour), the same intersection with the back faces' depths. Or into the object through a side
+// the image holds nothing of (behind a silhouette): the ray is inside the solid run at s1 without
+// crossing either, and the hit is put at s1, within one step of where it entered. A ray that
+// passes behind the solid run (behind a thin foreground) is inside nothing and goes on to what
+// lies behind, as the truth does. `hit_texel` and `hit_layer` say whose colour the hit shows.
 bool march_step(sampler2D layers, bool back_colors, DepthImage image, ClippedRay ray, int i, int steps, vec3 s0,
-                ivec2 texel0, vec2 z0,
-                out vec3 s1, out ivec2 texel1, out vec2 z1, out float t, out vec2 s, out ivec2 hit_texel,
-                out int hit_layer, inout float unseen_t, inout int unseen) {
+                ivec2 texel0, vec2 z0, out vec3 s1, out ivec2 texel1, out vec2 z1, out float t, out vec2 s,
+                out ivec2 hit_texel, out int hit_layer, inout float unseen_t, inout int unseen) {
     s1 = march_sample(ray, i + 1, steps);
     texel1 = texel_of(image, s1.xy);
     z1 = layers_at(layers, texel1);
@@ -290,8 +293,7 @@ bool march_step(sampler2D layers, bool back_colors, DepthImage image, ClippedRay
 // The optimized march's loop from sample `first` (s0, its texel and layers) to the end; `reads`
 // texels were read before it, and `unseen` is what sample 0 relies on that the image lacks.
 RayHit march_linear(sampler2D layers, bool back_colors, DepthImage image, ClippedRay ray, int steps, int first, vec3 s0,
-                    ivec2 texel0,
-                    vec2 z0, int reads, RayHit unseen) {
+                    ivec2 texel0, vec2 z0, int reads, RayHit unseen) {
     for (int i = first; i < steps; ++i) {
         vec3 s1;
         ivec2 texel1, hit_texel;
