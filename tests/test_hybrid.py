@@ -99,3 +99,15 @@ def test_tint_shows_the_retraced_rays(ctx) -> None:
     assert data.retraced.any()
     assert np.array_equal(changed, data.retraced & (np.abs(plain - [1.0, 0.0, 1.0]).max(axis=2) > 1e-6))
     assert (tinted[data.retraced][:, 1] <= plain[data.retraced][:, 1] + 1e-6).all()
+
+
+@pytest.mark.parametrize("name", ["default.toml", "planar_mirror.toml", "grid_3x3.toml", "shadows.toml",
+                                  "hard/silhouette.toml", "hard/top_down.toml"])
+def test_hybrid_matches_ray_tracing_on_project_scenes(ctx, name: str) -> None:
+    """On the project's scenes the hybrid method's figures are the ray-traced method's: the
+    images answer most rays, exactly, and the rest are traced."""
+    traced, _ = _compare(ctx, name, Method.RAYTRACE)
+    hybrid, data = _compare(ctx, name, Method.HYBRID, truth=traced.truth_frame)
+    assert hybrid.figures.wrong_object_share <= traced.figures.wrong_object_share + 0.0002
+    assert hybrid.figures.color_rmse <= traced.figures.color_rmse + 0.002
+    assert data.retraced[data.mirror_mask].mean() < 0.25
