@@ -34,14 +34,32 @@ uniform Material u_plane_material[MAX_ANALYTIC_PLANES];
 uniform int u_plane_object_id[MAX_ANALYTIC_PLANES];
 
 #if METHOD == METHOD_DEPTH || METHOD == METHOD_HYBRID
+// The first of this mirror's depth images after image `i` whose frustum the ray enters
+// (u_depth_image_count: none after it). A ray that misses a frustum misses the image: the march
+// would clip it away and return no hit, with nothing unseen.
+int next_entered_image(int i, vec3 origin, vec3 direction) {
+    for (++i; i < u_depth_image_count; ++i) {
+        DepthImage image = u_depth_images[i];
+        float t_enter, t_exit;
+        if (clip_ray(image, camera_coordinates(image, origin - image.eye.xyz), camera_coordinates(image, direction),
+                     UNBOUNDED_RAY, t_enter, t_exit)) break;
+    }
+    return i;
+}
+
 // The nearest hit over all depth images of this mirror, and the first place along the ray where
-// one of them relied on what it does not hold (TRACK_UNSEEN).
+// one of them relied on what it does not hold (TRACK_UNSEEN). Only the images whose frustum the
+// ray enters are marched (most rays of a mirror with many objects enter one or two): a
+// software rasterizer such as llvmpipe runs a loop's body for a group of pixels as long as one
+// of them needs it, but runs every statement of an `if` whatever the condition, so the march is
+// in a loop over the entered images, not under a test inside a loop over all of them.
 RayHit nearest_depth_image_hit(vec3 origin, vec3 direction) {
     RayHit best = no_hit(0);
     int samples = 0;
     float unseen_t = UNBOUNDED_RAY;
     int unseen = UNSEEN_NONE;
-    for (int i = 0; i < u_depth_image_count; ++i) {
+    for (int i = next_entered_image(-1, origin, direction); i < u_depth_image_count;
+         i = next_entered_image(i, origin, direction)) {
         RayHit candidate = intersect_depth_image(u_depth_images[i], origin, direction);
         samples += candidate.samples;
         if (candidate.unseen != UNSEEN_NONE && candidate.unseen_t < unseen_t) {
@@ -123,7 +141,10 @@ int exact_surface(RayHit hit, vec3 origin, vec3 direction, out float best_t, out
     best_uv = vec2(0.0);
     int best = -1;
     ivec2 size = textureSize(u_impostor_triangles, 0);
-    for (int k = 0; k < 9; ++k) {
+    // A loop with no iteration where no ray of a group of pixels needs it (see
+    // nearest_depth_image_hit on why not a test around it).
+    int candidates = hit.hit ? 9 : 0;
+    for (int k = 0; k < candidates; ++k) {
         ivec2 texel = clamp(hit.texel + ivec2(k % 3 - 1, k / 3 - 1), ivec2(0), size - 1);
         vec2 listed = texelFetch(u_impostor_triangles, texel, 0).rg;
         for (int layer = 0; layer < 2; ++layer) {
