@@ -38,7 +38,7 @@ def test_mirrors_reflect_each_other_as_the_truth_does(ctx: moderngl.Context, bou
     figures = comparison.figures
     assert figures.wrong_object_share < 0.01, f"{100 * figures.wrong_object_share:.2f} % wrong object"
     # The other mirror's reflections are baked for the first mirror's centre, not for each point
-    # of it: the colour error lives there (the README's figures).
+    # of it: the colour error lives there (docs/methods_and_results.md's figures).
     assert figures.color_rmse < 0.07, f"colour RMSE {figures.color_rmse:.4f}"
 
 

@@ -1,4 +1,4 @@
-"""The catalogue of hard cases (README, "Numerical robustness"), each on the GPU and in the numpy
+"""The catalogue of hard cases (docs/numerical_robustness.md), each on the GPU and in the numpy
 reference, against answers known in closed form. Items 1-7 use hand-made depth images of planes
 (tests/synthetic.py); items 8-10 render whole scenes (tests/test_hard_scenes.py)."""
 

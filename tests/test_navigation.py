@@ -96,8 +96,8 @@ def test_every_binding_is_a_known_key_and_no_key_does_two_things() -> None:
 
 
 def test_readme_lists_every_control() -> None:
-    readme = (PROJECT_ROOT / "README.md").read_text(encoding="utf-8")
-    assert controls_markdown() in readme, "README's controls table differs from viewer/keys.py: paste controls_markdown()"
+    readme = (PROJECT_ROOT / "docs" / "guide.md").read_text(encoding="utf-8")
+    assert controls_markdown() in readme, "docs/guide.md's controls table differs from viewer/keys.py: paste controls_markdown()"
 
 
 def test_resolution_steps() -> None:

@@ -5,7 +5,7 @@ and the march records where its answer starts to rest on what the images do not 
 an object hidden from the mirror's centre, space behind an object, a silhouette passed too close:
 shaders/lib/depth_image.glsl, "What the image does not hold"). A ray whose answer rests on nothing
 unseen keeps it; the others, and only they, are traced through the ray-traced method's BVH of the
-real triangles, in the same pass (README, "Hybrid reflections", says why not in a second one).
+real triangles, in the same pass (docs/methods_and_results.md, "`--method hybrid`", says why not in a second one).
 """
 
 from __future__ import annotations

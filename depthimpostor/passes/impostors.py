@@ -8,8 +8,8 @@ which is all the mirror shader needs.
 
 The back layer costs a second, depth-only draw per image. Without it the depth image knows the
 surface but not what lies behind it, and a ray passing behind a silhouette must either be joined
-to it by a false "rubber sheet" or fall through the object's hidden side (a hole): see the README's
-"Numerical robustness".
+to it by a false "rubber sheet" or fall through the object's hidden side (a hole): see
+docs/numerical_robustness.md.
 
 BakedImages is the part the cube-map and billboard methods share with this one (passes/cubemaps.py,
 passes/billboards.py): the atlas, the per-mirror uniform buffers and the bake loop. Each method

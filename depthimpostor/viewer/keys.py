@@ -1,4 +1,4 @@
-"""The viewer's controls: one table that the key handler, the help overlay, the README and the
+"""The viewer's controls: one table that the key handler, the help overlay, docs/guide.md and the
 `--keys` script all read, and the parser of scripted key presses.
 
 Keys are named as glfw names them without the KEY_ prefix, in lower case (`left_bracket`,
@@ -151,7 +151,7 @@ def help_lines() -> list[str]:
 
 
 def controls_markdown() -> str:
-    """The README's table of controls, made from the same table the viewer reads."""
+    """The table of controls in docs/guide.md, made from the same table the viewer reads."""
     rows = ["| control | what it does |", "|---|---|"]
     rows += [f"| {control} | {what} |" for control, what in MOUSE_CONTROLS]
     rows += [f"| {_key_list(binding.keys)} | {binding.help} |" for binding in BINDINGS]

@@ -157,7 +157,7 @@ int exact_surface(RayHit hit, vec3 origin, vec3 direction, out float best_t, out
 
 // The hybrid method's answer: the depth images' where it rests on nothing they do not hold before
 // the nearest thing found (an object, made exact, or a plane, which is), and otherwise the real
-// triangles', traced through the BVH (in the same pass: see the README's "Hybrid reflections").
+// triangles', traced through the BVH (in the same pass: see docs/methods_and_results.md, "`--method hybrid`").
 RayHit resolve_unseen(RayHit hit, RayHit plane, vec3 origin, vec3 direction) {
     float answer_t = UNBOUNDED_RAY;
     if (hit.hit) answer_t = hit.t;
