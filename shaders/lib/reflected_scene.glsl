@@ -100,9 +100,8 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
         vec3 p = o + d * t;
         // t > 0: the ray starts on the mirror, never behind it.
         if (t > 0.0 && all(lessThanEqual(abs(p.xz), u_plane_half_size[i])) && (!best.hit || t < best.t)) {
-            vec3 albedo = material_albedo(u_plane_material[i], p);
-            vec3 color = shade(albedo, origin + direction * t, u_plane_normal[i]);
-            best = make_hit(true, t, p.xz, color, float(u_plane_object_id[i]), 0);
+            best = unlit_hit(t, p.xz, material_albedo(u_plane_material[i], p), u_plane_normal[i],
+                             float(u_plane_object_id[i]), 0);
         }
     }
     return best;
@@ -197,5 +196,6 @@ RayHit trace_reflected(vec3 origin, vec3 direction) {
         hit = plane;
     }
     if (!hit.hit) hit.color = environment(direction);
+    if (hit.hit && hit.unlit) hit.color = shade(hit.color, origin + direction * hit.t, hit.normal);
     return hit;
 }

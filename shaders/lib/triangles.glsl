@@ -58,7 +58,8 @@ vec3 triangle_normal(int i) {
     return cross(bvh_fetch(u_bvh_triangles, 6 * i + 1).xyz - p0, bvh_fetch(u_bvh_triangles, 6 * i + 2).xyz - p0);
 }
 
-// The hit on triangle i at t (barycentrics uv), shaded as the rasterizer shades the object.
+// The hit on triangle i at t (barycentrics uv), to be shaded as the rasterizer shades the object
+// (trace_reflected does, with the interpolated normal and the material's albedo at the point).
 RayHit triangle_hit(vec3 origin, vec3 direction, int i, float t, vec2 uv, int samples) {
     int base = 6 * i;
     int slot = int(bvh_fetch(u_bvh_triangles, base).w);
@@ -69,7 +70,7 @@ RayHit triangle_hit(vec3 origin, vec3 direction, int i, float t, vec2 uv, int sa
     vec3 position = origin + direction * t;
     Material material = Material(object.kind_and_id.x, object.color_a.xyz, object.color_b.xyz, object.color_a.w);
     vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz);
-    return make_hit(true, t, uv, shade(albedo, position, normal), float(object.kind_and_id.y), samples);
+    return unlit_hit(t, uv, albedo, normal, float(object.kind_and_id.y), samples);
 }
 
 // The nearest triangle the ray meets through the BVH (-1: none), with its t and barycentrics, and
