@@ -33,8 +33,9 @@ import numpy as np
 from .compare import TruthFrame, compare
 from .constants import Algorithm, Method
 from .context import describe
-from .renderer import STAND_INS, Renderer
 from .passes.impostors import BakedImages
+from .plan import STAND_INS
+from .renderer import Renderer
 from .scene import Scene
 
 #: Methods whose cost and accuracy depend on the image resolution; the triangle methods get one
@@ -151,7 +152,7 @@ def _time_group(ctx: moderngl.Context, renderers: list[Renderer], settings: Benc
             if round_index >= settings.warmup:
                 gl_times[index].append(query.elapsed / 1e6)
     timings = []
-    for renderer, first, gl_time in zip(renderers, first_timed, gl_times):
+    for renderer, first, gl_time in zip(renderers, first_timed, gl_times, strict=False):
         frames = [1000.0 * seconds for seconds in renderer.stats.draw_seconds[first:]]
         mirror_passes = [1000.0 * seconds for seconds in renderer.stats.mirror_seconds[first:]]
         bakes = [1000.0 * seconds for seconds in renderer.stats.bake_seconds[1:]]
@@ -239,7 +240,7 @@ def run_bench(
         # frames being timed. (Not shown to matter: the slow groups seen while this was written
         # were machine noise, which the rotating rounds above absorb.)
         truth: TruthFrame | None = None
-        for (variant, resolution, technique), timing in zip(configured, timings):
+        for (variant, resolution, technique), timing in zip(configured, timings, strict=False):
             measured, truth = _measure(ctx, variant, technique, truth)
             row_resolution = resolution if technique.method in RESOLUTION_METHODS else 0
             rows.append(BenchRow(scene=name, method=technique.method.option, algorithm=technique.algorithm_name,

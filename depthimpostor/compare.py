@@ -304,7 +304,7 @@ def side_by_side(comparisons: dict[str, Comparison]) -> np.ndarray:
     sheet = Image.new("RGB", (len(tiles) * (width + 2), height + LABEL_HEIGHT), (255, 255, 255))
     draw = ImageDraw.Draw(sheet)
     font = load_font(14)
-    for index, (name, tile) in enumerate(zip(pictures, tiles)):
+    for index, (name, tile) in enumerate(zip(pictures, tiles, strict=False)):
         sheet.paste(Image.fromarray(tile), (index * (width + 2), 0))
         draw.text((index * (width + 2) + 4, height + 3), name, fill=(0, 0, 0), font=font)
     return np.asarray(sheet)

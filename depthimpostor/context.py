@@ -91,11 +91,13 @@ class OSMesaLoader:
 
 
 def _egl_context() -> moderngl.Context:
-    return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL_VERSION)
+    # moderngl's stub types each **settings value as a dict; glcontext takes strings such as this one.
+    return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL_VERSION)  # type: ignore[arg-type]
 
 
 def _osmesa_context() -> moderngl.Context:
-    return moderngl.create_context(context=OSMesaLoader(), require=REQUIRED_GL_VERSION)
+    # moderngl's stub types each **settings value as a dict; `context` takes any loader object.
+    return moderngl.create_context(context=OSMesaLoader(), require=REQUIRED_GL_VERSION)  # type: ignore[arg-type]
 
 
 _BACKENDS = {"egl": _egl_context, "osmesa": _osmesa_context}

@@ -14,6 +14,7 @@ from typing import Protocol
 
 import moderngl
 import numpy as np
+from numpy.typing import NDArray
 
 from .constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm, Method
 from .context import bind_default_framebuffer
@@ -37,7 +38,7 @@ class QueriedImage(Protocol):
     @property
     def tile(self) -> tuple[int, int, int, int]: ...
 
-    def record(self) -> np.void: ...
+    def record(self) -> NDArray[np.void]: ...
 
 
 class RayQuery:
@@ -110,8 +111,9 @@ class RayQuery:
             )
         finally:
             bind_default_framebuffer(self.ctx)
-            for item in (framebuffer, *outputs, *inputs):
-                item.release()
+            framebuffer.release()
+            for image in (*outputs, *inputs):
+                image.release()
         return RayHits(
             hit=hit[:, 0] > 0.5,
             t=hit[:, 1],
@@ -145,7 +147,7 @@ class _UploadedImage:
     def tile(self) -> tuple[int, int, int, int]:
         return (*self.tile_origin, self.data.camera.width, self.data.camera.height)
 
-    def record(self) -> np.void:
+    def record(self) -> NDArray[np.void]:
         return self.data.camera.depth_image_record(self.data.object_id, self.tile_origin, self.pyramid)
 
 

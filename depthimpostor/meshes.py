@@ -120,7 +120,9 @@ def box(size: Sequence[float]) -> Mesh:
         raise MeshError(f"box: expected 3 sizes, got {len(size)}")
     _require_positive("box", sx=size[0], sy=size[1], sz=size[2])
     half = 0.5 * np.asarray(size, dtype=np.float64)
-    positions, normals, indices = [], [], []
+    positions: list[np.ndarray] = []
+    normals: list[np.ndarray] = []
+    indices: list[np.ndarray] = []
     for axis in range(3):
         for sign in (1.0, -1.0):
             normal = np.zeros(3)

@@ -34,7 +34,7 @@ from .shaders import ProgramKey, program_key
 
 #: Each method's stand-in for the reflected objects. Both cube-map methods look up the same cube
 #: map: switching between them keeps it (only the mirror shader's variant changes).
-STAND_INS: dict[Method, type[BakedImages] | type[TrianglePass]] = {
+STAND_INS: dict[Method, type[BakedImages | TrianglePass]] = {
     Method.DEPTH: ImpostorPass,
     Method.CUBEMAP: CubeMapPass,
     Method.CUBEMAP_PARALLAX: CubeMapPass,

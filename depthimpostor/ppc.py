@@ -125,7 +125,7 @@ class PPC:
 
     @cached_property
     def inverse(self) -> Array:
-        return np.linalg.inv(self.matrix)
+        return np.asarray(np.linalg.inv(self.matrix), dtype=np.float64)
 
     @cached_property
     def forward(self) -> Array:
@@ -278,9 +278,9 @@ class PPC:
 
     def depth_image_record(
         self, object_id: int, tile_origin: tuple[int, int], pyramid: tuple[int, int, int] = (0, 0, 0)
-    ) -> np.void:
-        """This camera packed as one `DepthImage` std140 record (see constants.DEPTH_IMAGE_FIELDS);
-        `pyramid` is (x, y, coarse levels) of its depth pyramid, where it has one."""
+    ) -> NDArray[np.void]:
+        """This camera packed as one `DepthImage` std140 record, a 0-d structured array (see
+        constants.DEPTH_IMAGE_FIELDS); `pyramid` is (x, y, coarse levels) of its depth pyramid, where it has one."""
         record = np.zeros((), dtype=DEPTH_IMAGE_DTYPE)
         record["eye"] = (*self.C, float(object_id))
         record["a"][:3] = self.a

@@ -277,7 +277,7 @@ class Renderer:
         geometry = [g.at(seconds) for g in self.geometry]
         moved = {g.index for g in geometry if g is not before[g.index]}
         lights = self.scene.lights_at(seconds)
-        moved_lights = {i for i, (new, old) in enumerate(zip(lights, self.lit_scene.lights)) if new != old}
+        moved_lights = {i for i, (new, old) in enumerate(zip(lights, self.lit_scene.lights, strict=False)) if new != old}
         self.time = seconds
         self.lit_scene = dataclasses.replace(self.scene, lights=lights)
         self._classify(geometry)
@@ -519,7 +519,8 @@ class Renderer:
         bind_default_framebuffer(self.ctx)
         if self.color_framebuffer is not self.framebuffer:
             self.color_framebuffer.release()
-        for item in (self.framebuffer, self._color, self._depth, *self._reflection_outputs):
+        self.framebuffer.release()
+        for item in (self._color, self._depth, *self._reflection_outputs):
             item.release()
         if self._sample_counts is not None:
             self._sample_counts.release()

@@ -217,7 +217,7 @@ class ProgramCache:
 
     def _build(self, stages: tuple[str, ...], defines: Defines) -> moderngl.Program | moderngl.ComputeShader:
         kinds = ("compute",) if len(stages) == 1 else ("vertex", "fragment")
-        sources = {kind: self.library.preprocess(name, defines) for kind, name in zip(kinds, stages)}
+        sources = {kind: self.library.preprocess(name, defines) for kind, name in zip(kinds, stages, strict=False)}
         try:
             if len(stages) == 1:
                 return self.ctx.compute_shader(sources["compute"].text)

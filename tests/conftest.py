@@ -16,7 +16,7 @@ from depthimpostor.context import create_context
 
 # The fuzzer (test_fuzz.py) draws batches of 2048 rays: 50 batches by default, over 100,000 rays
 # in CI; `pytest --hypothesis-profile=long` runs 2,000 batches (4 million rays).
-_FUZZ = dict(deadline=None, print_blob=True, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+_FUZZ = {"deadline": None, "print_blob": True, "suppress_health_check": [HealthCheck.too_slow, HealthCheck.data_too_large]}
 settings.register_profile("ci", max_examples=50, **_FUZZ)
 settings.register_profile("long", max_examples=2000, **_FUZZ)
 settings.load_profile("ci")

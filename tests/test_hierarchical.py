@@ -85,7 +85,7 @@ def test_gpu_pyramid_matches_its_definition(
         pyramid.build(atlas.depth_layers())
         layout = atlas.pyramid_layout
         assert layout.levels == coarse_levels(resolution, resolution)
-        for slot, ((width, height), layers) in enumerate(zip(sizes, images)):
+        for slot, ((width, height), layers) in enumerate(zip(sizes, images, strict=False)):
             x, y, levels = layout.entry(slot, width, height)
             assert levels == coarse_levels(width, height)
             # The top level is one texel over the whole image.

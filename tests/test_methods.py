@@ -69,7 +69,7 @@ def test_bvh_skip_links_walk_the_tree_depth_first() -> None:
     position = {node: i for i, node in enumerate(walked)}
     for node in range(bvh.node_count):
         after = position[bvh.skip[node]] if bvh.skip[node] >= 0 else len(walked)
-        subtree = [n for n in walked[position[node]:after]]
+        subtree = list(walked[position[node]:after])
         assert subtree[0] == node and all(position[n] >= position[node] for n in subtree)
         if bvh.count[node]:
             assert after == position[node] + 1

@@ -330,7 +330,7 @@ def test_auto_resolution_follows_the_pixels(ctx: moderngl.Context) -> None:
         assert MIN_AUTO_RESOLUTION <= side <= MAX_AUTO_RESOLUTION and math.log2(side).is_integer()
     assert max(sides("planar_mirror.toml", (480, 270))) > max(sides("default.toml", (480, 270)))
     small_sides, large_sides = sides("default.toml", (240, 135)), sides("default.toml", (960, 540))
-    for low, high in zip(small_sides, large_sides):
+    for low, high in zip(small_sides, large_sides, strict=False):
         assert high == min(MAX_AUTO_RESOLUTION, 4 * low) or low == MIN_AUTO_RESOLUTION
 
 

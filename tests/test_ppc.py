@@ -227,7 +227,7 @@ def assert_clipped_segment(camera: PPC, origins: np.ndarray, directions: np.ndar
     inside, t_enter, t_exit = camera.clip_ray(origins, directions)
     assert inside.all()
     assert np.isfinite(t_enter).all() and np.isfinite(t_exit).all()
-    assert (0.0 <= t_enter).all() and (t_enter < t_exit).all()
+    assert (t_enter >= 0.0).all() and (t_enter < t_exit).all()
     entry = origins + directions * t_enter[:, None]
     exit_ = origins + directions * t_exit[:, None]
     entry_slack, exit_slack = frustum_slack(camera, entry), frustum_slack(camera, exit_)
@@ -293,7 +293,7 @@ def test_rays_that_miss_the_frustum_are_not_inside() -> None:
     origins = np.array([origin for origin, _ in rays.values()])
     directions = np.array([direction for _, direction in rays.values()])
     inside, _, _ = camera.clip_ray(origins, directions)
-    missed = dict(zip(rays, inside))
+    missed = dict(zip(rays, inside, strict=False))
     assert not any(missed.values()), missed
 
 

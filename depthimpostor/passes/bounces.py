@@ -25,7 +25,7 @@ import moderngl
 from ..constants import BACKGROUND_DEPTH
 from ..scene.model import Scene
 from .glass import GlassInterior
-from .impostors import DEPTH_IMAGES_BINDING, DepthImage, ImpostorAtlas, mirror_centre
+from .impostors import DEPTH_IMAGES_BINDING, DepthImage, ImpostorAtlas, color_mask, mirror_centre
 from .mirrors import bounce_defines, outward_faces_front, reflector_program, reflector_tint, write_glass
 from .uniforms import write
 
@@ -74,9 +74,9 @@ class BounceBaker:
         tile = (0, 0, image.camera.width, image.camera.height)
         framebuffer.use()
         framebuffer.viewport = tile
-        framebuffer.color_mask = ((True,) * 4, (True,) * 4)
+        framebuffer.color_mask = color_mask(2, (True,) * 4, (True,) * 4)
         framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=tile)
-        framebuffer.color_mask = ((True,) * 4, (True, False, False, False))
+        framebuffer.color_mask = color_mask(2, (True,) * 4, (True, False, False, False))
         images.ctx.enable(moderngl.DEPTH_TEST)
         images.bind(program)
         below = image.level - 1
@@ -88,12 +88,12 @@ class BounceBaker:
         with outward_faces_front(images.ctx):  # the image's flip, for the mirror's backing
             images.meshes.draw(program, shown, image.camera.view_projection)
         draws += 1 + images._bake_back_faces(image, framebuffer, tile)
-        framebuffer.color_mask = ((True,) * 4, (True,) * 4)
+        framebuffer.color_mask = color_mask(2, (True,) * 4, (True,) * 4)
         self._copy(tile, image.tile)
         images.baked(image)
         return draws
 
-    def _copy(self, source: tuple[int, int, int, int], destination: tuple[int, ...]) -> None:
+    def _copy(self, source: tuple[int, int, int, int], destination: tuple[int, int, int, int]) -> None:
         """The scratch tile into the atlas tile, on the GPU (a pixel buffer)."""
         atlas, framebuffer = self.images.atlas, self.scratch.framebuffer
         for attachment, texture, components, dtype in ((0, atlas.color, 4, "f1"), (1, atlas.depth_layers(), 2, "f4")):

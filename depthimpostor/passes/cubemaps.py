@@ -84,7 +84,7 @@ class CubeMapPass(BakedImages):
         """Six faces per mirror showing what it may reflect; "auto" gives the faces the largest
         resolution its objects' depth images would get (per_object_plan)."""
         plan: dict[int, list[ImagePlan]] = {}
-        for mirror, images in zip(mirrors, per_object_plan(scene, mirrors, reflected).values()):
+        for mirror, images in zip(mirrors, per_object_plan(scene, mirrors, reflected).values(), strict=False):
             shown = [image.targets[0] for image in images]
             if not shown:  # it reflects nothing but the planes and the environment
                 plan[mirror.index] = []

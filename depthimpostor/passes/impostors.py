@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 import moderngl
 import numpy as np
+from numpy.typing import NDArray
 
 from ..context import bind_default_framebuffer
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, NO_OBJECT
@@ -96,7 +97,7 @@ class DepthImage:
     def tile(self) -> tuple[int, int, int, int]:
         return (*self.tile_origin, self.camera.width, self.camera.height)
 
-    def record(self) -> np.void:
+    def record(self) -> NDArray[np.void]:
         """The std140 record; `eye.w` names the object of a per-object image (NO_OBJECT for a
         cube-map face, whose texels name their own)."""
         object_id = self.targets[0].index if len(self.targets) == 1 else NO_OBJECT
@@ -520,7 +521,7 @@ class BakedImages:
         self.bake_counts[image.label] += 1
         self.stale.discard(image.slot)
 
-    def _bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, ...]) -> int:
+    def _bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, int, int, int]) -> int:
         """The nearest back face: the G layer alone, against a fresh depth buffer (images of
         reflectors at bounce k >= 2, which have no colour of their backs to show)."""
         back_faces = self.programs.get(*BACK_FACE_PROGRAM)
@@ -618,7 +619,7 @@ class ImpostorPass(BakedImages):
             cameras = [image_camera(scene, view, mirror, other) for other in others]
             plan[mirror.index] += [
                 ImagePlan((other,), camera, level)
-                for level in range(2, scene.render.max_bounces + 1) for other, camera in zip(others, cameras)
+                for level in range(2, scene.render.max_bounces + 1) for other, camera in zip(others, cameras, strict=False)
             ]
         return plan
 

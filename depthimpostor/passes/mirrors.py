@@ -9,7 +9,6 @@ from contextlib import contextmanager
 from typing import Protocol
 
 import moderngl
-import numpy as np
 
 from ..constants import Algorithm, Method
 from ..geometry import ObjectGeometry

@@ -105,13 +105,14 @@ class OverlayPass:
         if len(vertices) == 0:
             return
         data = vertices.tobytes()
-        if self._vertices is None or self._vertices.size < len(data):
+        if self._vertices is None or self._vertex_array is None or self._vertices.size < len(data):
             self._release_buffers()
             # Room to grow: the text changes every frame, the buffer is reused while it fits.
             self._vertices = self.ctx.buffer(reserve=2 * len(data))
             self._vertex_array = self.ctx.vertex_array(
                 self.program, [(self._vertices, "2f 2f 4f", "in_position", "in_texel", "in_color")]
             )
+        vertex_array = self._vertex_array
         self._vertices.write(data)
         self.glyphs.use(_GLYPHS_UNIT)
         write(self.program, "u_glyphs", _GLYPHS_UNIT)
@@ -119,7 +120,7 @@ class OverlayPass:
         self.ctx.disable(moderngl.DEPTH_TEST)
         self.ctx.enable(moderngl.BLEND)
         self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-        self._vertex_array.render(moderngl.TRIANGLES, vertices=len(vertices))
+        vertex_array.render(moderngl.TRIANGLES, vertices=len(vertices))
         self.ctx.disable(moderngl.BLEND)
         self.ctx.enable(moderngl.DEPTH_TEST)
 

@@ -14,7 +14,7 @@ import numpy as np
 from ..constants import MAX_ANALYTIC_PLANES, MAX_LIGHTS, LightKind, MaterialKind, ShadowKind
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
-from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, Scene
+from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, PlaneShape, Scene
 
 
 #: Where every shading program finds the shadow maps (lib/shadows.glsl; passes/shadows.py binds
@@ -29,11 +29,14 @@ def shading_defines(scene: Scene) -> dict[str, int]:
     return {"SHADOWS": 1} if scene.has_shadows else {}
 
 
-def write(program: moderngl.Program, name: str, data: np.ndarray | bytes | int | float | Sequence[float]) -> None:
+def write(program: moderngl.Program | moderngl.ComputeShader, name: str,
+          data: np.ndarray | bytes | float | Sequence[float]) -> None:
     """Set a uniform if the program has it: numpy arrays as float32/int32 bytes, scalars as values."""
     if name not in program:
         return
     uniform = program[name]
+    if not isinstance(uniform, moderngl.Uniform):
+        raise TypeError(f"{name} is a {type(uniform).__name__}, not a uniform a value can be written to")
     if isinstance(data, np.ndarray):
         dtype = np.int32 if np.issubdtype(data.dtype, np.integer) else np.float32
         uniform.write(np.ascontiguousarray(data, dtype=dtype).tobytes())
@@ -51,8 +54,12 @@ def bind_texture(program: moderngl.Program, name: str, texture: moderngl.Texture
 
 def bind_uniform_block(program: moderngl.Program, name: str, binding: int) -> None:
     """Point the uniform block `name` (if the variant kept it) at a buffer binding point."""
-    if name in program:
-        program[name].binding = binding
+    if name not in program:
+        return
+    block = program[name]
+    if not isinstance(block, moderngl.UniformBlock):
+        raise TypeError(f"{name} is a {type(block).__name__}, not a uniform block")
+    block.binding = binding
 
 
 def write_matrix(program: moderngl.Program, name: str, matrix: np.ndarray) -> None:
@@ -123,7 +130,10 @@ def write_analytic_planes(program: moderngl.Program, scene: Scene, planes: Seque
     normals = np.zeros((MAX_ANALYTIC_PLANES, 3))
     object_ids = np.zeros(MAX_ANALYTIC_PLANES, dtype=np.int32)
     for i, plane in enumerate(planes):
-        width, depth = plane.object.shape.size  # type: ignore[union-attr]
+        shape = plane.object.shape
+        if not isinstance(shape, PlaneShape):
+            raise TypeError(f"object {plane.index} is a {type(shape).__name__}, not an analytic plane")
+        width, depth = shape.size
         normal = plane.normal_matrix @ np.array([0.0, 1.0, 0.0])
         world_to_local[i] = np.linalg.inv(plane.model_matrix).T  # column-major for GL
         half_sizes[i] = (width / 2.0, depth / 2.0)

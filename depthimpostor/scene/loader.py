@@ -5,12 +5,17 @@ from __future__ import annotations
 import json
 import math
 import os
-import tomllib
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # tomllib joined the standard library in 3.11; tomli is the same parser (pyproject declares it)
+    import tomli as tomllib
 
 from depthimpostor.constants import MAX_BOUNCES, MAX_IOR, MAX_LIGHTS
 from depthimpostor.errors import SceneError

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import pyrr
 
 from ..ppc import orthonormal_frame
 from ..scene.model import Camera
@@ -29,10 +30,9 @@ def _unit(vector: np.ndarray) -> np.ndarray:
 
 
 def _rotate(vector: np.ndarray, axis: np.ndarray, degrees: float) -> np.ndarray:
-    """Rodrigues' rotation of `vector` about the unit `axis`, right-handed."""
-    angle = math.radians(degrees)
-    return (vector * math.cos(angle) + np.cross(axis, vector) * math.sin(angle)
-            + axis * float(np.dot(axis, vector)) * (1.0 - math.cos(angle)))
+    """`vector` turned `degrees` about the unit `axis`, right-handed (a pyrr quaternion)."""
+    turn = pyrr.quaternion.create_from_axis_rotation(axis, math.radians(degrees), dtype=np.float64)
+    return np.asarray(pyrr.quaternion.apply_to_vector(turn, vector), dtype=np.float64)
 
 
 @dataclass
