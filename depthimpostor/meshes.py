@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from depthimpostor.constants import MAX_COORDINATE
 from depthimpostor.errors import DepthImpostorError
 
 
@@ -88,13 +89,17 @@ class Mesh:
         The radius is the largest distance from the chosen centre, computed in float64, so the
         containment holds exactly for the stored float32 positions.
         """
+        cached: tuple[np.ndarray, float] | None = self.__dict__.get("_bounding_sphere")
+        if cached is not None:  # the arrays are read-only, so the sphere never changes
+            return cached[0].copy(), cached[1]
         if len(self.positions) == 0:
             raise ValueError("Mesh.bounding_sphere: the mesh has no vertices")
         points = self.positions.astype(np.float64)
         candidates = [_ritter_centre(points), 0.5 * (points.min(axis=0) + points.max(axis=0))]
         radii = [float(np.linalg.norm(points - centre, axis=1).max()) for centre in candidates]
         best = int(np.argmin(radii))
-        return candidates[best], radii[best]
+        object.__setattr__(self, "_bounding_sphere", (candidates[best], radii[best]))
+        return candidates[best].copy(), radii[best]
 
     def interleaved(self) -> np.ndarray:
         """(N, 6) float32 rows `x y z nx ny nz`, contiguous, ready for a GL vertex buffer."""
@@ -282,6 +287,10 @@ def _parse_mesh_file(resolved: Path, shown: Path) -> Mesh:
         raise MeshError(f"{shown}: cannot read mesh file: {type(error).__name__}: {error}") from error
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise MeshError(f"{shown}: the file holds no triangles")
+    largest = float(np.abs(loaded.vertices).max())
+    if not largest <= MAX_COORDINATE:  # also NaN; float32 turns what is past 3.4e38 into inf
+        raise MeshError(f"{shown}: expected vertex coordinates of magnitude at most {MAX_COORDINATE:g} (float32 "
+                        f"geometry squares distances), got {largest:g}")
     # Loaders keep vertices split where texture coordinates or file normals differ; normals averaged
     # over such split vertices show creases along UV seams, so merge by position alone first.
     loaded.merge_vertices(merge_tex=True, merge_norm=True)

@@ -15,7 +15,7 @@ from enum import Enum
 from typing import Any
 
 from .constants import Algorithm, Method
-from .culling import Reach, reach
+from .culling import Reach, reaches
 from .geometry import ObjectGeometry, scene_geometry
 from .passes.billboards import BillboardPass
 from .passes.cubemaps import CubeMapPass
@@ -26,10 +26,11 @@ from .passes.hybrid import HybridPass
 from .passes.impostors import BACK_FACE_PROGRAM, BEYOND_PROGRAM, BakedImages, ImpostorAtlas, ImpostorPass, SecondLayer, image_label, plural
 from .passes.mirrors import REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
 from .passes.pyramid import PYRAMID_PROGRAM
-from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, shadow_map_bytes
+from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
 from .passes.simplified import SimplifiedPass
 from .passes.triangles import TrianglePass
-from .scene.model import Scene
+from .scene.limits import check_method, check_model_reach, check_scene
+from .scene.model import MeshShape, Scene
 from .shaders import ProgramKey, program_key
 
 #: Each method's stand-in for the reflected objects. Both cube-map methods look up the same cube
@@ -171,15 +172,28 @@ def _names(items: list[ObjectGeometry]) -> str:
     return ", ".join(f'"{item.object.name}"' for item in items)
 
 
+def check_stand_in(scene: Scene, method: Method, reflectors: list[ObjectGeometry],
+                   reflected: list[ObjectGeometry]) -> None:
+    """The limits of `method`'s stand-in for `reflected` in `reflectors` (scene/limits.py): the
+    plan checks them, and the renderer again before it switches to another method."""
+    check_method(scene, method, len(reflectors), len(reflected), sum(len(g.local_mesh.indices) for g in reflected))
+
+
 def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorithm = Algorithm.OPTIMIZED,
                 geometry: list[ObjectGeometry] | None = None) -> RenderPlan:
-    """The plan of `scene` drawn with `method` (and, for depth images, `algorithm`)."""
+    """The plan of `scene` drawn with `method` (and, for depth images, `algorithm`). Every limit
+    the renderer would meet is checked here, before it makes any GL object: a SceneError says which."""
+    check_scene(scene)  # already checked by the loader; again for scenes built in code
     geometry = geometry if geometry is not None else scene_geometry(scene.objects)
+    for item in geometry:
+        if isinstance(item.object.shape, MeshShape):
+            check_model_reach(scene, item.index, item.local_mesh)
     mirrors = [g for g in geometry if g.object.is_mirror]
     glass = [g for g in geometry if g.object.is_glass]
     reflectors = [g for g in geometry if g.object.is_specular]
     diffuse = [g for g in geometry if not g.object.is_specular]
     reflected = [g for g in diffuse if not g.is_analytic_plane]
+    check_stand_in(scene, method, reflectors, reflected)
     passes: list[PlannedPass] = []
     variants: dict[ProgramKey, str] = {}
     memory: dict[str, int] = {}
@@ -192,16 +206,18 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         passes.append(PlannedPass(Pass.SHADOW_MAPS, f"{', '.join(lights)} cast shadows"))
         variant(SHADOW_MAP_PROGRAM, SHADOW_MAP_DEFINES, "shadow maps: the casters' depth from each shadowed light")
         memory["shadow maps"] = shadow_map_bytes(len(scene.shadowed_lights), scene.render.shadow_resolution)
+        casters = set(scene.shadow_casters)
+        for light in scene.shadowed_lights:  # refuses a light among its casters, as the shadow pass would
+            fit_shadow_camera(scene, light, [g for g in geometry if g.object in casters], scene.render.shadow_resolution)
 
     images: list[PlannedImage] = []
     skipped: list[SkippedImage] = []
     stand_in = STAND_INS[method]
     if reflectors:
-        for reflector in reflectors:
-            for target in reflected + [r for r in reflectors if r is not reflector and scene.render.max_bounces > 1]:
-                why = reach(reflector, target)
-                if why is not Reach.REACHABLE:
-                    skipped.append(SkippedImage(reflector.object.name, target.object.name, why.value))
+        shown = reflected + (reflectors if scene.render.max_bounces > 1 else [])
+        for reflector, row in zip(reflectors, reaches(reflectors, shown)):
+            skipped += [SkippedImage(reflector.object.name, target.object.name, why.value)
+                        for target, why in zip(shown, row) if why is not Reach.REACHABLE and target is not reflector]
         shown_in_bounces: set[bool] = set()  # is_glass of the reflectors bounce images show
         if issubclass(stand_in, BakedImages):
             planned = stand_in.plan_images(scene, reflectors, reflected)
