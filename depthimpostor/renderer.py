@@ -130,7 +130,7 @@ class Renderer:
         self.lit_scene = scene  # the scene with its lights where they are at `time`
         geometry = scene_geometry(scene.objects)
         # First: the plan refuses what cannot be rendered before anything is made or fitted.
-        self.plan: RenderPlan = plan_render(scene, method, algorithm, geometry)
+        self.plan: RenderPlan = plan_render(scene, method, algorithm, geometry, reflection_data, count_samples)
         self._classify(geometry)
         self.view = scene.camera
         self.camera = fitted_camera(self.view, scene.render.size, self.bounds)
@@ -249,7 +249,8 @@ class Renderer:
         )
 
     def _replan(self) -> None:
-        self.plan = plan_render(self.scene, self.method, self.algorithm, self.geometry)
+        self.plan = plan_render(self.scene, self.method, self.algorithm, self.geometry, self.reflection_data,
+                                self.count_samples)
 
     # ------------------------------------------------------------------ settings
     def look_at(self, view: Camera) -> None:
