@@ -282,7 +282,10 @@ def _parse_mesh_file(resolved: Path, shown: Path) -> Mesh:
 
     try:
         # force="mesh" also flattens glTF and other scenes, applying their node transforms.
-        loaded = trimesh.load(str(resolved), force="mesh")
+        # trimesh merges vertices by rounding coordinates to int64 steps of 1e-8, which numpy warns
+        # about past 9e10; coordinates that large are refused below, in one line.
+        with np.errstate(invalid="ignore", over="ignore"):
+            loaded = trimesh.load(str(resolved), force="mesh")
     except Exception as error:  # trimesh's parsers raise anything on a bad file; the user needs the name
         raise MeshError(f"{shown}: cannot read mesh file: {type(error).__name__}: {error}") from error
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:

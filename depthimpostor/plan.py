@@ -220,13 +220,13 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
 
     images: list[PlannedImage] = []
     skipped: list[SkippedImage] = []
+    shown_in_bounces: set[bool] = set()  # is_glass of the reflectors bounce images show
     stand_in = STAND_INS[method]
     if reflectors:
         shown = reflected + (reflectors if scene.render.max_bounces > 1 else [])
         for reflector, row in zip(reflectors, reaches(reflectors, shown)):
             skipped += [SkippedImage(reflector.object.name, target.object.name, why.value)
                         for target, why in zip(shown, row) if why is not Reach.REACHABLE and target is not reflector]
-        shown_in_bounces: set[bool] = set()  # is_glass of the reflectors bounce images show
         if issubclass(stand_in, BakedImages):
             planned = stand_in.plan_images(scene, reflectors, reflected)
             by_index = {g.index: g for g in geometry}
