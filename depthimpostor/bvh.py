@@ -12,6 +12,7 @@ shader that merely contains it on llvmpipe).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -77,3 +78,13 @@ def build_bvh(triangles: np.ndarray) -> Bvh:
             skip[first[node]] = first[node] + 1
             skip[first[node] + 1] = skip[node]
     return Bvh(lower[:used].astype(np.float32), upper[:used].astype(np.float32), first, count, order, depth, skip)
+
+
+@cache  # a few dozen distinct ranges however many triangles: each level has at most two sizes
+def node_count(triangles: int) -> int:
+    """The nodes `build_bvh` makes for that many triangles: its median splits halve every range
+    however the triangles lie, so the tree's shape depends on their number alone."""
+    if triangles <= LEAF_TRIANGLES:
+        return 1
+    half = triangles // 2
+    return 1 + node_count(half) + node_count(triangles - half)

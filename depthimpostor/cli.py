@@ -9,6 +9,7 @@ import statistics
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TypeVar
 
 import moderngl
 from PIL import Image
@@ -21,7 +22,10 @@ from .plan import RenderPlan, plan_render
 from .renderer import Renderer, RenderStats, to_uint8
 from .resources import default_scene_path
 from .scene import Scene, load_scene
-from .scene.model import AUTO_RESOLUTION
+from .scene.fields import SIZE, Reader
+from .scene.model import AUTO_RESOLUTION, IMPOSTOR_RESOLUTION
+
+T = TypeVar("T")
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -32,11 +36,33 @@ def _size(text: str) -> tuple[int, int]:
     return width, height
 
 
-def _positive(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text}")
-    return value
+def _integer_at_least(least: int) -> Callable[[str], int]:
+    """An argparse type: an integer >= `least` (argparse names the option in its message)."""
+    expected = "a positive integer" if least == 1 else f"an integer >= {least}"
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
+        if value < least:
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text}")
+        return value
+    return parse
+
+
+_positive, _non_negative = _integer_at_least(1), _integer_at_least(0)
+
+
+def _checked(reader: Reader[T], parse: Callable[[str], object]) -> Callable[[str], T]:
+    """An argparse type: `parse`d text checked as strictly as a scene file's value (`reader`), so that
+    a bad value is refused before any work, by argparse, naming the option it was given to."""
+    def check(text: str) -> T:
+        value = reader.parse(parse(text))
+        if value is None:
+            raise argparse.ArgumentTypeError(f"expected {reader.expected}, got {text}")
+        return value
+    return check
 
 
 def _finite(text: str) -> float:
@@ -209,15 +235,16 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def _list_of(kind: Callable[[str], object]) -> Callable[[str], list[object]]:
-    def parse(text: str) -> list[object]:
+def _list_of(kind: Callable[[str], T]) -> Callable[[str], list[T]]:
+    def parse(text: str) -> list[T]:
         parts = [part.strip() for part in text.split(",") if part.strip()]
         if not parts:
             raise argparse.ArgumentTypeError(f"expected a comma-separated list, got {text!r}")
         try:
             return [kind(part) for part in parts]
         except (ValueError, argparse.ArgumentTypeError) as error:
-            raise argparse.ArgumentTypeError(f"expected a comma-separated list, got {text!r}: {error}") from None
+            where = f" (in the list {text!r})" if len(parts) > 1 else ""
+            raise argparse.ArgumentTypeError(f"{error}{where}") from None
     return parse
 
 
@@ -235,8 +262,6 @@ def _bench(args: argparse.Namespace) -> int:
             raise SceneError("command line", "--methods", f"expected methods among {[m.option for m in Method]} "
                              f"or all, got {unknown}")
         methods = tuple(Method.from_option(name) for name in args.methods)
-    for resolution in args.resolutions:  # checked as strictly as a scene file's
-        scenes[0].with_overrides(impostor_resolution=resolution)
     size = args.size or scenes[0].render.size
     unknown = [name for name in args.algorithms if name not in {a.name.lower() for a in Algorithm}]
     if unknown:
@@ -343,13 +368,14 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--algorithms", type=_list_of(str), default=["optimized", "hierarchical"],
                        help="the depth-image method's intersection algorithms, comma-separated "
                             "(default: optimized,hierarchical)")
-    bench.add_argument("--resolutions", type=_list_of(_resolution), default=[64, 128, 256, 512, 1024],
+    bench.add_argument("--resolutions", type=_list_of(_checked(IMPOSTOR_RESOLUTION, _resolution)),
+                       default=[64, 128, 256, 512, 1024],
                        help="image resolutions of the methods that bake images, auto among them if wanted "
                             "(default 64,128,256,512,1024)")
-    bench.add_argument("--size", type=_size, help="frame size WxH (default: the first scene's render.size)")
+    bench.add_argument("--size", type=_checked(SIZE, _size), help="frame size WxH (default: the first scene's render.size)")
     bench.add_argument("--frames", type=_positive, default=10, help="timed frames per configuration (default 10)")
-    bench.add_argument("--warmup", type=int, default=2, help="untimed frames before them (default 2)")
-    bench.add_argument("--bakes", type=int, default=3, help="timed re-bakes per configuration (default 3)")
+    bench.add_argument("--warmup", type=_non_negative, default=2, help="untimed frames before them (default 2)")
+    bench.add_argument("--bakes", type=_positive, default=3, help="timed re-bakes per configuration (default 3)")
     bench.add_argument("-o", "--output", default="results", help="output folder (default: results/)")
     bench.add_argument("--backend", choices=["auto", "egl", "osmesa"], default=None, help="headless GL backend")
     bench.set_defaults(run=_bench)

@@ -99,6 +99,12 @@ SOFT_SHADOW_RAYS = 8
 SHADOW_NORMAL_OFFSET_TEXELS = 1.5
 #: render.max_bounces at most: each bounce k >= 2 bakes one depth image per pair of mirrors.
 MAX_BOUNCES = 4
+#: The largest magnitude of any number in a scene (a coordinate, a length, a scale, a colour) and
+#: the farthest any point of an object may reach from the origin. Geometry is float32 on the GPU
+#: and in the ray-traced truth, whose largest finite value is 3.4e38; the shaders square
+#: distances (dot products, the ray-sphere quadratic), so a distance must stay under
+#: sqrt(3.4e38 / 3) = 1.1e19 for a squared length of three coordinates to stay finite.
+MAX_COORDINATE = 1e18
 #: The largest index of refraction a glass may have (diamond's is 2.42): past it nearly all
 #: light reflects at the first surface and nothing is left to refract.
 MAX_IOR = 4.0
@@ -115,6 +121,9 @@ MAX_ANALYTIC_PLANES = 8
 #: Depth images one mirror may own (one per reflected object): bounds the uniform block,
 #: 64 x 176 bytes = 11 KiB, under GL's guaranteed 16 KiB.
 MAX_DEPTH_IMAGES_PER_MIRROR = 64
+#: Reflected triangles the hybrid method's depth images can name: a float32 sample holds
+#: integers below 2^24.
+MAX_NAMED_TRIANGLES = 2**24
 #: A depth-image sample at or beyond this OpenGL depth is background: nothing was rasterized there.
 BACKGROUND_DEPTH = 1.0
 #: Object id reported for a reflected ray that hit nothing (the environment).

@@ -14,17 +14,22 @@ m_a = 2 (a.g) a - g, so every reflected ray of the triangle lies within 90 + 2 b
 from a point p, the points out of reach form the cone about -m_a of half-angle
 gamma = 90 - 2 beta. For a convex cone K and p in the triangle, x - p = sum b_j (x - p_j) lies in K
 when the three x - p_j do, so a point out of reach of the three vertices is out of reach of the
-whole triangle. An object is culled for a mirror when its bounding sphere is in that cone from
+whole triangle. An object is culled for a mirror when a sphere enclosing it is in that cone from
 every vertex of every triangle: exact for planar mirrors (beta = 0: "behind the mirror"),
 conservative for curved ones.
 
 Glass is never culled: a refracted ray may leave it in any direction. Nor is anything culled for
 a mirror that moves (its planes turn); an object that moves is tested with the sphere its
-bounding sphere sweeps over a turn of its animation.
+enclosing sphere sweeps over a turn of its animation.
+
+`reaches` tests all pairs at once, in numpy arrays over every mirror triangle and every object,
+so that a scene of thousands of objects is culled in a fraction of a second.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
@@ -44,10 +49,27 @@ class Reach(Enum):
     OUTSIDE_DIRECTIONS = "outside every direction the mirror's surface sends a ray"
 
 
+def enclosing_sphere(item: ObjectGeometry) -> tuple[np.ndarray, float]:
+    """A sphere holding `item` at its time, found without moving its vertices: its local mesh's
+    bounding sphere (computed once per mesh, and objects of one shape share their mesh) carried by
+    the model matrix, the radius stretched by the matrix's largest singular value (exact under a
+    uniform scale, looser under another). Culling tests every object against every mirror, so it
+    avoids `ObjectGeometry.bounding_sphere`, which transforms every vertex of every object.
+
+    The radius grows by 1e-6 of the sphere's reach from the origin: the world mesh's float32
+    vertices are rounded by up to 2^-24 of their coordinates from the float64 images this sphere holds.
+    """
+    centre, radius = item.local_mesh.bounding_sphere()
+    linear, offset = item.model_matrix[:3, :3], item.model_matrix[:3, 3]
+    world = linear @ centre + offset
+    world_radius = radius * float(np.linalg.norm(linear, 2))
+    return world, world_radius + 1e-6 * (float(np.linalg.norm(world)) + world_radius)
+
+
 def swept_sphere(item: ObjectGeometry) -> tuple[np.ndarray, float]:
-    """A sphere holding `item`'s bounding sphere at every time of its animation: a rotation about
-    an axis carries the centre around a circle about its foot on the axis."""
-    centre, radius = item.bounding_sphere
+    """A sphere holding `item` at every time of its animation: a rotation about an axis carries
+    the centre of its enclosing sphere around a circle about its foot on the axis."""
+    centre, radius = enclosing_sphere(item)
     animation = item.object.animation
     if animation is None:
         return centre, radius
@@ -63,10 +85,22 @@ def _unit(vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return vectors / np.where(length > 0.0, length, 1.0), length[..., 0]
 
 
-def reach(reflector: ObjectGeometry, target: ObjectGeometry) -> Reach:
-    """Can a ray leaving `reflector` (a mirror or glass) ever meet `target`'s bounding sphere?"""
+@dataclass(frozen=True)
+class _Cones:
+    """Per front-facing triangle of a static mirror: its corners, the axis m_a its reflected rays
+    lie about, and gamma, the half-angle of the cone about -m_a that no reflected ray enters."""
+
+    corners: np.ndarray  # (T, 3, 3)
+    reach_axis: np.ndarray  # (T, 3)
+    out_of_reach: np.ndarray  # (T,) radians
+    flat: bool  # every triangle flat (beta = 0): what is culled lies behind the mirror
+
+
+def _cones(reflector: ObjectGeometry) -> _Cones | None:
+    """The cones of a mirror that does not move; None for glass, a moving mirror, or one whose
+    triangles are all degenerate (nothing can be culled for those)."""
     if not reflector.object.is_mirror or reflector.object.moves:
-        return Reach.REACHABLE
+        return None
     mesh = reflector.world_mesh
     corners = mesh.positions[mesh.indices].astype(np.float64)  # (T, 3, 3)
     normals = mesh.normals[mesh.indices].astype(np.float64)
@@ -74,24 +108,64 @@ def reach(reflector: ObjectGeometry, target: ObjectGeometry) -> Reach:
     keep = area > 0.0  # a degenerate triangle covers no pixel and sends no ray
     corners, normals, face = corners[keep], normals[keep], face[keep]
     if not len(corners):
-        return Reach.REACHABLE
+        return None
     axis, _ = _unit(normals.sum(axis=1))
     spread = np.arccos(np.clip(np.einsum("tj,tij->ti", axis, normals), -1.0, 1.0)).max(axis=1)
     reach_axis = 2.0 * np.einsum("tj,tj->t", axis, face)[:, None] * axis - face
-    out_of_reach = np.pi / 2.0 - 2.0 * spread  # gamma: the unreachable cone's half-angle
-    centre, radius = swept_sphere(target)
-    offsets, distances = _unit(np.asarray(centre, np.float64) - corners)  # (T, 3, 3), (T, 3)
-    angle_to_axis = np.arccos(np.clip(-np.einsum("tij,tj->ti", offsets, reach_axis), -1.0, 1.0))
-    sphere_angle = np.arcsin(np.clip(radius / np.maximum(distances, 1e-300), 0.0, 1.0))
-    culled = (distances > radius) & (angle_to_axis + sphere_angle <= out_of_reach[:, None] - CULL_MARGIN)
-    if not culled.all():
-        return Reach.REACHABLE
-    return Reach.BEHIND if np.all(spread < CULL_MARGIN) else Reach.OUTSIDE_DIRECTIONS
+    return _Cones(corners, reach_axis, np.pi / 2.0 - 2.0 * spread, bool(np.all(spread < CULL_MARGIN)))
+
+
+#: Elements of the (triangle corners x spheres) arrays culling works on at once: bounds its
+#: memory (a few tens of MB) whatever the number of mirror triangles and objects.
+_CHUNK_ELEMENTS = 2**20
+
+
+def _culled(cones: list[_Cones], centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """(mirrors, spheres) bool: is the sphere out of reach from every corner of every triangle?
+
+    Every mirror's triangles are stacked into one array and tested against a chunk of spheres at
+    once; `reduceat` then folds each mirror's run of triangles."""
+    corners = np.concatenate([c.corners for c in cones])
+    reach_axis = np.concatenate([c.reach_axis for c in cones])
+    limit = np.concatenate([c.out_of_reach for c in cones])[:, None, None] - CULL_MARGIN
+    starts = np.cumsum([0] + [len(c.corners) for c in cones[:-1]])
+    culled = np.empty((len(cones), len(centres)), bool)
+    step = max(1, _CHUNK_ELEMENTS // (3 * len(corners)))
+    for lo in range(0, len(centres), step):
+        centre, radius = centres[lo:lo + step], radii[lo:lo + step]
+        offsets, distances = _unit(centre[None, None] - corners[:, :, None])  # (T, 3, n, 3), (T, 3, n)
+        angle_to_axis = np.arccos(np.clip(-np.einsum("tikj,tj->tik", offsets, reach_axis), -1.0, 1.0))
+        sphere_angle = np.arcsin(np.clip(radius / np.maximum(distances, 1e-300), 0.0, 1.0))
+        out = (distances > radius) & (angle_to_axis + sphere_angle <= limit)
+        culled[:, lo:lo + step] = np.logical_and.reduceat(out.all(axis=1), starts, axis=0)
+    return culled
+
+
+def reaches(reflectors: Sequence[ObjectGeometry], targets: Sequence[ObjectGeometry]) -> list[list[Reach]]:
+    """`reach(reflector, target)` for every reflector (rows) and target (columns), all pairs at once."""
+    table = [[Reach.REACHABLE] * len(targets) for _ in reflectors]
+    cones = [(row, c) for row, reflector in enumerate(reflectors) if (c := _cones(reflector)) is not None]
+    if not cones or not targets:
+        return table
+    spheres = [swept_sphere(target) for target in targets]
+    centres = np.array([centre for centre, _ in spheres], np.float64).reshape(-1, 3)
+    radii = np.array([radius for _, radius in spheres], np.float64)
+    culled = _culled([c for _, c in cones], centres, radii)
+    for (row, c), out in zip(cones, culled, strict=True):
+        why = Reach.BEHIND if c.flat else Reach.OUTSIDE_DIRECTIONS
+        for column in np.flatnonzero(out):
+            table[row][column] = why
+    return table
+
+
+def reach(reflector: ObjectGeometry, target: ObjectGeometry) -> Reach:
+    """Can a ray leaving `reflector` (a mirror or glass) ever meet `target`'s enclosing sphere?"""
+    return reaches([reflector], [target])[0][0]
 
 
 def reachable_targets(reflector: ObjectGeometry, targets: list[ObjectGeometry]) -> list[ObjectGeometry]:
     """The targets `reflector` may show, in order."""
-    return [target for target in targets if reach(reflector, target) is Reach.REACHABLE]
+    return [target for target, why in zip(targets, reaches([reflector], targets)[0], strict=True) if why is Reach.REACHABLE]
 
 
 def may_shadow(light: np.ndarray, light_radius: float, caster: tuple[np.ndarray, float],

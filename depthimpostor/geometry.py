@@ -91,4 +91,12 @@ def triangle_offsets(objects: list[ObjectGeometry]) -> dict[int, int]:
 
 
 def scene_geometry(objects: tuple[SceneObject, ...]) -> list[ObjectGeometry]:
-    return [ObjectGeometry(index, obj, mesh_for_shape(obj.shape)) for index, obj in enumerate(objects)]
+    """Every object's geometry; objects of one shape share one local mesh (meshes are read-only),
+    so that a thousand equal spheres cost one sphere's arrays, GPU buffer and bounding sphere."""
+    local: dict[Shape, Mesh] = {}
+    geometry = []
+    for index, obj in enumerate(objects):
+        if obj.shape not in local:
+            local[obj.shape] = mesh_for_shape(obj.shape)
+        geometry.append(ObjectGeometry(index, obj, local[obj.shape]))
+    return geometry

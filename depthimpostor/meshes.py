@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from depthimpostor.constants import MAX_COORDINATE
 from depthimpostor.errors import DepthImpostorError
 
 
@@ -88,13 +89,17 @@ class Mesh:
         The radius is the largest distance from the chosen centre, computed in float64, so the
         containment holds exactly for the stored float32 positions.
         """
+        cached: tuple[np.ndarray, float] | None = self.__dict__.get("_bounding_sphere")
+        if cached is not None:  # the arrays are read-only, so the sphere never changes
+            return cached[0].copy(), cached[1]
         if len(self.positions) == 0:
             raise ValueError("Mesh.bounding_sphere: the mesh has no vertices")
         points = self.positions.astype(np.float64)
         candidates = [_ritter_centre(points), 0.5 * (points.min(axis=0) + points.max(axis=0))]
         radii = [float(np.linalg.norm(points - centre, axis=1).max()) for centre in candidates]
         best = int(np.argmin(radii))
-        return candidates[best], radii[best]
+        object.__setattr__(self, "_bounding_sphere", (candidates[best], radii[best]))
+        return candidates[best].copy(), radii[best]
 
     def interleaved(self) -> np.ndarray:
         """(N, 6) float32 rows `x y z nx ny nz`, contiguous, ready for a GL vertex buffer."""
@@ -279,22 +284,46 @@ def _parse_mesh_file(resolved: Path, shown: Path) -> Mesh:
 
     try:
         # force="mesh" also flattens glTF and other scenes, applying their node transforms.
-        loaded = trimesh.load(str(resolved), force="mesh")
+        # trimesh merges vertices by rounding coordinates to int64 steps of 1e-8, which numpy warns
+        # about past 9e10; coordinates that large are refused below, in one line.
+        with np.errstate(invalid="ignore", over="ignore"):
+            loaded = trimesh.load(str(resolved), force="mesh")
     except Exception as error:  # trimesh's parsers raise anything on a bad file; the user needs the name
         raise MeshError(f"{shown}: cannot read mesh file: {type(error).__name__}: {error}") from error
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise MeshError(f"{shown}: the file holds no triangles")
+    largest = float(np.abs(loaded.vertices).max())
+    if not largest <= MAX_COORDINATE:  # also NaN; float32 turns what is past 3.4e38 into inf
+        raise MeshError(f"{shown}: expected vertex coordinates of magnitude at most {MAX_COORDINATE:g} (float32 "
+                        f"geometry squares distances), got {largest:g}")
     # Loaders keep vertices split where texture coordinates or file normals differ; normals averaged
     # over such split vertices show creases along UV seams, so merge by position alone first.
     loaded.merge_vertices(merge_tex=True, merge_norm=True)
     loaded.remove_unreferenced_vertices()
-    # trimesh weights each face normal by the corner angle at the vertex (Thuermer & Wuethrich).
-    normals = np.array(loaded.vertex_normals, dtype=np.float64)
-    # A vertex touched only by zero-area faces gets a zero normal; any unit vector is as good there
-    # and keeps NaN out of the shading.
+    normals = corner_weighted_normals(len(loaded.vertices), np.asarray(loaded.faces),
+                                      np.asarray(loaded.face_normals), np.asarray(loaded.face_angles))
+    # A vertex touched only by zero-area faces gets a zero sum; any unit vector is as good there
+    # and keeps NaN out of the shading. 1e-13 is trimesh's own zero for a vector's length.
     lengths = np.linalg.norm(normals, axis=1)
-    normals[~(lengths > 0.5)] = (0.0, 1.0, 0.0)
+    normals[~(lengths > 1e-13)] = (0.0, 1.0, 0.0)
     return Mesh(np.asarray(loaded.vertices), _normalized_rows(normals), np.asarray(loaded.faces))
+
+
+def corner_weighted_normals(vertex_count: int, faces: np.ndarray, face_normals: np.ndarray,
+                            face_angles: np.ndarray) -> np.ndarray:
+    """Each vertex's sum of its faces' unit normals weighted by the corner angle at it (Thuermer &
+    Wuethrich), unnormalized: trimesh's `vertex_normals` before it scales them to unit length.
+
+    Summed here with `np.bincount` because trimesh sums them through a scipy sparse matrix, and
+    without scipy falls back, with a logged traceback, to a Python loop over the vertices that is
+    about 9 times slower on the bunny. Faces whose normal is not unit length (trimesh's zero normal
+    for a degenerate face) add nothing, as in trimesh.
+    """
+    usable = np.einsum("ij,ij->i", face_normals, face_normals) > 0.5
+    corners = faces[usable].ravel()
+    weighted = face_angles[usable][:, :, None] * face_normals[usable][:, None, :]  # (F, 3 corners, 3)
+    return np.stack([np.bincount(corners, weighted[..., axis].ravel(), minlength=vertex_count)
+                     for axis in range(3)], axis=1)
 
 
 def _frozen(values: np.ndarray, dtype: type[np.generic], name: str) -> np.ndarray:

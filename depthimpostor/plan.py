@@ -10,12 +10,17 @@ algorithm reads it.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
-from .constants import Algorithm, Method
-from .culling import Reach, reach
+from .bvh import node_count
+from .constants import (
+    BVH_TEXTURE_WIDTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, Algorithm, Method,
+)
+from .culling import Reach, reaches
 from .geometry import ObjectGeometry, scene_geometry
 from .passes.billboards import BillboardPass
 from .passes.cubemaps import CubeMapPass
@@ -23,13 +28,17 @@ from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
 from .passes.environment import ENVIRONMENT_PROGRAM
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .passes.hybrid import HybridPass
-from .passes.impostors import BACK_FACE_PROGRAM, BEYOND_PROGRAM, BakedImages, ImpostorAtlas, ImpostorPass, SecondLayer, image_label, plural
-from .passes.mirrors import REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
-from .passes.pyramid import PYRAMID_PROGRAM
-from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, shadow_map_bytes
-from .passes.simplified import SimplifiedPass
+from .passes.impostors import (
+    BACK_FACE_PROGRAM, BEYOND_PROGRAM, BakedImages, ImpostorAtlas, ImpostorPass, SecondLayer, atlas_grid, image_label, plural,
+)
+from .passes.meshes import GpuMeshes
+from .passes.mirrors import REFLECTION_OUTPUTS, REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
+from .passes.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
+from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
+from .passes.simplified import SimplifiedPass, simplified_mesh
 from .passes.triangles import TrianglePass
-from .scene.model import Scene
+from .scene.limits import check_method, check_model_reach, check_scene
+from .scene.model import MeshShape, Scene
 from .shaders import ProgramKey, program_key
 
 #: Each method's stand-in for the reflected objects. Both cube-map methods look up the same cube
@@ -171,18 +180,32 @@ def _names(items: list[ObjectGeometry]) -> str:
     return ", ".join(f'"{item.object.name}"' for item in items)
 
 
+def check_stand_in(scene: Scene, method: Method, reflectors: list[ObjectGeometry],
+                   reflected: list[ObjectGeometry]) -> None:
+    """The limits of `method`'s stand-in for `reflected` in `reflectors` (scene/limits.py): the
+    plan checks them, and the renderer again before it switches to another method."""
+    check_method(scene, method, len(reflectors), len(reflected), sum(len(g.local_mesh.indices) for g in reflected))
+
+
 def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorithm = Algorithm.OPTIMIZED,
-                geometry: list[ObjectGeometry] | None = None) -> RenderPlan:
-    """The plan of `scene` drawn with `method` (and, for depth images, `algorithm`)."""
+                geometry: list[ObjectGeometry] | None = None, reflection_data: bool = False,
+                count_samples: bool = False) -> RenderPlan:
+    """The plan of `scene` drawn with `method` (and, for depth images, `algorithm`); a renderer's
+    `reflection_data` and `count_samples` add to its memory. Every limit the renderer would meet
+    is checked here, before it makes any GL object: a SceneError says which."""
+    check_scene(scene)  # already checked by the loader; again for scenes built in code
     geometry = geometry if geometry is not None else scene_geometry(scene.objects)
+    for item in geometry:
+        if isinstance(item.object.shape, MeshShape):
+            check_model_reach(scene, item.index, item.local_mesh)
     mirrors = [g for g in geometry if g.object.is_mirror]
     glass = [g for g in geometry if g.object.is_glass]
     reflectors = [g for g in geometry if g.object.is_specular]
     diffuse = [g for g in geometry if not g.object.is_specular]
     reflected = [g for g in diffuse if not g.is_analytic_plane]
+    check_stand_in(scene, method, reflectors, reflected)
     passes: list[PlannedPass] = []
     variants: dict[ProgramKey, str] = {}
-    memory: dict[str, int] = {}
 
     def variant(stages: tuple[str, ...], defines: dict[str, int] | None, reason: str) -> None:
         variants.setdefault(program_key(stages, defines), reason)
@@ -191,18 +214,19 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         lights = [f"lights[{i}] ({scene.lights[i].shadows})" for i in scene.shadowed_lights]
         passes.append(PlannedPass(Pass.SHADOW_MAPS, f"{', '.join(lights)} cast shadows"))
         variant(SHADOW_MAP_PROGRAM, SHADOW_MAP_DEFINES, "shadow maps: the casters' depth from each shadowed light")
-        memory["shadow maps"] = shadow_map_bytes(len(scene.shadowed_lights), scene.render.shadow_resolution)
+        casters = set(scene.shadow_casters)
+        for light in scene.shadowed_lights:  # refuses a light among its casters, as the shadow pass would
+            fit_shadow_camera(scene, light, [g for g in geometry if g.object in casters], scene.render.shadow_resolution)
 
     images: list[PlannedImage] = []
     skipped: list[SkippedImage] = []
+    shown_in_bounces: set[bool] = set()  # is_glass of the reflectors bounce images show
     stand_in = STAND_INS[method]
     if reflectors:
-        for reflector in reflectors:
-            for target in reflected + [r for r in reflectors if r is not reflector and scene.render.max_bounces > 1]:
-                why = reach(reflector, target)
-                if why is not Reach.REACHABLE:
-                    skipped.append(SkippedImage(reflector.object.name, target.object.name, why.value))
-        shown_in_bounces: set[bool] = set()  # is_glass of the reflectors bounce images show
+        shown = reflected + (reflectors if scene.render.max_bounces > 1 else [])
+        for reflector, row in zip(reflectors, reaches(reflectors, shown), strict=True):
+            skipped += [SkippedImage(reflector.object.name, target.object.name, why.value)
+                        for target, why in zip(shown, row, strict=True) if why is not Reach.REACHABLE and target is not reflector]
         if issubclass(stand_in, BakedImages):
             planned = stand_in.plan_images(scene, reflectors, reflected)
             by_index = {g.index: g for g in geometry}
@@ -215,10 +239,6 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                     images.append(PlannedImage(label, level, camera.width, camera.height, reason))
                     if level:
                         shown_in_bounces.add(targets[0].object.is_glass)
-            side = max((max(i.width, i.height) for i in images), default=1)
-            memory[stand_in.image_noun + "s"] = ImpostorAtlas.bytes_for(
-                len(images), side, stand_in.second_layer != SecondLayer.NONE, stand_in.keeps_triangle_ids,
-                stand_in.keeps_back_colors, stand_in.keeps_beyond)
         noun = stand_in.image_noun if issubclass(stand_in, BakedImages) else "BVH of triangles"
         also = ", and a BVH of their triangles for the rays those cannot answer" if stand_in is HybridPass else ""
         passes.append(PlannedPass(Pass.STAND_IN, f"{_names(reflectors)} may reflect "
@@ -256,7 +276,6 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     if glass:
         passes.append(PlannedPass(Pass.GLASS_INTERIORS, f"glass ({_names(glass)}): where refracted rays leave"))
         variant(INTERIOR_PROGRAM, None, "glass: its front and back faces from the eye")
-        memory["glass interiors"] = len(glass) * interior_bytes(max(scene.render.size))
     if reflectors:
         kinds = [f"mirrors ({_names(mirrors)})"] * bool(mirrors) + [f"glass ({_names(glass)})"] * bool(glass)
         passes.append(PlannedPass(Pass.REFLECTORS, " and ".join(kinds)))
@@ -265,6 +284,67 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             variant(REFLECTOR_PROGRAM, reflector_defines(scene, defines, False), f"mirrors, {method.option} method")
         if glass:
             variant(REFLECTOR_PROGRAM, reflector_defines(scene, defines, True), f"glass (GLASS), {method.option} method")
+    memory = plan_memory(scene, method, algorithm, geometry, images, True in shown_in_bounces, reflection_data,
+                         count_samples)
     return RenderPlan(scene.source, method, algorithm, tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage))),
                       tuple(images), tuple(skipped), tuple(PlannedVariant(k, r) for k, r in variants.items()), memory)
+
+
+def _bvh_bytes(triangles: int, named: bool) -> int:
+    """GPU memory of passes/triangles.py's BVH of `triangles`: node, triangle and (`named`, the
+    hybrid method's) place textures in rows of BVH_TEXTURE_WIDTH RGBA32F texels, and the
+    uniform block of object records."""
+    def rows(texels: int) -> int:
+        return max(1, math.ceil(texels / BVH_TEXTURE_WIDTH))
+    textures = rows(3 * node_count(triangles)) + rows(6 * triangles) + (rows(triangles) if named else 0)
+    return textures * BVH_TEXTURE_WIDTH * 16 + MAX_DEPTH_IMAGES_PER_MIRROR * TRIANGLE_OBJECT_DTYPE.itemsize
+
+
+def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: list[ObjectGeometry],
+                images: Sequence[PlannedImage], bounce_glass: bool = False, reflection_data: bool = False,
+                count_samples: bool = False) -> dict[str, int]:
+    """Bytes of every GL texture, renderbuffer and buffer a Renderer makes for the plan's first
+    frame, by allocation (tests/test_plan_memory.py counts what the renderer really makes):
+    `images` are the plan's baked images, `bounce_glass` whether one shows glass in a mirror.
+    The renderer's own options add outputs: `reflection_data` and `count_samples`."""
+    width, height = scene.render.size
+    records = MAX_DEPTH_IMAGES_PER_MIRROR * DEPTH_IMAGE_DTYPE.itemsize  # one mirror's uniform block
+    memory = {"frame colour and depth": width * height * (16 + 4),
+              "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry])}
+    if reflection_data:
+        memory["reflection outputs"] = width * height * 16 * REFLECTION_OUTPUTS
+    if count_samples:
+        memory["sample counts"] = width * height * 4
+    if scene.has_shadows:
+        memory["shadow maps"] = (shadow_map_bytes(len(scene.shadowed_lights), scene.render.shadow_resolution)
+                                 + MAX_LIGHTS * DEPTH_IMAGE_DTYPE.itemsize)
+    glass = [g for g in geometry if g.object.is_glass]
+    if glass:
+        memory["glass interiors"] = len(glass) * (interior_bytes(max(scene.render.size)) + DEPTH_IMAGE_DTYPE.itemsize)
+    reflectors = [g for g in geometry if g.object.is_specular]
+    reflected = [g for g in geometry if not g.object.is_specular and not g.is_analytic_plane]
+    stand_in = STAND_INS[method]
+    if not reflectors:
+        return memory
+    if issubclass(stand_in, BakedImages):
+        side = max((max(i.width, i.height) for i in images), default=1)
+        memory[stand_in.image_noun + "s"] = ImpostorAtlas.bytes_for(
+            len(images), side, stand_in.second_layer != SecondLayer.NONE, stand_in.keeps_triangle_ids,
+            stand_in.keeps_back_colors, stand_in.keeps_beyond)
+        memory[stand_in.image_noun + " records"] = len(reflectors) * records
+        marches = issubclass(stand_in, ImpostorPass)
+        if marches and scene.render.max_bounces > 1 and len(reflectors) > 1:  # passes/bounces.py
+            levels = len(reflectors) * (scene.render.max_bounces - 1)
+            interior = interior_bytes(side) + DEPTH_IMAGE_DTYPE.itemsize if bounce_glass else 0
+            memory["bounce baking"] = ImpostorAtlas.bytes_for(1, side, True) + side * side * 8 + levels * records + interior
+        if marches and algorithm == Algorithm.HIERARCHICAL:
+            memory["depth pyramids"] = pyramid_bytes(PyramidLayout.of_grid(*atlas_grid(len(images)), side), len(images))
+    if issubclass(stand_in, (TrianglePass, HybridPass)):
+        if stand_in is SimplifiedPass:  # the decimated triangles: what the simplifier keeps is only known by running it
+            target = scene.render.simplified_triangles
+            triangles = sum(len(simplified_mesh(g.world_mesh, target).indices) for g in reflected)
+        else:
+            triangles = sum(len(g.local_mesh.indices) for g in reflected)
+        memory["BVH"] = _bvh_bytes(triangles, named=stand_in is HybridPass)
+    return memory
 

@@ -18,7 +18,6 @@ import numpy as np
 from .constants import NO_OBJECT, Algorithm, Method
 from .context import bind_default_framebuffer
 from .culling import may_shadow
-from .errors import SceneError
 from .geometry import ObjectGeometry, scene_geometry
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
@@ -30,7 +29,7 @@ from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
 from .passes.triangles import TrianglePass
 from .passes.uniforms import write_lighting
-from .plan import STAND_INS, Pass, RenderPlan, plan_render
+from .plan import STAND_INS, Pass, RenderPlan, check_stand_in, plan_render
 from .ppc import PPC
 from .scene.model import Camera, Scene
 from .shaders import ProgramCache, ShaderLibrary
@@ -129,10 +128,12 @@ class Renderer:
         self.programs = ProgramCache(ctx, shaders)
         self.time = 0.0  # seconds into the scene's animation
         self.lit_scene = scene  # the scene with its lights where they are at `time`
-        self._classify(scene_geometry(scene.objects))
+        geometry = scene_geometry(scene.objects)
+        # First: the plan refuses what cannot be rendered before anything is made or fitted.
+        self.plan: RenderPlan = plan_render(scene, method, algorithm, geometry, reflection_data, count_samples)
+        self._classify(geometry)
         self.view = scene.camera
         self.camera = fitted_camera(self.view, scene.render.size, self.bounds)
-        self.plan: RenderPlan = plan_render(scene, method, algorithm, self.geometry)
         self.meshes = GpuMeshes(ctx)
         self._make_targets(scene.render.size)
         self._build_passes()
@@ -200,10 +201,7 @@ class Renderer:
         """The method's stand-in for the reflected objects; the old one (if any) is released only
         once the new one exists, so that a failure leaves the renderer as it was."""
         kind = STAND_INS[method]
-        if scene.render.max_bounces > 1 and method != Method.DEPTH and len(self.reflectors) > 1:
-            raise SceneError(scene.source, "render.max_bounces",
-                             f"expected 1 with --method {method.option}: mirrors and glass in one another are baked "
-                             f"by the depth method alone, got {scene.render.max_bounces}")
+        check_stand_in(scene, method, self.reflectors, self.reflected_objects)
         stand_in: ReflectedObjects
         if issubclass(kind, BakedImages):
             stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.reflectors, self.reflected_objects,
@@ -251,7 +249,8 @@ class Renderer:
         )
 
     def _replan(self) -> None:
-        self.plan = plan_render(self.scene, self.method, self.algorithm, self.geometry)
+        self.plan = plan_render(self.scene, self.method, self.algorithm, self.geometry, self.reflection_data,
+                                self.count_samples)
 
     # ------------------------------------------------------------------ settings
     def look_at(self, view: Camera) -> None:

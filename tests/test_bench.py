@@ -68,3 +68,29 @@ def test_bench_refuses_an_unknown_method(capsys: pytest.CaptureFixture[str]) -> 
     assert "--methods" in capsys.readouterr().err
     assert main(["bench", "--algorithms", "optimized,octree"]) == 2
     assert "--algorithms" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("option", "value", "expected"), [
+    ("--warmup", "-1", "expected an integer >= 0, got -1"),  # was statistics.StatisticsError after the run
+    ("--bakes", "0", "expected a positive integer, got 0"),  # was exit 0 with bakes of 0.0 ms
+    ("--bakes", "-1", "expected a positive integer, got -1"),
+    ("--resolutions", "0", 'expected an integer in [4, 4096] or "auto", got 0'),  # named --impostor-res
+    ("--resolutions", "64,auto,5000", ('expected an integer in [4, 4096] or "auto", got 5000 '
+                                       "(in the list '64,auto,5000')")),
+    ("--size", "0x10", "expected 2 integers in [1, 16384], got 0x10"),
+])
+def test_bench_refuses_a_bad_number_naming_its_option(
+    option: str, value: str, expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Refused by argparse before any scene is read or context made, in the option's own name.
+    The other settings are tiny, so that a bench that ran anyway would end soon."""
+    small = {"--methods": "depth", "--algorithms": "optimized", "--resolutions": "16", "--size": "32x18",
+             "--frames": "1", "--warmup": "0", "--bakes": "1"}
+    arguments = [part for name, setting in {**small, option: value}.items() for part in (name, setting)]
+    with pytest.raises(SystemExit) as exit_:
+        main(["bench", str(SCENES / "default.toml"), *arguments, "-o", str(tmp_path / "never")])
+    assert exit_.value.code == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and "Traceback" not in captured.err
+    assert captured.err.splitlines()[-1] == f"depthimpostor bench: error: argument {option}: {expected}"
+    assert not (tmp_path / "never").exists()

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import math
 import os
+import subprocess
+import sys
+import textwrap
 from collections.abc import Callable
 from pathlib import Path
 
@@ -350,6 +353,45 @@ def test_load_stanford_bunny() -> None:
     np.testing.assert_allclose(np.linalg.norm(mesh.normals, axis=1), 1.0, atol=1e-5)
     assert outward_fraction(mesh) >= 0.99
     assert load_mesh_file(BUNNY) is mesh
+
+
+# Run first in a fresh interpreter: makes scipy unimportable, as on a machine without it.
+_WITHOUT_SCIPY = textwrap.dedent("""
+    import importlib.abc, sys
+
+    class NoScipy(importlib.abc.MetaPathFinder):
+        def find_spec(self, name, path, target=None):
+            if name.split(".")[0] == "scipy":
+                raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+            return None
+
+    sys.meta_path.insert(0, NoScipy())
+""")
+
+
+def test_load_without_scipy_prints_nothing_and_keeps_the_normals(tmp_path: Path) -> None:
+    """trimesh sums vertex normals through a scipy sparse matrix; without scipy it logged a
+    traceback and looped in Python (9 times slower on the bunny). Ours need numpy alone."""
+    import trimesh
+
+    rng = np.random.default_rng(21)
+    lumpy = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    lumpy.vertices = lumpy.vertices * rng.uniform(0.7, 1.3, (len(lumpy.vertices), 1))  # unequal corner angles
+    path = tmp_path / "lumpy.obj"
+    lumpy.export(path)
+    script = _WITHOUT_SCIPY + textwrap.dedent(f"""
+        import numpy as np
+        from pathlib import Path
+        from depthimpostor.meshes import load_mesh_file
+        np.save({str(tmp_path / "normals.npy")!r}, load_mesh_file(Path({str(path)!r})).normals)
+        assert "scipy" not in sys.modules
+    """)
+    run = subprocess.run([sys.executable, "-c", script], check=False, capture_output=True, text=True, timeout=120,
+                         cwd=Path(__file__).resolve().parents[1])
+    assert run.returncode == 0 and run.stderr == "", run.stderr
+    reference = trimesh.load(str(path), force="mesh")
+    reference.merge_vertices(merge_tex=True, merge_norm=True)
+    np.testing.assert_allclose(np.load(tmp_path / "normals.npy"), reference.vertex_normals, atol=1e-6)
 
 
 @pytest.mark.parametrize(

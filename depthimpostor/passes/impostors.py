@@ -33,7 +33,7 @@ from ..context import bind_default_framebuffer
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, NO_OBJECT
 from ..errors import SceneError
 from ..geometry import ObjectGeometry, triangle_offsets
-from ..culling import reachable_targets
+from ..culling import Reach, reachable_targets, reaches
 from ..ppc import PPC, FrustumFitError
 from ..reference import DepthImageData
 from ..resolution import MIN_AUTO_RESOLUTION, auto_resolution, scene_view
@@ -677,8 +677,8 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
     the object. The images of one mirror share its uniform block, which has a fixed size."""
     view = scene_view(scene)
     plan = {}
-    for mirror in mirrors:
-        shown = reachable_targets(mirror, reflected)
+    for mirror, row in zip(mirrors, reaches(mirrors, reflected), strict=True):
+        shown = [target for target, why in zip(reflected, row, strict=True) if why is Reach.REACHABLE]
         if len(shown) > MAX_DEPTH_IMAGES_PER_MIRROR:
             raise SceneError(
                 scene.source, "objects",

@@ -1,4 +1,5 @@
-"""GPU copies of the scene's meshes: one vertex and index buffer per object, one VAO per program."""
+"""GPU copies of the scene's meshes: one vertex and index buffer per mesh (objects of one shape
+share theirs), one VAO per mesh and program."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import moderngl
 import numpy as np
 
 from ..geometry import ObjectGeometry
+from ..meshes import Mesh
 from .uniforms import write_matrix
 
 
@@ -15,21 +17,22 @@ class GpuMeshes:
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
-        self._buffers: dict[int, tuple[moderngl.Buffer, moderngl.Buffer]] = {}
-        self._vertex_arrays: dict[tuple[int, int], moderngl.VertexArray] = {}
+        # Keyed by the mesh itself (identity: Mesh has eq=False), which also keeps it alive.
+        self._buffers: dict[Mesh, tuple[moderngl.Buffer, moderngl.Buffer]] = {}
+        self._vertex_arrays: dict[tuple[Mesh, int], moderngl.VertexArray] = {}
 
     def _buffers_of(self, item: ObjectGeometry) -> tuple[moderngl.Buffer, moderngl.Buffer]:
-        if item.index not in self._buffers:
-            mesh = item.local_mesh
-            self._buffers[item.index] = (
+        mesh = item.local_mesh
+        if mesh not in self._buffers:
+            self._buffers[mesh] = (
                 self.ctx.buffer(mesh.interleaved().tobytes()),
                 self.ctx.buffer(np.ascontiguousarray(mesh.indices, dtype=np.uint32).tobytes()),
             )
-        return self._buffers[item.index]
+        return self._buffers[mesh]
 
     def draw(self, program: moderngl.Program, item: ObjectGeometry, view_projection: np.ndarray) -> None:
         """Draw one object with `program` (which reads mesh.vert's attributes and uniforms)."""
-        key = (item.index, program.glo)
+        key = (item.local_mesh, program.glo)
         if key not in self._vertex_arrays:
             vertices, indices = self._buffers_of(item)
             # An attribute the shader does not read is compiled away; skip its bytes instead.
@@ -50,6 +53,12 @@ class GpuMeshes:
         for vertex_array in self._vertex_arrays.values():
             vertex_array.release()
         self._vertex_arrays.clear()
+
+    @staticmethod
+    def bytes_for(meshes: list[Mesh]) -> int:
+        """GPU memory of the buffers of `meshes` (each one once): interleaved float32 positions and
+        normals, and uint32 indices."""
+        return sum(len(mesh.positions) * 24 + len(mesh.indices) * 12 for mesh in {id(m): m for m in meshes}.values())
 
     def release(self) -> None:
         self.forget_vertex_arrays()

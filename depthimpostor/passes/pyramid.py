@@ -84,6 +84,14 @@ class PyramidLayout:
         return (slot % self.columns) * self.pitch, (slot // self.columns) * self.pitch, coarse_levels(width, height)
 
 
+def pyramid_bytes(layout: PyramidLayout, tiles: int) -> int:
+    """GPU memory of a pyramid: its RG32F texture's mips (GL halves each level, rounding down,
+    to no less than 1) and the tile table of `tiles` ivec4 (16 bytes when empty)."""
+    width, height = layout.size
+    texels = sum(max(1, width >> m) * max(1, height >> m) for m in range(max(1, layout.levels)))
+    return texels * 8 + max(1, tiles) * 16
+
+
 class DepthPyramid:
     """The pyramid texture of one atlas, and the compute pass that fills it from the depth layers."""
 
@@ -111,8 +119,7 @@ class DepthPyramid:
 
     @property
     def bytes(self) -> int:
-        width, height = self.layout.size
-        return sum(max(1, width >> m) * max(1, height >> m) * 8 for m in range(max(1, self.layout.levels)))
+        return pyramid_bytes(self.layout, self.tile_count)
 
     def build(self, depth_layers: moderngl.Texture) -> None:
         """Fill every level from the atlas's depth layers, which hold the images just baked."""

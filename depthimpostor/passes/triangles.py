@@ -28,8 +28,6 @@ from .uniforms import bind_texture, bind_uniform_block, material_fields
 NODES_UNIT = 8  # after the atlas (0, 1), the pyramid (2), shadow maps (5) and glass (6, 7): the hybrid method binds both
 TRIANGLES_UNIT = 9
 BVH_PLACES_UNIT = 10  # the hybrid method's: each triangle's place in the BVH's order
-#: Triangles the hybrid method's depth images can name: a float32 sample holds integers below 2^24.
-MAX_NAMED_TRIANGLES = 2**24
 TRIANGLE_OBJECTS_BINDING = 1
 
 
@@ -71,11 +69,6 @@ class TrianglePass:
         their own by default (the simplified method passes decimated ones). `places` (the hybrid
         method's) also uploads where each triangle of the list (geometry.triangle_offsets) sits in
         the BVH's order, so that a triangle a depth image names can be intersected."""
-        if len(reflected) > MAX_DEPTH_IMAGES_PER_MIRROR:
-            raise SceneError(
-                scene.source, "objects",
-                f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} reflected objects, got {len(reflected)}",
-            )
         self.ctx = ctx
         worlds = world_meshes if world_meshes is not None else [item.world_mesh for item in reflected]
         triangles = np.concatenate([mesh.positions[mesh.indices] for mesh in worlds])
@@ -95,10 +88,7 @@ class TrianglePass:
         self.triangles = _texture(ctx, ordered.reshape(-1, 4), scene.source)
         self.objects = ctx.buffer(object_records(reflected).tobytes())
         self.places: moderngl.Texture | None = None
-        if places:
-            if len(triangles) > MAX_NAMED_TRIANGLES:
-                raise SceneError(scene.source, "objects", f"expected at most {MAX_NAMED_TRIANGLES} reflected triangles "
-                                 f"with --method hybrid, got {len(triangles)}")
+        if places:  # at most MAX_NAMED_TRIANGLES of them (scene/limits.py, checked in the plan)
             place = np.zeros((len(triangles), 4), np.float32)
             place[bvh.order, 0] = np.arange(len(triangles))
             self.places = _texture(ctx, place, scene.source)

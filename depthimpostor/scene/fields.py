@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Generic, TypeVar, cast
 
+from depthimpostor.constants import MAX_COORDINATE
 from depthimpostor.errors import SceneError
 
 T = TypeVar("T")
@@ -66,8 +67,20 @@ class Reader(Generic[T]):
 
 def _is_number(v: Any) -> bool:
     # bool is a subclass of int in Python, but `true` is not a number in a scene file; TOML also
-    # allows inf and nan, which would poison every matrix they reach.
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    # allows inf and nan, which would poison every matrix they reach, and numbers past what
+    # float32 geometry holds (MAX_COORDINATE), which overflow on the GPU.
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and abs(v) <= MAX_COORDINATE
+
+
+#: What a message adds when a value holds a number past MAX_COORDINATE.
+TOO_LARGE = f"of magnitude at most {MAX_COORDINATE:g} (float32 geometry squares distances)"
+
+
+def _too_large(v: Any) -> bool:
+    """Does `v` (a number, or a list of them) hold a finite number past MAX_COORDINATE?"""
+    if isinstance(v, (list, tuple)):
+        return any(_too_large(x) for x in v)
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and abs(v) > MAX_COORDINATE
 
 
 def _is_integer(v: Any) -> bool:
@@ -150,7 +163,8 @@ class At:
     def read(self, value: Any, reader: Reader[T]) -> T:
         parsed = reader.parse(value)
         if parsed is None:
-            raise self.error(f"expected {reader.expected}, got {show(value)}")
+            too_large = f", {TOO_LARGE}" if _too_large(value) else ""
+            raise self.error(f"expected {reader.expected}{too_large}, got {show(value)}")
         return parsed
 
 

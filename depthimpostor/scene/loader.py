@@ -17,9 +17,10 @@ if sys.version_info >= (3, 11):
 else:  # tomllib joined the standard library in 3.11; tomli is the same parser (pyproject declares it)
     import tomli as tomllib
 
-from depthimpostor.constants import MAX_BOUNCES, MAX_IOR, MAX_LIGHTS
+from depthimpostor.constants import MAX_BOUNCES, MAX_IOR
 from depthimpostor.errors import SceneError
 from depthimpostor.scene import fields as f
+from depthimpostor.scene.limits import check_scene
 from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_variant, show
 from depthimpostor.scene.model import (
     IMPOSTOR_RESOLUTION, ZERO, Animation, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial,
@@ -242,16 +243,17 @@ def _objects(top: Table) -> tuple[SceneObject, ...]:
 def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
     """Validate already-parsed TOML data; `source` names it in errors, `base_dir` anchors model paths."""
     top = Table(data, At(source, "", Path(base_dir)), ("render", "camera", "environment", "lights", "objects"))
-    return Scene(
+    scene = Scene(
         source=source,
         render=_render(top.section("render", ("size", "impostor_resolution", "ambient", "simplified_triangles",
                                               "shadow_resolution", "max_bounces"))),
         camera=_camera(top.section("camera", ("eye", "target", "up", "fov_y"))),
         environment=top.variant("environment", _ENVIRONMENTS, default=Environment(), default_type="gradient"),
-        # The shading chunk loops over a fixed-size uniform array of lights.
-        lights=tuple(read_variant(value, at, _LIGHTS) for value, at in top.array("lights", at_most=MAX_LIGHTS)),
+        lights=tuple(read_variant(value, at, _LIGHTS) for value, at in top.array("lights")),
         objects=_objects(top),
     )
+    check_scene(scene)  # the limits of the scene as a whole (limits.py)
+    return scene
 
 
 def load_scene(path: str | os.PathLike[str]) -> Scene:

@@ -1,0 +1,117 @@
+"""Every limit a scene meets, checked before any work: at load, or in the plan when it depends on
+the method or on what the mirrors can see. `render` builds its plan before any GL object, so the
+`plan` command refuses exactly what `render` refuses (tests/test_limits.py walks them).
+
+| limit | value | checked | why |
+|---|---|---|---|
+| a number in a scene file, and how far an object reaches from the origin | `MAX_COORDINATE` (1e18) | load: the field (`fields.py`); the object, from its position, scale, shape and orbit (`check_scene`; a model file's when the plan loads it) | float32 geometry squares distances |
+| lights | `MAX_LIGHTS` (8) | load | the shading loops over a uniform array of that size |
+| planes that are not mirrors (floors, walls) | `MAX_ANALYTIC_PLANES` (8) | load | intersected exactly from a uniform array of that size |
+| `render.max_bounces` | `MAX_BOUNCES` (4) | load | each bounce bakes an image per pair of mirrors |
+| `render.max_bounces` > 1 with two or more mirrors or glass | the depth method alone | plan (`check_method`) | only the depth method bakes reflectors into each other's images |
+| objects a mirror may show (after culling) | `MAX_DEPTH_IMAGES_PER_MIRROR` (64) | plan (`per_object_plan`) | the images of one mirror share a uniform block of that many records |
+| objects and other mirrors a mirror shows, with bounces | 64 | plan (`ImpostorPass.plan_images`) | the same block |
+| reflected objects, traced methods (`raytrace`, `simplified`, `hybrid`) | 64 | plan (`check_method`) | one uniform block of that many object records |
+| reflected triangles, `hybrid` | `MAX_NAMED_TRIANGLES` (2^24) | plan (`check_method`) | a float32 depth-image sample names a triangle |
+| an object around a mirror's centre, or a light among the shadow casters | no frustum fits | plan | a pinhole image (depth image, cube map, shadow map) must see all of it |
+
+Limits of the GL itself (texture sizes, memory) are the plan's figures against the context's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from depthimpostor.constants import (
+    MAX_ANALYTIC_PLANES,
+    MAX_COORDINATE,
+    MAX_DEPTH_IMAGES_PER_MIRROR,
+    MAX_LIGHTS,
+    MAX_NAMED_TRIANGLES,
+    Method,
+)
+from depthimpostor.errors import SceneError
+from depthimpostor.meshes import Mesh
+from depthimpostor.scene.model import (
+    BoxShape,
+    CylinderShape,
+    PlaneShape,
+    Scene,
+    Shape,
+    SphereShape,
+    TorusKnotShape,
+    TorusShape,
+)
+
+
+def shape_reach(shape: Shape) -> float | None:
+    """How far the shape reaches from its local origin; None for a model file, whose vertices
+    are known once it is loaded (`check_model_reach`)."""
+    if isinstance(shape, PlaneShape):
+        return 0.5 * math.hypot(*shape.size)
+    if isinstance(shape, BoxShape):
+        return 0.5 * math.hypot(*shape.size)
+    if isinstance(shape, SphereShape):
+        return shape.radius
+    if isinstance(shape, CylinderShape):
+        return math.hypot(shape.radius, 0.5 * shape.height)
+    if isinstance(shape, TorusShape):
+        return shape.major + shape.minor
+    if isinstance(shape, TorusKnotShape):
+        return shape.radius + shape.tube  # the curve stays within `radius` of the origin (meshes.torus_knot)
+    return None
+
+
+def _check_reach(scene: Scene, index: int, local_reach: float) -> None:
+    """Refuse objects[index] if a point of it, `local_reach` from its local origin, can come farther
+    than MAX_COORDINATE from the world origin at any time of its animation (an orbit keeps its
+    distance from its centre; a turn about its own position keeps it about that position)."""
+    obj = scene.objects[index]
+    stretch = max(obj.scale) * local_reach  # rotations keep lengths
+    position = np.asarray(obj.position, np.float64)
+    orbit = obj.animation.centre if obj.animation is not None else None
+    centre = position if orbit is None else np.asarray(orbit, np.float64)
+    reach = float(np.linalg.norm(centre) + np.linalg.norm(position - centre)) + stretch
+    if not reach <= MAX_COORDINATE:
+        raise SceneError(scene.source, f"objects[{index}]",
+                         f"expected an object within {MAX_COORDINATE:g} of the origin (float32 geometry squares "
+                         f"distances), got one reaching {reach:.3g} (its position, scale and shape together)")
+
+
+def check_scene(scene: Scene) -> None:
+    """The limits that the scene alone decides (the loader calls it, and so does the plan, for
+    scenes built in code)."""
+    if len(scene.lights) > MAX_LIGHTS:
+        raise SceneError(scene.source, "lights", f"expected at most {MAX_LIGHTS} [[lights]] tables, got {len(scene.lights)}")
+    planes = [i for i, obj in enumerate(scene.objects) if isinstance(obj.shape, PlaneShape) and not obj.is_mirror]
+    if len(planes) > MAX_ANALYTIC_PLANES:
+        raise SceneError(scene.source, f"objects[{planes[MAX_ANALYTIC_PLANES]}]",
+                         f"expected at most {MAX_ANALYTIC_PLANES} planes that are not mirrors (floors and walls are "
+                         f"intersected exactly, from an array of {MAX_ANALYTIC_PLANES}), got {len(planes)}")
+    for index, obj in enumerate(scene.objects):
+        local_reach = shape_reach(obj.shape)
+        if local_reach is not None:
+            _check_reach(scene, index, local_reach)
+
+
+def check_model_reach(scene: Scene, index: int, model: Mesh) -> None:
+    """The reach check of objects[index], a model file's `model` once loaded (the plan calls it)."""
+    centre, radius = model.bounding_sphere()
+    _check_reach(scene, index, float(np.linalg.norm(centre)) + radius)
+
+
+def check_method(scene: Scene, method: Method, reflectors: int, reflected: int, reflected_triangles: int) -> None:
+    """The limits that depend on the method: `reflectors` mirrors and glass, `reflected` objects
+    they may show, of `reflected_triangles` triangles in all."""
+    if scene.render.max_bounces > 1 and method != Method.DEPTH and reflectors > 1:
+        raise SceneError(scene.source, "render.max_bounces",
+                         f"expected 1 with --method {method.option}: mirrors and glass in one another are baked "
+                         f"by the depth method alone, got {scene.render.max_bounces}")
+    if method in (Method.RAYTRACE, Method.SIMPLIFIED, Method.HYBRID) and reflectors and reflected > MAX_DEPTH_IMAGES_PER_MIRROR:
+        raise SceneError(scene.source, "objects", f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} reflected objects "
+                         f"with --method {method.option}, got {reflected}")
+    if method == Method.HYBRID and reflectors and reflected_triangles > MAX_NAMED_TRIANGLES:
+        raise SceneError(scene.source, "objects", f"expected at most {MAX_NAMED_TRIANGLES} reflected triangles "
+                         f"with --method hybrid, got {reflected_triangles}")

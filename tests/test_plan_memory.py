@@ -1,0 +1,93 @@
+"""The plan's memory is what the renderer allocates: every texture, renderbuffer and buffer it makes
+for its first frame, counted as GL holds them, equals the plan's figure (plan.plan_memory)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import moderngl
+import pytest
+from conftest import SCENES
+
+from depthimpostor.constants import Algorithm, Method
+from depthimpostor.plan import plan_render
+from depthimpostor.renderer import Renderer
+from depthimpostor.scene import load_scene
+
+_MAKERS = ("texture", "texture_array", "texture_cube", "texture3d", "depth_texture", "renderbuffer",
+           "depth_renderbuffer", "buffer")
+
+
+def _bytes(item: Any, mip_levels: int) -> int:
+    """GPU bytes of a texture or renderbuffer (with its mips 1..mip_levels) or a buffer."""
+    if isinstance(item, moderngl.Buffer):
+        return item.size
+    texel = item.components * int(item.dtype[1])
+    return sum(max(1, item.width >> m) * max(1, item.height >> m) * texel for m in range(mip_levels + 1))
+
+
+@pytest.fixture
+def allocations(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> Iterator[list[tuple[Any, list[int]]]]:
+    """Every GL object made through the context while the test runs, with its mip levels."""
+    made: list[tuple[Any, list[int]]] = []
+    levels: dict[int, list[int]] = {}
+    making = [False]  # a maker that calls another counts once
+
+    def recording(name: str) -> Any:
+        original = getattr(moderngl.Context, name)
+
+        def make(self: moderngl.Context, *args: Any, **kwargs: Any) -> Any:
+            outer = not making[0]
+            making[0] = True
+            try:
+                item = original(self, *args, **kwargs)
+            finally:
+                making[0] = not outer
+            if outer:
+                levels[id(item)] = [0]
+                made.append((item, levels[id(item)]))
+            return item
+        return make
+
+    def build_mipmaps(self: moderngl.Texture, base: int = 0, max_level: int = 1000) -> None:
+        levels.setdefault(id(self), [0])[0] = max_level  # GL clamps to the chain's length; _bytes stops at 1x1 anyway
+        original_mipmaps(self, base, max_level)
+
+    original_mipmaps = moderngl.Texture.build_mipmaps
+    for name in _MAKERS:
+        monkeypatch.setattr(moderngl.Context, name, recording(name))
+    monkeypatch.setattr(moderngl.Texture, "build_mipmaps", build_mipmaps)
+    yield made
+
+
+def _alive_bytes(made: list[tuple[Any, list[int]]]) -> int:
+    return sum(_bytes(item, level[0]) for item, level in made if type(item.mglo).__name__ != "InvalidObject")
+
+
+CASES = [
+    ("default.toml", Method.DEPTH, Algorithm.OPTIMIZED, {}),
+    ("default.toml", Method.DEPTH, Algorithm.HIERARCHICAL, {}),  # the pyramid the plan left out
+    ("glass_and_mirrors.toml", Method.DEPTH, Algorithm.HIERARCHICAL, {}),  # bounces, glass in mirrors
+    ("shadows.toml", Method.DEPTH, Algorithm.OPTIMIZED, {"reflection_data": True}),
+    ("grid_3x3.toml", Method.CUBEMAP, Algorithm.OPTIMIZED, {}),
+    ("planar_mirror.toml", Method.BILLBOARD, Algorithm.OPTIMIZED, {}),
+    ("carousel.toml", Method.RAYTRACE, Algorithm.OPTIMIZED, {}),
+    ("carousel.toml", Method.SIMPLIFIED, Algorithm.OPTIMIZED, {}),
+    ("default.toml", Method.HYBRID, Algorithm.HIERARCHICAL, {"count_samples": True}),
+]
+
+
+@pytest.mark.parametrize(("name", "method", "algorithm", "options"), CASES,
+                         ids=[f"{n}-{m.option}-{a.name.lower()}" for n, m, a, _ in CASES])
+def test_plan_memory_is_what_the_renderer_allocates(ctx: moderngl.Context, allocations: list[tuple[Any, list[int]]],
+                                                    name: str, method: Method, algorithm: Algorithm,
+                                                    options: dict[str, bool]) -> None:
+    scene = load_scene(SCENES / name).with_overrides(size=(96, 54), impostor_resolution=32)
+    with Renderer(ctx, scene, algorithm, method=method, **options) as renderer:
+        renderer.render()
+        allocated = _alive_bytes(allocations)
+        planned = renderer.plan.memory
+    assert sum(planned.values()) == allocated, planned
+    if not options:  # the `plan` command's figure is the renderer's
+        assert plan_render(scene, method, algorithm).memory == planned
