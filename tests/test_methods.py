@@ -23,7 +23,7 @@ from depthimpostor.meshes import sphere
 from depthimpostor.passes.impostors import BakedImages
 from depthimpostor.passes.simplified import crease_shaded, simplified_mesh
 from depthimpostor.renderer import STAND_INS, Renderer
-from depthimpostor.scene import Scene, load_scene
+from depthimpostor.scene import Scene, load_scene, parse_scene
 
 # The hard scenes too: surrounds.toml, which the methods that bake from the mirror's centre must
 # refuse (no image taken from there can hold an object around it), is an ordinary scene to a ray
@@ -316,3 +316,26 @@ def test_compare_reports_the_same_figures_for_every_method(tmp_path: Path, capsy
     assert [row.split("|")[1].strip() for row in table[2:]] == [f"`{method.option}`" for method in Method]
     sheet = np.asarray(Image.open(out / "methods.png"))
     assert sheet.shape[1] > (len(Method) + 1) * 20 and sheet.ndim == 3
+
+
+def test_a_mirror_with_nothing_to_reflect_renders_with_every_method(ctx: moderngl.Context, tmp_path: Path) -> None:
+    """A mirror over a floor and nothing else: every method shows the floor and the sky as the
+    depth method does (the triangle methods once ended in numpy's "need at least one array to
+    concatenate": their BVH now holds one degenerate triangle no ray meets)."""
+    scene = parse_scene({
+        "render": {"size": [96, 64]},
+        "objects": [
+            {"name": "mirror", "shape": {"type": "sphere", "radius": 1.0}, "material": {"type": "mirror"},
+             "position": [0.0, 1.0, 0.0]},
+            {"name": "floor", "shape": {"type": "plane", "size": [10.0, 10.0]},
+             "material": {"type": "checker", "color_a": [0.9, 0.9, 0.9], "color_b": [0.2, 0.2, 0.2], "scale": 0.5}},
+        ],
+    }, "lonely.toml", tmp_path)
+    frames = {}
+    for method in Method:
+        with Renderer(ctx, scene, method=method) as renderer:
+            renderer.render()
+            frames[method] = renderer.read_color_float()
+        assert_finite(frames[method])
+    for method in (Method.RAYTRACE, Method.SIMPLIFIED, Method.HYBRID):
+        assert np.abs(frames[method] - frames[Method.DEPTH]).max() < 1e-5, method.name

@@ -56,6 +56,18 @@ def object_records(objects: list[ObjectGeometry]) -> np.ndarray:
     return records
 
 
+def _triangle_list(worlds: list[Mesh]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every triangle's corners and corner normals, and its object's slot. A mirror that reflects
+    nothing still gets a BVH for its shader to walk: one degenerate triangle (its three corners at
+    the origin), which no ray meets (ray_triangle's determinant is exactly 0)."""
+    if not worlds:
+        return np.zeros((1, 3, 3), np.float32), np.zeros((1, 3, 3), np.float32), np.zeros(1, np.int64)
+    triangles = np.concatenate([mesh.positions[mesh.indices] for mesh in worlds])
+    normals = np.concatenate([mesh.normals[mesh.indices] for mesh in worlds])
+    slots = np.concatenate([np.full(len(mesh.indices), slot) for slot, mesh in enumerate(worlds)])
+    return triangles, normals, slots
+
+
 class TrianglePass:
     """Owns the BVH textures and the per-object uniform buffer of the ray-traced method."""
 
@@ -71,11 +83,9 @@ class TrianglePass:
         the BVH's order, so that a triangle a depth image names can be intersected."""
         self.ctx = ctx
         worlds = world_meshes if world_meshes is not None else [item.world_mesh for item in reflected]
-        triangles = np.concatenate([mesh.positions[mesh.indices] for mesh in worlds])
-        normals = np.concatenate([mesh.normals[mesh.indices] for mesh in worlds])
-        slots = np.concatenate([np.full(len(mesh.indices), slot) for slot, mesh in enumerate(worlds)])
+        triangles, normals, slots = _triangle_list(worlds)
         bvh = build_bvh(triangles)
-        self.triangle_count = len(triangles)
+        self.triangle_count = sum(len(mesh.indices) for mesh in worlds)
         nodes = np.zeros((bvh.node_count, 3, 4), np.float32)
         nodes[:, 0, :3], nodes[:, 0, 3] = bvh.lower, bvh.first
         nodes[:, 1, :3], nodes[:, 1, 3] = bvh.upper, bvh.count
