@@ -4,6 +4,7 @@ the model does with it at a given time. The refusals are in test_scene.py's tabl
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -119,8 +120,19 @@ def test_time_zero_is_exactly_the_identity(animation: Animation) -> None:
     assert matrix.dtype == np.float64 and np.array_equal(matrix, np.eye(4))
 
 
-def test_angle_grows_with_time() -> None:
-    assert Animation("rotate", Y_AXIS, -20.0).angle(1.5) == pytest.approx(-30.0)
+def test_angle_grows_with_time_modulo_a_full_turn() -> None:
+    assert Animation("rotate", Y_AXIS, -20.0).angle(1.5) == pytest.approx(330.0)
+    assert Animation("rotate", Y_AXIS, 100.0).angle(4.0) == pytest.approx(40.0)
+
+
+def test_a_far_time_turns_by_its_true_angle() -> None:
+    """rate * time overflows to Inf at 1e308 s (and cos(Inf) is a domain error): the angle is
+    taken exactly, modulo 360, and the turn stays a rotation."""
+    animation = Animation("rotate", Y_AXIS, 30.0)
+    angle = animation.angle(1e308)
+    assert 0.0 <= angle < 360.0 and angle == float(Fraction(30) * Fraction(1e308) % 360)
+    rotation = animation.rotation(1e308)
+    assert np.allclose(rotation @ rotation.T, np.eye(3))
 
 
 @pytest.mark.parametrize("axis", [0, 1, 2])

@@ -363,9 +363,9 @@ ANIMATION_CASES = [
      'unknown field "speed"; expected one of: type, axis, degrees_per_second, centre'),
     ("animation_zero_axis", OK.replace('"a"', '"b"') + animated('type = "rotate", axis = [0, 0, 0], '
                                                                  'degrees_per_second = 30'),
-     "objects[1].animation.axis", "expected 3 numbers, not all zero, got [0, 0, 0]"),
+     "objects[1].animation.axis", "expected 3 numbers, of length at least 1e-09, got [0, 0, 0]"),
     ("animation_missing_axis", animated('type = "orbit", centre = [0, 0, 0], degrees_per_second = 30'),
-     "objects[0].animation.axis", "missing required field; expected 3 numbers, not all zero"),
+     "objects[0].animation.axis", "missing required field; expected 3 numbers, of length at least 1e-09"),
     *((f"animation_rate_{name}", animated(f'type = "rotate", axis = [0, 1, 0], degrees_per_second = {rate}'),
        "objects[0].animation.degrees_per_second", fragment)
       for name, rate, fragment in [
@@ -385,7 +385,7 @@ ANIMATION_CASES = [
     ("directional_light_orbits", LIGHT + f"animation = {{ {ORBIT} }}\n" + OK, "lights[0].animation.type",
      'expected "rotate" for a directional light (it has no position to orbit'),
     ("light_animation_zero_axis", LIGHT + 'animation = { type = "rotate", axis = [0, 0, 0], degrees_per_second = 1 }'
-     "\n" + OK, "lights[0].animation.axis", "not all zero"),
+     "\n" + OK, "lights[0].animation.axis", "of length at least 1e-09"),
     ("diffuse_plane_animated", OK.replace('"a"', '"b"') + animated(ROTATE, FLOOR), "objects[1].animation",
      "expected no animation on a plane that is not a mirror (floors and walls that are not mirrors are "
      "intersected as fixed planes and cannot move), got {type = \"rotate\""),
@@ -432,7 +432,7 @@ BAD_CASES = [
     ("checker_scale", an_object(extra='material = { type = "checker", color_a = [1, 1, 1], color_b = [0, 0, 0], '
                                       'scale = 0 }'), "objects[0].material.scale", "expected a number > 0, got 0"),
     ("zero_direction", '[[lights]]\ntype = "directional"\ndirection = [0, 0, 0]\n' + OK, "lights[0].direction",
-     "expected 3 numbers, not all zero, got [0, 0, 0]"),
+     "expected 3 numbers, of length at least 1e-09, got [0, 0, 0]"),
     ("field_of_another_light_type", '[[lights]]\ntype = "point"\ndirection = [0, -1, 0]\n' + OK, "lights[0]",
      'unknown field "direction"; expected one of: type, position, color, intensity'),
     ("light_without_type", "[[lights]]\ndirection = [0, -1, 0]\n" + OK, "lights[0].type",
@@ -445,7 +445,9 @@ BAD_CASES = [
      "expected a point other than camera.eye, got [1.0, 2.0, 3.0]"),
     ("up_parallel_to_view", "[camera]\neye = [0.0, 5.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n" + OK, "camera.up",
      "expected a vector not parallel to the view direction (target - eye = [0.0, -5.0, 0.0]), got [0.0, 1.0, 0.0]"),
-    ("zero_up", "[camera]\nup = [0, 0, 0]\n" + OK, "camera.up", "not all zero"),
+    ("zero_up", "[camera]\nup = [0, 0, 0]\n" + OK, "camera.up", "of length at least 1e-09"),
+    ("tiny_light_direction", '[[lights]]\ntype = "directional"\ndirection = [1e-200, 0, 0]\n' + OK,
+     "lights[0].direction", "expected 3 numbers, of length at least 1e-09, got [1e-200, 0, 0]"),
     ("fov_zero", "[camera]\nfov_y = 0\n" + OK, "camera.fov_y", "expected a number in (0, 179], got 0"),
     ("no_objects", "[render]\nambient = 0.5\n", "objects", "expected at least 1 [[objects]] table(s), got 0"),
     ("empty_objects", "objects = []\n", "objects", "expected at least 1"),

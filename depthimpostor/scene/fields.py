@@ -95,12 +95,21 @@ def integer(bounds: Bounds = ANY) -> Reader[int]:
     return Reader(f"an integer{bounds}", lambda v: v if _is_integer(v) and v in bounds else None)
 
 
+# The shortest direction vector (axis, light direction, camera up) taken: directions are made unit
+# length in float32 on the GPU and in numpy, where the squares of components under about 1e-19
+# underflow to 0 and the unit vector becomes NaN; 1e-9 leaves that far behind.
+MIN_DIRECTION_LENGTH = 1e-9
+
+
 def numbers(n: int, bounds: Bounds = ANY, nonzero: bool = False) -> Reader[tuple[float, ...]]:
     def parse(v: Any) -> tuple[float, ...] | None:
         fits = isinstance(v, (list, tuple)) and len(v) == n and all(_is_number(x) and x in bounds for x in v)
-        return tuple(float(x) for x in v) if fits and (any(v) or not nonzero) else None
+        if not fits:
+            return None
+        values = tuple(float(x) for x in v)
+        return values if not nonzero or math.hypot(*values) >= MIN_DIRECTION_LENGTH else None
 
-    return Reader(f"{n} numbers{bounds}" + (", not all zero" if nonzero else ""), parse)
+    return Reader(f"{n} numbers{bounds}" + (f", of length at least {MIN_DIRECTION_LENGTH:g}" if nonzero else ""), parse)
 
 
 def integers(n: int, bounds: Bounds = ANY) -> Reader[tuple[int, ...]]:

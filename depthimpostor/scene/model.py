@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from fractions import Fraction
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -94,8 +95,10 @@ class Animation:
         object.__setattr__(self, "axis", tuple(float(c) / length for c in self.axis))
 
     def angle(self, time: float) -> float:
-        """Degrees turned at `time` seconds."""
-        return self.degrees_per_second * time
+        """Degrees turned at `time` seconds, in [0, 360): the turn repeats every full circle. Taken
+        exactly (floats are rationals), so that a far time (1e308 s, whose product with the rate
+        overflows to Inf, and whose cosine is then a domain error) still gives its true angle."""
+        return float(Fraction(self.degrees_per_second) * Fraction(time) % 360)
 
     def pivot_of(self, position: Sequence[float]) -> Vec3:
         """The point the turn's line passes through for a thing at `position`."""
