@@ -1,0 +1,92 @@
+"""Record every shipped scene under every method and algorithm at a small size, and check later that a
+refactoring changed no frame (issue 22: "frames must not change").
+
+    python3 tools/frames.py record /tmp/frames     # before a step
+    python3 tools/frames.py check /tmp/frames      # after it: the largest difference per frame
+
+A scene that a method refuses (a SceneError: surrounds.toml for the baking methods, max_bounces > 1 for
+the others) is recorded as refused, with its message, and must stay refused with the same message.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from depthimpostor.constants import Algorithm, Method
+from depthimpostor.context import create_context
+from depthimpostor.errors import SceneError
+from depthimpostor.renderer import Renderer
+from depthimpostor.scene import Scene, load_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+SIZE = (160, 90)
+RESOLUTION = 64
+#: Differences above this are reported as changes: llvmpipe is deterministic on one machine, so a
+#: refactoring that changes no arithmetic gives 0; a reordering of float operations gives ~1e-7.
+TOLERANCE = 1e-5
+
+
+def configurations() -> Iterator[tuple[str, Scene | SceneError, Method, Algorithm]]:
+    for path in sorted((ROOT / "scenes").glob("*.toml")) + sorted((ROOT / "scenes" / "hard").glob("*.toml")):
+        name = str(path.relative_to(ROOT / "scenes"))
+        try:
+            scene: Scene | SceneError = load_scene(path).with_overrides(size=SIZE, impostor_resolution=RESOLUTION)
+        except SceneError as error:  # a model file that is not here (the bunny without ../shared)
+            scene = error
+        for method in Method:
+            algorithms = list(Algorithm) if method.marches_depth_images else [Algorithm.OPTIMIZED]
+            for algorithm in algorithms:
+                yield name, scene, method, algorithm
+
+
+def key(name: str, method: Method, algorithm: Algorithm) -> str:
+    return f"{name.replace('/', '_')}-{method.name.lower()}-{algorithm.name.lower()}"
+
+
+def render(ctx: object, scene: Scene | SceneError, method: Method, algorithm: Algorithm) -> np.ndarray | str:
+    if isinstance(scene, SceneError):
+        return str(scene)
+    try:
+        with Renderer(ctx, scene, algorithm, method=method) as renderer:  # type: ignore[arg-type]
+            renderer.render()
+            return renderer.read_color_float()
+    except SceneError as error:
+        return str(error)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("action", choices=("record", "check"))
+    parser.add_argument("folder", type=Path)
+    args = parser.parse_args()
+    ctx = create_context()
+    args.folder.mkdir(parents=True, exist_ok=True)
+    changed = 0
+    for name, scene, method, algorithm in configurations():
+        frame = render(ctx, scene, method, algorithm)
+        path = args.folder / (key(name, method, algorithm) + ".npz")
+        if args.action == "record":
+            np.savez_compressed(path, frame=np.asarray(frame) if not isinstance(frame, str) else np.array(frame))
+            continue
+        before = np.load(path)["frame"]
+        if isinstance(frame, str) or before.dtype.kind == "U":
+            same = isinstance(frame, str) and before.dtype.kind == "U" and str(before) == frame
+            difference = "same refusal" if same else f"was {str(before)[:60]!r}, now {str(frame)[:60]!r}"
+        else:
+            largest = float(np.abs(frame - before).max()) if frame.shape == before.shape else float("inf")
+            same = largest <= TOLERANCE
+            difference = f"max difference {largest:.3g}"
+        changed += not same
+        print(f"{'ok     ' if same else 'CHANGED'} {path.stem}: {difference}", flush=True)
+    if args.action == "check":
+        print(f"{changed} frames changed")
+    return 1 if changed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
