@@ -29,7 +29,7 @@ from .passes.mirrors import REFLECTION_OUTPUTS, MirrorPass, ReflectedObjects
 from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
 from .passes.triangles import TrianglePass
-from .passes.uniforms import write_lighting
+from .passes.uniforms import write_scene_uniforms
 from .plan import STAND_INS, Pass, RenderPlan, plan_render
 from .ppc import PPC
 from .scene.model import Camera, Scene
@@ -128,8 +128,8 @@ class Renderer:
         self.stats = RenderStats()
         self.programs = ProgramCache(ctx, shaders)
         self.time = 0.0  # seconds into the scene's animation
-        self.lit_scene = scene  # the scene with its lights where they are at `time`
         self._classify(scene_geometry(scene.objects))
+        self._relight()
         self.view = scene.camera
         self.camera = fitted_camera(self.view, scene.render.size, self.bounds)
         self.plan: RenderPlan = plan_render(scene, method, algorithm, self.geometry)
@@ -175,7 +175,7 @@ class Renderer:
         self.environment = EnvironmentPass(ctx, self.programs, scene)
         # Made (and baked) before anything that shades: depth images show the shadows too.
         self.shadow_maps = (
-            ShadowMaps(ctx, self.programs, scene, self.meshes, self.shadow_casters)
+            ShadowMaps(ctx, self.programs, self.lit_scene, self.meshes, self.shadow_casters)
             if self.plan.runs(Pass.SHADOW_MAPS) else None
         )
         self.diffuse = (DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
@@ -187,8 +187,6 @@ class Renderer:
         self.glass_interiors = {
             item.index: GlassInterior(ctx, self.programs, self.meshes, max(scene.render.size)) for item in self.glass
         }
-        if self.lit_scene is not scene:  # rebuilt while the lights have moved
-            self._write_lighting()
         if self.reflectors:
             self._make_stand_in(self.method, self.scene)
             self.mirror_pass = self._mirror_pass()
@@ -206,8 +204,7 @@ class Renderer:
                              f"by the depth method alone, got {scene.render.max_bounces}")
         stand_in: ReflectedObjects
         if issubclass(kind, BakedImages):
-            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.reflectors, self.reflected_objects,
-                            self.analytic_planes)
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.reflectors, self.reflected_objects)
         else:
             stand_in = kind(self.ctx, scene, self.reflected_objects)
         if self.stand_in is not None:
@@ -246,7 +243,7 @@ class Renderer:
         if self.stand_in is None:
             raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
         return MirrorPass(
-            self.programs, self.scene, self.meshes, self.stand_in, self.analytic_planes, self.method, self.algorithm,
+            self.programs, self.scene, self.meshes, self.stand_in, self.method, self.algorithm,
             self.reflection_data, self.count_samples, self.glass_interiors,
         )
 
@@ -276,14 +273,13 @@ class Renderer:
         before = {g.index: g for g in self.geometry}
         geometry = [g.at(seconds) for g in self.geometry]
         moved = {g.index for g in geometry if g is not before[g.index]}
-        lights = self.scene.lights_at(seconds)
-        moved_lights = {i for i, (new, old) in enumerate(zip(lights, self.lit_scene.lights, strict=False)) if new != old}
+        lights_before = self.lit_scene.lights
         self.time = seconds
-        self.lit_scene = dataclasses.replace(self.scene, lights=lights)
         self._classify(geometry)
+        self._relight()
+        lights = self.lit_scene.lights
+        moved_lights = {i for i, (new, old) in enumerate(zip(lights, lights_before, strict=True)) if new != old}
         self.look_at(self.view)  # the near and far planes follow the scene's bounds
-        if moved_lights:
-            self._write_lighting()
         moved_casters = [g for g in self.shadow_casters if g.index in moved]
         shadowed = set(self.lit_scene.shadowed_lights)
         if self.shadow_maps is not None:
@@ -307,10 +303,15 @@ class Renderer:
         }
         baked.move({g.index: g for g in geometry}, moved, relit | shadows)
 
-    def _write_lighting(self) -> None:
-        """Every compiled program's lights, where they are now (a uniform a program lacks is skipped)."""
-        for program in self.programs.programs():
-            write_lighting(program, self.lit_scene)
+    def _relight(self) -> None:
+        """`lit_scene`: the scene with its lights where they are at `time`. It and the analytic
+        planes go to the program cache, which writes them into every program it holds or makes:
+        the one place lights and planes are written, so that no program made after a move (a new
+        setting, a reload) can have them where they were."""
+        lights = self.scene.lights_at(self.time)
+        self.lit_scene = self.scene if lights == tuple(self.scene.lights) else dataclasses.replace(self.scene, lights=lights)
+        lit_scene, planes = self.lit_scene, self.analytic_planes
+        self.programs.set_scene_uniforms(lambda program: write_scene_uniforms(program, lit_scene, planes))
 
     def resize(self, size: tuple[int, int]) -> None:
         """Render frames of another size; depth images do not depend on it."""
@@ -319,6 +320,7 @@ class Renderer:
         scene = self.scene.with_overrides(size=size)
         self._release_targets()
         self.scene = scene
+        self._relight()
         self._make_targets(size)
         self.look_at(self.view)
 
@@ -358,6 +360,7 @@ class Renderer:
         if self.baked_images is not None:
             self._make_stand_in(self.method, scene)
         self.scene = scene
+        self._relight()
         self._replan()
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
