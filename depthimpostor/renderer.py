@@ -19,6 +19,7 @@ from .constants import NO_OBJECT, Algorithm, Method
 from .context import bind_default_framebuffer
 from .culling import may_shadow
 from .errors import SceneError
+from .eye import EyeCamera, Sphere, clear_depth, eye_depth, fitted_camera, make_depth_buffer, reversed_z
 from .geometry import ObjectGeometry, scene_geometry
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
@@ -57,30 +58,11 @@ def to_uint8(color: np.ndarray) -> np.ndarray:
     return (np.clip(np.nan_to_num(color, nan=0.0), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
-#: The camera's near plane is at least this share of its far plane: a 24-bit depth buffer then
-#: resolves w^2 / (near 2^24), about 1e-3 of the scene's size at its far end.
-NEAR_FAR_RATIO = 1e-3
-
-
-Sphere = tuple[np.ndarray, float]
-
-
-def fitted_camera(view: Camera, size: tuple[int, int], bounds: list[Sphere]) -> PPC:
-    """The camera of `view` (where it stands and looks), its near and far planes fitted to the scene's bounding spheres: fixed
-    planes would clip a scene a thousand times smaller (or larger) than the one they were picked
-    for, and a moving eye changes what is near and far."""
-    eye = np.asarray(view.eye, float)
-    far = max((float(np.linalg.norm(centre - eye)) + radius for centre, radius in bounds), default=1.0) * 1.01
-    nearest = min((float(np.linalg.norm(centre - eye)) - radius for centre, radius in bounds), default=far)
-    near = max(far * NEAR_FAR_RATIO, nearest * 0.9)
-    return PPC.look_at(view.eye, view.target, view.up, view.fov_y, size[0], size[1], near, far)
-
-
 def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC:
-    """The scene's own camera, fitted to its bounds. `geometry` is the scene's, when the caller
-    has already built it."""
+    """The scene's own camera (its rays: the near and far planes are OpenGL's, fitted to the
+    scene's bounds). `geometry` is the scene's, when the caller has already built it."""
     spheres = [g.bounding_sphere for g in (geometry if geometry is not None else scene_geometry(scene.objects))]
-    return fitted_camera(scene.camera, scene.render.size, spheres)
+    return fitted_camera(scene.camera, scene.render.size, spheres, reversed_=False)
 
 
 @dataclass(frozen=True)
@@ -127,11 +109,13 @@ class Renderer:
         self.time_mirror_pass = time_mirror_pass
         self.stats = RenderStats()
         self.programs = ProgramCache(ctx, shaders)
+        # The eye's depth convention (eye.py): reversed-Z where GL has clip control.
+        self.reversed_z = reversed_z(ctx) is not None
         self.time = 0.0  # seconds into the scene's animation
         self._classify(scene_geometry(scene.objects))
         self._relight()
         self.view = scene.camera
-        self.camera = fitted_camera(self.view, scene.render.size, self.bounds)
+        self.camera = fitted_camera(self.view, scene.render.size, self.bounds, self.reversed_z)
         self.plan: RenderPlan = plan_render(scene, method, algorithm, self.geometry)
         self.meshes = GpuMeshes(ctx)
         self._make_targets(scene.render.size)
@@ -156,7 +140,7 @@ class Renderer:
         # Float colour so that a NaN or Inf from a shader survives to be caught by a test,
         # instead of being clamped into a plausible-looking 8-bit pixel.
         self._color = ctx.renderbuffer(size, 4, dtype="f4")
-        self._depth = ctx.depth_renderbuffer(size)
+        self._depth = make_depth_buffer(ctx, size)
         self._reflection_outputs = [
             ctx.renderbuffer(size, 4, dtype="f4") for _ in range(REFLECTION_OUTPUTS if self.reflection_data else 0)
         ]
@@ -254,12 +238,13 @@ class Renderer:
     def look_at(self, view: Camera) -> None:
         """Move the camera; depth images do not depend on it, so nothing is re-baked."""
         self.view = view
-        self.camera = fitted_camera(view, self.scene.render.size, self.bounds)
+        self.camera = fitted_camera(view, self.scene.render.size, self.bounds, self.reversed_z)
 
     def set_camera(self, camera: PPC) -> None:
-        """Use this exact camera (tests); nothing is re-baked. A later `look_at` or `resize`
-        replaces it with the fitted camera of a view."""
-        self.camera = camera
+        """Use this exact camera (tests; its eye-depth projection where the renderer draws
+        reversed-Z); nothing is re-baked. A later `look_at` or `resize` replaces it with the
+        fitted camera of a view."""
+        self.camera = EyeCamera.of(camera) if self.reversed_z else camera
 
     def set_time(self, seconds: float) -> None:
         """Move the scene's animated objects and lights to where they are at `seconds`. Only what
@@ -416,8 +401,21 @@ class Renderer:
         self.ctx.finish()
         start = time.perf_counter()
         self.framebuffer.use()
-        self.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=clear_depth(self.ctx))
         self.color_framebuffer.use()
+        with eye_depth(self.ctx):
+            mirror_start = self._draw_eye_passes()
+        self.ctx.finish()
+        end = time.perf_counter()
+        self.stats.draw_seconds.append(end - start)
+        if self.time_mirror_pass:
+            self.stats.mirror_seconds.append(end - mirror_start if mirror_start is not None else 0.0)
+        self.stats.frames += 1
+        return self.stats
+
+    def _draw_eye_passes(self) -> float | None:
+        """What the eye sees, under its depth convention: the environment, the diffuse objects
+        (or the samples), the reflectors. Returns when the mirror pass began, where it is timed."""
         self.environment.draw(self.camera)
         self.stats.passes[Pass.ENVIRONMENT.value] += 1
         view_projection = self.camera.view_projection
@@ -443,13 +441,7 @@ class Renderer:
             if made:
                 self.stats.interiors_made += made
                 self.stats.passes[Pass.GLASS_INTERIORS.value] += 1
-        self.ctx.finish()
-        end = time.perf_counter()
-        self.stats.draw_seconds.append(end - start)
-        if self.time_mirror_pass:
-            self.stats.mirror_seconds.append(end - mirror_start if mirror_start is not None else 0.0)
-        self.stats.frames += 1
-        return self.stats
+        return mirror_start
 
     def _interiors_made(self) -> int:
         return sum(interior.bakes for interior in self.glass_interiors.values())
