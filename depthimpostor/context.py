@@ -96,8 +96,11 @@ def _egl_context() -> moderngl.Context:
 
 
 def _osmesa_context() -> moderngl.Context:
+    loader = OSMesaLoader()
     # moderngl's stub types each **settings value as a dict; `context` takes any loader object.
-    return moderngl.create_context(context=OSMesaLoader(), require=REQUIRED_GL_VERSION)  # type: ignore[arg-type]
+    ctx = moderngl.create_context(context=loader, require=REQUIRED_GL_VERSION)  # type: ignore[arg-type]
+    ctx.extra = {"loader": loader}  # what gl_function asks for entry points moderngl does not wrap
+    return ctx
 
 
 _BACKENDS = {"egl": _egl_context, "osmesa": _osmesa_context}
@@ -121,7 +124,7 @@ def create_context(backend: Backend | None = None) -> moderngl.Context:
         except Exception as error:  # each backend fails in its own way (OSError, moderngl.Error, ...)
             failures.append(f"{name}: {error}".strip())
             continue
-        ctx.extra = {"backend": name}
+        ctx.extra = {**(ctx.extra or {}), "backend": name}
         return ctx
     raise ContextError(
         f"no OpenGL {REQUIRED_GL_VERSION // 100}.{REQUIRED_GL_VERSION % 100 // 10} core context could be created "
@@ -181,6 +184,41 @@ def create_window(title: str, size: tuple[int, int]) -> Window:
         raise ContextError(f"the window's OpenGL context is not usable: {error}") from None
     ctx.extra = {"backend": "glfw"}
     return Window(handle, ctx)
+
+
+def _current_context_function(name: str) -> int:
+    """`name` from whichever of EGL and GLX has a context current in this thread (a context made
+    outside this module, such as an application's that embeds the renderer); 0 if neither."""
+    for library, current, get in (("EGL", "eglGetCurrentContext", "eglGetProcAddress"),
+                                  ("GL", "glXGetCurrentContext", "glXGetProcAddressARB")):
+        path = ctypes.util.find_library(library)
+        if path is None:
+            continue
+        lib = ctypes.CDLL(path)
+        if not hasattr(lib, current) or not hasattr(lib, get):
+            continue
+        getattr(lib, current).restype = ctypes.c_void_p
+        if not getattr(lib, current)():
+            continue
+        getattr(lib, get).restype = ctypes.c_void_p
+        getattr(lib, get).argtypes = [ctypes.c_char_p]
+        return int(getattr(lib, get)(name.encode()) or 0)
+    return 0
+
+
+def gl_function(ctx: moderngl.Context, name: str) -> int:
+    """The address of the GL entry point `name` in `ctx` (current), for the few that moderngl
+    does not wrap (glClipControl, see eye.py); 0 where the context's loader has none. A non-zero
+    address says nothing of support: check the GL version or extension too."""
+    extra = ctx.extra if isinstance(ctx.extra, dict) else {}
+    backend = extra.get("backend")
+    if backend == "osmesa":
+        return int(extra["loader"].load_opengl_function(name))
+    if backend == "glfw":
+        import glfw
+
+        return int(glfw.get_proc_address(name) or 0)
+    return _current_context_function(name)  # EGL (ours) or a context made elsewhere
 
 
 def describe(ctx: moderngl.Context) -> str:

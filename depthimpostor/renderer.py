@@ -18,6 +18,7 @@ import numpy as np
 from .constants import NO_OBJECT, Algorithm, Method
 from .context import bind_default_framebuffer
 from .culling import may_shadow
+from .eye import EyeCamera, Sphere, clear_depth, eye_depth, fitted_camera, make_depth_buffer, reversed_z
 from .geometry import ObjectGeometry, scene_geometry
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
@@ -28,7 +29,7 @@ from .passes.mirrors import REFLECTION_OUTPUTS, MirrorPass, ReflectedObjects
 from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
 from .passes.triangles import TrianglePass
-from .passes.uniforms import write_lighting
+from .passes.uniforms import write_scene_uniforms
 from .plan import STAND_INS, Pass, RenderPlan, check_stand_in, plan_render
 from .ppc import PPC
 from .scene.model import Camera, Scene
@@ -56,30 +57,11 @@ def to_uint8(color: np.ndarray) -> np.ndarray:
     return (np.clip(np.nan_to_num(color, nan=0.0), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
-#: The camera's near plane is at least this share of its far plane: a 24-bit depth buffer then
-#: resolves w^2 / (near 2^24), about 1e-3 of the scene's size at its far end.
-NEAR_FAR_RATIO = 1e-3
-
-
-Sphere = tuple[np.ndarray, float]
-
-
-def fitted_camera(view: Camera, size: tuple[int, int], bounds: list[Sphere]) -> PPC:
-    """The camera of `view` (where it stands and looks), its near and far planes fitted to the scene's bounding spheres: fixed
-    planes would clip a scene a thousand times smaller (or larger) than the one they were picked
-    for, and a moving eye changes what is near and far."""
-    eye = np.asarray(view.eye, float)
-    far = max((float(np.linalg.norm(centre - eye)) + radius for centre, radius in bounds), default=1.0) * 1.01
-    nearest = min((float(np.linalg.norm(centre - eye)) - radius for centre, radius in bounds), default=far)
-    near = max(far * NEAR_FAR_RATIO, nearest * 0.9)
-    return PPC.look_at(view.eye, view.target, view.up, view.fov_y, size[0], size[1], near, far)
-
-
 def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC:
-    """The scene's own camera, fitted to its bounds. `geometry` is the scene's, when the caller
-    has already built it."""
+    """The scene's own camera (its rays: the near and far planes are OpenGL's, fitted to the
+    scene's bounds). `geometry` is the scene's, when the caller has already built it."""
     spheres = [g.bounding_sphere for g in (geometry if geometry is not None else scene_geometry(scene.objects))]
-    return fitted_camera(scene.camera, scene.render.size, spheres)
+    return fitted_camera(scene.camera, scene.render.size, spheres, reversed_=False)
 
 
 @dataclass(frozen=True)
@@ -126,14 +108,16 @@ class Renderer:
         self.time_mirror_pass = time_mirror_pass
         self.stats = RenderStats()
         self.programs = ProgramCache(ctx, shaders)
+        # The eye's depth convention (eye.py): reversed-Z where GL has clip control.
+        self.reversed_z = reversed_z(ctx) is not None
         self.time = 0.0  # seconds into the scene's animation
-        self.lit_scene = scene  # the scene with its lights where they are at `time`
         geometry = scene_geometry(scene.objects)
         # First: the plan refuses what cannot be rendered before anything is made or fitted.
         self.plan: RenderPlan = plan_render(scene, method, algorithm, geometry, reflection_data, count_samples)
         self._classify(geometry)
+        self._relight()
         self.view = scene.camera
-        self.camera = fitted_camera(self.view, scene.render.size, self.bounds)
+        self.camera = fitted_camera(self.view, scene.render.size, self.bounds, self.reversed_z)
         self.meshes = GpuMeshes(ctx)
         self._make_targets(scene.render.size)
         self._build_passes()
@@ -157,7 +141,7 @@ class Renderer:
         # Float colour so that a NaN or Inf from a shader survives to be caught by a test,
         # instead of being clamped into a plausible-looking 8-bit pixel.
         self._color = ctx.renderbuffer(size, 4, dtype="f4")
-        self._depth = ctx.depth_renderbuffer(size)
+        self._depth = make_depth_buffer(ctx, size)
         self._reflection_outputs = [
             ctx.renderbuffer(size, 4, dtype="f4") for _ in range(REFLECTION_OUTPUTS if self.reflection_data else 0)
         ]
@@ -176,7 +160,7 @@ class Renderer:
         self.environment = EnvironmentPass(ctx, self.programs, scene)
         # Made (and baked) before anything that shades: depth images show the shadows too.
         self.shadow_maps = (
-            ShadowMaps(ctx, self.programs, scene, self.meshes, self.shadow_casters)
+            ShadowMaps(ctx, self.programs, self.lit_scene, self.meshes, self.shadow_casters)
             if self.plan.runs(Pass.SHADOW_MAPS) else None
         )
         self.diffuse = (DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
@@ -188,8 +172,6 @@ class Renderer:
         self.glass_interiors = {
             item.index: GlassInterior(ctx, self.programs, self.meshes, max(scene.render.size)) for item in self.glass
         }
-        if self.lit_scene is not scene:  # rebuilt while the lights have moved
-            self._write_lighting()
         if self.reflectors:
             self._make_stand_in(self.method, self.scene)
             self.mirror_pass = self._mirror_pass()
@@ -204,8 +186,7 @@ class Renderer:
         check_stand_in(scene, method, self.reflectors, self.reflected_objects)
         stand_in: ReflectedObjects
         if issubclass(kind, BakedImages):
-            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.reflectors, self.reflected_objects,
-                            self.analytic_planes)
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.reflectors, self.reflected_objects)
         else:
             stand_in = kind(self.ctx, scene, self.reflected_objects)
         if self.stand_in is not None:
@@ -244,7 +225,7 @@ class Renderer:
         if self.stand_in is None:
             raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
         return MirrorPass(
-            self.programs, self.scene, self.meshes, self.stand_in, self.analytic_planes, self.method, self.algorithm,
+            self.programs, self.scene, self.meshes, self.stand_in, self.method, self.algorithm,
             self.reflection_data, self.count_samples, self.glass_interiors,
         )
 
@@ -256,12 +237,13 @@ class Renderer:
     def look_at(self, view: Camera) -> None:
         """Move the camera; depth images do not depend on it, so nothing is re-baked."""
         self.view = view
-        self.camera = fitted_camera(view, self.scene.render.size, self.bounds)
+        self.camera = fitted_camera(view, self.scene.render.size, self.bounds, self.reversed_z)
 
     def set_camera(self, camera: PPC) -> None:
-        """Use this exact camera (tests); nothing is re-baked. A later `look_at` or `resize`
-        replaces it with the fitted camera of a view."""
-        self.camera = camera
+        """Use this exact camera (tests; its eye-depth projection where the renderer draws
+        reversed-Z); nothing is re-baked. A later `look_at` or `resize` replaces it with the
+        fitted camera of a view."""
+        self.camera = EyeCamera.of(camera) if self.reversed_z else camera
 
     def set_time(self, seconds: float) -> None:
         """Move the scene's animated objects and lights to where they are at `seconds`. Only what
@@ -275,14 +257,13 @@ class Renderer:
         before = {g.index: g for g in self.geometry}
         geometry = [g.at(seconds) for g in self.geometry]
         moved = {g.index for g in geometry if g is not before[g.index]}
-        lights = self.scene.lights_at(seconds)
-        moved_lights = {i for i, (new, old) in enumerate(zip(lights, self.lit_scene.lights, strict=False)) if new != old}
+        lights_before = self.lit_scene.lights
         self.time = seconds
-        self.lit_scene = dataclasses.replace(self.scene, lights=lights)
         self._classify(geometry)
+        self._relight()
+        lights = self.lit_scene.lights
+        moved_lights = {i for i, (new, old) in enumerate(zip(lights, lights_before, strict=True)) if new != old}
         self.look_at(self.view)  # the near and far planes follow the scene's bounds
-        if moved_lights:
-            self._write_lighting()
         moved_casters = [g for g in self.shadow_casters if g.index in moved]
         shadowed = set(self.lit_scene.shadowed_lights)
         if self.shadow_maps is not None:
@@ -306,10 +287,15 @@ class Renderer:
         }
         baked.move({g.index: g for g in geometry}, moved, relit | shadows)
 
-    def _write_lighting(self) -> None:
-        """Every compiled program's lights, where they are now (a uniform a program lacks is skipped)."""
-        for program in self.programs.programs():
-            write_lighting(program, self.lit_scene)
+    def _relight(self) -> None:
+        """`lit_scene`: the scene with its lights where they are at `time`. It and the analytic
+        planes go to the program cache, which writes them into every program it holds or makes:
+        the one place lights and planes are written, so that no program made after a move (a new
+        setting, a reload) can have them where they were."""
+        lights = self.scene.lights_at(self.time)
+        self.lit_scene = self.scene if lights == tuple(self.scene.lights) else dataclasses.replace(self.scene, lights=lights)
+        lit_scene, planes = self.lit_scene, self.analytic_planes
+        self.programs.set_scene_uniforms(lambda program: write_scene_uniforms(program, lit_scene, planes))
 
     def resize(self, size: tuple[int, int]) -> None:
         """Render frames of another size; depth images do not depend on it."""
@@ -318,6 +304,7 @@ class Renderer:
         scene = self.scene.with_overrides(size=size)
         self._release_targets()
         self.scene = scene
+        self._relight()
         self._make_targets(size)
         self.look_at(self.view)
 
@@ -357,6 +344,7 @@ class Renderer:
         if self.baked_images is not None:
             self._make_stand_in(self.method, scene)
         self.scene = scene
+        self._relight()
         self._replan()
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
@@ -412,8 +400,21 @@ class Renderer:
         self.ctx.finish()
         start = time.perf_counter()
         self.framebuffer.use()
-        self.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=clear_depth(self.ctx))
         self.color_framebuffer.use()
+        with eye_depth(self.ctx):
+            mirror_start = self._draw_eye_passes()
+        self.ctx.finish()
+        end = time.perf_counter()
+        self.stats.draw_seconds.append(end - start)
+        if self.time_mirror_pass:
+            self.stats.mirror_seconds.append(end - mirror_start if mirror_start is not None else 0.0)
+        self.stats.frames += 1
+        return self.stats
+
+    def _draw_eye_passes(self) -> float | None:
+        """What the eye sees, under its depth convention: the environment, the diffuse objects
+        (or the samples), the reflectors. Returns when the mirror pass began, where it is timed."""
         self.environment.draw(self.camera)
         self.stats.passes[Pass.ENVIRONMENT.value] += 1
         view_projection = self.camera.view_projection
@@ -439,13 +440,7 @@ class Renderer:
             if made:
                 self.stats.interiors_made += made
                 self.stats.passes[Pass.GLASS_INTERIORS.value] += 1
-        self.ctx.finish()
-        end = time.perf_counter()
-        self.stats.draw_seconds.append(end - start)
-        if self.time_mirror_pass:
-            self.stats.mirror_seconds.append(end - mirror_start if mirror_start is not None else 0.0)
-        self.stats.frames += 1
-        return self.stats
+        return mirror_start
 
     def _interiors_made(self) -> int:
         return sum(interior.bakes for interior in self.glass_interiors.values())

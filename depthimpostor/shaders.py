@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import posixpath
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -145,6 +145,10 @@ def _format_compile_error(
     return "\n".join(report)
 
 
+#: Writes what every program reads of the scene as it is now (lights, analytic planes) into one
+#: program; a uniform the program lacks is skipped.
+SceneUniforms = Callable[[moderngl.Program], None]
+
 #: A program's stages (vertex and fragment file, or a compute file alone) and its defines.
 ProgramKey = tuple[tuple[str, ...], tuple[tuple[str, str], ...]]
 
@@ -156,12 +160,25 @@ def program_key(stages: tuple[str, ...], defines: Defines | None = None) -> Prog
 
 class ProgramCache:
     """Compiles each program (vertex + fragment, or compute) once per (files, defines) per
-    context and owns them."""
+    context and owns them.
 
-    def __init__(self, ctx: moderngl.Context, library: ShaderLibrary | None = None) -> None:
+    The scene's uniforms (`set_scene_uniforms`) are written here and nowhere else: into each
+    program as it is made, and into every program made so far when they change. A pass that makes
+    its program later (a new setting, a reload) therefore never sees older lights than the rest.
+    """
+
+    def __init__(self, ctx: moderngl.Context, library: ShaderLibrary | None = None,
+                 scene_uniforms: SceneUniforms | None = None) -> None:
         self.ctx = ctx
         self.library = library or ShaderLibrary()
         self._programs: dict[ProgramKey, moderngl.Program | moderngl.ComputeShader] = {}
+        self._scene_uniforms = scene_uniforms
+
+    def set_scene_uniforms(self, scene_uniforms: SceneUniforms) -> None:
+        """Write the scene as it is now into every program made so far and every one made later."""
+        self._scene_uniforms = scene_uniforms
+        for program in self.programs():
+            scene_uniforms(program)
 
     def get(self, vertex: str, fragment: str, defines: Defines | None = None) -> moderngl.Program:
         program = self._get((vertex, fragment), defines)
@@ -181,6 +198,8 @@ class ProgramCache:
         if program is None:
             program = self._build(stages, defines)
             self._programs[key] = program
+            if self._scene_uniforms is not None and isinstance(program, moderngl.Program):
+                self._scene_uniforms(program)
         return program
 
     @property
@@ -206,7 +225,7 @@ class ProgramCache:
     def reloaded(self) -> ProgramCache:
         """A new cache holding every program of this one, compiled from the files as they are
         now. Raises ShaderError (and leaves this cache as it is) if any of them fails."""
-        fresh = ProgramCache(self.ctx, ShaderLibrary(self.library.root))
+        fresh = ProgramCache(self.ctx, ShaderLibrary(self.library.root), self._scene_uniforms)
         try:
             for stages, defines in self._programs:
                 fresh._get(stages, dict(defines))

@@ -3,6 +3,7 @@ and the test models found through DEPTHIMPOSTOR_MODEL_PATH (or a procedural stan
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -13,6 +14,13 @@ import trimesh
 from hypothesis import HealthCheck, settings
 
 from depthimpostor.context import create_context
+from depthimpostor.scene import Scene
+from depthimpostor.scene.loader import parse_scene
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # as depthimpostor.scene.loader reads scene files on 3.10
+    import tomli as tomllib
 
 # The fuzzer (test_fuzz.py) draws batches of 2048 rays: 50 batches by default, over 100,000 rays
 # in CI; `pytest --hypothesis-profile=long` runs 2,000 batches (4 million rays).
@@ -65,3 +73,8 @@ def _models_on_path(monkeypatch: pytest.MonkeyPatch, model_path: Path) -> None:
 def assert_finite(image: np.ndarray) -> None:
     bad = ~np.isfinite(image)
     assert not bad.any(), f"{int(bad.sum())} NaN or Inf values in the image"
+
+
+def scene_from_toml(text: str, source: str = "test scene") -> Scene:
+    """A scene written inline in a test, validated as a scene file would be."""
+    return parse_scene(tomllib.loads(text), source, Path("."))

@@ -5,18 +5,16 @@ internal reflection, grazing entry, the eye inside the glass."""
 from __future__ import annotations
 
 import dataclasses
-import tomllib
-from pathlib import Path
 
 import moderngl
 import numpy as np
 import pytest
 
-from conftest import SCENES, assert_finite
+from conftest import SCENES, assert_finite, scene_from_toml
 from depthimpostor.compare import compare
 from depthimpostor.constants import Method
 from depthimpostor.renderer import Renderer
-from depthimpostor.scene import Scene, load_scene, parse_scene
+from depthimpostor.scene import Scene, load_scene
 from depthimpostor.truth import SpecularTruth, facing, refract
 
 # A glass object over a plain floor (a checker floor seen through a lens is mostly aliasing:
@@ -59,7 +57,7 @@ CUBE = '{ type = "box", size = [1.1, 1.1, 1.1] }'
 
 def glass_scene(shape: str = SPHERE, ior: float = 1.5, rotation: str = "[0.0, 0.0, 0.0]") -> Scene:
     text = GLASS_SCENE.replace("SHAPE", shape).replace("IOR", repr(ior)).replace("ROTATION", rotation)
-    return parse_scene(tomllib.loads(text), "glass test scene", Path("."))
+    return scene_from_toml(text, "glass test scene")
 
 
 def glass_view(renderer: Renderer) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -7,14 +7,13 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import tomllib
 from pathlib import Path
 
 import moderngl
 import numpy as np
 import pytest
 
-from conftest import SCENES, assert_finite
+from conftest import SCENES, assert_finite, scene_from_toml
 from depthimpostor.cli import main
 from depthimpostor.constants import Algorithm, Method
 from depthimpostor.culling import Reach, may_shadow, reach
@@ -23,7 +22,6 @@ from depthimpostor.plan import Pass, plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION
 from depthimpostor.scene import Scene, load_scene
-from depthimpostor.scene.loader import parse_scene
 
 #: Per project scene: (passes, depth images, images skipped, shader variants), worked out by
 #: hand: a mirror gets one image per object it may show, one more per other reflector and bounce
@@ -154,7 +152,7 @@ def test_animated_frame_matches_a_fresh_renderer(ctx: moderngl.Context) -> None:
 
 
 def _scene(text: str) -> Scene:
-    return parse_scene(tomllib.loads(text), "test scene", Path("."))
+    return scene_from_toml(text)
 
 
 SHADOWED = """

@@ -5,6 +5,7 @@ not compile. After each change the frame equals a fresh renderer made with that 
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 from pathlib import Path
 
@@ -16,7 +17,7 @@ from conftest import PROJECT_ROOT, SCENES, assert_finite
 from depthimpostor.constants import Algorithm, Method
 from depthimpostor.errors import SceneError, ShaderError
 from depthimpostor.renderer import Renderer
-from depthimpostor.scene import Camera, Scene, load_scene
+from depthimpostor.scene import Animation, Camera, Scene, load_scene
 from depthimpostor.shaders import ShaderLibrary
 
 SIZE = (160, 90)
@@ -153,3 +154,37 @@ def test_sample_view_shows_the_depth_images_instead_of_the_objects(ctx: moderngl
     differs = np.abs(samples - objects).max(axis=2) > 0.05
     # The objects' sides that face the camera are not in the mirror's depth images: they change.
     assert 0.01 < differs.mean() < 0.3
+
+
+@pytest.fixture(scope="module")
+def turning_light_scene(scene: Scene) -> Scene:
+    """The default scene under a directional light that turns 20 degrees a second about X: the floor
+    (an analytic plane in the mirror shader) is lit differently at each time."""
+    light = dataclasses.replace(scene.lights[0], animation=Animation("rotate", (1.0, 0.0, 0.0), 20.0))
+    return dataclasses.replace(scene, lights=[light])
+
+
+SETTINGS_AFTER_A_MOVE = {
+    "set_algorithm": lambda renderer: renderer.set_algorithm(Algorithm.BASIC),
+    "set_method": lambda renderer: renderer.set_method(Method.CUBEMAP),
+    "set_impostor_resolution": lambda renderer: renderer.set_impostor_resolution(32),
+}
+
+
+@pytest.mark.parametrize("setting", SETTINGS_AFTER_A_MOVE)
+def test_a_setting_changed_after_the_lights_moved_keeps_them_where_they_are(
+        ctx: moderngl.Context, turning_light_scene: Scene, setting: str) -> None:
+    """Programs made again for a new setting get the lights as they are now, not as written."""
+    with Renderer(ctx, turning_light_scene) as renderer:
+        renderer.render()
+        renderer.set_time(1.0)
+        SETTINGS_AFTER_A_MOVE[setting](renderer)
+        renderer.render()
+        frame = renderer.read_color_float()
+        algorithm, method, scene = renderer.algorithm, renderer.method, renderer.scene
+    with Renderer(ctx, scene, algorithm, method=method) as fresh:
+        fresh.set_time(1.0)
+        fresh.render()
+        expected = fresh.read_color_float()
+    assert_finite(frame)
+    np.testing.assert_allclose(frame, expected, atol=1e-5)

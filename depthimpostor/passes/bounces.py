@@ -42,7 +42,7 @@ class BounceBaker:
         defines = bounce_defines()
         # A program for mirrors and one for glass (the GLASS variant), each only if shown.
         shown = {image.target.object.is_glass for image in images.depth_images if image.level}
-        self.programs = {glass: reflector_program(images.programs, scene, images.planes, defines, glass)
+        self.programs = {glass: reflector_program(images.programs, scene, defines, glass)
                          for glass in shown}
         self.interior = GlassInterior(ctx, images.programs, images.meshes, resolution) if True in shown else None
         self.scratch = ImpostorAtlas(ctx, 1, resolution)

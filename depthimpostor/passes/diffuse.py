@@ -13,7 +13,7 @@ from ..geometry import ObjectGeometry
 from ..scene.model import Scene
 from ..shaders import ProgramCache
 from .meshes import GpuMeshes
-from .uniforms import shading_defines, write, write_lighting, write_material
+from .uniforms import shading_defines, write, write_material
 
 
 DIFFUSE_PROGRAM = ("mesh.vert", "diffuse.frag")
@@ -40,7 +40,6 @@ class DiffusePass:
         self.program = programs.get(*DIFFUSE_PROGRAM, defines)
         self.meshes = meshes
         self.triangle_offsets = triangle_offsets
-        write_lighting(self.program, scene)
 
     def draw(self, items: list[ObjectGeometry], view_projection: np.ndarray) -> int:
         """Draw the objects; returns the number of draw calls."""

@@ -7,7 +7,7 @@ import moderngl
 from ..ppc import PPC
 from ..scene.model import Scene
 from ..shaders import ProgramCache
-from .uniforms import write, write_lighting
+from .uniforms import write
 
 ENVIRONMENT_PROGRAM = ("fullscreen.vert", "environment.frag")
 
@@ -15,8 +15,7 @@ ENVIRONMENT_PROGRAM = ("fullscreen.vert", "environment.frag")
 class EnvironmentPass:
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene) -> None:
         self.ctx = ctx
-        self.program = programs.get(*ENVIRONMENT_PROGRAM)
-        write_lighting(self.program, scene)
+        self.program = programs.get(*ENVIRONMENT_PROGRAM)  # the sky's colours: the cache writes them
         self.vertex_array = ctx.vertex_array(self.program, [])
 
     def draw(self, camera: PPC) -> None:

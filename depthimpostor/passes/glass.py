@@ -25,6 +25,7 @@ import moderngl
 import numpy as np
 
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE
+from ..eye import eye_depth
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
 from ..shaders import ProgramCache
@@ -105,6 +106,14 @@ class GlassInterior:
             raise ValueError(f"an interior image of {camera.width}x{camera.height} does not fit {self.size}^2")
         viewport = (0, 0, camera.width, camera.height)
         self.ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        # Baked inside the eye's pass, but a depth image: OpenGL's depth, which the GLASS shader reads.
+        with eye_depth(self.ctx, reversed_=False):
+            self._draw_layers(glass, camera, viewport)
+        self._record.write(camera.depth_image_record(glass.index, (0, 0)).tobytes())
+        self.bakes += 1
+        return len(self._layers)
+
+    def _draw_layers(self, glass: ObjectGeometry, camera: PPC, viewport: tuple[int, int, int, int]) -> None:
         try:
             for framebuffer, culled in self._layers:
                 framebuffer.use()
@@ -114,9 +123,6 @@ class GlassInterior:
                 self.meshes.draw(self.program, glass, camera.view_projection)
         finally:
             self.ctx.disable(moderngl.CULL_FACE)
-        self._record.write(camera.depth_image_record(glass.index, (0, 0)).tobytes())
-        self.bakes += 1
-        return len(self._layers)
 
     def bind(self, program: moderngl.Program) -> None:
         """Point a GLASS program at the last interior image made."""

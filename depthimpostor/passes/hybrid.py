@@ -32,9 +32,8 @@ class HybridPass(ImpostorPass):
     keeps_beyond = True
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
-                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
-                 planes: list[ObjectGeometry] | None = None) -> None:
-        super().__init__(ctx, programs, scene, meshes, mirrors, reflected, planes)
+                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]) -> None:
+        super().__init__(ctx, programs, scene, meshes, mirrors, reflected)
         self.reflected = list(reflected)
         try:
             self.triangles = TrianglePass(ctx, scene, self.reflected, places=True)

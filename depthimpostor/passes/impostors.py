@@ -366,13 +366,9 @@ class BakedImages:
         meshes: GpuMeshes,
         mirrors: list[ObjectGeometry],
         reflected: list[ObjectGeometry],
-        planes: list[ObjectGeometry] | None = None,
     ) -> None:
-        """`planes`, the analytic planes, are what a mirror shown in an image reflects besides
-        the images (render.max_bounces > 1)."""
         plan = self.plan_images(scene, mirrors, reflected)
         self.ctx = ctx
-        self.planes = planes or []
         self.programs = programs
         self.scene = scene
         self.meshes = meshes
@@ -591,9 +587,8 @@ class ImpostorPass(BakedImages):
     bounces: BounceBaker | None = None
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
-                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
-                 planes: list[ObjectGeometry] | None = None) -> None:
-        super().__init__(ctx, programs, scene, meshes, mirrors, reflected, planes)
+                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]) -> None:
+        super().__init__(ctx, programs, scene, meshes, mirrors, reflected)
         if self.final_level > 1 and len(mirrors) > 1:
             from .bounces import BounceBaker  # bounces.py builds on this module's classes
 

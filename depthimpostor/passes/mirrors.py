@@ -19,7 +19,7 @@ from ..truth import MIRROR_BACKING_ALBEDO
 from .glass import GlassInterior, interior_camera, pixel_angle
 from .impostors import BAKE_CULLS_FRONT_FACES
 from .meshes import GpuMeshes
-from .uniforms import shading_defines, write, write_analytic_planes, write_lighting
+from .uniforms import shading_defines, write
 
 
 class ReflectedObjects(Protocol):
@@ -77,13 +77,10 @@ def bounce_defines() -> dict[str, int]:
     return {**reflection_defines(Method.DEPTH, Algorithm.OPTIMIZED), "WRITE_DEPTH_IMAGE": 1}
 
 
-def reflector_program(programs: ProgramCache, scene: Scene, analytic_planes: list[ObjectGeometry],
-                      defines: dict[str, int], glass: bool) -> moderngl.Program:
-    """The mirror shader's variant for mirrors or (GLASS) for glass, with the scene's lighting and
-    analytic planes written: shared by the frame's pass and the bounce bakes."""
+def reflector_program(programs: ProgramCache, scene: Scene, defines: dict[str, int], glass: bool) -> moderngl.Program:
+    """The mirror shader's variant for mirrors or (GLASS) for glass (the cache writes the scene's
+    lights and analytic planes into it): shared by the frame's pass and the bounce bakes."""
     program = programs.get(*REFLECTOR_PROGRAM, reflector_defines(scene, defines, glass))
-    write_lighting(program, scene)
-    write_analytic_planes(program, scene, analytic_planes)
     write(program, "u_backing_albedo", MIRROR_BACKING_ALBEDO)
     return program
 
@@ -134,7 +131,6 @@ class MirrorPass:
         scene: Scene,
         meshes: GpuMeshes,
         reflected: ReflectedObjects,
-        analytic_planes: list[ObjectGeometry],
         method: Method,
         algorithm: Algorithm,
         write_reflection_data: bool = False,
@@ -143,7 +139,7 @@ class MirrorPass:
     ) -> None:
         defines = reflection_defines(method, algorithm, write_reflection_data, count_samples)
         self.programs = {
-            glass: reflector_program(programs, scene, analytic_planes, defines, glass) if present else None
+            glass: reflector_program(programs, scene, defines, glass) if present else None
             for glass, present in ((False, bool(scene.mirrors)), (True, bool(scene.glass)))
         }
         self.interiors = interiors or {}

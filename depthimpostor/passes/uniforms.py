@@ -120,6 +120,15 @@ def write_lighting(program: moderngl.Program, scene: Scene) -> None:
     write(program, "u_env_ground", tuple(scene.environment.ground))
 
 
+def write_scene_uniforms(program: moderngl.Program, scene: Scene, planes: Sequence[ObjectGeometry]) -> None:
+    """Everything a program reads of the scene as it is now: the lights and environment, and (in
+    the programs that trace them: the mirror shader's variants) the analytic planes. The renderer
+    hands this to its ProgramCache, which alone calls it."""
+    write_lighting(program, scene)
+    if "u_plane_count" in program:
+        write_analytic_planes(program, scene, planes)
+
+
 def write_analytic_planes(program: moderngl.Program, scene: Scene, planes: Sequence[ObjectGeometry]) -> None:
     if len(planes) > MAX_ANALYTIC_PLANES:
         raise SceneError(
