@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import csv
 import datetime
+import io
 import math
 import os
 import platform
@@ -25,6 +26,7 @@ import statistics
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
+from functools import partial
 from pathlib import Path
 
 import moderngl
@@ -33,6 +35,7 @@ import numpy as np
 from .compare import TruthFrame, compare
 from .constants import Algorithm, Method
 from .context import describe
+from .outputs import Outputs
 from .renderer import STAND_INS, Renderer
 from .passes.impostors import BakedImages
 from .scene import Scene
@@ -257,15 +260,16 @@ def total_configurations(scene_count: int, settings: BenchSettings) -> int:
 COLUMNS = [field.name for field in fields(BenchRow)]
 
 
-def write_csv(rows: Sequence[BenchRow], path: Path, header: Sequence[str]) -> None:
+def csv_text(rows: Sequence[BenchRow], header: Sequence[str]) -> str:
     """Comment lines (`# ...`) name the machine and settings; then one row per configuration."""
-    with path.open("w", newline="", encoding="utf-8") as file:
-        for line in header:
-            file.write(f"# {line}\n")
-        writer = csv.DictWriter(file, fieldnames=COLUMNS)
-        writer.writeheader()
-        for row in rows:
-            writer.writerow(asdict(row))
+    text = io.StringIO(newline="")
+    for line in header:
+        text.write(f"# {line}\n")
+    writer = csv.DictWriter(text, fieldnames=COLUMNS)
+    writer.writeheader()
+    for row in rows:
+        writer.writerow(asdict(row))
+    return text.getvalue()
 
 
 def markdown(rows: Sequence[BenchRow], header: Sequence[str]) -> str:
@@ -292,7 +296,7 @@ def _label(row: BenchRow) -> str:
     return row.method + ("" if row.algorithm == "-" else f" ({row.algorithm})")
 
 
-def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[Path]:
+def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str], out: Outputs) -> list[Path]:
     """Per scene: the accuracy/time frontier (colour RMSE against frame time, a curve per method,
     a point per resolution) and samples per ray against resolution."""
     import matplotlib
@@ -329,9 +333,8 @@ def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[
         figure.text(0.01, 0.005, header[1], fontsize=6)
         path = folder / f"frontier-{scene}.png"
         figure.tight_layout(rect=(0, 0.03, 1, 1))
-        figure.savefig(path, dpi=110)
+        written.append(out.write(path, partial(figure.savefig, format="png", dpi=110)))
         plt.close(figure)
-        written.append(path)
 
         figure, axis = plt.subplots(figsize=(7.5, 5.0))
         for label in labels:
@@ -348,14 +351,13 @@ def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[
         axis.legend(fontsize=8)
         path = folder / f"samples-{scene}.png"
         figure.tight_layout()
-        figure.savefig(path, dpi=110)
+        written.append(out.write(path, partial(figure.savefig, format="png", dpi=110)))
         plt.close(figure)
-        written.append(path)
     return written
 
 
 def write_results(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[Path]:
-    folder.mkdir(parents=True, exist_ok=True)
-    write_csv(rows, folder / "bench.csv", header)
-    (folder / "bench.md").write_text(markdown(rows, header), encoding="utf-8")
-    return [folder / "bench.csv", folder / "bench.md", *plot(rows, folder, header)]
+    """bench.csv, bench.md and the plots, put in place together once all are written."""
+    with Outputs() as out:
+        return [out.text(folder / "bench.csv", csv_text(rows, header)),
+                out.text(folder / "bench.md", markdown(rows, header)), *plot(rows, folder, header, out)]

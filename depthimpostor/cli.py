@@ -5,18 +5,19 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import statistics
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import moderngl
-from PIL import Image
 
 from .constants import Algorithm, Method
 from .context import create_context, describe
 from .errors import DepthImpostorError, SceneError
 from .compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
+from .outputs import Outputs, check_file, check_folder, write_image
 from .plan import RenderPlan, plan_render
 from .renderer import Renderer, RenderStats, to_uint8
 from .resources import default_scene_path
@@ -83,6 +84,7 @@ def _stand_in(renderer: Renderer) -> str:
 
 
 def _render(args: argparse.Namespace) -> int:
+    output = check_file(Path(args.output), "-o")
     scene = _load(args)
     ctx = create_context(args.backend)
     renderer_name = describe(ctx)
@@ -99,10 +101,7 @@ def _render(args: argparse.Namespace) -> int:
     finally:
         ctx.release()
     timed = stats.draw_seconds[1:]
-    output = Path(args.output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(image).save(output)
-    print(output)
+    print(write_image(output, image))
     print(
         f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)}), {stand_in}, "
         f"{scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}"
@@ -159,26 +158,29 @@ def _compare_frame(
 
 
 def _truth(args: argparse.Namespace) -> int:
+    output = check_file(Path(args.output), "-o")
     ctx = create_context(args.backend)
     try:
         comparison, _ = _compare_frame(ctx, _load(args), args, Method.RAYTRACE)
     finally:
         ctx.release()
-    output = Path(args.output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(to_uint8(comparison.truth)).save(output)
-    print(output)
+    print(write_image(output, to_uint8(comparison.truth)))
     return 0
 
 
 def _compare(args: argparse.Namespace) -> int:
     """One method: its report in the output folder. `--method all`: every method's report in a
     sub-folder, and the side-by-side sheet and table of all of them."""
+    output = check_folder(Path(args.output), "-o")
     scene = _load(args)
     methods = list(Method) if args.method == ALL_METHODS else [Method.from_option(args.method)]
-    output = Path(args.output)
     rows: dict[str, tuple[str, Figures]] = {}
     comparisons: dict[str, Comparison] = {}
+    written: list[Path] = []
+    tables: list[str] = []
+    # Every method's report, and the sheet of all of them, go in place together once all are
+    # written: a failure (a full disk, a method refused) leaves no half report.
+    out = Outputs()
     ctx = create_context(args.backend)
     try:
         for method in methods:
@@ -194,17 +196,21 @@ def _compare(args: argparse.Namespace) -> int:
                 "method": method.option,
                 "stand_in": kept,
             }
-            for path in write_report(comparison, output / method.option if len(methods) > 1 else output, settings):
-                print(path)
-            print(format_table(comparison.figures))
+            written += write_report(comparison, output / method.option if len(methods) > 1 else output, settings,
+                                    out)
+            tables.append(format_table(comparison.figures))
             rows[method.option], comparisons[method.option] = (kept, comparison.figures), comparison
+        if len(methods) > 1:
+            written.append(out.image(output / "methods.png", side_by_side(comparisons)))
+            written.append(out.text(output / "methods.md", markdown_table(rows)))
+        out.commit()
     finally:
+        out.discard()
         ctx.release()
+    for path in written:
+        print(path)
+    print("\n".join(tables))
     if len(methods) > 1:
-        Image.fromarray(side_by_side(comparisons)).save(output / "methods.png")
-        (output / "methods.md").write_text(markdown_table(rows), encoding="utf-8")
-        print(output / "methods.png")
-        print(output / "methods.md")
         print(markdown_table(rows), end="")
     return 0
 
@@ -235,6 +241,7 @@ def _bench(args: argparse.Namespace) -> int:
             raise SceneError("command line", "--methods", f"expected methods among {[m.option for m in Method]} "
                              f"or all, got {unknown}")
         methods = tuple(Method.from_option(name) for name in args.methods)
+    output = check_folder(Path(args.output), "-o")
     for resolution in args.resolutions:  # checked as strictly as a scene file's
         scenes[0].with_overrides(impostor_resolution=resolution)
     size = args.size or scenes[0].render.size
@@ -252,7 +259,7 @@ def _bench(args: argparse.Namespace) -> int:
             rows = run_bench(ctx, scenes, settings, progress)
     finally:
         ctx.release()
-    for path in write_results(rows, Path(args.output), header):
+    for path in write_results(rows, output, header):
         print(path)
     return 0
 
@@ -261,6 +268,10 @@ def _view(args: argparse.Namespace) -> int:
     from .viewer import ViewerOptions, run_viewer  # glfw is loaded for the window alone
     from .viewer.keys import parse_key_script
 
+    for option, path in (("--screenshot", args.screenshot), ("--window-screenshot", args.window_screenshot),
+                         ("--report", args.report)):
+        if path is not None:
+            check_file(path, option, image=option != "--report")
     options = ViewerOptions(
         scene=_load(args),
         algorithm=Algorithm[args.algorithm.upper()],
@@ -367,6 +378,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: The exit status of a command whose standard output was closed early (`render ... | head`): the
+#: shell's for a process ended by SIGPIPE, as `yes | head` gives.
+BROKEN_PIPE_EXIT = 128 + 13
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
@@ -374,4 +390,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except DepthImpostorError as error:
         print(f"depthimpostor: {error}", file=sys.stderr)
         return error.exit_code
+    except BrokenPipeError:
+        # The reader went away (`| head`): nothing more to say, and nowhere to say it. Python
+        # flushes stdout again at exit; pointing it at /dev/null keeps that from failing too.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+        return BROKEN_PIPE_EXIT
 
