@@ -26,8 +26,17 @@ from .errors import OutputError
 Writer = Callable[[IO[bytes]], None]
 
 
+def _stream(path: Path) -> bool:
+    """A destination that is not a file to replace: a device or a pipe (`-o /dev/null`,
+    `-o /dev/stdout`), written straight into."""
+    return path.exists() and not path.is_file() and not path.is_dir()
+
+
 def image_format(path: Path, option: str) -> str:
-    """The PIL format a file name asks for (`.png` -> PNG); OutputError for one PIL cannot write."""
+    """The PIL format a file name asks for (`.png` -> PNG; PNG into a device or a pipe);
+    OutputError for one Pillow cannot write."""
+    if _stream(path) and not path.suffix:
+        return "PNG"
     formats = Image.registered_extensions()
     writable = sorted(ext for ext, name in formats.items() if name in Image.SAVE)
     name = formats.get(path.suffix.lower())
@@ -54,7 +63,8 @@ def check_file(path: Path, option: str, image: bool = True) -> Path:
         raise OutputError(f"{option} {path}: expected a file name, got an existing folder")
     if image:
         image_format(path, option)
-    _writable_folder(path.parent, option, path)
+    if not _stream(path):
+        _writable_folder(path.parent, option, path)
     return path
 
 
@@ -96,6 +106,13 @@ class Outputs:
         """Write through `writer` (given a binary file) to a temporary file for `path`. An
         `exclusive` file never replaces one: its commit raises FileExistsError if `path` exists."""
         path = Path(path)
+        if _stream(path):
+            try:
+                with path.open("wb") as file:
+                    writer(file)
+            except OSError as error:
+                raise OutputError(f"cannot write {path}: {error.strerror or error}") from None
+            return path
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             handle, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
