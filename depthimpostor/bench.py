@@ -35,7 +35,10 @@ import numpy as np
 from .compare import TruthFrame, compare
 from .constants import Algorithm, Method
 from .context import describe
+from .errors import GpuLimitError
+from .limits import check_fits, context_limits, frame_bytes, frame_outputs, planned_bytes
 from .outputs import Outputs
+from .plan import plan_render
 from .renderer import STAND_INS, Renderer
 from .passes.impostors import BakedImages
 from .scene import Scene
@@ -220,6 +223,33 @@ def configurations(settings: BenchSettings) -> list[tuple[int | str, list[Techni
     return groups
 
 
+def _configured(scene: Scene, settings: BenchSettings) -> list[tuple[Scene, int | str, Technique]]:
+    """Every configuration of one scene: the scene at its size and resolution, and the technique."""
+    return [
+        (scene.with_overrides(size=settings.size, impostor_resolution=resolution), resolution, technique)
+        for resolution, group in configurations(settings) for technique in group
+    ]
+
+
+def check_bench(ctx: moderngl.Context, scenes: Sequence[Scene], settings: BenchSettings) -> None:
+    """Refuse, before any work, a benchmark this context cannot hold (GpuLimitError): each
+    configuration with the measuring renderer's extra outputs, and each scene's configurations
+    together, since they are timed side by side."""
+    limits = context_limits(ctx)
+    outputs = frame_outputs(reflection_data=True, count_samples=True)
+    for scene in scenes:
+        together = 0
+        for variant, _, technique in _configured(scene, settings):
+            plan = plan_render(variant, technique.method, technique.algorithm)
+            check_fits(ctx, variant, plan, outputs)
+            together += planned_bytes(plan) + frame_bytes(variant.render.size)
+        if limits.memory is not None and together > limits.memory:
+            raise GpuLimitError(
+                f"{scene.source}: the {len(_configured(scene, settings))} configurations timed together need "
+                f"{together / 2**20:.0f} MiB, over the {limits.memory / 2**20:.0f} MiB of {limits.memory_source}; "
+                "give fewer --resolutions or --methods, or raise --max-memory")
+
+
 def run_bench(
     ctx: moderngl.Context, scenes: Sequence[Scene], settings: BenchSettings, progress: object | None = None
 ) -> list[BenchRow]:
@@ -227,10 +257,7 @@ def run_bench(
     rows: list[BenchRow] = []
     for scene in scenes:
         name = Path(scene.source).stem
-        configured = [
-            (scene.with_overrides(size=settings.size, impostor_resolution=resolution), resolution, technique)
-            for resolution, group in configurations(settings) for technique in group
-        ]
+        configured = _configured(scene, settings)
         # Every configuration of the scene is timed in the same rounds: a machine that slows down
         # for a few seconds (this one did, by a third, when resolutions were timed one after the
         # other) then slows every configuration alike. The cost is memory: every configuration's

@@ -18,6 +18,7 @@ from .context import create_context, describe
 from .errors import DepthImpostorError, SceneError
 from .compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
 from .outputs import Outputs, check_file, check_folder, write_image
+from .limits import check_fits, limit_memory, parse_memory
 from .plan import RenderPlan, plan_render
 from .renderer import Renderer, RenderStats, to_uint8
 from .resources import default_scene_path
@@ -86,7 +87,7 @@ def _stand_in(renderer: Renderer) -> str:
 def _render(args: argparse.Namespace) -> int:
     output = check_file(Path(args.output), "-o")
     scene = _load(args)
-    ctx = create_context(args.backend)
+    ctx = _context(args)
     renderer_name = describe(ctx)
     algorithm = Algorithm[args.algorithm.upper()]
     method = Method.from_option(args.method)
@@ -135,9 +136,23 @@ def format_stats(stats: RenderStats, plan: RenderPlan, start: float, fps: float)
 
 
 def _plan(args: argparse.Namespace) -> int:
-    plan = plan_render(_load(args), Method.from_option(args.method), Algorithm[args.algorithm.upper()])
-    print(json.dumps(plan.to_json(), indent=2) if args.json else plan.format())
+    """The plan; then, as `render` would, a refusal of what this GL cannot hold (exit 2)."""
+    scene = _load(args)
+    plan = plan_render(scene, Method.from_option(args.method), Algorithm[args.algorithm.upper()])
+    print(json.dumps(plan.to_json(), indent=2) if args.json else plan.format(), flush=True)
+    ctx = _context(args)
+    try:
+        check_fits(ctx, scene, plan)
+    finally:
+        ctx.release()
     return 0
+
+
+def _context(args: argparse.Namespace) -> moderngl.Context:
+    """A headless context, its memory budget `--max-memory` where given."""
+    ctx = create_context(args.backend)
+    limit_memory(ctx, args.max_memory)
+    return ctx
 
 
 def _kept(renderer: Renderer) -> str:
@@ -159,7 +174,7 @@ def _compare_frame(
 
 def _truth(args: argparse.Namespace) -> int:
     output = check_file(Path(args.output), "-o")
-    ctx = create_context(args.backend)
+    ctx = _context(args)
     try:
         comparison, _ = _compare_frame(ctx, _load(args), args, Method.RAYTRACE)
     finally:
@@ -181,7 +196,7 @@ def _compare(args: argparse.Namespace) -> int:
     # Every method's report, and the sheet of all of them, go in place together once all are
     # written: a failure (a full disk, a method refused) leaves no half report.
     out = Outputs()
-    ctx = create_context(args.backend)
+    ctx = _context(args)
     try:
         for method in methods:
             # Every method computes the same rays: the truth is traced once and reused.
@@ -230,7 +245,7 @@ def _list_of(kind: Callable[[str], object]) -> Callable[[str], list[object]]:
 def _bench(args: argparse.Namespace) -> int:
     from tqdm import tqdm  # the progress bar is the benchmark's alone
 
-    from .bench import BenchSettings, machine_lines, run_bench, total_configurations, write_results
+    from .bench import BenchSettings, check_bench, machine_lines, run_bench, total_configurations, write_results
 
     scenes = [load_scene(path) for path in args.scenes] or [load_scene(default_scene_path())]
     if ALL_METHODS in args.methods:
@@ -251,8 +266,9 @@ def _bench(args: argparse.Namespace) -> int:
                          f"{[a.name.lower() for a in Algorithm]}, got {unknown}")
     algorithms = tuple(Algorithm[name.upper()] for name in dict.fromkeys(args.algorithms))
     settings = BenchSettings(methods, algorithms, tuple(args.resolutions), size, args.frames, args.warmup, args.bakes)
-    ctx = create_context(args.backend)
+    ctx = _context(args)
     try:
+        check_bench(ctx, scenes, settings)  # before any work
         header = machine_lines(ctx, settings, scenes)
         print("\n".join(header), flush=True)
         with tqdm(total=total_configurations(len(scenes), settings), unit="configuration") as progress:
@@ -282,6 +298,7 @@ def _view(args: argparse.Namespace) -> int:
         window_screenshot=args.window_screenshot,
         report=args.report,
         shaders=args.shaders,
+        max_memory=args.max_memory,
     )
     return run_viewer(options)
 
@@ -294,8 +311,26 @@ def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) ->
                               "sized so that a sample covers about one reflected pixel), overriding the scene's")
     command.add_argument("--simplified-triangles", type=int,
                          help="--method simplified: triangles per reflected object at most, overriding the scene's")
+    _max_memory_argument(command)
     if not headless:
         return
+    _backend_argument(command)
+
+
+def _memory(text: str) -> int:
+    try:
+        return parse_memory(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def _max_memory_argument(command: argparse.ArgumentParser) -> None:
+    command.add_argument("--max-memory", type=_memory,
+                         help="memory the frame and its images may take, such as 512M or 2G (default: what the "
+                              "GL driver has, the machine's available memory on a software renderer)")
+
+
+def _backend_argument(command: argparse.ArgumentParser) -> None:
     command.add_argument("--backend", choices=["auto", "egl", "osmesa"], default=None,
                          help="headless GL backend (default: auto, EGL then OSMesa)")
 
@@ -331,7 +366,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.set_defaults(run=_render)
 
     plan = commands.add_parser("plan", help="the passes, depth images and shader variants a scene calls for, and why")
-    _scene_arguments(plan, headless=False)
+    _scene_arguments(plan)
     _method_arguments(plan)
     plan.add_argument("--json", action="store_true", help="print the plan as JSON")
     plan.set_defaults(run=_plan)
@@ -362,7 +397,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--warmup", type=int, default=2, help="untimed frames before them (default 2)")
     bench.add_argument("--bakes", type=int, default=3, help="timed re-bakes per configuration (default 3)")
     bench.add_argument("-o", "--output", default="results", help="output folder (default: results/)")
-    bench.add_argument("--backend", choices=["auto", "egl", "osmesa"], default=None, help="headless GL backend")
+    _backend_argument(bench)
+    _max_memory_argument(bench)
     bench.set_defaults(run=_bench)
 
     view = commands.add_parser("view", help="fly around a scene in a window (keys: H in the window)")

@@ -20,6 +20,7 @@ from .context import bind_default_framebuffer
 from .culling import may_shadow
 from .errors import SceneError
 from .geometry import ObjectGeometry, scene_geometry
+from .limits import allocating, check_fits, frame_outputs
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
 from .passes.glass import GlassInterior
@@ -133,9 +134,11 @@ class Renderer:
         self.view = scene.camera
         self.camera = fitted_camera(self.view, scene.render.size, self.bounds)
         self.plan: RenderPlan = plan_render(scene, method, algorithm, self.geometry)
+        check_fits(ctx, scene, self.plan, self._frame_outputs)  # before any GL object is made
         self.meshes = GpuMeshes(ctx)
-        self._make_targets(scene.render.size)
-        self._build_passes()
+        with allocating(ctx, "--size or --impostor-res"):
+            self._make_targets(scene.render.size)
+            self._build_passes()
 
     def _classify(self, geometry: list[ObjectGeometry]) -> None:
         """The scene's objects (at the renderer's time) in the lists the passes draw."""
@@ -250,6 +253,16 @@ class Renderer:
             self.reflection_data, self.count_samples, self.glass_interiors,
         )
 
+    @property
+    def _frame_outputs(self) -> int:
+        return frame_outputs(self.reflection_data, self.count_samples)
+
+    def _checked_plan(self, scene: Scene, method: Method, algorithm: Algorithm) -> RenderPlan:
+        """The plan of other settings, once this context is known to hold it (GpuLimitError if not)."""
+        plan = plan_render(scene, method, algorithm, self.geometry)
+        check_fits(self.ctx, scene, plan, self._frame_outputs)
+        return plan
+
     def _replan(self) -> None:
         self.plan = plan_render(self.scene, self.method, self.algorithm, self.geometry)
 
@@ -317,15 +330,19 @@ class Renderer:
         if size == self.scene.render.size:
             return
         scene = self.scene.with_overrides(size=size)
+        self._checked_plan(scene, self.method, self.algorithm)
         self._release_targets()
         self.scene = scene
-        self._make_targets(size)
+        with allocating(self.ctx, "the frame's size"):
+            self._make_targets(size)
         self.look_at(self.view)
 
     def set_algorithm(self, algorithm: Algorithm) -> None:
         """Intersect with another algorithm: another mirror variant, the same depth images (the
         hierarchical one builds their pyramids from them; the others free the pyramids). A GL
-        without compute shaders raises ContextError for the hierarchical one and keeps the old."""
+        without compute shaders raises ContextError for the hierarchical one and keeps the old, and
+        so does a context that cannot hold the pyramids (GpuLimitError)."""
+        self._checked_plan(self.scene, self.method, algorithm)
         self._keep_pyramids(algorithm)
         self.algorithm = algorithm
         self._replan()
@@ -335,9 +352,12 @@ class Renderer:
     def set_method(self, method: Method) -> None:
         """Stand in for the reflected objects another way: the old method's resources go and the
         new one's are made, unless both use the same (the two cube-map lookups); a scene without
-        mirrors has none either way."""
+        mirrors has none either way. A method this context cannot hold raises GpuLimitError and
+        leaves the renderer as it was."""
+        self._checked_plan(self.scene, method, self.algorithm)
         if self.reflectors and STAND_INS[method] is not STAND_INS[self.method]:
-            self._make_stand_in(method, self.scene)
+            with allocating(self.ctx, "--impostor-res"):
+                self._make_stand_in(method, self.scene)
         self.method = method
         self._replan()
         if self.reflectors:
@@ -352,11 +372,13 @@ class Renderer:
         """Re-plan and re-bake the baked images (all of them share the resolution, so all change).
 
         The new atlas is made before the old one goes: a resolution this GL cannot hold raises
-        SceneError and leaves the renderer as it was.
+        GpuLimitError (checked before anything is made) and leaves the renderer as it was.
         """
         scene = self.scene.with_overrides(impostor_resolution=resolution)
+        self._checked_plan(scene, self.method, self.algorithm)
         if self.baked_images is not None:
-            self._make_stand_in(self.method, scene)
+            with allocating(self.ctx, "--impostor-res"):
+                self._make_stand_in(self.method, scene)
         self.scene = scene
         self._replan()
         if self.mirror_pass is not None:

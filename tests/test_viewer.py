@@ -311,3 +311,39 @@ def test_every_key_in_every_project_scene_keeps_the_session(display: str, tmp_pa
     # The scenes with mirrors in mirrors (render.max_bounces = 2) skip every other method, saying why,
     # and so does the scene whose ring surrounds the mirror's centre, for the methods that bake.
     assert {"two_mirrors.toml", "glass_and_mirrors.toml", "surrounds.toml"} <= skipped
+
+
+OVER_THE_LIMIT = """
+import dataclasses, json, sys
+import glfw
+from depthimpostor.context import create_window
+from depthimpostor.limits import context_limits, use_limits
+from depthimpostor.scene import load_scene
+from depthimpostor.viewer.app import Viewer, ViewerOptions
+
+scene = load_scene(sys.argv[1]).with_overrides(size=(160, 90), impostor_resolution=512)
+window = create_window("test", scene.render.size)
+# A GL whose textures are 2048 a side at most: 5 images of 1024 need a 3072 x 2048 atlas.
+use_limits(window.ctx, dataclasses.replace(context_limits(window.ctx), max_texture_size=2048))
+viewer = Viewer(window, ViewerOptions(scene))
+viewer.draw_frame()
+viewer.on_key(glfw.KEY_RIGHT_BRACKET, glfw.PRESS, 0)
+viewer.draw_frame()
+out = {"message": viewer.message[0], "overlay": list(viewer.panels()[0].lines),
+       "resolution": viewer.renderer.baked_images.atlas.resolution, "gl_error": viewer.ctx.error}
+viewer.release()
+window.release()
+print(json.dumps(out))
+"""
+
+
+def test_a_resolution_over_the_gl_limits_keeps_the_old_and_says_why(display: str, tmp_path: Path) -> None:
+    env = {**os.environ, "DISPLAY": display, "PYTHONPATH": str(PROJECT_ROOT)}
+    done = subprocess.run([sys.executable, "-c", OVER_THE_LIMIT, str(DEFAULT_SCENE)], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["resolution"] == 512
+    assert result["message"].startswith("baked images stay at 512x512: the atlas of 5 baked images of 1024x1024")
+    assert "GL_MAX_TEXTURE_SIZE of 2048" in result["message"] and result["message"] in result["overlay"]
+    assert result["gl_error"] == "GL_NO_ERROR"

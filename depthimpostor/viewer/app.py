@@ -28,6 +28,7 @@ import numpy as np
 from ..constants import Algorithm, Method
 from ..context import Window, bind_default_framebuffer, create_window, describe
 from ..errors import DepthImpostorError, OutputError, SceneError, ShaderError
+from ..limits import limit_memory
 from ..outputs import Outputs, write_image
 from ..passes.overlay import OverlayPass, Panel
 from ..passes.present import PresentPass
@@ -75,6 +76,7 @@ class ViewerOptions:
     report: Path | None = None  # JSON: frames, bakes, key events, GL errors
     shaders: Path | None = None
     screenshot_dir: Path = Path(".")
+    max_memory: int | None = None  # bytes the frame and its images may take (--max-memory)
 
 
 def next_resolution(current: int, up: bool) -> int:
@@ -144,6 +146,7 @@ class Viewer:
         self.frame_size: tuple[int, int] = glfw.get_framebuffer_size(window.handle)
         library = ShaderLibrary(options.shaders) if options.shaders else None
         scene = options.scene.with_overrides(size=self.frame_size)
+        limit_memory(self.ctx, options.max_memory)
         self.renderer = Renderer(self.ctx, scene, options.algorithm, shaders=library, method=options.method)
         # The viewer's own programs (overlay, present): the renderer's are its to replace.
         self.programs = ProgramCache(self.ctx, library)
