@@ -47,13 +47,20 @@ def image_format(path: Path, option: str) -> str:
 
 
 def _writable_folder(folder: Path, option: str, shown: Path) -> None:
-    """Make `folder` (and its parents) and prove a file can be created in it."""
+    """Prove a file can be created in `folder`: make it (and its parents), create a file, and take
+    away again what was made, so that a run refused later leaves no empty folder behind. (Trying is
+    the only sure test: root may write where the permission bits say not, and nobody in /proc.)"""
+    missing = [parent for parent in (folder, *folder.parents) if not parent.exists()]
     try:
         folder.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=folder):
             pass
     except OSError as error:
         raise OutputError(f"{option} {shown}: cannot write in {folder}: {error.strerror or error}") from None
+    finally:
+        for made in missing:  # deepest first
+            if made.is_dir():
+                made.rmdir()
 
 
 def check_file(path: Path, option: str, image: bool = True) -> Path:

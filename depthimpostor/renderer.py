@@ -20,6 +20,7 @@ from .context import bind_default_framebuffer
 from .culling import may_shadow
 from .errors import SceneError
 from .geometry import ObjectGeometry, scene_geometry
+from .embedding import FramePresenter, kept_state, keeps_gl_state
 from .limits import allocating, check_fits, frame_outputs
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
@@ -99,6 +100,9 @@ class ReflectionData:
 
 
 class Renderer:
+    """A scene's frames, drawn with the GL context it is given. Every public method leaves the GL
+    state as it found it (embedding.py; docs/python_api.md): an application can share its context."""
+
     def __init__(
         self,
         ctx: moderngl.Context,
@@ -136,7 +140,8 @@ class Renderer:
         self.plan: RenderPlan = plan_render(scene, method, algorithm, self.geometry)
         check_fits(ctx, scene, self.plan, self._frame_outputs)  # before any GL object is made
         self.meshes = GpuMeshes(ctx)
-        with allocating(ctx, "--size or --impostor-res"):
+        self._presenter: FramePresenter | None = None  # made when a frame is first put in a caller's framebuffer
+        with kept_state(ctx), allocating(ctx, "--size or --impostor-res"):
             self._make_targets(scene.render.size)
             self._build_passes()
 
@@ -325,6 +330,7 @@ class Renderer:
         for program in self.programs.programs():
             write_lighting(program, self.lit_scene)
 
+    @keeps_gl_state
     def resize(self, size: tuple[int, int]) -> None:
         """Render frames of another size; depth images do not depend on it."""
         if size == self.scene.render.size:
@@ -337,6 +343,7 @@ class Renderer:
             self._make_targets(size)
         self.look_at(self.view)
 
+    @keeps_gl_state
     def set_algorithm(self, algorithm: Algorithm) -> None:
         """Intersect with another algorithm: another mirror variant, the same depth images (the
         hierarchical one builds their pyramids from them; the others free the pyramids). A GL
@@ -349,6 +356,7 @@ class Renderer:
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
 
+    @keeps_gl_state
     def set_method(self, method: Method) -> None:
         """Stand in for the reflected objects another way: the old method's resources go and the
         new one's are made, unless both use the same (the two cube-map lookups); a scene without
@@ -368,6 +376,7 @@ class Renderer:
                 self.samples.release()
                 self.samples = None
 
+    @keeps_gl_state
     def set_impostor_resolution(self, resolution: int) -> None:
         """Re-plan and re-bake the baked images (all of them share the resolution, so all change).
 
@@ -384,6 +393,7 @@ class Renderer:
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
 
+    @keeps_gl_state
     def set_show_samples(self, show: bool) -> None:
         """Show each reflected object as the samples of the baked images (the lecture's sample
         visualization) instead of its triangles; the samples' program is made on first use."""
@@ -398,6 +408,7 @@ class Renderer:
         if self.baked_images is not None:
             self.baked_images.bake_again()
 
+    @keeps_gl_state
     def reload_shaders(self) -> None:
         """Compile every program again from the files as they are now, and re-bake.
 
@@ -406,18 +417,40 @@ class Renderer:
         """
         fresh = self.programs.reloaded()
         self._release_passes()
+        self._presenter = None  # released with the passes; made again, with the new programs, when needed
         self.meshes.forget_vertex_arrays()
         self.programs.release()
         self.programs = fresh
         self._build_passes()
 
     # ------------------------------------------------------------------ frames
-    def render(self) -> RenderStats:
-        """Draw one frame into the renderer's framebuffer, baking impostors first if they are stale.
+    def render(self, target: moderngl.Framebuffer | None = None,
+               viewport: tuple[int, int, int, int] | None = None) -> RenderStats:
+        """Draw one frame into the renderer's framebuffer, baking impostors first if they are stale,
+        and (given a `target`) put it upright into `viewport` of `target` (default: all of it; the
+        viewport must be the frame's size). The GL state is left as it was found.
 
         Times are wall-clock around `ctx.finish()`: GPU time queries under-report on software
-        rasterizers, and a finish makes the time include all the work the frame queued.
+        rasterizers, and a finish makes the time include all the work the frame queued; putting
+        the frame in `target` is not timed.
         """
+        # The passes expect the depth test on and nothing else (no blending of the caller's).
+        with kept_state(self.ctx, enable_only=moderngl.DEPTH_TEST):
+            stats = self._draw_frame()
+            if target is not None:
+                self._put_frame(target, viewport)
+        return stats
+
+    def _put_frame(self, target: moderngl.Framebuffer, viewport: tuple[int, int, int, int] | None) -> None:
+        size = self.scene.render.size
+        if self._presenter is not None and self._presenter.size != size:
+            self._presenter.release()
+            self._presenter = None
+        if self._presenter is None:
+            self._presenter = FramePresenter(self.ctx, self.programs, size)
+        self._presenter.draw(self.color_framebuffer, target, viewport)
+
+    def _draw_frame(self) -> RenderStats:
         shadow_maps, stand_in = self.shadow_maps, self.stand_in
         if shadow_maps is not None:
             shadow_maps.use()
@@ -548,10 +581,13 @@ class Renderer:
 
     def _release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
+        if self._presenter is not None:
+            self._presenter.release()
         for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps, *self.glass_interiors.values()):
             if owner is not None:
                 owner.release()
 
+    @keeps_gl_state
     def release(self) -> None:
         self._release_passes()
         self.meshes.release()

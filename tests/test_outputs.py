@@ -12,6 +12,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import IO
 
 import numpy as np
 import pytest
@@ -75,7 +76,7 @@ def test_two_writers_to_one_path_leave_one_whole_file(tmp_path: Path) -> None:
     noisy = np.random.default_rng(1).integers(0, 255, (64, 64, 3), dtype=np.uint8)  # the larger PNG
     flat = np.zeros((8, 8, 3), np.uint8)
 
-    def interrupted(file: io.BufferedWriter) -> None:
+    def interrupted(file: IO[bytes]) -> None:
         Image.fromarray(noisy).save(file, format="PNG")
         write_image(path, flat)  # the other writer, done while this one is half way
 

@@ -19,6 +19,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -101,7 +102,7 @@ def save_numbered(image: np.ndarray, directory: Path, stem: str) -> Path:
     raise AssertionError("unreachable")
 
 
-Choice = TypeVar("Choice", Algorithm, Method)
+Choice = TypeVar("Choice", bound=Enum)
 
 
 def _skipped(refused: Iterable[tuple[str, str]]) -> str:
@@ -240,8 +241,12 @@ class Viewer:
     def on_resize(self, size: tuple[int, int]) -> None:
         if size == self.frame_size or 0 in size:
             return  # a minimized window keeps its last frame target
+        try:
+            self.renderer.resize(size)
+        except DepthImpostorError as error:  # a window larger than the GL can render: the old size stays
+            self.say(f"frames stay {self.frame_size[0]}x{self.frame_size[1]}: {_reason(error)}")
+            return
         self.frame_size = size
-        self.renderer.resize(size)
         self._release_frame_target()
         self._make_frame_target()
 
@@ -276,8 +281,8 @@ class Viewer:
             chosen, skipped = self._next_setting(algorithms, renderer.algorithm, renderer.set_algorithm)
             return f"algorithm: {chosen.name.lower()}" + _skipped((a.name.lower(), why) for a, why in skipped)
         elif action == Action.NEXT_METHOD:
-            chosen, skipped = self._next_setting(list(Method), renderer.method, renderer.set_method)
-            return f"method: {METHOD_LABELS[chosen]}" + _skipped((m.option, why) for m, why in skipped)
+            method, passed = self._next_setting(list(Method), renderer.method, renderer.set_method)
+            return f"method: {METHOD_LABELS[method]}" + _skipped((m.option, why) for m, why in passed)
         elif action in (Action.RESOLUTION_UP, Action.RESOLUTION_DOWN):
             return self._change_resolution(action == Action.RESOLUTION_UP)
         elif action == Action.TOGGLE_SAMPLES:
@@ -410,8 +415,8 @@ class Viewer:
             try:
                 path = save_numbered(renderer.read_color(), self.options.screenshot_dir,
                                      Path(renderer.scene.source).stem)
-            except OutputError as error:  # a full disk loses the screenshot, not the session
-                self.say(f"no screenshot: {error}")
+            except OutputError as failure:  # a full disk loses the screenshot, not the session
+                self.say(f"no screenshot: {failure}")
             else:
                 self.log.screenshots.append(str(path))
                 self.say(f"screenshot {path}")
