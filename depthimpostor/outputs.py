@@ -110,24 +110,19 @@ class Outputs:
         self._pending: list[tuple[Path, Path, bool]] = []  # (temporary, destination, exclusive)
 
     def write(self, path: Path, writer: Writer, exclusive: bool = False) -> Path:
-        """Write through `writer` (given a binary file) to a temporary file for `path`. An
-        `exclusive` file never replaces one: its commit raises FileExistsError if `path` exists."""
+        """Write through `writer` (given a binary file) to a temporary file for `path`; returns
+        `path`. An `exclusive` file never replaces one: its commit raises FileExistsError if
+        `path` exists. A symbolic link's target is what gets replaced, as open() would write it."""
         path = Path(path)
-        if _stream(path):
-            try:
-                with path.open("wb") as file:
+        target = path.resolve() if path.is_symlink() else path
+        try:
+            if _stream(target):  # a device or a pipe: nothing to replace, written straight in
+                with target.open("wb") as file:
                     writer(file)
-            except OSError as error:
-                raise OutputError(f"cannot write {path}: {error.strerror or error}") from None
-            return path
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            handle, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        except OSError as error:
-            raise OutputError(f"cannot write {path}: {error.strerror or error}") from None
-        temporary = Path(name)
-        self._pending.append((temporary, path, exclusive))
-        try:
+                return path
+            target.parent.mkdir(parents=True, exist_ok=True)
+            handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+            self._pending.append((Path(name), target, exclusive))
             with os.fdopen(handle, "wb") as file:
                 writer(file)
                 file.flush()

@@ -347,3 +347,13 @@ def test_a_resolution_over_the_gl_limits_keeps_the_old_and_says_why(display: str
     assert result["message"].startswith("baked images stay at 512x512: the atlas of 5 baked images of 1024x1024")
     assert "GL_MAX_TEXTURE_SIZE of 2048" in result["message"] and result["message"] in result["overlay"]
     assert result["gl_error"] == "GL_NO_ERROR"
+
+
+def test_view_takes_a_memory_budget(display: str, tmp_path: Path) -> None:
+    done = run_view([str(DEFAULT_SCENE), "--size", "160x90", "--frames", "1", "--max-memory", "1M"], tmp_path,
+                    display)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert done.stderr.strip().endswith("over the 1.00 MiB of --max-memory; lower --impostor-res or raise --max-memory")
+    done = run_view([str(DEFAULT_SCENE), "--size", "160x90", "--frames", "1", "--max-memory", "64M"], tmp_path,
+                    display)
+    assert done.returncode == 0, done.stderr
