@@ -143,13 +143,11 @@ class Surface:
         return self.size[0] * self.size[1] * self.texel_bytes
 
 
-def surfaces(scene: Scene, plan: RenderPlan, frame_outputs: int = 0) -> list[Surface]:
-    """The largest allocation of each kind the plan makes: the frame (RGBA32F colour, and
-    `frame_outputs` more float outputs), glass interiors (RGBA32F, as large as the frame's larger
+def surfaces(scene: Scene, plan: RenderPlan) -> list[Surface]:
+    """The largest allocation of each kind the plan makes: the frame (RGBA32F colour; its other
+    outputs are as large or smaller), glass interiors (RGBA32F, as large as the frame's larger
     side), the atlas of baked images (RG32F depth layers) and the shadow maps (RG32F)."""
     found = [Surface("frame's colour buffer", scene.render.size, 16, "--size", renderbuffer=True)]
-    if frame_outputs:
-        found.append(Surface("frame's outputs", scene.render.size, 16, "--size", renderbuffer=True))
     if "glass interiors" in plan.memory:
         side = max(scene.render.size)
         found.append(Surface("glass interior image", (side, side), 16, "--size"))
@@ -204,19 +202,31 @@ def check_fits(ctx: moderngl.Context, scene: Scene, plan: RenderPlan, frame_outp
     before any of it is made."""
     limits = context_limits(ctx)
     backend = str(ctx.info.get("GL_RENDERER", "this GL")).split(" (")[0]
-    for surface in surfaces(scene, plan, frame_outputs):
+    for surface in surfaces(scene, plan):
         _check_surface(surface, limits, backend)
     if limits.memory is None:
         return
     images, frame = planned_bytes(plan), frame_bytes(scene.render.size, frame_outputs)
     if images + frame > limits.memory:
-        largest = max(((name, size) for name, size in plan.memory.items()), key=lambda item: item[1],
-                      default=("frame", frame))
-        setting = "--size" if frame >= largest[1] else {"shadow maps": "render.shadow_resolution",
-                                                        "glass interiors": "--size"}.get(largest[0], "--impostor-res")
-        raise GpuLimitError(f"the frame ({_mib(frame)}) and its images ({_mib(images)}, the most {largest[0]}) "
-                            f"need {_mib(images + frame)}, over the {_mib(limits.memory)} of "
-                            f"{limits.memory_source}; lower {setting} or raise --max-memory")
+        largest, size, setting = _largest_share(plan, frame)
+        raise GpuLimitError(f"the frame ({_mib(frame)}) and its images ({_mib(images)}) need {_mib(images + frame)}, "
+                            f"over the {_mib(limits.memory)} of {limits.memory_source} (the most: {largest}, "
+                            f"{_mib(size)}); lower {setting} or raise --max-memory")
+
+
+#: The setting that sizes each of the plan's memory figures (by its name in `RenderPlan.memory`);
+#: the baked images (depth images, cube-map faces, billboards, their pyramids) are sized by the
+#: impostor resolution.
+_MEMORY_SETTINGS = {"shadow maps": "render.shadow_resolution", "glass interiors": "--size"}
+
+
+def _largest_share(plan: RenderPlan, frame: int) -> tuple[str, int, str]:
+    """The largest share of the memory (the frame or one of the plan's figures), its bytes, and the
+    setting that sizes it."""
+    name, size = max(plan.memory.items(), key=lambda item: item[1], default=("", 0))
+    if frame >= size:
+        return "the frame", frame, "--size"
+    return name, size, _MEMORY_SETTINGS.get(name, "--impostor-res")
 
 
 def frame_outputs(reflection_data: bool, count_samples: bool) -> int:

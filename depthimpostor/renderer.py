@@ -18,9 +18,9 @@ import numpy as np
 from .constants import NO_OBJECT, Algorithm, Method
 from .context import bind_default_framebuffer
 from .culling import may_shadow
+from .embedding import FramePresenter, kept_state, keeps_gl_state
 from .errors import SceneError
 from .geometry import ObjectGeometry, scene_geometry
-from .embedding import FramePresenter, kept_state, keeps_gl_state
 from .limits import allocating, check_fits, frame_outputs
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
@@ -282,6 +282,7 @@ class Renderer:
         replaces it with the fitted camera of a view."""
         self.camera = camera
 
+    @keeps_gl_state
     def set_time(self, seconds: float) -> None:
         """Move the scene's animated objects and lights to where they are at `seconds`. Only what
         depends on what moved is baked again at the next frame: a shadow map when its light or a
@@ -417,7 +418,6 @@ class Renderer:
         """
         fresh = self.programs.reloaded()
         self._release_passes()
-        self._presenter = None  # released with the passes; made again, with the new programs, when needed
         self.meshes.forget_vertex_arrays()
         self.programs.release()
         self.programs = fresh
@@ -581,8 +581,9 @@ class Renderer:
 
     def _release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
-        if self._presenter is not None:
+        if self._presenter is not None:  # made again, with the programs of the time, when next needed
             self._presenter.release()
+            self._presenter = None
         for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps, *self.glass_interiors.values()):
             if owner is not None:
                 owner.release()

@@ -353,7 +353,8 @@ def test_view_takes_a_memory_budget(display: str, tmp_path: Path) -> None:
     done = run_view([str(DEFAULT_SCENE), "--size", "160x90", "--frames", "1", "--max-memory", "1M"], tmp_path,
                     display)
     assert done.returncode == 2 and "Traceback" not in done.stderr
-    assert done.stderr.strip().endswith("over the 1.00 MiB of --max-memory; lower --impostor-res or raise --max-memory")
+    assert "over the 1.00 MiB of --max-memory (the most: depth images" in done.stderr
+    assert done.stderr.strip().endswith("lower --impostor-res or raise --max-memory")
     done = run_view([str(DEFAULT_SCENE), "--size", "160x90", "--frames", "1", "--max-memory", "64M"], tmp_path,
                     display)
     assert done.returncode == 0, done.stderr
