@@ -327,7 +327,7 @@ def _memory(text: str) -> int:
 def _max_memory_argument(command: argparse.ArgumentParser) -> None:
     command.add_argument("--max-memory", type=_memory,
                          help="memory the frame and its images may take, such as 512M or 2G (a bare number is MiB; "
-                              "default: the machine's available memory on a software renderer, else the driver's)")
+                              "default: the machine's available memory on a software renderer; none on a GPU)")
 
 
 def _backend_argument(command: argparse.ArgumentParser) -> None:
