@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import csv
 import datetime
+import io
 import math
 import os
 import platform
@@ -25,6 +26,7 @@ import statistics
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
+from functools import partial
 from pathlib import Path
 
 import moderngl
@@ -33,8 +35,11 @@ import numpy as np
 from .compare import TruthFrame, compare
 from .constants import Algorithm, Method
 from .context import describe
+from .errors import GpuLimitError
+from .limits import check_fits, context_limits, planned_bytes
+from .outputs import Outputs
 from .passes.impostors import BakedImages
-from .plan import STAND_INS
+from .plan import STAND_INS, plan_render
 from .renderer import Renderer
 from .scene import Scene
 
@@ -218,6 +223,33 @@ def configurations(settings: BenchSettings) -> list[tuple[int | str, list[Techni
     return groups
 
 
+def _configured(scene: Scene, settings: BenchSettings) -> list[tuple[Scene, int | str, Technique]]:
+    """Every configuration of one scene: the scene at its size and resolution, and the technique."""
+    return [
+        (scene.with_overrides(size=settings.size, impostor_resolution=resolution), resolution, technique)
+        for resolution, group in configurations(settings) for technique in group
+    ]
+
+
+def check_bench(ctx: moderngl.Context, scenes: Sequence[Scene], settings: BenchSettings) -> None:
+    """Refuse, before any work, a benchmark this context cannot hold (GpuLimitError): each
+    configuration with the measuring renderer's extra outputs, and each scene's configurations
+    together, since they are timed side by side."""
+    limits = context_limits(ctx)
+    for scene in scenes:
+        together = 0
+        for variant, _, technique in _configured(scene, settings):
+            # The measuring renderer, with every extra output, must fit alone; the timed ones together.
+            check_fits(ctx, variant, plan_render(variant, technique.method, technique.algorithm,
+                                                 reflection_data=True, count_samples=True))
+            together += planned_bytes(plan_render(variant, technique.method, technique.algorithm))
+        if limits.memory is not None and together > limits.memory:
+            raise GpuLimitError(
+                f"{scene.source}: the {len(_configured(scene, settings))} configurations timed together need "
+                f"{together / 2**20:.0f} MiB, over the {limits.memory / 2**20:.0f} MiB of {limits.memory_source}; "
+                "give fewer --resolutions or --methods, or raise --max-memory")
+
+
 def run_bench(
     ctx: moderngl.Context, scenes: Sequence[Scene], settings: BenchSettings, progress: object | None = None
 ) -> list[BenchRow]:
@@ -225,10 +257,7 @@ def run_bench(
     rows: list[BenchRow] = []
     for scene in scenes:
         name = Path(scene.source).stem
-        configured = [
-            (scene.with_overrides(size=settings.size, impostor_resolution=resolution), resolution, technique)
-            for resolution, group in configurations(settings) for technique in group
-        ]
+        configured = _configured(scene, settings)
         # Every configuration of the scene is timed in the same rounds: a machine that slows down
         # for a few seconds (this one did, by a third, when resolutions were timed one after the
         # other) then slows every configuration alike. The cost is memory: every configuration's
@@ -258,15 +287,16 @@ def total_configurations(scene_count: int, settings: BenchSettings) -> int:
 COLUMNS = [field.name for field in fields(BenchRow)]
 
 
-def write_csv(rows: Sequence[BenchRow], path: Path, header: Sequence[str]) -> None:
+def csv_text(rows: Sequence[BenchRow], header: Sequence[str]) -> str:
     """Comment lines (`# ...`) name the machine and settings; then one row per configuration."""
-    with path.open("w", newline="", encoding="utf-8") as file:
-        for line in header:
-            file.write(f"# {line}\n")
-        writer = csv.DictWriter(file, fieldnames=COLUMNS)
-        writer.writeheader()
-        for row in rows:
-            writer.writerow(asdict(row))
+    text = io.StringIO(newline="")
+    for line in header:
+        text.write(f"# {line}\n")
+    writer = csv.DictWriter(text, fieldnames=COLUMNS)
+    writer.writeheader()
+    for row in rows:
+        writer.writerow(asdict(row))
+    return text.getvalue()
 
 
 def markdown(rows: Sequence[BenchRow], header: Sequence[str]) -> str:
@@ -293,7 +323,7 @@ def _label(row: BenchRow) -> str:
     return row.method + ("" if row.algorithm == "-" else f" ({row.algorithm})")
 
 
-def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[Path]:
+def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str], out: Outputs) -> list[Path]:
     """Per scene: the accuracy/time frontier (colour RMSE against frame time, a curve per method,
     a point per resolution) and samples per ray against resolution."""
     import matplotlib
@@ -330,9 +360,8 @@ def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[
         figure.text(0.01, 0.005, header[1], fontsize=6)
         path = folder / f"frontier-{scene}.png"
         figure.tight_layout(rect=(0, 0.03, 1, 1))
-        figure.savefig(path, dpi=110)
+        written.append(out.write(path, partial(figure.savefig, format="png", dpi=110)))
         plt.close(figure)
-        written.append(path)
 
         figure, axis = plt.subplots(figsize=(7.5, 5.0))
         for label in labels:
@@ -349,14 +378,13 @@ def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[
         axis.legend(fontsize=8)
         path = folder / f"samples-{scene}.png"
         figure.tight_layout()
-        figure.savefig(path, dpi=110)
+        written.append(out.write(path, partial(figure.savefig, format="png", dpi=110)))
         plt.close(figure)
-        written.append(path)
     return written
 
 
 def write_results(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[Path]:
-    folder.mkdir(parents=True, exist_ok=True)
-    write_csv(rows, folder / "bench.csv", header)
-    (folder / "bench.md").write_text(markdown(rows, header), encoding="utf-8")
-    return [folder / "bench.csv", folder / "bench.md", *plot(rows, folder, header)]
+    """bench.csv, bench.md and the plots, put in place together once all are written."""
+    with Outputs() as out:
+        return [out.text(folder / "bench.csv", csv_text(rows, header)),
+                out.text(folder / "bench.md", markdown(rows, header)), *plot(rows, folder, header, out)]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import statistics
 import sys
 from collections.abc import Callable, Sequence
@@ -12,12 +13,13 @@ from pathlib import Path
 from typing import TypeVar
 
 import moderngl
-from PIL import Image
 
 from .constants import Algorithm, Method
 from .context import create_context, describe
 from .errors import DepthImpostorError, SceneError
 from .compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
+from .outputs import Outputs, check_file, check_folder, write_image
+from .limits import check_fits, limit_memory, parse_memory
 from .plan import RenderPlan, plan_render
 from .renderer import Renderer, RenderStats, to_uint8
 from .resources import default_scene_path
@@ -109,8 +111,9 @@ def _stand_in(renderer: Renderer) -> str:
 
 
 def _render(args: argparse.Namespace) -> int:
+    output = check_file(Path(args.output), "-o")
     scene = _load(args)
-    ctx = create_context(args.backend)
+    ctx = _context(args)
     renderer_name = describe(ctx)
     algorithm = Algorithm[args.algorithm.upper()]
     method = Method.from_option(args.method)
@@ -125,10 +128,7 @@ def _render(args: argparse.Namespace) -> int:
     finally:
         ctx.release()
     timed = stats.draw_seconds[1:]
-    output = Path(args.output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(image).save(output)
-    print(output)
+    print(write_image(output, image))
     print(
         f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)}), {stand_in}, "
         f"{scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}"
@@ -162,9 +162,23 @@ def format_stats(stats: RenderStats, plan: RenderPlan, start: float, fps: float)
 
 
 def _plan(args: argparse.Namespace) -> int:
-    plan = plan_render(_load(args), Method.from_option(args.method), Algorithm[args.algorithm.upper()])
-    print(json.dumps(plan.to_json(), indent=2) if args.json else plan.format())
+    """The plan; then, as `render` would, a refusal of what this GL cannot hold (exit 2)."""
+    scene = _load(args)
+    plan = plan_render(scene, Method.from_option(args.method), Algorithm[args.algorithm.upper()])
+    print(json.dumps(plan.to_json(), indent=2) if args.json else plan.format(), flush=True)
+    ctx = _context(args)
+    try:
+        check_fits(ctx, scene, plan)
+    finally:
+        ctx.release()
     return 0
+
+
+def _context(args: argparse.Namespace) -> moderngl.Context:
+    """A headless context, its memory budget `--max-memory` where given."""
+    ctx = create_context(args.backend)
+    limit_memory(ctx, args.max_memory)
+    return ctx
 
 
 def _kept(renderer: Renderer) -> str:
@@ -185,27 +199,30 @@ def _compare_frame(
 
 
 def _truth(args: argparse.Namespace) -> int:
-    ctx = create_context(args.backend)
+    output = check_file(Path(args.output), "-o")
+    ctx = _context(args)
     try:
         comparison, _ = _compare_frame(ctx, _load(args), args, Method.RAYTRACE)
     finally:
         ctx.release()
-    output = Path(args.output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(to_uint8(comparison.truth)).save(output)
-    print(output)
+    print(write_image(output, to_uint8(comparison.truth)))
     return 0
 
 
 def _compare(args: argparse.Namespace) -> int:
     """One method: its report in the output folder. `--method all`: every method's report in a
     sub-folder, and the side-by-side sheet and table of all of them."""
+    output = check_folder(Path(args.output), "-o")
     scene = _load(args)
     methods = list(Method) if args.method == ALL_METHODS else [Method.from_option(args.method)]
-    output = Path(args.output)
     rows: dict[str, tuple[str, Figures]] = {}
     comparisons: dict[str, Comparison] = {}
-    ctx = create_context(args.backend)
+    written: list[Path] = []
+    tables: list[str] = []
+    # Every method's report, and the sheet of all of them, go in place together once all are
+    # written: a failure (a full disk, a method refused) leaves no half report.
+    out = Outputs()
+    ctx = _context(args)
     try:
         for method in methods:
             # Every method computes the same rays: the truth is traced once and reused.
@@ -220,17 +237,21 @@ def _compare(args: argparse.Namespace) -> int:
                 "method": method.option,
                 "stand_in": kept,
             }
-            for path in write_report(comparison, output / method.option if len(methods) > 1 else output, settings):
-                print(path)
-            print(format_table(comparison.figures))
+            written += write_report(comparison, output / method.option if len(methods) > 1 else output, settings,
+                                    out)
+            tables.append(format_table(comparison.figures))
             rows[method.option], comparisons[method.option] = (kept, comparison.figures), comparison
+        if len(methods) > 1:
+            written.append(out.image(output / "methods.png", side_by_side(comparisons)))
+            written.append(out.text(output / "methods.md", markdown_table(rows)))
+        out.commit()
     finally:
+        out.discard()
         ctx.release()
+    for path in written:
+        print(path)
+    print("\n".join(tables))
     if len(methods) > 1:
-        Image.fromarray(side_by_side(comparisons)).save(output / "methods.png")
-        (output / "methods.md").write_text(markdown_table(rows), encoding="utf-8")
-        print(output / "methods.png")
-        print(output / "methods.md")
         print(markdown_table(rows), end="")
     return 0
 
@@ -251,7 +272,7 @@ def _list_of(kind: Callable[[str], T]) -> Callable[[str], list[T]]:
 def _bench(args: argparse.Namespace) -> int:
     from tqdm import tqdm  # the progress bar is the benchmark's alone
 
-    from .bench import BenchSettings, machine_lines, run_bench, total_configurations, write_results
+    from .bench import BenchSettings, check_bench, machine_lines, run_bench, total_configurations, write_results
 
     scenes = [load_scene(path) for path in args.scenes] or [load_scene(default_scene_path())]
     if ALL_METHODS in args.methods:
@@ -262,6 +283,7 @@ def _bench(args: argparse.Namespace) -> int:
             raise SceneError("command line", "--methods", f"expected methods among {[m.option for m in Method]} "
                              f"or all, got {unknown}")
         methods = tuple(Method.from_option(name) for name in args.methods)
+    output = check_folder(Path(args.output), "-o")
     size = args.size or scenes[0].render.size
     unknown = [name for name in args.algorithms if name not in {a.name.lower() for a in Algorithm}]
     if unknown:
@@ -269,15 +291,16 @@ def _bench(args: argparse.Namespace) -> int:
                          f"{[a.name.lower() for a in Algorithm]}, got {unknown}")
     algorithms = tuple(Algorithm[name.upper()] for name in dict.fromkeys(args.algorithms))
     settings = BenchSettings(methods, algorithms, tuple(args.resolutions), size, args.frames, args.warmup, args.bakes)
-    ctx = create_context(args.backend)
+    ctx = _context(args)
     try:
+        check_bench(ctx, scenes, settings)  # before any work
         header = machine_lines(ctx, settings, scenes)
         print("\n".join(header), flush=True)
         with tqdm(total=total_configurations(len(scenes), settings), unit="configuration") as progress:
             rows = run_bench(ctx, scenes, settings, progress)
     finally:
         ctx.release()
-    for path in write_results(rows, Path(args.output), header):
+    for path in write_results(rows, output, header):
         print(path)
     return 0
 
@@ -286,6 +309,10 @@ def _view(args: argparse.Namespace) -> int:
     from .viewer import ViewerOptions, run_viewer  # glfw is loaded for the window alone
     from .viewer.keys import parse_key_script
 
+    for option, path in (("--screenshot", args.screenshot), ("--window-screenshot", args.window_screenshot),
+                         ("--report", args.report)):
+        if path is not None:
+            check_file(path, option, image=option != "--report")
     options = ViewerOptions(
         scene=_load(args),
         algorithm=Algorithm[args.algorithm.upper()],
@@ -296,6 +323,7 @@ def _view(args: argparse.Namespace) -> int:
         window_screenshot=args.window_screenshot,
         report=args.report,
         shaders=args.shaders,
+        max_memory=args.max_memory,
     )
     return run_viewer(options)
 
@@ -308,8 +336,26 @@ def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) ->
                               "sized so that a sample covers about one reflected pixel), overriding the scene's")
     command.add_argument("--simplified-triangles", type=int,
                          help="--method simplified: triangles per reflected object at most, overriding the scene's")
+    _max_memory_argument(command)
     if not headless:
         return
+    _backend_argument(command)
+
+
+def _memory(text: str) -> int:
+    try:
+        return parse_memory(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def _max_memory_argument(command: argparse.ArgumentParser) -> None:
+    command.add_argument("--max-memory", type=_memory,
+                         help="memory the frame and its images may take, such as 512M or 2G (a bare number is MiB; "
+                              "default: the machine's available memory on a software renderer; none on a GPU)")
+
+
+def _backend_argument(command: argparse.ArgumentParser) -> None:
     command.add_argument("--backend", choices=["auto", "egl", "osmesa"], default=None,
                          help="headless GL backend (default: auto, EGL then OSMesa)")
 
@@ -345,7 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.set_defaults(run=_render)
 
     plan = commands.add_parser("plan", help="the passes, depth images and shader variants a scene calls for, and why")
-    _scene_arguments(plan, headless=False)
+    _scene_arguments(plan)
     _method_arguments(plan)
     plan.add_argument("--json", action="store_true", help="print the plan as JSON")
     plan.set_defaults(run=_plan)
@@ -377,7 +423,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--warmup", type=_non_negative, default=2, help="untimed frames before them (default 2)")
     bench.add_argument("--bakes", type=_positive, default=3, help="timed re-bakes per configuration (default 3)")
     bench.add_argument("-o", "--output", default="results", help="output folder (default: results/)")
-    bench.add_argument("--backend", choices=["auto", "egl", "osmesa"], default=None, help="headless GL backend")
+    _backend_argument(bench)
+    _max_memory_argument(bench)
     bench.set_defaults(run=_bench)
 
     view = commands.add_parser("view", help="fly around a scene in a window (keys: H in the window)")
@@ -393,6 +440,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: The exit status of a command whose standard output was closed early (`render ... | head`): the
+#: shell's for a process ended by SIGPIPE, as `yes | head` gives.
+BROKEN_PIPE_EXIT = 128 + 13
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
@@ -400,4 +452,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except DepthImpostorError as error:
         print(f"depthimpostor: {error}", file=sys.stderr)
         return error.exit_code
+    except BrokenPipeError:
+        # The reader went away (`| head`): nothing more to say, and nowhere to say it. Python
+        # flushes stdout again at exit; pointing it at /dev/null keeps that from failing too.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+        return BROKEN_PIPE_EXIT
 

@@ -31,6 +31,7 @@ from PIL import Image, ImageDraw
 
 from .constants import NO_OBJECT
 from .font import load_font
+from .outputs import Outputs
 from .renderer import ReflectionData, Renderer, to_uint8
 from .truth import SpecularTruth, TruthTracer
 
@@ -235,18 +236,14 @@ def heat_map(comparison: Comparison, limit: float = 0.25) -> np.ndarray:
     return np.where((comparison.mirror_mask | comparison.direct_mask)[..., None], heat, context)
 
 
-def write_report(comparison: Comparison, folder: Path, settings: dict[str, object]) -> list[Path]:
-    folder.mkdir(parents=True, exist_ok=True)
-    paths = {
+def write_report(comparison: Comparison, folder: Path, settings: dict[str, object], out: Outputs) -> list[Path]:
+    """The report's images and JSON, written through `out` (in place once all of them are)."""
+    images = {
         "render.png": comparison.render, "truth.png": comparison.truth, "difference.png": heat_map(comparison),
     }
-    written = []
-    for name, image in paths.items():
-        Image.fromarray(to_uint8(image)).save(folder / name)
-        written.append(folder / name)
+    written = [out.image(folder / name, to_uint8(image)) for name, image in images.items()]
     report = {"settings": settings, "figures": asdict(comparison.figures)}
-    (folder / "report.json").write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
-    written.append(folder / "report.json")
+    written.append(out.text(folder / "report.json", json.dumps(report, indent=2) + "\n"))
     return written
 
 

@@ -40,3 +40,17 @@ class ShaderError(DepthImpostorError):
     """A GLSL program failed to preprocess, compile or link."""
 
     exit_code = 4
+
+
+class OutputError(DepthImpostorError):
+    """An output cannot be written where it was asked for (a folder named as a file, an unknown
+    image format, a read-only or full disk); the message names the path and the option."""
+
+    exit_code = 2
+
+
+class GpuLimitError(DepthImpostorError):
+    """The settings ask for more than this GL context can hold (a texture over its size limit, an
+    allocation over its memory budget); the message names the setting to change."""
+
+    exit_code = 2

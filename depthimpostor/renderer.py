@@ -18,8 +18,10 @@ import numpy as np
 from .constants import NO_OBJECT, Algorithm, Method
 from .context import bind_default_framebuffer
 from .culling import may_shadow
+from .embedding import FramePresenter, kept_state, keeps_gl_state
 from .eye import EyeCamera, Sphere, clear_depth, eye_depth, fitted_camera, make_depth_buffer, reversed_z
 from .geometry import ObjectGeometry, scene_geometry
+from .limits import allocating, check_fits
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
 from .passes.glass import GlassInterior
@@ -79,6 +81,9 @@ class ReflectionData:
 
 
 class Renderer:
+    """A scene's frames, drawn with the GL context it is given. Every public method leaves the GL
+    state as it found it (embedding.py; docs/python_api.md): an application can share its context."""
+
     def __init__(
         self,
         ctx: moderngl.Context,
@@ -118,9 +123,12 @@ class Renderer:
         self._relight()
         self.view = scene.camera
         self.camera = fitted_camera(self.view, scene.render.size, self.bounds, self.reversed_z)
+        check_fits(ctx, scene, self.plan)  # before any GL object is made
         self.meshes = GpuMeshes(ctx)
-        self._make_targets(scene.render.size)
-        self._build_passes()
+        self._presenter: FramePresenter | None = None  # made when a frame is first put in a caller's framebuffer
+        with kept_state(ctx), allocating(ctx, "--size or --impostor-res"):
+            self._make_targets(scene.render.size)
+            self._build_passes()
 
     def _classify(self, geometry: list[ObjectGeometry]) -> None:
         """The scene's objects (at the renderer's time) in the lists the passes draw."""
@@ -229,6 +237,12 @@ class Renderer:
             self.reflection_data, self.count_samples, self.glass_interiors,
         )
 
+    def _checked_plan(self, scene: Scene, method: Method, algorithm: Algorithm) -> RenderPlan:
+        """The plan of other settings, once this context is known to hold it (GpuLimitError if not)."""
+        plan = plan_render(scene, method, algorithm, self.geometry, self.reflection_data, self.count_samples)
+        check_fits(self.ctx, scene, plan)
+        return plan
+
     def _replan(self) -> None:
         self.plan = plan_render(self.scene, self.method, self.algorithm, self.geometry, self.reflection_data,
                                 self.count_samples)
@@ -245,6 +259,7 @@ class Renderer:
         fitted camera of a view."""
         self.camera = EyeCamera.of(camera) if self.reversed_z else camera
 
+    @keeps_gl_state
     def set_time(self, seconds: float) -> None:
         """Move the scene's animated objects and lights to where they are at `seconds`. Only what
         depends on what moved is baked again at the next frame: a shadow map when its light or a
@@ -297,33 +312,43 @@ class Renderer:
         lit_scene, planes = self.lit_scene, self.analytic_planes
         self.programs.set_scene_uniforms(lambda program: write_scene_uniforms(program, lit_scene, planes))
 
+    @keeps_gl_state
     def resize(self, size: tuple[int, int]) -> None:
         """Render frames of another size; depth images do not depend on it."""
         if size == self.scene.render.size:
             return
         scene = self.scene.with_overrides(size=size)
+        self._checked_plan(scene, self.method, self.algorithm)
         self._release_targets()
         self.scene = scene
         self._relight()
-        self._make_targets(size)
+        with allocating(self.ctx, "the frame's size"):
+            self._make_targets(size)
         self.look_at(self.view)
 
+    @keeps_gl_state
     def set_algorithm(self, algorithm: Algorithm) -> None:
         """Intersect with another algorithm: another mirror variant, the same depth images (the
         hierarchical one builds their pyramids from them; the others free the pyramids). A GL
-        without compute shaders raises ContextError for the hierarchical one and keeps the old."""
+        without compute shaders raises ContextError for the hierarchical one and keeps the old, and
+        so does a context that cannot hold the pyramids (GpuLimitError)."""
+        self._checked_plan(self.scene, self.method, algorithm)
         self._keep_pyramids(algorithm)
         self.algorithm = algorithm
         self._replan()
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
 
+    @keeps_gl_state
     def set_method(self, method: Method) -> None:
         """Stand in for the reflected objects another way: the old method's resources go and the
         new one's are made, unless both use the same (the two cube-map lookups); a scene without
-        mirrors has none either way."""
+        mirrors has none either way. A method this context cannot hold raises GpuLimitError and
+        leaves the renderer as it was."""
+        self._checked_plan(self.scene, method, self.algorithm)
         if self.reflectors and STAND_INS[method] is not STAND_INS[self.method]:
-            self._make_stand_in(method, self.scene)
+            with allocating(self.ctx, "--impostor-res"):
+                self._make_stand_in(method, self.scene)
         self.method = method
         self._replan()
         if self.reflectors:
@@ -334,21 +359,25 @@ class Renderer:
                 self.samples.release()
                 self.samples = None
 
+    @keeps_gl_state
     def set_impostor_resolution(self, resolution: int) -> None:
         """Re-plan and re-bake the baked images (all of them share the resolution, so all change).
 
         The new atlas is made before the old one goes: a resolution this GL cannot hold raises
-        SceneError and leaves the renderer as it was.
+        GpuLimitError (checked before anything is made) and leaves the renderer as it was.
         """
         scene = self.scene.with_overrides(impostor_resolution=resolution)
+        self._checked_plan(scene, self.method, self.algorithm)
         if self.baked_images is not None:
-            self._make_stand_in(self.method, scene)
+            with allocating(self.ctx, "--impostor-res"):
+                self._make_stand_in(self.method, scene)
         self.scene = scene
         self._relight()
         self._replan()
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
 
+    @keeps_gl_state
     def set_show_samples(self, show: bool) -> None:
         """Show each reflected object as the samples of the baked images (the lecture's sample
         visualization) instead of its triangles; the samples' program is made on first use."""
@@ -363,6 +392,7 @@ class Renderer:
         if self.baked_images is not None:
             self.baked_images.bake_again()
 
+    @keeps_gl_state
     def reload_shaders(self) -> None:
         """Compile every program again from the files as they are now, and re-bake.
 
@@ -377,12 +407,33 @@ class Renderer:
         self._build_passes()
 
     # ------------------------------------------------------------------ frames
-    def render(self) -> RenderStats:
-        """Draw one frame into the renderer's framebuffer, baking impostors first if they are stale.
+    def render(self, target: moderngl.Framebuffer | None = None,
+               viewport: tuple[int, int, int, int] | None = None) -> RenderStats:
+        """Draw one frame into the renderer's framebuffer, baking impostors first if they are stale,
+        and (given a `target`) put it upright into `viewport` of `target` (default: all of it; the
+        viewport must be the frame's size). The GL state is left as it was found.
 
         Times are wall-clock around `ctx.finish()`: GPU time queries under-report on software
-        rasterizers, and a finish makes the time include all the work the frame queued.
+        rasterizers, and a finish makes the time include all the work the frame queued; putting
+        the frame in `target` is not timed.
         """
+        # The passes expect the depth test on and nothing else (no blending of the caller's).
+        with kept_state(self.ctx, enable_only=moderngl.DEPTH_TEST):
+            stats = self._draw_frame()
+            if target is not None:
+                self._put_frame(target, viewport)
+        return stats
+
+    def _put_frame(self, target: moderngl.Framebuffer, viewport: tuple[int, int, int, int] | None) -> None:
+        size = self.scene.render.size
+        if self._presenter is not None and self._presenter.size != size:
+            self._presenter.release()
+            self._presenter = None
+        if self._presenter is None:
+            self._presenter = FramePresenter(self.ctx, self.programs, size)
+        self._presenter.draw(self.color_framebuffer, target, viewport)
+
+    def _draw_frame(self) -> RenderStats:
         shadow_maps, stand_in = self.shadow_maps, self.stand_in
         if shadow_maps is not None:
             shadow_maps.use()
@@ -521,10 +572,14 @@ class Renderer:
 
     def _release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
+        if self._presenter is not None:  # made again, with the programs of the time, when next needed
+            self._presenter.release()
+            self._presenter = None
         for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps, *self.glass_interiors.values()):
             if owner is not None:
                 owner.release()
 
+    @keeps_gl_state
     def release(self) -> None:
         self._release_passes()
         self.meshes.release()

@@ -15,7 +15,7 @@ import pytest
 
 from conftest import PROJECT_ROOT, SCENES, assert_finite
 from depthimpostor.constants import Algorithm, Method
-from depthimpostor.errors import SceneError, ShaderError
+from depthimpostor.errors import GpuLimitError, ShaderError
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Animation, Camera, Scene, load_scene
 from depthimpostor.shaders import ShaderLibrary
@@ -100,8 +100,9 @@ def test_a_resolution_this_gl_cannot_hold_changes_nothing(ctx: moderngl.Context)
     with Renderer(ctx, scene) as renderer:
         renderer.render()
         before = renderer.read_color_float()
-        with pytest.raises(SceneError, match="over this GL's limit"):
-            renderer.set_impostor_resolution(4096)  # 72 tiles of 4096^2: no GL holds that atlas
+        # 72 tiles of 4096^2: no GL holds that atlas; refused before anything is made.
+        with pytest.raises(GpuLimitError, match="over this GL's GL_MAX_TEXTURE_SIZE .*lower --impostor-res"):
+            renderer.set_impostor_resolution(4096)
         renderer.render()
         assert renderer.scene.render.impostor_resolution == 16
         assert renderer.stats.depth_images_baked == 72

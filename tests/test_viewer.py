@@ -28,6 +28,7 @@ from depthimpostor.constants import NO_OBJECT
 from depthimpostor.passes.overlay import PANEL_PADDING
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
+from depthimpostor.viewer.keys import ACTIONS_BY_KEY, parse_key_script
 
 SIZE = (480, 270)
 DEFAULT_SCENE = SCENES / "default.toml"
@@ -271,3 +272,89 @@ def test_mouse_drags_and_window_resizes(display: str, tmp_path: Path) -> None:
     assert result["frame_shape"] == [300, 400, 3]
     assert result["baked"] == 5
     assert result["gl_error"] == "GL_NO_ERROR"
+
+
+#: Every binding of the viewer, each pressed at least once: the methods in turn (M), with the
+#: samples view (V) and the re-traced tint (T) toggled in several of them, the algorithms (Tab),
+#: the resolution up and down, a shader reload, help, screenshots, every move, and Escape last.
+EVERY_KEY = ("wait tab tab tab m v t m v m v t m v m m v t m v t m ] [ [ ] v r h f1 p f12 right left up down "
+             "page_up page_down f w a s d q e shift+w f home wait escape")
+
+#: Where the depth method cannot start: no depth-image frustum fits an object that surrounds the
+#: mirror's centre (`render` refuses it too). The methods that bake are skipped by M there.
+START_METHOD = {"surrounds.toml": "raytrace"}
+
+
+def test_every_key_in_every_project_scene_keeps_the_session(display: str, tmp_path: Path) -> None:
+    """No key ends the session, in any project scene: what a scene cannot do (another method with
+    mirrors in mirrors, say) is skipped or refused in the overlay, and the session goes on to the
+    scripted Escape."""
+    scenes = sorted(SCENES.glob("*.toml")) + sorted((SCENES / "hard").glob("*.toml"))
+    pressed = len(EVERY_KEY.split())
+    bound = sum(press.key in ACTIONS_BY_KEY for press in parse_key_script(EVERY_KEY))  # not waits, fly keys
+    assert {binding.action for binding in ACTIONS_BY_KEY.values()} == {
+        ACTIONS_BY_KEY[press.key].action for press in parse_key_script(EVERY_KEY) if press.key in ACTIONS_BY_KEY}
+    skipped = set()
+    for scene in scenes:
+        (tmp_path / scene.stem).mkdir()
+        done = run_view([str(scene), "--size", "96x54", "--keys", EVERY_KEY, "--report", "report.json",
+                         "--method", START_METHOD.get(scene.name, "depth")], tmp_path / scene.stem, display)
+        assert done.returncode == 0, f"{scene.name}: exit {done.returncode}\n{done.stderr[-3000:]}"
+        report = json.loads((tmp_path / scene.stem / "report.json").read_text())
+        assert report["gl_errors"] == [], scene.name
+        # Every key acted, none ended the session early: Escape did, last (before its frame).
+        assert report["frames"] == pressed - 1, scene.name
+        assert len(report["events"]) == bound, scene.name
+        assert report["events"][-1]["action"] == "quit"
+        methods = [event["message"] for event in report["events"] if event["action"] == "next_method"]
+        skipped |= {scene.name for message in methods if "skipped" in message}
+    # The scenes with mirrors in mirrors (render.max_bounces = 2) skip every other method, saying why,
+    # and so does the scene whose ring surrounds the mirror's centre, for the methods that bake.
+    assert {"two_mirrors.toml", "glass_and_mirrors.toml", "surrounds.toml"} <= skipped
+
+
+OVER_THE_LIMIT = """
+import dataclasses, json, sys
+import glfw
+from depthimpostor.context import create_window
+from depthimpostor.limits import context_limits, use_limits
+from depthimpostor.scene import load_scene
+from depthimpostor.viewer.app import Viewer, ViewerOptions
+
+scene = load_scene(sys.argv[1]).with_overrides(size=(160, 90), impostor_resolution=512)
+window = create_window("test", scene.render.size)
+# A GL whose textures are 2048 a side at most: 5 images of 1024 need a 3072 x 2048 atlas.
+use_limits(window.ctx, dataclasses.replace(context_limits(window.ctx), max_texture_size=2048))
+viewer = Viewer(window, ViewerOptions(scene))
+viewer.draw_frame()
+viewer.on_key(glfw.KEY_RIGHT_BRACKET, glfw.PRESS, 0)
+viewer.draw_frame()
+out = {"message": viewer.message[0], "overlay": list(viewer.panels()[0].lines),
+       "resolution": viewer.renderer.baked_images.atlas.resolution, "gl_error": viewer.ctx.error}
+viewer.release()
+window.release()
+print(json.dumps(out))
+"""
+
+
+def test_a_resolution_over_the_gl_limits_keeps_the_old_and_says_why(display: str, tmp_path: Path) -> None:
+    env = {**os.environ, "DISPLAY": display, "PYTHONPATH": str(PROJECT_ROOT)}
+    done = subprocess.run([sys.executable, "-c", OVER_THE_LIMIT, str(DEFAULT_SCENE)], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["resolution"] == 512
+    assert result["message"].startswith("baked images stay at 512x512: the atlas of 5 baked images of 1024x1024")
+    assert "GL_MAX_TEXTURE_SIZE of 2048" in result["message"] and result["message"] in result["overlay"]
+    assert result["gl_error"] == "GL_NO_ERROR"
+
+
+def test_view_takes_a_memory_budget(display: str, tmp_path: Path) -> None:
+    done = run_view([str(DEFAULT_SCENE), "--size", "160x90", "--frames", "1", "--max-memory", "1M"], tmp_path,
+                    display)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert "over the 1.00 MiB of --max-memory (the most: depth images" in done.stderr
+    assert done.stderr.strip().endswith("lower --impostor-res or raise --max-memory")
+    done = run_view([str(DEFAULT_SCENE), "--size", "160x90", "--frames", "1", "--max-memory", "64M"], tmp_path,
+                    display)
+    assert done.returncode == 0, done.stderr

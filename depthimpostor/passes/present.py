@@ -17,10 +17,12 @@ class PresentPass:
         self.program = programs.get("fullscreen.vert", "present.frag")
         self.vertex_array = ctx.vertex_array(self.program, [])
 
-    def draw(self, frame: moderngl.Texture) -> None:
-        """Draw `frame` over the whole bound framebuffer (which must be the frame's size)."""
+    def draw(self, frame: moderngl.Texture, origin: tuple[int, int] = (0, 0)) -> None:
+        """Draw `frame` over the bound framebuffer's viewport (which must be the frame's size),
+        whose lower-left corner is `origin`."""
         frame.use(_FRAME_UNIT)
         write(self.program, "u_frame", _FRAME_UNIT)
+        write(self.program, "u_origin", origin)
         self.ctx.disable(moderngl.DEPTH_TEST)
         self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
         self.ctx.enable(moderngl.DEPTH_TEST)

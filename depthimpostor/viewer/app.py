@@ -17,17 +17,20 @@ import statistics
 import sys
 import time
 from collections import deque
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import glfw
 import numpy as np
-from PIL import Image
 
 from ..constants import Algorithm, Method
 from ..context import Window, bind_default_framebuffer, create_window, describe
-from ..errors import ContextError, SceneError, ShaderError
+from ..errors import DepthImpostorError, OutputError, SceneError, ShaderError
+from ..limits import limit_memory
+from ..outputs import Outputs, write_image
 from ..passes.overlay import OverlayPass, Panel
 from ..passes.present import PresentPass
 from ..renderer import Renderer
@@ -74,6 +77,7 @@ class ViewerOptions:
     report: Path | None = None  # JSON: frames, bakes, key events, GL errors
     shaders: Path | None = None
     screenshot_dir: Path = Path(".")
+    max_memory: int | None = None  # bytes the frame and its images may take (--max-memory)
 
 
 def next_resolution(current: int, up: bool) -> int:
@@ -85,17 +89,36 @@ def next_resolution(current: int, up: bool) -> int:
 
 def save_numbered(image: np.ndarray, directory: Path, stem: str) -> Path:
     """Save as STEM-0001.png, -0002, ...: the first number whose file does not exist; the file is
-    created exclusively, so a screenshot never overwrites one, even from another viewer."""
-    directory.mkdir(parents=True, exist_ok=True)
+    put in place exclusively (and whole), so a screenshot never overwrites one, even from another
+    viewer."""
     for number in itertools.count(1):
         path = directory / f"{stem}-{number:04d}.png"
+        if path.exists():
+            continue
         try:
-            with path.open("xb") as file:
-                Image.fromarray(image).save(file, format="PNG")
-            return path
-        except FileExistsError:
+            return write_image(path, image, exclusive=True)
+        except FileExistsError:  # another viewer took the number meanwhile
             continue
     raise AssertionError("unreachable")
+
+
+Choice = TypeVar("Choice", bound=Enum)
+
+
+def _skipped(refused: Iterable[tuple[str, str]]) -> str:
+    """The overlay's note of the settings a key passed over, and why: one line, naming them all
+    and the first reason (the terminal has every reason: `say` prints the message there)."""
+    refused = list(refused)
+    if not refused:
+        return ""
+    names = ", ".join(name for name, _ in refused)
+    others = len({why.replace(name, "") for name, why in refused}) - 1  # reasons that name their setting alike
+    return f" ({names} skipped: {refused[0][1]}" + (f"; and {others} other reasons" if others else "") + ")"
+
+
+def _reason(error: DepthImpostorError) -> str:
+    """Why a setting was refused, without the scene's file name (the overlay names the scene)."""
+    return f"{error.path}: {error.detail}" if isinstance(error, SceneError) and error.path else str(error)
 
 
 def _scene_radius(renderer: Renderer) -> float:
@@ -124,6 +147,7 @@ class Viewer:
         self.frame_size: tuple[int, int] = glfw.get_framebuffer_size(window.handle)
         library = ShaderLibrary(options.shaders) if options.shaders else None
         scene = options.scene.with_overrides(size=self.frame_size)
+        limit_memory(self.ctx, options.max_memory)
         self.renderer = Renderer(self.ctx, scene, options.algorithm, shaders=library, method=options.method)
         # The viewer's own programs (overlay, present): the renderer's are its to replace.
         self.programs = ProgramCache(self.ctx, library)
@@ -181,7 +205,11 @@ class Viewer:
         binding = ACTIONS_BY_KEY.get(key)
         if binding is None or (action == glfw.REPEAT and not binding.repeats):
             return
-        message = self.perform(binding.action)
+        try:
+            message = self.perform(binding.action)
+        except DepthImpostorError as error:
+            # A key never ends the session: what it asked for is refused, the last state kept.
+            message = f"{key_name(key)} refused: {_reason(error)}"
         self.log.events.append(
             {"frame": self.frames, "key": key_name(key), "action": binding.action.name.lower(), "message": message}
         )
@@ -213,8 +241,12 @@ class Viewer:
     def on_resize(self, size: tuple[int, int]) -> None:
         if size == self.frame_size or 0 in size:
             return  # a minimized window keeps its last frame target
+        try:
+            self.renderer.resize(size)
+        except DepthImpostorError as error:  # a window larger than the GL can render: the old size stays
+            self.say(f"frames stay {self.frame_size[0]}x{self.frame_size[1]}: {_reason(error)}")
+            return
         self.frame_size = size
-        self.renderer.resize(size)
         self._release_frame_target()
         self._make_frame_target()
 
@@ -244,17 +276,13 @@ class Viewer:
             return "back to the scene's camera"
         elif action == Action.NEXT_ALGORITHM:
             algorithms = list(Algorithm)
-            wanted = algorithms[(algorithms.index(renderer.algorithm) + 1) % len(algorithms)]
-            try:
-                renderer.set_algorithm(wanted)
-            except ContextError as error:  # a GL without compute shaders has no depth pyramids
-                renderer.set_algorithm(algorithms[(algorithms.index(wanted) + 1) % len(algorithms)])
-                return f"algorithm: {renderer.algorithm.name.lower()} ({wanted.name.lower()} skipped: {error})"
-            return f"algorithm: {renderer.algorithm.name.lower()}"
+            # A GL without compute shaders has no depth pyramids (ContextError); a pyramid over the
+            # memory budget is refused (GpuLimitError): the next algorithm is tried.
+            chosen, skipped = self._next_setting(algorithms, renderer.algorithm, renderer.set_algorithm)
+            return f"algorithm: {chosen.name.lower()}" + _skipped((a.name.lower(), why) for a, why in skipped)
         elif action == Action.NEXT_METHOD:
-            methods = list(Method)
-            renderer.set_method(methods[(methods.index(renderer.method) + 1) % len(methods)])
-            return f"method: {METHOD_LABELS[renderer.method]}"
+            method, passed = self._next_setting(list(Method), renderer.method, renderer.set_method)
+            return f"method: {METHOD_LABELS[method]}" + _skipped((m.option, why) for m, why in passed)
         elif action in (Action.RESOLUTION_UP, Action.RESOLUTION_DOWN):
             return self._change_resolution(action == Action.RESOLUTION_UP)
         elif action == Action.TOGGLE_SAMPLES:
@@ -279,6 +307,24 @@ class Viewer:
             glfw.set_window_should_close(self.window.handle, True)
         return None
 
+    @staticmethod
+    def _next_setting(choices: list[Choice], current: Choice, use: Callable[[Choice], None]
+                      ) -> tuple[Choice, list[tuple[Choice, str]]]:
+        """Switch to the first choice after `current` (in a ring) that `use` accepts; the ones it
+        refused, and why. `use` refuses by raising, leaving the renderer as it was; if every
+        other choice is refused, `current` stays."""
+        start = choices.index(current)
+        skipped: list[tuple[Choice, str]] = []
+        for step in range(1, len(choices)):
+            wanted = choices[(start + step) % len(choices)]
+            try:
+                use(wanted)
+            except DepthImpostorError as error:
+                skipped.append((wanted, _reason(error)))
+                continue
+            return wanted, skipped
+        return current, skipped
+
     def _capture_cursor(self, captured: bool) -> None:
         # Flying looks around with unbounded mouse motion: glfw hides the cursor and keeps it in
         # the window. The next motion is measured from wherever the cursor is then.
@@ -296,8 +342,8 @@ class Viewer:
             return f"baked images stay at {current}x{current}: the end of the range"
         try:
             self.renderer.set_impostor_resolution(resolution)
-        except SceneError as error:
-            return f"baked images stay at {current}x{current}: {error.detail}"
+        except DepthImpostorError as error:
+            return f"baked images stay at {current}x{current}: {_reason(error)}"
         baked = self.renderer.baked_images
         if baked is None:
             return f"image resolution {resolution}x{resolution}, for the methods that bake images"
@@ -366,9 +412,14 @@ class Viewer:
         renderer.render()
         if self.screenshot_requested:
             self.screenshot_requested = False
-            path = save_numbered(renderer.read_color(), self.options.screenshot_dir, Path(renderer.scene.source).stem)
-            self.log.screenshots.append(str(path))
-            self.say(f"screenshot {path}")
+            try:
+                path = save_numbered(renderer.read_color(), self.options.screenshot_dir,
+                                     Path(renderer.scene.source).stem)
+            except OutputError as failure:  # a full disk loses the screenshot, not the session
+                self.say(f"no screenshot: {failure}")
+            else:
+                self.log.screenshots.append(str(path))
+                self.say(f"screenshot {path}")
         self.ctx.copy_framebuffer(self.frame_framebuffer, renderer.color_framebuffer)
         self.frame_framebuffer.use()
         self.overlay.draw(self.panels(), self.frame_size)
@@ -417,14 +468,6 @@ class Viewer:
 
     def _finish(self) -> None:
         renderer = self.renderer
-        if self.options.screenshot is not None and self.frames:
-            self.options.screenshot.parent.mkdir(parents=True, exist_ok=True)
-            Image.fromarray(renderer.read_color()).save(self.options.screenshot)
-        if self.options.window_screenshot is not None and self.frames:
-            width, height = self.frame_size
-            pixels = np.frombuffer(self.frame_framebuffer.read(components=3), np.uint8).reshape(height, width, 3)
-            self.options.window_screenshot.parent.mkdir(parents=True, exist_ok=True)
-            Image.fromarray(pixels).save(self.options.window_screenshot)
         draws = renderer.stats.draw_seconds
         summary = {
             "renderer": describe(self.ctx),
@@ -437,9 +480,17 @@ class Viewer:
             "gl_errors": self.log.gl_errors,
             "screenshots": self.log.screenshots,
         }
-        if self.options.report is not None:
-            self.options.report.parent.mkdir(parents=True, exist_ok=True)
-            self.options.report.write_text(json.dumps(summary, indent=2))
+        # The screenshots and the report go in place together (their paths were checked before the
+        # window opened): a full disk leaves none of them, never half of one.
+        with Outputs() as out:
+            if self.options.screenshot is not None and self.frames:
+                out.image(self.options.screenshot, renderer.read_color())
+            if self.options.window_screenshot is not None and self.frames:
+                width, height = self.frame_size
+                pixels = np.frombuffer(self.frame_framebuffer.read(components=3), np.uint8).reshape(height, width, 3)
+                out.image(self.options.window_screenshot, pixels)
+            if self.options.report is not None:
+                out.text(self.options.report, json.dumps(summary, indent=2))
         median = f"{summary['frame_ms_median']:.1f} ms" if draws else "-"
         print(
             f"{self.frames} frames, median frame {median}, {renderer.stats.depth_images_baked} depth images baked, "

@@ -1,0 +1,236 @@
+"""What a GL context can hold, checked before anything is allocated.
+
+A texture or renderbuffer over the context's size limits, or one its driver cannot allocate,
+does not fail where it is made: GL records an error and the framebuffer built on it is
+incomplete, which moderngl reports as "the framebuffer is not complete" long after the setting
+that caused it. So the renderer checks its plan first (`check_fits`): every surface it will make
+against GL_MAX_TEXTURE_SIZE, GL_MAX_RENDERBUFFER_SIZE and GL_MAX_VIEWPORT_DIMS, the largest
+allocation the driver is known to make, and the whole against a memory budget (the driver's,
+or `--max-memory`). A refusal names the setting to change. (No array textures are made, so
+GL_MAX_ARRAY_TEXTURE_LAYERS does not apply.)
+
+The limits come from one function, `context_limits`, which reads them from the context once and
+keeps them in `ctx.extra`; `use_limits` puts others there (the CLI's `--max-memory`, and tests,
+which must not allocate 16384^2 to see a refusal).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import re
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import moderngl
+
+from .errors import GpuLimitError
+from .passes.impostors import atlas_grid
+from .plan import RenderPlan
+from .scene.model import Scene
+
+MIB = 2**20
+
+#: The key of the limits in a context's `extra` dict.
+_EXTRA_KEY = "gpu_limits"
+
+#: Mesa's software rasterizers keep textures in the machine's memory: their budget is the memory
+#: the machine has available.
+_SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "lavapipe")
+#: llvmpipe addresses a resource with signed 32-bit offsets (Mesa's lp_limits.h:
+#: LP_MAX_TEXTURE_SIZE, 2 GiB); a texture made through GL also gets room for its mipmaps (a
+#: third more), so that a 1.5 GiB RG32F texture already fails where a 2 GiB renderbuffer does not.
+#: 1 GiB is the largest texture that leaves a margin for either.
+_LLVMPIPE_TEXTURE_BYTES = 2**30
+_LLVMPIPE_RENDERBUFFER_BYTES = 2**31
+
+
+@dataclass(frozen=True)
+class GpuLimits:
+    max_texture_size: int  # GL_MAX_TEXTURE_SIZE: a texture's side, in texels
+    max_renderbuffer_size: int  # GL_MAX_RENDERBUFFER_SIZE
+    max_viewport: tuple[int, int]  # GL_MAX_VIEWPORT_DIMS
+    max_texture_bytes: int | None = None  # one texture's bytes, where the driver is known to cap it
+    max_renderbuffer_bytes: int | None = None
+    memory: int | None = None  # bytes the renderer may allocate in all; None: unknown, not checked
+    memory_source: str = "unknown"  # where `memory` comes from, for messages
+
+    def with_memory(self, memory: int, source: str) -> GpuLimits:
+        return dataclasses.replace(self, memory=memory, memory_source=source)
+
+
+def _available_memory() -> int | None:
+    """The machine's available memory (Linux's MemAvailable), or its physical memory."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError):
+        return None
+
+
+def _read_limits(ctx: moderngl.Context) -> GpuLimits:
+    info = ctx.info
+    renderer = str(info.get("GL_RENDERER", "")).lower()
+    viewport = info.get("GL_MAX_VIEWPORT_DIMS", (info["GL_MAX_TEXTURE_SIZE"],) * 2)
+    limits = GpuLimits(int(info["GL_MAX_TEXTURE_SIZE"]), int(info["GL_MAX_RENDERBUFFER_SIZE"]),
+                       (int(viewport[0]), int(viewport[1])))
+    if "llvmpipe" in renderer:
+        limits = dataclasses.replace(limits, max_texture_bytes=_LLVMPIPE_TEXTURE_BYTES,
+                                     max_renderbuffer_bytes=_LLVMPIPE_RENDERBUFFER_BYTES)
+    if any(name in renderer for name in _SOFTWARE_RENDERERS):
+        available = _available_memory()
+        if available is not None:
+            limits = limits.with_memory(available, "the machine's available memory (a software renderer)")
+    # A GPU's own memory is not in core GL; without --max-memory it is left to the driver.
+    return limits
+
+
+def context_limits(ctx: moderngl.Context) -> GpuLimits:
+    """The limits of `ctx`: read from it on first use, or those `use_limits` gave it."""
+    extra = ctx.extra if isinstance(ctx.extra, dict) else {}
+    limits = extra.get(_EXTRA_KEY)
+    if not isinstance(limits, GpuLimits):
+        limits = _read_limits(ctx)
+        use_limits(ctx, limits)
+    return limits
+
+
+def use_limits(ctx: moderngl.Context, limits: GpuLimits) -> None:
+    """Check what `ctx` is asked to hold against `limits` from now on."""
+    ctx.extra = {**(ctx.extra if isinstance(ctx.extra, dict) else {}), _EXTRA_KEY: limits}
+
+
+def limit_memory(ctx: moderngl.Context, max_memory: int | None) -> None:
+    """`--max-memory`: the budget of everything the renderer allocates, instead of the driver's."""
+    if max_memory is not None:
+        use_limits(ctx, context_limits(ctx).with_memory(max_memory, "--max-memory"))
+
+
+_MEMORY = re.compile(r"^\s*(?P<number>\d+(?:\.\d+)?)\s*(?P<unit>[kmgt]?)(?:i?b)?\s*$", re.IGNORECASE)
+
+
+def parse_memory(text: str) -> int:
+    """`--max-memory`: 512M, 1.5G, 2GiB, 800MB (binary units: 1M = 2^20 bytes); a bare number is MiB.
+    Raises ValueError for anything else."""
+    match = _MEMORY.match(text)
+    if match is None or float(match["number"]) <= 0:
+        raise ValueError(f"expected a positive size such as 512M, 1.5G or 2GiB, got {text!r}")
+    power = "kmgt".index(match["unit"].lower()) + 1 if match["unit"] else 2
+    return int(float(match["number"]) * 1024**power)
+
+
+@dataclass(frozen=True)
+class Surface:
+    """One texture or renderbuffer the plan calls for: its size, its largest texel, and the setting
+    that decides its size."""
+
+    name: str
+    size: tuple[int, int]
+    texel_bytes: int
+    setting: str
+    renderbuffer: bool = False
+
+    @property
+    def bytes(self) -> int:
+        return self.size[0] * self.size[1] * self.texel_bytes
+
+
+def surfaces(scene: Scene, plan: RenderPlan) -> list[Surface]:
+    """The largest allocation of each kind the plan makes: the frame (RGBA32F colour; its other
+    outputs are as large or smaller), glass interiors (RGBA32F, as large as the frame's larger
+    side), the atlas of baked images (RG32F depth layers) and the shadow maps (RG32F)."""
+    found = [Surface("frame's colour buffer", scene.render.size, 16, "--size", renderbuffer=True)]
+    if "glass interiors" in plan.memory:
+        side = max(scene.render.size)
+        found.append(Surface("glass interior image", (side, side), 16, "--size"))
+    if plan.images:
+        side = max(max(image.width, image.height) for image in plan.images)
+        columns, rows = atlas_grid(len(plan.images))
+        found.append(Surface(f"atlas of {len(plan.images)} baked images of {side}x{side}",
+                             (columns * side, rows * side), 8, "--impostor-res"))
+    if scene.has_shadows:
+        columns, rows = atlas_grid(len(scene.shadowed_lights))
+        side = scene.render.shadow_resolution
+        found.append(Surface(f"atlas of {len(scene.shadowed_lights)} shadow maps",
+                             (columns * side, rows * side), 8, "render.shadow_resolution"))
+    return found
+
+
+def planned_bytes(plan: RenderPlan) -> int:
+    """The memory the plan says its images take: the one figure of it the checks read."""
+    return sum(plan.memory.values())
+
+
+def _mib(value: int) -> str:
+    return f"{value / MIB:.0f} MiB" if value >= 10 * MIB else f"{value / MIB:.2f} MiB"
+
+
+def _check_surface(surface: Surface, limits: GpuLimits, backend: str) -> None:
+    width, height = surface.size
+    kind = "renderbuffer" if surface.renderbuffer else "texture"
+    side = limits.max_renderbuffer_size if surface.renderbuffer else limits.max_texture_size
+    name = "GL_MAX_RENDERBUFFER_SIZE" if surface.renderbuffer else "GL_MAX_TEXTURE_SIZE"
+    if max(width, height) > side:
+        raise GpuLimitError(f"the {surface.name} would be {width}x{height}, over this GL's {name} of {side}; "
+                            f"lower {surface.setting}")
+    if surface.renderbuffer and (width > limits.max_viewport[0] or height > limits.max_viewport[1]):
+        raise GpuLimitError(f"the {surface.name} would be {width}x{height}, over this GL's GL_MAX_VIEWPORT_DIMS of "
+                            f"{limits.max_viewport[0]}x{limits.max_viewport[1]}; lower {surface.setting}")
+    cap = limits.max_renderbuffer_bytes if surface.renderbuffer else limits.max_texture_bytes
+    if cap is not None and surface.bytes > cap:
+        raise GpuLimitError(f"the {surface.name} would take {_mib(surface.bytes)} ({width}x{height}), over the "
+                            f"{_mib(cap)} that {backend} allocates for one {kind}; lower {surface.setting}")
+
+
+def check_fits(ctx: moderngl.Context, scene: Scene, plan: RenderPlan) -> None:
+    """Raise GpuLimitError, naming the setting to change, if `ctx` cannot hold what `plan` (of
+    `scene`; its memory counts every allocation, the frame and its extra outputs included)
+    allocates. Called before any of it is made."""
+    limits = context_limits(ctx)
+    backend = str(ctx.info.get("GL_RENDERER", "this GL")).split(" (")[0]
+    for surface in surfaces(scene, plan):
+        _check_surface(surface, limits, backend)
+    if limits.memory is None:
+        return
+    total = planned_bytes(plan)
+    if total > limits.memory:
+        largest, size, setting = _largest_share(plan)
+        raise GpuLimitError(f"the frame and its images need {_mib(total)}, over the {_mib(limits.memory)} of "
+                            f"{limits.memory_source} (the most: {largest}, {_mib(size)}); lower {setting} or raise "
+                            "--max-memory")
+
+
+#: The setting that sizes each of the plan's memory figures (by its name in `RenderPlan.memory`);
+#: the baked images (depth images, cube-map faces, billboards, their pyramids) are sized by the
+#: impostor resolution.
+_MEMORY_SETTINGS = {"shadow maps": "render.shadow_resolution", "glass interiors": "--size",
+                    "frame colour and depth": "--size", "reflection outputs": "--size", "sample counts": "--size",
+                    "meshes": "the scene's meshes (fewer or smaller objects)"}
+
+
+def _largest_share(plan: RenderPlan) -> tuple[str, int, str]:
+    """The largest of the plan's memory figures, its bytes, and the setting that sizes it."""
+    name, size = max(plan.memory.items(), key=lambda item: item[1], default=("", 0))
+    return name, size, _MEMORY_SETTINGS.get(name, "--impostor-res")
+
+
+@contextmanager
+def allocating(ctx: moderngl.Context, setting: str) -> Iterator[None]:
+    """Where GL objects are made after `check_fits`: a framebuffer the driver still cannot complete
+    (out of memory, a limit no query tells) is refused as the checks would refuse it, naming
+    `setting`, and the GL error it left is cleared."""
+    try:
+        yield
+    except moderngl.Error as error:
+        if "framebuffer is not complete" not in str(error):
+            raise
+        gl_error = ctx.error  # reading it clears it: the session goes on without it
+        raise GpuLimitError(f"this GL could not make a framebuffer ({error}; {gl_error}); lower {setting}"
+                            " or raise --max-memory") from None
