@@ -10,6 +10,8 @@ from enum import IntEnum
 
 import numpy as np
 
+from .bindings import glsl_bindings
+
 
 class Algorithm(IntEnum):
     """How a ray is intersected with a depth image: the lecture's two linear marches, and the
@@ -253,6 +255,7 @@ def glsl_constants() -> dict[str, str]:
         "MAX_INTERNAL_REFLECTIONS": str(MAX_INTERNAL_REFLECTIONS),
         "MIN_PATH_WEIGHT": f"{MIN_PATH_WEIGHT!r}",
     }
+    defines.update(glsl_bindings())
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",
                 ShadowKind: "SHADOW", Unseen: "UNSEEN"}
     for enum, prefix in prefixes.items():

@@ -22,10 +22,11 @@ from typing import TYPE_CHECKING
 
 import moderngl
 
+from ..bindings import UniformBlock
 from ..constants import BACKGROUND_DEPTH
 from ..scene.model import Scene
 from .glass import GlassInterior
-from .impostors import DEPTH_IMAGES_BINDING, DepthImage, ImpostorAtlas, color_mask, mirror_centre
+from .impostors import DepthImage, ImpostorAtlas, color_mask, mirror_centre
 from .mirrors import bounce_defines, outward_faces_front, reflector_program, reflector_tint, write_glass
 from .uniforms import write
 
@@ -80,7 +81,7 @@ class BounceBaker:
         images.ctx.enable(moderngl.DEPTH_TEST)
         images.bind(program)
         below = image.level - 1
-        self.level_buffers[(shown.index, below)].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
+        self.level_buffers[(shown.index, below)].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
         write(program, "u_depth_image_count", len(images.images_at(shown.index, below)))
         write(program, "u_eye", tuple(mirror_centre(image.mirror)))
         write(program, "u_tint", reflector_tint(shown))

@@ -24,6 +24,7 @@ import math
 import moderngl
 import numpy as np
 
+from ..bindings import TextureUnit, UniformBlock
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE
 from ..eye import eye_depth
 from ..geometry import ObjectGeometry
@@ -35,9 +36,6 @@ from .uniforms import bind_texture, bind_uniform_block, write
 
 INTERIOR_PROGRAM = ("mesh.vert", "glass_interior.frag")
 #: Past the other passes' units (0 to 5) and uniform-block bindings (0 to 2).
-GLASS_FRONT_UNIT = 6
-GLASS_BACK_UNIT = 7
-GLASS_INTERIOR_BINDING = 3
 #: The interior image's side at least, in texels (a glass a few pixels wide on screen).
 MIN_INTERIOR_RESOLUTION = 16
 
@@ -126,10 +124,10 @@ class GlassInterior:
 
     def bind(self, program: moderngl.Program) -> None:
         """Point a GLASS program at the last interior image made."""
-        bind_texture(program, "u_glass_front", self.front, GLASS_FRONT_UNIT)
-        bind_texture(program, "u_glass_back", self.back, GLASS_BACK_UNIT)
-        bind_uniform_block(program, "GlassInterior", GLASS_INTERIOR_BINDING)
-        self._record.bind_to_uniform_block(GLASS_INTERIOR_BINDING)
+        bind_texture(program, "u_glass_front", self.front, TextureUnit.GLASS_FRONT)
+        bind_texture(program, "u_glass_back", self.back, TextureUnit.GLASS_BACK)
+        bind_uniform_block(program, "GlassInterior", UniformBlock.GLASS_INTERIOR)
+        self._record.bind_to_uniform_block(UniformBlock.GLASS_INTERIOR)
         write(program, "u_glass_has_interior", self.camera is not None)
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:

@@ -29,6 +29,7 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
+from ..bindings import TextureUnit, UniformBlock
 from ..context import bind_default_framebuffer
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, NO_OBJECT
 from ..errors import SceneError
@@ -49,23 +50,18 @@ if TYPE_CHECKING:
 
 
 #: Texture units and the uniform-block binding the reflected-scene chunk reads.
-COLOR_ATLAS_UNIT = 0
-DEPTH_ATLAS_UNIT = 1
-BACK_COLOR_ATLAS_UNIT = 3  # after the pyramid's (2)
-BEYOND_ATLAS_UNIT = 4
-DEPTH_IMAGES_BINDING = 0
 
 
 def bind_impostors(program: moderngl.Program, atlas: ImpostorAtlas) -> None:
     """Point a program that includes lib/baked_images.glsl at the atlas."""
-    bind_texture(program, "u_impostor_color", atlas.color, COLOR_ATLAS_UNIT)
+    bind_texture(program, "u_impostor_color", atlas.color, TextureUnit.IMPOSTOR_COLOR)
     if atlas.depth is not None:
-        bind_texture(program, "u_impostor_depth", atlas.depth, DEPTH_ATLAS_UNIT)
+        bind_texture(program, "u_impostor_depth", atlas.depth, TextureUnit.IMPOSTOR_DEPTH)
     if atlas.back_color is not None:
-        bind_texture(program, "u_impostor_back_color", atlas.back_color, BACK_COLOR_ATLAS_UNIT)
+        bind_texture(program, "u_impostor_back_color", atlas.back_color, TextureUnit.IMPOSTOR_BACK_COLOR)
     if atlas.beyond is not None:
-        bind_texture(program, "u_impostor_beyond", atlas.beyond, BEYOND_ATLAS_UNIT)
-    bind_uniform_block(program, "DepthImages", DEPTH_IMAGES_BINDING)
+        bind_texture(program, "u_impostor_beyond", atlas.beyond, TextureUnit.IMPOSTOR_BEYOND)
+    bind_uniform_block(program, "DepthImages", UniformBlock.DEPTH_IMAGES)
 
 
 @dataclass(frozen=True, eq=False)
@@ -473,7 +469,7 @@ class BakedImages:
         bind_impostors(program, self.atlas)
 
     def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
-        self.uniform_buffers[mirror.index].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
+        self.uniform_buffers[mirror.index].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
         write(program, "u_depth_image_count", len(self.images_at(mirror.index, self.final_level)))
 
     def bake(self) -> int:
@@ -558,7 +554,7 @@ class BakedImages:
         framebuffer.use()
         framebuffer.viewport = image.tile
         framebuffer.clear(BACKGROUND_DEPTH, depth=BACKGROUND_DEPTH, viewport=image.tile)
-        bind_texture(program, "u_impostor_depth", self.atlas.depth_layers(), DEPTH_ATLAS_UNIT)
+        bind_texture(program, "u_impostor_depth", self.atlas.depth_layers(), TextureUnit.IMPOSTOR_DEPTH)
         self.ctx.enable(moderngl.CULL_FACE)
         self.ctx.cull_face = "front" if BAKE_CULLS_FRONT_FACES == "back" else "back"  # keep the front faces
         try:

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import moderngl
 
+from ..bindings import TextureUnit
 from ..shaders import ProgramCache
 from .uniforms import write
 
-_FRAME_UNIT = 0
 
 
 class PresentPass:
@@ -20,8 +20,8 @@ class PresentPass:
     def draw(self, frame: moderngl.Texture, origin: tuple[int, int] = (0, 0)) -> None:
         """Draw `frame` over the bound framebuffer's viewport (which must be the frame's size),
         whose lower-left corner is `origin`."""
-        frame.use(_FRAME_UNIT)
-        write(self.program, "u_frame", _FRAME_UNIT)
+        frame.use(TextureUnit.FRAME)
+        write(self.program, "u_frame", TextureUnit.FRAME)
         write(self.program, "u_origin", origin)
         self.ctx.disable(moderngl.DEPTH_TEST)
         self.vertex_array.render(moderngl.TRIANGLES, vertices=3)

@@ -10,9 +10,10 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from ..bindings import UniformBlock
 from ..ppc import PPC
 from ..shaders import ProgramCache
-from .impostors import DEPTH_IMAGES_BINDING, BakedImages
+from .impostors import BakedImages
 from .uniforms import write, write_matrix
 
 
@@ -32,7 +33,7 @@ class SamplesPass:
         self.ctx.enable(moderngl.PROGRAM_POINT_SIZE)
         draws = 0
         for mirror_index, images in impostors.images_by_mirror.items():
-            impostors.uniform_buffers[mirror_index].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
+            impostors.uniform_buffers[mirror_index].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
             for index, image in enumerate(images):
                 write(self.program, "u_image_index", index)
                 self.vertex_array.render(moderngl.POINTS, vertices=image.camera.width * image.camera.height)

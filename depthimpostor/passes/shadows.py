@@ -12,6 +12,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from ..bindings import TextureUnit, UniformBlock
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_LIGHTS, NO_OBJECT
 from ..context import bind_default_framebuffer
 from ..errors import SceneError
@@ -21,7 +22,6 @@ from ..scene.model import Scene
 from ..shaders import ProgramCache
 from .impostors import BACK_FACE_PROGRAM, BAKE_CULLS_FRONT_FACES, atlas_grid, plural
 from .meshes import GpuMeshes
-from .uniforms import SHADOW_MAP_UNIT, SHADOW_MAPS_BINDING
 
 
 #: A shadow map's single float attachment takes the window depth at location 0.
@@ -140,8 +140,8 @@ class ShadowMaps:
 
     def use(self) -> None:
         """Bind the maps where every shading program looks for them (passes/uniforms.py)."""
-        self.layers.use(SHADOW_MAP_UNIT)
-        self.uniform_buffer.bind_to_uniform_block(SHADOW_MAPS_BINDING)
+        self.layers.use(TextureUnit.SHADOW_MAPS)
+        self.uniform_buffer.bind_to_uniform_block(UniformBlock.SHADOW_MAPS)
 
     def read(self, light: int) -> np.ndarray:
         """Light `light`'s map as (height, width, 2) float32 OpenGL depths, top row first."""

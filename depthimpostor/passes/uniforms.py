@@ -11,6 +11,7 @@ from collections.abc import Sequence
 import moderngl
 import numpy as np
 
+from ..bindings import TextureUnit, UniformBlock
 from ..constants import MAX_ANALYTIC_PLANES, MAX_LIGHTS, LightKind, MaterialKind, ShadowKind
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
@@ -19,8 +20,6 @@ from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, PlaneShape
 
 #: Where every shading program finds the shadow maps (lib/shadows.glsl; passes/shadows.py binds
 #: them there once per frame). The unit is past those of every method's stand-in (0 to 4).
-SHADOW_MAP_UNIT = 5
-SHADOW_MAPS_BINDING = 2
 
 
 def shading_defines(scene: Scene) -> dict[str, int]:
@@ -113,8 +112,8 @@ def write_lighting(program: moderngl.Program, scene: Scene) -> None:
     write(program, "u_light_radiance", radiance)
     write(program, "u_light_shadows", shadows)
     write(program, "u_light_radius", radii)
-    write(program, "u_shadow_depth", SHADOW_MAP_UNIT)
-    bind_uniform_block(program, "ShadowMaps", SHADOW_MAPS_BINDING)
+    write(program, "u_shadow_depth", TextureUnit.SHADOW_MAPS)
+    bind_uniform_block(program, "ShadowMaps", UniformBlock.SHADOW_MAPS)
     write(program, "u_env_zenith", tuple(scene.environment.zenith))
     write(program, "u_env_horizon", tuple(scene.environment.horizon))
     write(program, "u_env_ground", tuple(scene.environment.ground))
