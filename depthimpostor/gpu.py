@@ -16,6 +16,7 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
+from .gl_state import NO_DEPTH_TEST, raster_state
 from .bindings import TextureUnit, UniformBlock
 from .constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm, Method
 from .context import bind_default_framebuffer
@@ -101,8 +102,8 @@ class RayQuery:
             write(self.program, "u_ray_directions", TextureUnit.RAY_DIRECTIONS)
             write(self.program, "u_depth_image_count", self.image_count)
             self.uniform_buffer.bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
-            self.ctx.disable(moderngl.DEPTH_TEST)
-            self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
+            with raster_state(self.ctx, NO_DEPTH_TEST):
+                self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
             hit, color, stats = (
                 np.frombuffer(framebuffer.read(components=4, attachment=i, dtype="f4"), np.float32)
                 .reshape(padded, 4)[:count].astype(np.float64)

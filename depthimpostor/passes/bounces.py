@@ -20,14 +20,14 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import moderngl
 
+from ..gl_state import raster_state
 from ..bindings import UniformBlock
 from ..constants import BACKGROUND_DEPTH
 from ..scene.model import Scene
 from .glass import GlassInterior
 from .impostors import DepthImage, ImpostorAtlas, color_mask, mirror_centre
-from .mirrors import bounce_defines, outward_faces_front, reflector_program, reflector_tint, write_glass
+from .mirrors import REFLECTORS, bounce_defines, reflector_program, reflector_tint, write_glass
 from .uniforms import write
 
 if TYPE_CHECKING:
@@ -78,7 +78,6 @@ class BounceBaker:
         framebuffer.color_mask = color_mask(2, (True,) * 4, (True,) * 4)
         framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=tile)
         framebuffer.color_mask = color_mask(2, (True,) * 4, (True, False, False, False))
-        images.ctx.enable(moderngl.DEPTH_TEST)
         images.bind(program)
         below = image.level - 1
         self.level_buffers[(shown.index, below)].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
@@ -86,7 +85,7 @@ class BounceBaker:
         write(program, "u_eye", tuple(mirror_centre(image.mirror)))
         write(program, "u_tint", reflector_tint(shown))
         write(program, "u_mirror_id", shown.index)
-        with outward_faces_front(images.ctx):  # the image's flip, for the mirror's backing
+        with raster_state(images.ctx, REFLECTORS):  # the image's flip, for the mirror's backing
             images.meshes.draw(program, shown, image.camera.view_projection)
         draws += 1 + images._bake_back_faces(image, framebuffer, tile)
         framebuffer.color_mask = color_mask(2, (True,) * 4, (True,) * 4)

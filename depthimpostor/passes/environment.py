@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import moderngl
 
+from ..gl_state import NO_DEPTH_TEST, raster_state
 from ..ppc import PPC
 from ..scene.model import Scene
 from ..shaders import ProgramCache
@@ -22,9 +23,8 @@ class EnvironmentPass:
         write(self.program, "u_camera_a", tuple(camera.a))
         write(self.program, "u_camera_b", tuple(camera.b))
         write(self.program, "u_camera_c", tuple(camera.c))
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
-        self.ctx.enable(moderngl.DEPTH_TEST)
+        with raster_state(self.ctx, NO_DEPTH_TEST):
+            self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
 
     def release(self) -> None:
         self.vertex_array.release()

@@ -29,6 +29,7 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
+from ..gl_state import Face, RasterState, other_face, raster_state
 from ..bindings import TextureUnit, UniformBlock
 from ..context import bind_default_framebuffer
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, NO_OBJECT
@@ -109,7 +110,11 @@ BEYOND_PROGRAM = ("mesh.vert", "beyond_run.frag")
 #: The face GL culls to keep the back faces. A depth image's projection puts image row 0 (the top)
 #: at window y = 0, a mirror image of GL's usual y-up window: counter-clockwise outward faces
 #: arrive clockwise, so GL's "front" faces are the back ones and culling GL's "back" keeps them.
-BAKE_CULLS_FRONT_FACES = "back"
+BAKE_CULLS_FRONT_FACES: Face = "back"
+#: Baking the nearest back faces (the back layer, shadow maps' second layer): GL's "front" culled.
+BACK_FACES = RasterState(cull=BAKE_CULLS_FRONT_FACES)
+#: Baking the nearest front faces behind the layers (the hybrid method's second run): the others culled.
+FRONT_FACES = RasterState(cull=other_face(BAKE_CULLS_FRONT_FACES))
 
 
 def image_records(images: list[DepthImage]) -> bytes:
@@ -476,35 +481,34 @@ class BakedImages:
         """Render the stale images into their tiles; returns the number of draw calls."""
         framebuffer = self.atlas.framebuffer
         framebuffer.use()
-        self.ctx.enable(moderngl.DEPTH_TEST)
         # The visible surface writes colour, R, G when G is the object id, and the triangle ids.
         atlas = self.atlas
         everything = atlas.masks(*[(True,) * 4] * len(atlas.textures))
         surface_mask = atlas.masks((True,) * 4, (True, self.second_layer == SecondLayer.OBJECT_ID, False, False),
                                    (True, False, False, False))  # triangle ids: R, the visible surface's
         draws = 0
-        try:
-            for image in self.depth_images:
-                if image.level or image.slot not in self.stale:  # ImpostorPass bakes images of mirrors after these
-                    continue
-                framebuffer.viewport = image.tile
-                # Cleared colour alpha 0 marks "nothing here"; both depth layers clear to
-                # BACKGROUND_DEPTH, the value the depth buffer clears to.
+        with raster_state(self.ctx):
+            try:
+                for image in self.depth_images:
+                    if image.level or image.slot not in self.stale:  # ImpostorPass bakes images of mirrors after these
+                        continue
+                    framebuffer.viewport = image.tile
+                    # Cleared colour alpha 0 marks "nothing here"; both depth layers clear to
+                    # BACKGROUND_DEPTH, the value the depth buffer clears to.
+                    framebuffer.color_mask = everything
+                    framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
+                    framebuffer.color_mask = surface_mask
+                    draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
+                    if self.back_layer is not None:
+                        draws += self._bake_back_layer(image)
+                        if self.atlas.beyond is not None:
+                            draws += self._bake_beyond(image)
+                        framebuffer.use()
+                    elif self.second_layer == SecondLayer.BACK_FACE:
+                        draws += self._bake_back_faces(image, framebuffer, image.tile)
+                    self.baked(image)
+            finally:
                 framebuffer.color_mask = everything
-                framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
-                framebuffer.color_mask = surface_mask
-                draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
-                if self.back_layer is not None:
-                    draws += self._bake_back_layer(image)
-                    if self.atlas.beyond is not None:
-                        draws += self._bake_beyond(image)
-                    framebuffer.use()
-                elif self.second_layer == SecondLayer.BACK_FACE:
-                    draws += self._bake_back_faces(image, framebuffer, image.tile)
-                self.baked(image)
-        finally:
-            framebuffer.color_mask = everything
-            self.ctx.disable(moderngl.CULL_FACE)
         return draws
 
     def baked(self, image: DepthImage) -> None:
@@ -521,11 +525,9 @@ class BakedImages:
         framebuffer.color_mask = color_mask(attachments)
         framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=tile)
         framebuffer.color_mask = color_mask(attachments, (False,) * 4, (False, True, False, False))
-        self.ctx.enable(moderngl.CULL_FACE)
-        self.ctx.cull_face = BAKE_CULLS_FRONT_FACES
-        for target in image.targets:
-            self.meshes.draw(back_faces, target, image.camera.view_projection)
-        self.ctx.disable(moderngl.CULL_FACE)
+        with raster_state(self.ctx, BACK_FACES):
+            for target in image.targets:
+                self.meshes.draw(back_faces, target, image.camera.view_projection)
         return len(image.targets)
 
     def _bake_back_layer(self, image: DepthImage) -> int:
@@ -537,13 +539,11 @@ class BakedImages:
         framebuffer.color_mask = atlas.masks((True,) * 4)
         framebuffer.clear(1.0, 1.0, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
         framebuffer.color_mask = atlas.masks((True,) * 4, (False, True, False, False), (False, True, False, False))
-        self.ctx.enable(moderngl.CULL_FACE)
-        self.ctx.cull_face = BAKE_CULLS_FRONT_FACES
-        try:
-            return self.back_layer.draw(list(image.targets), image.camera.view_projection)
-        finally:
-            self.ctx.disable(moderngl.CULL_FACE)
-            framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
+        with raster_state(self.ctx, BACK_FACES):
+            try:
+                return self.back_layer.draw(list(image.targets), image.camera.view_projection)
+            finally:
+                framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
 
     def _bake_beyond(self, image: DepthImage) -> int:
         """Where a second solid run begins behind the first (beyond_run.frag): the nearest front
@@ -555,13 +555,9 @@ class BakedImages:
         framebuffer.viewport = image.tile
         framebuffer.clear(BACKGROUND_DEPTH, depth=BACKGROUND_DEPTH, viewport=image.tile)
         bind_texture(program, "u_impostor_depth", self.atlas.depth_layers(), TextureUnit.IMPOSTOR_DEPTH)
-        self.ctx.enable(moderngl.CULL_FACE)
-        self.ctx.cull_face = "front" if BAKE_CULLS_FRONT_FACES == "back" else "back"  # keep the front faces
-        try:
+        with raster_state(self.ctx, FRONT_FACES):
             for target in image.targets:
                 self.meshes.draw(program, target, image.camera.view_projection)
-        finally:
-            self.ctx.disable(moderngl.CULL_FACE)
         return len(image.targets)
 
     def release(self) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import moderngl
 
+from ..gl_state import NO_DEPTH_TEST, raster_state
 from ..bindings import TextureUnit
 from ..shaders import ProgramCache
 from .uniforms import write
@@ -23,9 +24,8 @@ class PresentPass:
         frame.use(TextureUnit.FRAME)
         write(self.program, "u_frame", TextureUnit.FRAME)
         write(self.program, "u_origin", origin)
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
-        self.ctx.enable(moderngl.DEPTH_TEST)
+        with raster_state(self.ctx, NO_DEPTH_TEST):
+            self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
 
     def release(self) -> None:
         self.vertex_array.release()
