@@ -20,7 +20,7 @@ from .gl_state import NO_DEPTH_TEST, raster_state
 from .bindings import TextureUnit, UniformBlock
 from .constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm, Method
 from .context import bind_default_framebuffer
-from .passes.impostors import ImpostorAtlas, bind_impostors
+from .passes.atlas import ImpostorAtlas, bind_impostors
 from .passes.mirrors import reflection_defines
 from .passes.pyramid import DepthPyramid
 from .passes.uniforms import write

@@ -31,7 +31,7 @@ from ..eye import eye_depth
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
 from ..shaders import ProgramCache
-from .impostors import BACK_FACES, FRONT_FACES
+from .atlas import BACK_FACES, FRONT_FACES
 from .meshes import GpuMeshes
 from .uniforms import bind_texture, bind_uniform_block, write
 

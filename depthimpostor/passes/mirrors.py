@@ -16,7 +16,7 @@ from ..scene.model import GlassMaterial, MirrorMaterial, Scene
 from ..shaders import ProgramCache
 from ..truth import MIRROR_BACKING_ALBEDO
 from .glass import GlassInterior, interior_camera, pixel_angle
-from .impostors import BAKE_CULLS_FRONT_FACES
+from .atlas import BAKE_CULLS_FRONT_FACES
 from .meshes import GpuMeshes
 from .uniforms import shading_defines, write
 

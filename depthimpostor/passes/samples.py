@@ -14,7 +14,7 @@ from ..gl_state import RasterState, raster_state
 from ..bindings import UniformBlock
 from ..ppc import PPC
 from ..shaders import ProgramCache
-from .impostors import BakedImages
+from .baked_images import BakedImages
 from .uniforms import write, write_matrix
 
 

@@ -21,7 +21,7 @@ from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
 from ..scene.model import Scene
 from ..shaders import ProgramCache
-from .impostors import BACK_FACE_PROGRAM, BACK_FACES, atlas_grid, plural
+from .atlas import BACK_FACE_PROGRAM, BACK_FACES, atlas_grid, plural
 from .meshes import GpuMeshes
 
 

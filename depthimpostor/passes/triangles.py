@@ -23,7 +23,7 @@ from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..meshes import Mesh
 from ..scene.model import Scene
-from .impostors import plural
+from .atlas import plural
 from .uniforms import bind_texture, bind_uniform_block, material_fields
 
 
