@@ -28,7 +28,8 @@ so that a scene of thousands of objects is culled in a fraction of a second.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import TypeAlias
 from dataclasses import dataclass
 from enum import Enum
 
@@ -141,6 +142,10 @@ def _culled(cones: list[_Cones], centres: np.ndarray, radii: np.ndarray) -> np.n
     return culled
 
 
+#: What can reach what: `reaches` itself, or a World's memo of it (world.py).
+ReachTable: TypeAlias = Callable[[Sequence[ObjectGeometry], Sequence[ObjectGeometry]], list[list[Reach]]]
+
+
 def reaches(reflectors: Sequence[ObjectGeometry], targets: Sequence[ObjectGeometry]) -> list[list[Reach]]:
     """`reach(reflector, target)` for every reflector (rows) and target (columns), all pairs at once."""
     table = [[Reach.REACHABLE] * len(targets) for _ in reflectors]
@@ -163,9 +168,10 @@ def reach(reflector: ObjectGeometry, target: ObjectGeometry) -> Reach:
     return reaches([reflector], [target])[0][0]
 
 
-def reachable_targets(reflector: ObjectGeometry, targets: list[ObjectGeometry]) -> list[ObjectGeometry]:
+def reachable_targets(reflector: ObjectGeometry, targets: list[ObjectGeometry],
+                      reach: ReachTable = reaches) -> list[ObjectGeometry]:
     """The targets `reflector` may show, in order."""
-    return [target for target, why in zip(targets, reaches([reflector], targets)[0], strict=True) if why is Reach.REACHABLE]
+    return [target for target, why in zip(targets, reach([reflector], targets)[0], strict=True) if why is Reach.REACHABLE]
 
 
 def may_shadow(light: np.ndarray, light_radius: float, caster: tuple[np.ndarray, float],

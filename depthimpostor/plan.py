@@ -20,8 +20,8 @@ from .bvh import node_count
 from .constants import (
     BVH_TEXTURE_WIDTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, Algorithm, Method,
 )
-from .culling import Reach, reaches
-from .geometry import ObjectGeometry, scene_geometry
+from .culling import Reach
+from .geometry import ObjectGeometry
 from .passes.billboards import BillboardPass
 from .passes.cubemaps import CubeMapPass
 from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
@@ -29,7 +29,7 @@ from .passes.environment import ENVIRONMENT_PROGRAM
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .passes.hybrid import HybridPass
 from .passes.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
-from .passes.baked_images import BakedImages, SecondLayer
+from .passes.baked_images import BakedImages, ImagePlan, SecondLayer
 from .passes.impostors import ImpostorPass
 from .passes.meshes import GpuMeshes
 from .passes.mirrors import REFLECTION_OUTPUTS, REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
@@ -40,6 +40,7 @@ from .passes.triangles import TrianglePass
 from .scene.limits import check_method, check_model_reach, check_scene
 from .scene.model import MeshShape, Scene
 from .shaders import ProgramKey, program_key
+from .world import World
 
 #: Each method's stand-in for the reflected objects. Both cube-map methods look up the same cube
 #: map: switching between them keeps it (only the mirror shader's variant changes).
@@ -131,6 +132,9 @@ class RenderPlan:
     skipped: tuple[SkippedImage, ...]
     variants: tuple[PlannedVariant, ...]
     memory: dict[str, int] = field(default_factory=dict)  # bytes per resource
+    # The baked images of each reflector (by index), with their cameras: what the stand-in bakes,
+    # so that it does not plan them again.
+    image_plans: dict[int, list[ImagePlan]] = field(default_factory=dict, compare=False, repr=False)
 
     def runs(self, stage: Pass) -> bool:
         return any(planned.stage is stage for planned in self.passes)
@@ -189,12 +193,14 @@ def check_stand_in(scene: Scene, method: Method, reflectors: list[ObjectGeometry
 
 def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorithm = Algorithm.OPTIMIZED,
                 geometry: list[ObjectGeometry] | None = None, reflection_data: bool = False,
-                count_samples: bool = False) -> RenderPlan:
+                count_samples: bool = False, world: World | None = None) -> RenderPlan:
     """The plan of `scene` drawn with `method` (and, for depth images, `algorithm`); a renderer's
     `reflection_data` and `count_samples` add to its memory. Every limit the renderer would meet
-    is checked here, before it makes any GL object: a SceneError says which."""
+    is checked here, before it makes any GL object: a SceneError says which. `world` (the scene's
+    objects where they are, world.py) keeps what can reach what between plans."""
     check_scene(scene)  # already checked by the loader; again for scenes built in code
-    geometry = geometry if geometry is not None else scene_geometry(scene.objects)
+    world = world if world is not None else World(scene, geometry)
+    geometry = world.geometry
     for item in geometry:
         if isinstance(item.object.shape, MeshShape):
             check_model_reach(scene, item.index, item.local_mesh)
@@ -219,16 +225,17 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             fit_shadow_camera(scene, light, [g for g in geometry if g.object in casters], scene.render.shadow_resolution)
 
     images: list[PlannedImage] = []
+    image_plans: dict[int, list[ImagePlan]] = {}
     skipped: list[SkippedImage] = []
     shown_in_bounces: set[bool] = set()  # is_glass of the reflectors bounce images show
     stand_in = STAND_INS[method]
     if reflectors:
         shown = reflected + (reflectors if scene.render.max_bounces > 1 else [])
-        for reflector, row in zip(reflectors, reaches(reflectors, shown), strict=True):
+        for reflector, row in zip(reflectors, world.reaches(reflectors, shown), strict=True):
             skipped += [SkippedImage(reflector.object.name, target.object.name, why.value)
                         for target, why in zip(shown, row, strict=True) if why is not Reach.REACHABLE and target is not reflector]
         if issubclass(stand_in, BakedImages):
-            planned = stand_in.plan_images(scene, reflectors, reflected)
+            planned = image_plans = stand_in.plan_images(scene, reflectors, reflected, world.reaches)
             by_index = {g.index: g for g in geometry}
             for index, plans in planned.items():
                 for face, (targets, camera, level) in enumerate(plans):
@@ -287,7 +294,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     memory = plan_memory(scene, method, algorithm, geometry, images, True in shown_in_bounces, reflection_data,
                          count_samples)
     return RenderPlan(scene.source, method, algorithm, tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage))),
-                      tuple(images), tuple(skipped), tuple(PlannedVariant(k, r) for k, r in variants.items()), memory)
+                      tuple(images), tuple(skipped), tuple(PlannedVariant(k, r) for k, r in variants.items()), memory,
+                      image_plans)
 
 
 def _bvh_bytes(triangles: int, named: bool) -> int:

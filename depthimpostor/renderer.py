@@ -21,6 +21,7 @@ from .culling import may_shadow
 from .embedding import FramePresenter, kept_state, keeps_gl_state
 from .eye import EyeCamera, Sphere, clear_depth, eye_depth, fitted_camera, make_depth_buffer, reversed_z
 from .geometry import ObjectGeometry, scene_geometry
+from .world import World
 from .limits import allocating, check_fits
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
@@ -117,10 +118,10 @@ class Renderer:
         # The eye's depth convention (eye.py): reversed-Z where GL has clip control.
         self.reversed_z = reversed_z(ctx) is not None
         self.time = 0.0  # seconds into the scene's animation
-        geometry = scene_geometry(scene.objects)
         # First: the plan refuses what cannot be rendered before anything is made or fitted.
-        self.plan: RenderPlan = plan_render(scene, method, algorithm, geometry, reflection_data, count_samples)
-        self._classify(geometry)
+        self._use_world(World(scene, scene_geometry(scene.objects)))
+        self.plan: RenderPlan = plan_render(scene, method, algorithm, reflection_data=reflection_data,
+                                            count_samples=count_samples, world=self.world)
         self._relight()
         self.view = scene.camera
         self.camera = fitted_camera(self.view, scene.render.size, self.bounds, self.reversed_z)
@@ -131,19 +132,18 @@ class Renderer:
             self._make_targets(scene.render.size)
             self._build_passes()
 
-    def _classify(self, geometry: list[ObjectGeometry]) -> None:
-        """The scene's objects (at the renderer's time) in the lists the passes draw."""
-        self.geometry = geometry
-        self.bounds: list[Sphere] = [g.bounding_sphere for g in geometry]
-        self.mirrors: list[ObjectGeometry] = [g for g in geometry if g.object.is_mirror]
-        self.glass: list[ObjectGeometry] = [g for g in geometry if g.object.is_glass]
-        # Mirrors and glass: drawn by the mirror pass, each with depth images of the others.
-        self.reflectors: list[ObjectGeometry] = [g for g in geometry if g.object.is_specular]
-        self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
-        self.diffuse_objects = [g for g in geometry if not g.object.is_specular]
-        self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
-        casters = set(self.scene.shadow_casters)
-        self.shadow_casters = [g for g in geometry if g.object in casters]
+    def _use_world(self, world: World) -> None:
+        """Draw `world` (the scene's objects at the renderer's time): its lists are the passes'."""
+        self.world = world
+        self.geometry = world.geometry
+        self.bounds: list[Sphere] = world.bounds
+        self.mirrors: list[ObjectGeometry] = world.mirrors
+        self.glass: list[ObjectGeometry] = world.glass
+        self.reflectors: list[ObjectGeometry] = world.reflectors
+        self.analytic_planes = world.analytic_planes
+        self.diffuse_objects = world.diffuse_objects
+        self.reflected_objects = world.reflected_objects
+        self.shadow_casters = world.shadow_casters
 
     def _make_targets(self, size: tuple[int, int]) -> None:
         ctx = self.ctx
@@ -182,20 +182,21 @@ class Renderer:
             item.index: GlassInterior(ctx, self.programs, self.meshes, max(scene.render.size)) for item in self.glass
         }
         if self.reflectors:
-            self._make_stand_in(self.method, self.scene)
+            self._make_stand_in(self.method, self.scene, self.plan)
             self.mirror_pass = self._mirror_pass()
             if self.show_samples and self.sampled is not None:
                 self.samples = SamplesPass(ctx, self.programs)
         self._baked = False
 
-    def _make_stand_in(self, method: Method, scene: Scene) -> None:
+    def _make_stand_in(self, method: Method, scene: Scene, plan: RenderPlan) -> None:
         """The method's stand-in for the reflected objects; the old one (if any) is released only
         once the new one exists, so that a failure leaves the renderer as it was."""
         kind = STAND_INS[method]
         check_stand_in(scene, method, self.reflectors, self.reflected_objects)
         stand_in: ReflectedObjects
         if issubclass(kind, BakedImages):
-            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.reflectors, self.reflected_objects)
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.reflectors, self.reflected_objects,
+                            plan.image_plans)
         else:
             stand_in = kind(self.ctx, scene, self.reflected_objects)
         if self.stand_in is not None:
@@ -239,14 +240,12 @@ class Renderer:
         )
 
     def _checked_plan(self, scene: Scene, method: Method, algorithm: Algorithm) -> RenderPlan:
-        """The plan of other settings, once this context is known to hold it (GpuLimitError if not)."""
-        plan = plan_render(scene, method, algorithm, self.geometry, self.reflection_data, self.count_samples)
+        """The plan of other settings, once this context is known to hold it (GpuLimitError if not).
+        The world's memo of what can reach what is kept: settings do not move objects."""
+        plan = plan_render(scene, method, algorithm, reflection_data=self.reflection_data,
+                           count_samples=self.count_samples, world=self.world.with_settings(scene))
         check_fits(self.ctx, scene, plan)
         return plan
-
-    def _replan(self) -> None:
-        self.plan = plan_render(self.scene, self.method, self.algorithm, self.geometry, self.reflection_data,
-                                self.count_samples)
 
     # ------------------------------------------------------------------ settings
     def look_at(self, view: Camera) -> None:
@@ -271,11 +270,12 @@ class Renderer:
             self.time = seconds
             return
         before = {g.index: g for g in self.geometry}
-        geometry = [g.at(seconds) for g in self.geometry]
+        world = self.world.at(seconds)
+        geometry = world.geometry
         moved = {g.index for g in geometry if g is not before[g.index]}
         lights_before = self.lit_scene.lights
         self.time = seconds
-        self._classify(geometry)
+        self._use_world(world)
         self._relight()
         lights = self.lit_scene.lights
         moved_lights = {i for i, (new, old) in enumerate(zip(lights, lights_before, strict=True)) if new != old}
@@ -290,7 +290,7 @@ class Renderer:
         baked = self.baked_images
         if baked is None:  # the triangle methods' BVH: built again around the moved objects
             if any(g.index in moved for g in self.reflected_objects):
-                self._make_stand_in(self.method, self.scene)
+                self._make_stand_in(self.method, self.scene, self.plan)
                 self.mirror_pass = self._mirror_pass()
             return
         relit = {g.index for g in self.reflected_objects} if moved_lights else set()
@@ -319,9 +319,11 @@ class Renderer:
         if size == self.scene.render.size:
             return
         scene = self.scene.with_overrides(size=size)
-        self._checked_plan(scene, self.method, self.algorithm)
+        plan = self._checked_plan(scene, self.method, self.algorithm)
         self._release_targets()
         self.scene = scene
+        self.plan = plan
+        self._use_world(self.world.with_settings(scene))
         self._relight()
         with allocating(self.ctx, "the frame's size"):
             self._make_targets(size)
@@ -333,10 +335,10 @@ class Renderer:
         hierarchical one builds their pyramids from them; the others free the pyramids). A GL
         without compute shaders raises ContextError for the hierarchical one and keeps the old, and
         so does a context that cannot hold the pyramids (GpuLimitError)."""
-        self._checked_plan(self.scene, self.method, algorithm)
+        plan = self._checked_plan(self.scene, self.method, algorithm)
         self._keep_pyramids(algorithm)
         self.algorithm = algorithm
-        self._replan()
+        self.plan = plan
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
 
@@ -346,12 +348,12 @@ class Renderer:
         new one's are made, unless both use the same (the two cube-map lookups); a scene without
         mirrors has none either way. A method this context cannot hold raises GpuLimitError and
         leaves the renderer as it was."""
-        self._checked_plan(self.scene, method, self.algorithm)
+        plan = self._checked_plan(self.scene, method, self.algorithm)
         if self.reflectors and STAND_INS[method] is not STAND_INS[self.method]:
             with allocating(self.ctx, "--impostor-res"):
-                self._make_stand_in(method, self.scene)
+                self._make_stand_in(method, self.scene, plan)
         self.method = method
-        self._replan()
+        self.plan = plan
         if self.reflectors:
             self.mirror_pass = self._mirror_pass()
             if self.sampled is None:
@@ -368,13 +370,14 @@ class Renderer:
         GpuLimitError (checked before anything is made) and leaves the renderer as it was.
         """
         scene = self.scene.with_overrides(impostor_resolution=resolution)
-        self._checked_plan(scene, self.method, self.algorithm)
+        plan = self._checked_plan(scene, self.method, self.algorithm)
         if self.baked_images is not None:
             with allocating(self.ctx, "--impostor-res"):
-                self._make_stand_in(self.method, scene)
+                self._make_stand_in(self.method, scene, plan)
         self.scene = scene
+        self.plan = plan
+        self._use_world(self.world.with_settings(scene))
         self._relight()
-        self._replan()
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()
 

@@ -17,7 +17,7 @@ from ..bindings import TextureUnit, UniformBlock
 from ..constants import BACKGROUND_DEPTH, MAX_DEPTH_IMAGES_PER_MIRROR
 from ..errors import SceneError
 from ..geometry import ObjectGeometry, triangle_offsets
-from ..culling import Reach, reaches
+from ..culling import Reach, ReachTable, reaches
 from ..ppc import PPC
 from ..resolution import MIN_AUTO_RESOLUTION, auto_resolution, scene_view
 from ..scene.model import Scene
@@ -74,8 +74,11 @@ class BakedImages:
         meshes: GpuMeshes,
         mirrors: list[ObjectGeometry],
         reflected: list[ObjectGeometry],
+        image_plans: dict[int, list[ImagePlan]] | None = None,
     ) -> None:
-        plan = self.plan_images(scene, mirrors, reflected)
+        """`image_plans`: the plan's images (RenderPlan.image_plans), so that they are not planned
+        again; planned here when not given."""
+        plan = image_plans if image_plans is not None else self.plan_images(scene, mirrors, reflected)
         self.ctx = ctx
         self.programs = programs
         self.scene = scene
@@ -150,11 +153,11 @@ class BakedImages:
 
     @classmethod
     def plan_images(
-        cls, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
+        cls, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry], reach: ReachTable = reaches
     ) -> dict[int, list[ImagePlan]]:
         """The images to bake for each mirror (by its index): by default one per reflected
         object it may show (depth images, billboards); cube maps bake six faces instead."""
-        return per_object_plan(scene, mirrors, reflected)
+        return per_object_plan(scene, mirrors, reflected, reach)
 
     def images_at(self, mirror_index: int, bounces: int) -> list[DepthImage]:
         """The images a reflected ray of this mirror is traced against when it may make
@@ -282,12 +285,14 @@ def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: Object
     return fit_depth_image_camera(scene, mirror, target, auto_resolution(view, mirror, target, probe))
 
 
-def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]) -> dict[int, list[ImagePlan]]:
-    """One image per mirror and reflected object it may show (culling.py), its frustum fitted to
-    the object. The images of one mirror share its uniform block, which has a fixed size."""
+def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
+                    reach: ReachTable = reaches) -> dict[int, list[ImagePlan]]:
+    """One image per mirror and reflected object it may show (`reach`: culling.reaches, or a
+    World's, which works each pair out once), its frustum fitted to the object. The images of one
+    mirror share its uniform block, which has a fixed size."""
     view = scene_view(scene)
     plan = {}
-    for mirror, row in zip(mirrors, reaches(mirrors, reflected), strict=True):
+    for mirror, row in zip(mirrors, reach(mirrors, reflected), strict=True):
         shown = [target for target, why in zip(reflected, row, strict=True) if why is Reach.REACHABLE]
         if len(shown) > MAX_DEPTH_IMAGES_PER_MIRROR:
             raise SceneError(

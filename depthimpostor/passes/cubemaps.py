@@ -23,6 +23,7 @@ from ..ppc import PPC
 from ..scene.model import Scene
 from ..resolution import MIN_AUTO_RESOLUTION
 from .atlas import DepthImage, mirror_centre
+from ..culling import ReachTable, reaches
 from .baked_images import BakedImages, ImagePlan, SecondLayer, per_object_plan
 from .uniforms import write
 
@@ -80,12 +81,12 @@ class CubeMapPass(BakedImages):
 
     @classmethod
     def plan_images(
-        cls, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
+        cls, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry], reach: ReachTable = reaches
     ) -> dict[int, list[ImagePlan]]:
         """Six faces per mirror showing what it may reflect; "auto" gives the faces the largest
         resolution its objects' depth images would get (per_object_plan)."""
         plan: dict[int, list[ImagePlan]] = {}
-        for mirror, images in zip(mirrors, per_object_plan(scene, mirrors, reflected).values(), strict=False):
+        for mirror, images in zip(mirrors, per_object_plan(scene, mirrors, reflected, reach).values(), strict=False):
             shown = [image.targets[0] for image in images]
             if not shown:  # it reflects nothing but the planes and the environment
                 plan[mirror.index] = []

@@ -16,6 +16,7 @@ from ..bindings import TextureUnit
 from ..geometry import ObjectGeometry
 from ..scene.model import Scene
 from ..shaders import ProgramCache
+from .baked_images import ImagePlan
 from .impostors import ImpostorPass
 from .meshes import GpuMeshes
 from .triangles import TrianglePass
@@ -32,8 +33,9 @@ class HybridPass(ImpostorPass):
     keeps_beyond = True
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
-                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]) -> None:
-        super().__init__(ctx, programs, scene, meshes, mirrors, reflected)
+                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
+                 image_plans: dict[int, list[ImagePlan]] | None = None) -> None:
+        super().__init__(ctx, programs, scene, meshes, mirrors, reflected, image_plans)
         self.reflected = list(reflected)
         try:
             self.triangles = TrianglePass(ctx, scene, self.reflected, places=True)

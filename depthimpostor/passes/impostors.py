@@ -23,7 +23,7 @@ import moderngl
 from ..constants import MAX_DEPTH_IMAGES_PER_MIRROR
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
-from ..culling import reachable_targets
+from ..culling import ReachTable, reachable_targets, reaches
 from ..resolution import scene_view
 from ..scene.model import Scene
 from ..shaders import ProgramCache
@@ -49,8 +49,9 @@ class ImpostorPass(BakedImages):
     bounces: BounceBaker | None = None
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
-                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]) -> None:
-        super().__init__(ctx, programs, scene, meshes, mirrors, reflected)
+                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
+                 image_plans: dict[int, list[ImagePlan]] | None = None) -> None:
+        super().__init__(ctx, programs, scene, meshes, mirrors, reflected, image_plans)
         if self.final_level > 1 and len(mirrors) > 1:
             from .bounces import BounceBaker  # bounces.py builds on this module's classes
 
@@ -58,21 +59,23 @@ class ImpostorPass(BakedImages):
 
     @classmethod
     def plan_images(
-        cls, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
+        cls, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry], reach: ReachTable = reaches
     ) -> dict[int, list[ImagePlan]]:
         """Per mirror, one depth image per reflected object it may show and, for each bounce k
         from 2 to render.max_bounces, one of every other mirror it may show, showing its bounce
         k - 1 reflections."""
-        plan = per_object_plan(scene, mirrors, reflected)
+        plan = per_object_plan(scene, mirrors, reflected, reach)
         if scene.render.max_bounces > 1 and len(reflected) + len(mirrors) - 1 > MAX_DEPTH_IMAGES_PER_MIRROR:
             raise SceneError(
                 scene.source, "render.max_bounces",
                 f"expected 1 with {len(reflected)} reflected objects and {len(mirrors)} mirrors: a mirror's images of "
                 f"the others would pass the {MAX_DEPTH_IMAGES_PER_MIRROR} one mirror may hold",
             )
+        if scene.render.max_bounces == 1:
+            return plan
         view = scene_view(scene)
         for mirror in mirrors:
-            others = reachable_targets(mirror, [other for other in mirrors if other is not mirror])
+            others = reachable_targets(mirror, [other for other in mirrors if other is not mirror], reach)
             cameras = [image_camera(scene, view, mirror, other) for other in others]
             plan[mirror.index] += [
                 ImagePlan((other,), camera, level)

@@ -1,0 +1,82 @@
+"""The scene at one time: where each object is, sorted into what each pass draws, and what can reach
+what. The plan (plan.py) and the renderer read this one model instead of each sorting the scene
+and running the culling again.
+
+What can reach what (culling.reaches: can a ray leaving a reflector meet a target?) is worked out
+once per pair of objects in a world, and carried to the world of another time for the pairs of
+which neither object moves.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from functools import cached_property
+
+import numpy as np
+
+from .culling import Reach, reaches
+from .geometry import ObjectGeometry, scene_geometry
+from .scene.model import Scene
+
+Sphere = tuple[np.ndarray, float]
+
+
+class World:
+    def __init__(self, scene: Scene, geometry: list[ObjectGeometry] | None = None, time: float = 0.0) -> None:
+        """`scene`'s objects at `time` seconds into its animation (`geometry`: already made at that time)."""
+        self.scene = scene
+        self.time = time
+        self.geometry = geometry if geometry is not None else [g.at(time) for g in scene_geometry(scene.objects)]
+        geometry = self.geometry
+        self.mirrors = [g for g in geometry if g.object.is_mirror]
+        self.glass = [g for g in geometry if g.object.is_glass]
+        # Mirrors and glass: drawn by the mirror pass, each with depth images of the others.
+        self.reflectors = [g for g in geometry if g.object.is_specular]
+        self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
+        self.diffuse_objects = [g for g in geometry if not g.object.is_specular]
+        self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
+        casters = set(scene.shadow_casters)
+        self.shadow_casters = [g for g in geometry if g.object in casters]
+        self._reach: dict[tuple[int, int], Reach] = {}  # (reflector index, target index)
+        self.reach_pairs_computed = 0  # pairs culling.reaches worked out for this world (tests count them)
+
+    @cached_property
+    def bounds(self) -> list[Sphere]:
+        """Every object's bounding sphere (the eye camera's near plane is fitted to them)."""
+        return [g.bounding_sphere for g in self.geometry]
+
+    def reaches(self, reflectors: Sequence[ObjectGeometry], targets: Sequence[ObjectGeometry]) -> list[list[Reach]]:
+        """culling.reaches of this world's objects, each pair worked out once."""
+        missing_rows = [r for r in reflectors if any((r.index, t.index) not in self._reach for t in targets)]
+        if missing_rows:
+            missing_targets = [t for t in targets if any((r.index, t.index) not in self._reach for r in missing_rows)]
+            for reflector, row in zip(missing_rows, reaches(missing_rows, missing_targets), strict=True):
+                for target, why in zip(missing_targets, row, strict=True):
+                    self._reach[(reflector.index, target.index)] = why
+            self.reach_pairs_computed += len(missing_rows) * len(missing_targets)
+        return [[self._reach[(r.index, t.index)] for t in targets] for r in reflectors]
+
+    def reachable(self, reflector: ObjectGeometry, targets: Sequence[ObjectGeometry]) -> list[ObjectGeometry]:
+        """The targets `reflector` may show, in order."""
+        return [t for t, why in zip(targets, self.reaches([reflector], targets)[0], strict=True) if why is Reach.REACHABLE]
+
+    def with_settings(self, scene: Scene) -> World:
+        """The same objects, at the same time, under other render settings (`scene` differs from
+        this world's in its render section alone): what can reach what stays, shared."""
+        other = World(scene, self.geometry, self.time)
+        other._reach = self._reach
+        return other
+
+    def at(self, time: float, scene: Scene | None = None) -> World:
+        """This world at another time (and, given, with other render settings: the same objects).
+        Pairs of which neither object moves keep what was worked out for them."""
+        scene = scene or self.scene
+        later = World(scene, [g.at(time) for g in self.geometry], time)
+        still = {g.index for g in self.geometry if not g.object.moves}
+        later._reach = {pair: why for pair, why in self._reach.items() if pair[0] in still and pair[1] in still}
+        return later
+
+    def moved(self, earlier: World) -> set[int]:
+        """The objects (by index) that are somewhere else than in `earlier`."""
+        return {g.index for g, before in zip(self.geometry, earlier.geometry, strict=True)
+                if g.object.moves and g.time != before.time}

@@ -1,0 +1,52 @@
+"""How long a Renderer takes to make, and to switch algorithm, on a scene (issue 22's figures):
+the median of a few runs, each in a fresh renderer on one context, with the shader programs
+compiled (the cache is per renderer) and without (a second renderer on the same context shares
+nothing but the context).
+
+    python3 tools/startup_time.py scenes/lecture_8x9.toml --size 320x180 --resolution 128
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+from depthimpostor.constants import Algorithm
+from depthimpostor.context import create_context
+from depthimpostor.renderer import Renderer
+from depthimpostor.scene import load_scene
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scene", type=Path)
+    parser.add_argument("--size", default="320x180")
+    parser.add_argument("--resolution", type=int, default=128)
+    parser.add_argument("--runs", type=int, default=5)
+    args = parser.parse_args()
+    width, height = (int(v) for v in args.size.split("x"))
+    scene = load_scene(args.scene).with_overrides(size=(width, height), impostor_resolution=args.resolution)
+    ctx = create_context()
+    made, switched, first_frame = [], [], []
+    for _ in range(args.runs):
+        start = time.perf_counter()
+        renderer = Renderer(ctx, scene)
+        ctx.finish()
+        made.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        renderer.render()
+        first_frame.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        renderer.set_algorithm(Algorithm.BASIC)
+        ctx.finish()
+        switched.append(time.perf_counter() - start)
+        renderer.release()
+    print(f"{args.scene}: Renderer() {1000 * statistics.median(made):.0f} ms, first frame (bakes, compiles) "
+          f"{1000 * statistics.median(first_frame):.0f} ms, set_algorithm {1000 * statistics.median(switched):.0f} ms "
+          f"(medians of {args.runs})")
+
+
+if __name__ == "__main__":
+    main()
