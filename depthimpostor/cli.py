@@ -8,6 +8,7 @@ import math
 import os
 import statistics
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TypeVar
@@ -16,7 +17,7 @@ import moderngl
 
 from .constants import Algorithm, Method
 from .context import create_context, describe
-from .errors import DepthImpostorError, SceneError
+from .errors import DepthImpostorError, SceneError, SceneWarning
 from .compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
 from .outputs import Outputs, check_file, check_folder, write_image
 from .limits import check_fits, limit_memory, parse_memory
@@ -445,7 +446,20 @@ def build_parser() -> argparse.ArgumentParser:
 BROKEN_PIPE_EXIT = 128 + 13
 
 
+_python_format_warning = warnings.formatwarning
+
+
+def _format_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                    line: str | None = None) -> str:
+    """Our warnings (a texture drawn as its mean colour, ...) as one line, like our errors; other
+    packages' as Python writes them."""
+    if issubclass(category, SceneWarning):
+        return f"depthimpostor: warning: {message}\n"
+    return _python_format_warning(message, category, filename, lineno, line)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    warnings.formatwarning = _format_warning
     args = build_parser().parse_args(argv)
     try:
         return args.run(args)

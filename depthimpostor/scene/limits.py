@@ -37,6 +37,7 @@ from depthimpostor.meshes import Mesh
 from depthimpostor.scene.model import (
     BoxShape,
     CylinderShape,
+    GltfShape,
     PlaneShape,
     Scene,
     Shape,
@@ -61,6 +62,9 @@ def shape_reach(shape: Shape) -> float | None:
         return shape.major + shape.minor
     if isinstance(shape, TorusKnotShape):
         return shape.radius + shape.tube  # the curve stays within `radius` of the origin (meshes.torus_knot)
+    if isinstance(shape, GltfShape):  # read with the scene
+        centre, radius = shape.mesh.bounding_sphere()
+        return float(np.linalg.norm(centre)) + radius
     return None
 
 
