@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 from ..context import bind_default_framebuffer
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, NO_OBJECT
 from ..errors import SceneError
+from ..scene.limits import objects_note
 from ..geometry import ObjectGeometry, triangle_offsets
 from ..culling import Reach, reachable_targets, reaches
 from ..ppc import PPC, FrustumFitError
@@ -678,7 +679,7 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
             raise SceneError(
                 scene.source, "objects",
                 f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} objects a mirror may reflect, got {len(shown)} "
-                f"for \"{mirror.object.name}\"",
+                f"for \"{mirror.object.name}\"{objects_note(scene)}",
             )
         plan[mirror.index] = [ImagePlan((target,), image_camera(scene, view, mirror, target)) for target in shown]
     return plan
