@@ -330,7 +330,7 @@ def _view(args: argparse.Namespace) -> int:
 
 
 def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) -> None:
-    command.add_argument("scene", nargs="?", help="scene file (TOML); the built-in default scene if omitted")
+    command.add_argument("scene", nargs="?", help="scene file (TOML, or a .glb/.gltf glTF file); the built-in default scene if omitted")
     command.add_argument("--size", type=_size, help="output size WxH, overriding the scene's render.size")
     command.add_argument("--impostor-res", type=_resolution,
                          help="resolution of depth images, cube-map faces and billboards, or auto (each image "
@@ -409,7 +409,7 @@ def build_parser() -> argparse.ArgumentParser:
     comparison.set_defaults(run=_compare)
 
     bench = commands.add_parser("bench", help="frame time, memory, samples per ray and error of every method")
-    bench.add_argument("scenes", nargs="*", type=Path, help="scene files (TOML); the built-in default if none")
+    bench.add_argument("scenes", nargs="*", type=Path, help="scene files (TOML or glTF); the built-in default if none")
     bench.add_argument("--methods", type=_list_of(str), default=[ALL_METHODS],
                        help="comma-separated methods, or all (default)")
     bench.add_argument("--algorithms", type=_list_of(str), default=["optimized", "hierarchical"],

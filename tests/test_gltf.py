@@ -266,6 +266,11 @@ def bad_file(tmp_path: Path, case: str) -> tuple[Path, str]:
         w.json["textures"] = [{"source": 0}]
         w.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
         return w.write(tmp_path / "x.glb"), 'images[0].uri: expected a file next to the glTF file'
+    if case == "bad_image":
+        w.json["images"] = [{"bufferView": w.view(b"not a PNG at all"), "mimeType": "image/png"}]
+        w.json["textures"] = [{"source": 0}]
+        w.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
+        return w.write(tmp_path / "x.glb"), "materials[0].pbrMetallicRoughness.baseColorTexture: expected an image"
     if case == "required_extension":
         w.json["extensionsRequired"] = ["KHR_draco_mesh_compression"]
         return w.write(tmp_path / "x.glb"), 'extensionsRequired: expected only extensions this reader supports'
@@ -294,7 +299,7 @@ def bad_file(tmp_path: Path, case: str) -> tuple[Path, str]:
                   "material_on_gltf": 'objects[0]: unknown field "material"; expected one of: name, shape, materials'}[case]
 
 
-BAD = ["not_glb", "not_json", "missing_buffer", "missing_texture", "required_extension", "no_mesh", "orthographic",
+BAD = ["not_glb", "not_json", "missing_buffer", "missing_texture", "bad_image", "required_extension", "no_mesh", "orthographic",
        "triangle_fan", "bad_factor", "cycle", "unknown_override", "material_on_gltf"]
 
 
