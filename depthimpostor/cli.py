@@ -8,6 +8,7 @@ import math
 import os
 import statistics
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TypeVar
@@ -16,7 +17,7 @@ import moderngl
 
 from .constants import Algorithm, Method
 from .context import create_context, describe
-from .errors import DepthImpostorError, SceneError
+from .errors import DepthImpostorError, SceneError, SceneWarning
 from .compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
 from .outputs import Outputs, check_file, check_folder, write_image
 from .limits import check_fits, limit_memory, parse_memory
@@ -329,7 +330,7 @@ def _view(args: argparse.Namespace) -> int:
 
 
 def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) -> None:
-    command.add_argument("scene", nargs="?", help="scene file (TOML); the built-in default scene if omitted")
+    command.add_argument("scene", nargs="?", help="scene file (TOML, or a .glb/.gltf glTF file); the built-in default scene if omitted")
     command.add_argument("--size", type=_size, help="output size WxH, overriding the scene's render.size")
     command.add_argument("--impostor-res", type=_resolution,
                          help="resolution of depth images, cube-map faces and billboards, or auto (each image "
@@ -408,7 +409,7 @@ def build_parser() -> argparse.ArgumentParser:
     comparison.set_defaults(run=_compare)
 
     bench = commands.add_parser("bench", help="frame time, memory, samples per ray and error of every method")
-    bench.add_argument("scenes", nargs="*", type=Path, help="scene files (TOML); the built-in default if none")
+    bench.add_argument("scenes", nargs="*", type=Path, help="scene files (TOML or glTF); the built-in default if none")
     bench.add_argument("--methods", type=_list_of(str), default=[ALL_METHODS],
                        help="comma-separated methods, or all (default)")
     bench.add_argument("--algorithms", type=_list_of(str), default=["optimized", "hierarchical"],
@@ -445,7 +446,20 @@ def build_parser() -> argparse.ArgumentParser:
 BROKEN_PIPE_EXIT = 128 + 13
 
 
+_python_format_warning = warnings.formatwarning
+
+
+def _format_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                    line: str | None = None) -> str:
+    """Our warnings (a texture drawn as its mean colour, ...) as one line, like our errors; other
+    packages' as Python writes them."""
+    if issubclass(category, SceneWarning):
+        return f"depthimpostor: warning: {message}\n"
+    return _python_format_warning(message, category, filename, lineno, line)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    warnings.formatwarning = _format_warning
     args = build_parser().parse_args(argv)
     try:
         return args.run(args)

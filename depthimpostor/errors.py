@@ -54,3 +54,9 @@ class GpuLimitError(DepthImpostorError):
     allocation over its memory budget); the message names the setting to change."""
 
     exit_code = 2
+
+
+class SceneWarning(UserWarning):
+    """Something in a scene is read but not drawn as the file means it (a texture drawn as its mean
+    colour, primitives that are not triangles left out). The CLI prints it as one line; a program
+    embedding the renderer can filter it with the `warnings` module."""

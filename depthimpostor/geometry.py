@@ -12,6 +12,7 @@ from .meshes import Mesh
 from .scene.model import (
     BoxShape,
     CylinderShape,
+    GltfShape,
     MeshShape,
     PlaneShape,
     SceneObject,
@@ -38,6 +39,8 @@ def mesh_for_shape(shape: Shape) -> Mesh:
         return meshes.torus_knot(shape.p, shape.q, shape.radius, shape.tube)
     if isinstance(shape, MeshShape):
         return meshes.load_mesh_file(shape.path)
+    if isinstance(shape, GltfShape):
+        return shape.mesh  # read with the scene (scene/gltf.py), in the glTF file's world space
     raise TypeError(f"no mesh for shape {shape!r}")
 
 

@@ -42,6 +42,10 @@ class Mesh:
     positions: np.ndarray  # (N, 3) float32, local coordinates
     normals: np.ndarray  # (N, 3) float32, unit length, per vertex
     indices: np.ndarray  # (M, 3) uint32, counter-clockwise seen from outside
+    # (N, 2) float32 texture coordinates per vertex, or None. glTF's convention: (0, 0) is the
+    # image's top-left corner (its first row), v grows downwards. Only glTF parts have them today;
+    # they are kept for the texture work, and no pass reads them yet.
+    uvs: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         positions = _frozen(self.positions, np.float32, "positions")
@@ -55,6 +59,12 @@ class Mesh:
             raise ValueError(f"Mesh: normals {normals.shape} do not match positions {positions.shape}")
         if not (np.isfinite(positions).all() and np.isfinite(normals).all()):
             raise ValueError("Mesh: positions and normals must be finite")
+        if self.uvs is not None:
+            uvs = np.array(self.uvs, dtype=np.float32, order="C", copy=True)
+            if uvs.shape != (len(positions), 2) or not np.isfinite(uvs).all():
+                raise ValueError(f"Mesh: uvs must be finite, of shape ({len(positions)}, 2), got {uvs.shape}")
+            uvs.flags.writeable = False
+            object.__setattr__(self, "uvs", uvs)
         # The dataclass is frozen; these assignments only replace the arrays by checked copies.
         object.__setattr__(self, "positions", positions)
         object.__setattr__(self, "normals", normals)
@@ -81,7 +91,7 @@ class Mesh:
         # Row vectors times inv(L) are (inv(L)^T n)^T: the inverse transpose without a transpose.
         normals = _normalized_rows(self.normals.astype(np.float64) @ np.linalg.inv(linear))
         indices = self.indices[:, ::-1] if determinant < 0.0 else self.indices
-        return Mesh(positions, normals, indices)
+        return Mesh(positions, normals, indices, self.uvs)
 
     def bounding_sphere(self) -> tuple[np.ndarray, float]:
         """A sphere containing every vertex: the smaller of Ritter's sphere and the box-centred one.

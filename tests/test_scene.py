@@ -402,7 +402,7 @@ BAD_CASES = [
     ("unknown_shape_field", an_object(shape='{ type = "sphere", radiuss = 1.0 }'), "objects[0].shape",
      'unknown field "radiuss"; expected one of: type, radius'),
     ("unknown_shape_type", an_object(shape='{ type = "cone", radius = 1.0 }'), "objects[0].shape.type",
-     'expected one of: plane, box, sphere, cylinder, torus, torus_knot, mesh, got "cone"'),
+     'expected one of: plane, box, sphere, cylinder, torus, torus_knot, mesh, gltf, got "cone"'),
     ("missing_shape_type", an_object(shape="{ radius = 1.0 }"), "objects[0].shape.type",
      "missing required field; expected one of: plane, box"),
     ("missing_shape", '[[objects]]\nname = "a"\n', "objects[0].shape", "missing required field"),

@@ -20,6 +20,7 @@ from ..geometry import ObjectGeometry, triangle_offsets
 from ..culling import Reach, ReachTable, reaches
 from ..ppc import PPC
 from ..resolution import MIN_AUTO_RESOLUTION, auto_resolution, scene_view
+from ..scene.limits import objects_note
 from ..scene.model import Scene
 from ..shaders import ProgramCache
 from .diffuse import DiffusePass
@@ -298,7 +299,7 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
             raise SceneError(
                 scene.source, "objects",
                 f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} objects a mirror may reflect, got {len(shown)} "
-                f"for \"{mirror.object.name}\"",
+                f"for \"{mirror.object.name}\"{objects_note(scene)}",
             )
         plan[mirror.index] = [ImagePlan((target,), image_camera(scene, view, mirror, target)) for target in shown]
     return plan

@@ -37,6 +37,7 @@ from depthimpostor.meshes import Mesh
 from depthimpostor.scene.model import (
     BoxShape,
     CylinderShape,
+    GltfShape,
     PlaneShape,
     Scene,
     Shape,
@@ -61,6 +62,9 @@ def shape_reach(shape: Shape) -> float | None:
         return shape.major + shape.minor
     if isinstance(shape, TorusKnotShape):
         return shape.radius + shape.tube  # the curve stays within `radius` of the origin (meshes.torus_knot)
+    if isinstance(shape, GltfShape):  # read with the scene
+        centre, radius = shape.mesh.bounding_sphere()
+        return float(np.linalg.norm(centre)) + radius
     return None
 
 
@@ -102,6 +106,14 @@ def check_model_reach(scene: Scene, index: int, model: Mesh) -> None:
     _check_reach(scene, index, float(np.linalg.norm(centre)) + radius)
 
 
+def objects_note(scene: Scene) -> str:
+    """What a refusal that counts objects adds for a scene with glTF parts, whose objects the file
+    does not list one by one."""
+    if any(isinstance(obj.shape, GltfShape) for obj in scene.objects):
+        return " (a glTF file's objects are its mesh nodes, one per node and material)"
+    return ""
+
+
 def check_method(scene: Scene, method: Method, reflectors: int, reflected: int, reflected_triangles: int) -> None:
     """The limits that depend on the method: `reflectors` mirrors and glass, `reflected` objects
     they may show, of `reflected_triangles` triangles in all."""
@@ -111,7 +123,7 @@ def check_method(scene: Scene, method: Method, reflectors: int, reflected: int, 
                          f"by the depth method alone, got {scene.render.max_bounces}")
     if method in (Method.RAYTRACE, Method.SIMPLIFIED, Method.HYBRID) and reflectors and reflected > MAX_DEPTH_IMAGES_PER_MIRROR:
         raise SceneError(scene.source, "objects", f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} reflected objects "
-                         f"with --method {method.option}, got {reflected}")
+                         f"with --method {method.option}, got {reflected}{objects_note(scene)}")
     if method == Method.HYBRID and reflectors and reflected_triangles > MAX_NAMED_TRIANGLES:
         raise SceneError(scene.source, "objects", f"expected at most {MAX_NAMED_TRIANGLES} reflected triangles "
                          f"with --method hybrid, got {reflected_triangles}")

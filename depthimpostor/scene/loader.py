@@ -20,6 +20,8 @@ else:  # tomllib joined the standard library in 3.11; tomli is the same parser (
 from depthimpostor.constants import MAX_BOUNCES, MAX_IOR
 from depthimpostor.errors import SceneError
 from depthimpostor.scene import fields as f
+from depthimpostor.scene.gltf import gltf_objects, gltf_scene, read_gltf
+from depthimpostor.scene.gltf_file import GLTF_SUFFIXES
 from depthimpostor.scene.limits import check_scene
 from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_variant, show
 from depthimpostor.scene.model import (
@@ -57,18 +59,27 @@ def model_folders(base_dir: Path) -> list[Path]:
     return [base_dir, *(Path(folder) for folder in listed if folder)]
 
 
-def _mesh(t: Table) -> MeshShape:
+def _model_file(t: Table, suffixes: tuple[str, ...]) -> tuple[Path, str]:
+    """The table's `path` to a model file, found (resolved) and as written."""
     at, written = t.at.key("path"), t.req("path", NAME)
-    if Path(written).suffix.lower() not in MODEL_SUFFIXES:
-        raise at.error(f"expected a path to a {', '.join(MODEL_SUFFIXES)} file, got {json.dumps(written)}")
+    if Path(written).suffix.lower() not in suffixes:
+        raise at.error(f"expected a path to a {', '.join(suffixes)} file, got {json.dumps(written)}")
     folders = model_folders(t.at.base_dir)
     for folder in folders:
         candidate = folder / Path(written).expanduser()  # joining an absolute path ignores the folder
         if candidate.is_file():
-            return MeshShape(candidate.resolve(), written)
+            return candidate.resolve(), written
     searched = ", ".join(str(folder.resolve()) for folder in folders)
     raise at.error(f"expected an existing model file, got {json.dumps(written)}: not found in the scene's "
                    f"folder or ${MODEL_PATH_VARIABLE} (searched: {searched})")
+
+
+def _mesh(t: Table) -> MeshShape:
+    return MeshShape(*_model_file(t, MODEL_SUFFIXES))
+
+
+def _placed_elsewhere(t: Table) -> Shape:
+    raise t.at.error('expected a glTF file to be placed by an object (shape = { type = "gltf", path = ... })')
 
 
 _SHAPES: dict[str, Variant[Shape]] = {
@@ -80,6 +91,8 @@ _SHAPES: dict[str, Variant[Shape]] = {
     "torus": Variant(("major", "minor"), _torus),
     "torus_knot": Variant(("p", "q", "radius", "tube"), _torus_knot),
     "mesh": Variant(("path",), _mesh),
+    # Listed so that messages name it; _objects reads such an object as several (_placed_gltf).
+    "gltf": Variant(("path",), lambda t: _placed_elsewhere(t)),
 }
 
 _MATERIALS: dict[str, Variant[Material]] = {
@@ -220,23 +233,53 @@ def _object(t: Table) -> SceneObject:
         raise t.at.key("animation").error(f"expected no animation on a plane that is not a mirror (floors and walls "
                                           f"that are not mirrors are intersected as fixed planes and cannot move), "
                                           f"got {show(t.data['animation'])}")
-    return SceneObject(name=t.req("name", NAME), shape=shape, material=material,
-                       position=t.opt("position", _POINT, SceneObject.position),
-                       rotation=t.opt("rotation", _POINT, SceneObject.rotation),
-                       scale=t.opt("scale", f.number_or_vec3(f.POSITIVE), SceneObject.scale),
-                       animation=_animation(t))
+    position, rotation, scale, animation = _placement(t)
+    return SceneObject(name=t.req("name", NAME), shape=shape, material=material, position=position,
+                       rotation=rotation, scale=scale, animation=animation)
+
+
+def _placement(t: Table) -> tuple[Vec3, Vec3, Vec3, Animation | None]:
+    """An object's position, rotation, scale and animation."""
+    return (t.opt("position", _POINT, SceneObject.position), t.opt("rotation", _POINT, SceneObject.rotation),
+            t.opt("scale", f.number_or_vec3(f.POSITIVE), SceneObject.scale), _animation(t))
+
+
+_PLACEMENT = ("position", "rotation", "scale", "animation")
+
+
+def _placed_gltf(t: Table) -> list[SceneObject]:
+    """`shape = { type = "gltf", path = ... }`: the file's parts, named `name/part`, placed by the
+    object's position, rotation, scale and animation on top of the file's node transforms, with
+    `materials` overriding the file's by name. The file's lights and cameras are not placed."""
+    shape = Table(t.data["shape"], t.at.key("shape"), ("type", "path"))
+    path, written = _model_file(shape, GLTF_SUFFIXES)
+    model = read_gltf(path, written)
+    labels = [m.label for m in model.materials]
+    overrides: dict[str, Material] = {}
+    for label, value in Table(t.data.get("materials", {}), t.at.key("materials"), labels or ("(none)",)).data.items():
+        overrides[label] = read_variant(value, t.at.key("materials").key(label), _MATERIALS)
+    return gltf_objects(model, overrides, f"{t.req('name', NAME)}/", *_placement(t))
+
+
+def _is_gltf(value: Any) -> bool:
+    shape = value.get("shape") if isinstance(value, Mapping) else None
+    return isinstance(shape, Mapping) and shape.get("type") == "gltf"
 
 
 def _objects(top: Table) -> tuple[SceneObject, ...]:
     objects: list[SceneObject] = []
     index_of: dict[str, int] = {}
     for i, (value, at) in enumerate(top.array("objects", at_least=1)):
-        obj = _object(Table(value, at, ("name", "shape", "material", "position", "rotation", "scale", "animation")))
-        if obj.name in index_of:
-            raise at.key("name").error(f"expected a name no other object has, got {json.dumps(obj.name)} "
-                                       f"(already used by objects[{index_of[obj.name]}])")
-        index_of[obj.name] = i
-        objects.append(obj)
+        if _is_gltf(value):
+            placed = _placed_gltf(Table(value, at, ("name", "shape", "materials", *_PLACEMENT)))
+        else:
+            placed = [_object(Table(value, at, ("name", "shape", "material", *_PLACEMENT)))]
+        for obj in placed:
+            if obj.name in index_of:
+                raise at.key("name").error(f"expected a name no other object has, got {json.dumps(obj.name)} "
+                                           f"(already used by objects[{index_of[obj.name]}])")
+            index_of[obj.name] = i
+            objects.append(obj)
     return tuple(objects)
 
 
@@ -257,8 +300,11 @@ def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
 
 
 def load_scene(path: str | os.PathLike[str]) -> Scene:
-    """Read and validate a scene file; every problem is a SceneError naming the file and the field."""
+    """Read and validate a scene file (TOML, or a glTF file as a whole scene); every problem is a
+    SceneError naming the file and the field."""
     source = os.fspath(path)
+    if Path(source).suffix.lower() in GLTF_SUFFIXES:
+        return gltf_scene(Path(source), source)
     try:
         text = Path(source).read_bytes().decode("utf-8")
     except IsADirectoryError as err:

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from depthimpostor.meshes import Mesh
 from depthimpostor.scene.fields import RESOLUTION, SIZE, TRIANGLE_TARGET, At, Reader, Vec3, word_or
 
 ZERO: Vec3 = (0.0, 0.0, 0.0)
@@ -208,12 +209,36 @@ class MeshShape:
     written: str  # as written in the scene file, for messages
 
 
-Shape = PlaneShape | BoxShape | SphereShape | CylinderShape | TorusShape | TorusKnotShape | MeshShape
+@dataclass(frozen=True)
+class GltfShape:
+    """One part of a glTF file: the triangles of one mesh node drawn with one of the file's
+    materials (scene/gltf.py). `mesh` is in the file's world space, the node's transforms (and its
+    parents') already applied, so that the object's own position, rotation and scale act on top."""
+
+    path: Path  # the file, resolved and absolute
+    part: str  # which node and material, for messages: 'nodes[3] "Chair", material "Wood"'
+    mesh: Mesh  # compared and hashed by identity (Mesh has eq=False): one part, one mesh
+
+
+Shape = PlaneShape | BoxShape | SphereShape | CylinderShape | TorusShape | TorusKnotShape | MeshShape | GltfShape
+
+
+@dataclass(frozen=True, eq=False)
+class Texture:
+    """A glTF material's baseColorTexture, kept for the texture work: no pass draws it yet, and the
+    material's `color` holds the factor times the image's mean colour instead (scene_format.md)."""
+
+    image: np.ndarray = dataclasses.field(repr=False)  # (H, W, 4) uint8 RGBA as stored (sRGB), row 0 the top
+    sampler: dict[str, int]  # the glTF sampler: magFilter, minFilter, wrapS, wrapT where given
+    mean_color: Vec3  # the mean of the image's RGB decoded to linear
 
 
 @dataclass(frozen=True)
 class DiffuseMaterial:
     color: Vec3 = (0.8, 0.8, 0.8)
+    # A glTF baseColorTexture (the per-vertex UVs are the object's mesh.uvs); `color` already
+    # includes its mean colour. Compared by identity.
+    texture: Texture | None = None
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,383 @@
+"""glTF files onto the scene model: each mesh node's triangles become objects (one per node and
+material), its materials map onto diffuse, mirror and glass by the rules of scene_format.md, and a
+file given as the scene brings its first camera and its KHR_lights_punctual lights.
+
+`read_gltf` reads a file once per (path, modification time); `gltf_scene` makes a whole Scene of
+it; `gltf_objects` the objects a TOML scene's `shape = { type = "gltf" }` places.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from depthimpostor.constants import MAX_IOR, MAX_LIGHTS
+from depthimpostor.errors import SceneError, SceneWarning
+from depthimpostor.meshes import Mesh
+from depthimpostor.scene import fields as f
+from depthimpostor.scene.fields import At, Vec3, show
+from depthimpostor.scene.gltf_file import (
+    NOT_SURFACES, TRIANGLE_FAN, Primitive, check_header, decode_primitives, extension, index, items, number_at,
+    primitive_modes, read_json, scene_nodes, table,
+)
+from depthimpostor.scene.limits import check_scene
+from depthimpostor.scene.model import (
+    Animation, Camera, DiffuseMaterial, Environment, GlassMaterial, GltfShape, Light, Material, MirrorMaterial,
+    RenderSettings, Scene, SceneObject, Texture,
+)
+
+#: The mirror rule: a material at least this metallic and at most this rough is a mirror.
+MIRROR_METALLIC, MIRROR_ROUGHNESS = 0.9, 0.1
+#: The glass rule: a KHR_materials_transmission factor of at least this is glass.
+GLASS_TRANSMISSION = 0.5
+#: Without a camera in the file: the TOML default camera's view direction, framing the whole scene.
+FRAMING_FOV_Y = Camera().fov_y
+#: Without lights in the file: one light from above, as the scene_format.md example has.
+DEFAULT_LIGHT = Light("directional", direction=(-0.4, -1.0, -0.3))
+
+
+@dataclass(frozen=True, eq=False)
+class GltfMaterial:
+    label: str  # its name, or "materials[k]" when it has none: what a TOML override names
+    material: Material
+    textured: bool  # drawn with its texture's mean colour (the one-line warning names it)
+
+
+@dataclass(frozen=True, eq=False)
+class GltfPart:
+    name: str  # the node's name (or "nodes[i]"), with the material's label where a node has several
+    part: str  # for messages: 'nodes[3] "Chair", material "Wood"'
+    material: int | None  # index into the file's materials; None: glTF's default (white, diffuse)
+    mesh: Mesh  # in the file's world space
+
+
+@dataclass(frozen=True, eq=False)
+class GltfLight:
+    node: int
+    kind: str  # "directional", "point" or "spot"
+    color: Vec3
+    intensity: float  # as the file gives it: lux (directional) or candela (point, spot)
+    world: np.ndarray  # the node's world matrix
+
+
+@dataclass(frozen=True, eq=False)
+class GltfFile:
+    path: Path
+    source: str
+    materials: tuple[GltfMaterial, ...]
+    parts: tuple[GltfPart, ...]
+    lights: tuple[GltfLight, ...]
+    camera: tuple[int, np.ndarray, float] | None  # the first camera: node, world matrix, yfov in degrees
+
+    def material_of(self, part: GltfPart) -> GltfMaterial:
+        if part.material is None:
+            return GltfMaterial("default", DiffuseMaterial((1.0, 1.0, 1.0)), False)
+        return self.materials[part.material]
+
+    def bounds(self) -> tuple[np.ndarray, float]:
+        """The centre and radius of a sphere around every part (box-centred)."""
+        points = np.concatenate([part.mesh.positions for part in self.parts]).astype(np.float64)
+        centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+        return centre, float(np.linalg.norm(points - centre, axis=1).max())
+
+
+_CACHE: dict[Path, tuple[int, GltfFile]] = {}
+
+
+def read_gltf(path: Path, source: str) -> GltfFile:
+    """The file read and mapped; parsed once per (resolved path, modification time)."""
+    try:
+        resolved = path.resolve(strict=True)
+        modified = resolved.stat().st_mtime_ns
+    except OSError:
+        resolved, modified = path, -1  # read_json says what is wrong with it
+    cached = _CACHE.get(resolved)
+    if cached is not None and cached[0] == modified:
+        return cached[1]
+    header = read_json(path, source)
+    check_header(header, source, resolved.parent)
+    primitives = decode_primitives(resolved, header, source)
+    parts = _parts(header, source, primitives)
+    if not parts:
+        raise SceneError(source, "", "expected a scene with at least one mesh node holding triangles, got none")
+    images = dict(_images(header, source, primitives))  # material -> its image, for the materials drawn
+    materials = tuple(_material(header, k, value, k in images, images.get(k), source)
+                      for k, value in enumerate(items(header, "materials", source)))
+    model = GltfFile(resolved, source, materials, tuple(parts), _lights(header, source), _camera(header, source))
+    _CACHE[resolved] = (modified, model)
+    return model
+
+
+def _images(header: Mapping[str, Any], source: str,
+            primitives: dict[tuple[int, int], Primitive]) -> list[tuple[int, Any]]:
+    """(material, the baseColorTexture image trimesh read for it, or None) for every material some
+    triangle primitive is drawn with."""
+    used = []
+    for m, p, primitive, _ in primitive_modes(header, source):
+        if (m, p) in primitives and "material" in primitive:
+            used.append((index(primitive["material"], len(header.get("materials", [])),
+                               At(source, f"meshes[{m}].primitives[{p}].material")), primitives[m, p].image))
+    return used
+
+
+def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, int], Primitive]) -> list[GltfPart]:
+    """One part per mesh node and material, in the order the node tree is walked."""
+    meshes, nodes = items(header, "meshes", source), items(header, "nodes", source)
+    by_mode: dict[int, list[str]] = {}
+    for m, p, _, mode in primitive_modes(header, source):
+        if mode == TRIANGLE_FAN:
+            raise SceneError(source, f"meshes[{m}].primitives[{p}].mode", "expected triangles or a triangle strip "
+                             "(trimesh does not decode triangle fans: export them as triangles), got a fan (6)")
+        if mode in NOT_SURFACES:
+            by_mode.setdefault(mode, []).append(f"meshes[{m}].primitives[{p}]")
+        elif (m, p) not in primitives:
+            raise SceneError(source, f"meshes[{m}].primitives[{p}].mode", f"expected a primitive mode 0 to 6, got {show(mode)}")
+    if by_mode:
+        skipped = sum(len(where) for where in by_mode.values())
+        kinds = ", ".join(NOT_SURFACES[mode] for mode in sorted(by_mode))
+        first = next(iter(by_mode.values()))[0]
+        warnings.warn(SceneWarning(f"{source}: {skipped} primitive(s) that are not triangles ({kinds}; the first "
+                                   f"{first}) have no surface to shade or reflect: left out"), stacklevel=3)
+    names = [str(node.get("name", "")) for node in nodes]
+    parts = []
+    for i, world in scene_nodes(header, source):
+        if "mesh" not in nodes[i]:
+            continue
+        m = index(nodes[i]["mesh"], len(meshes), At(source, f"nodes[{i}].mesh"))
+        groups: dict[int | None, list[Primitive]] = {}
+        for p, value in enumerate(meshes[m].get("primitives", [])):
+            if (m, p) in primitives and len(primitives[m, p].faces):
+                groups.setdefault(value.get("material"), []).append(primitives[m, p])
+        if abs(np.linalg.det(world[:3, :3])) <= 1e-12 * float(np.linalg.norm(world[:3, :3])) ** 3:
+            continue  # scaled to nothing: glTF's way to hide a node, which has no surface to draw
+        node = names[i] if names[i] and names.count(names[i]) == 1 else f"nodes[{i}]"
+        for material, group in groups.items():
+            label = "default" if material is None else _label(header, material)
+            name = node if len(groups) == 1 else f"{node} ({label})"
+            part = f'nodes[{i}]' + (f' "{names[i]}"' if names[i] else "") + f', material "{label}"'
+            parts.append(GltfPart(name, part, material, _local_mesh(group).transformed(world)))
+    return parts
+
+
+def _label(header: Mapping[str, Any], k: int) -> str:
+    name = header["materials"][k].get("name")
+    return name if isinstance(name, str) and name else f"materials[{k}]"
+
+
+def _flat_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """One unit normal per face, (0, 1, 0) for a face of no area (any unit vector keeps NaN out)."""
+    a, b, c = (positions[faces[:, k]] for k in range(3))
+    normals = np.cross(b - a, c - a)
+    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.where(lengths > 1e-30, normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
+
+
+def _local_mesh(group: list[Primitive]) -> Mesh:
+    """The primitives of one node and material as one mesh, in the node's space. A primitive with
+    the file's normals keeps them (and its shared vertices); one without gets flat normals, as the
+    glTF specification asks, each triangle with its own three vertices."""
+    positions, normals, uvs, faces, start = [], [], [], [], 0
+    any_uvs = any(p.uvs is not None for p in group)
+    for p in group:
+        if p.normals is not None:
+            lengths = np.linalg.norm(p.normals, axis=1, keepdims=True)
+            corners = np.arange(len(p.positions))
+            normal = np.where(lengths > 1e-13, p.normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
+            face = p.faces
+        else:
+            corners = p.faces.ravel()
+            normal = np.repeat(_flat_normals(p.positions, p.faces), 3, axis=0)
+            face = np.arange(len(corners)).reshape(-1, 3)
+        positions.append(p.positions[corners])
+        normals.append(normal)
+        uvs.append(p.uvs[corners] if p.uvs is not None else np.zeros((len(corners), 2)))
+        faces.append(face + start)
+        start += len(corners)
+    return Mesh(np.concatenate(positions), np.concatenate(normals), np.concatenate(faces),
+                np.concatenate(uvs) if any_uvs else None)
+
+
+def _srgb_to_linear(encoded: np.ndarray) -> np.ndarray:
+    """The sRGB transfer function undone (IEC 61966-2-1), for values in [0, 1]."""
+    return np.where(encoded <= 0.04045, encoded / 12.92, ((encoded + 0.055) / 1.055) ** 2.4)
+
+
+def _texture(header: Mapping[str, Any], info: Mapping[str, Any], image: Any, at: At) -> Texture:
+    if image is None:
+        raise at.error("expected an image trimesh can decode (PNG or JPEG), got one it could not read")
+    pixels = np.asarray(image.convert("RGBA"), dtype=np.uint8).copy()
+    pixels.flags.writeable = False
+    mean = _srgb_to_linear(pixels[..., :3].reshape(-1, 3) / 255.0).mean(axis=0)
+    textures = header.get("textures", [])
+    texture = table(textures[index(info.get("index"), len(textures), at.key("index"))], at)
+    sampler: dict[str, int] = {}
+    if "sampler" in texture:
+        samplers = header.get("samplers", [])
+        chosen = samplers[index(texture["sampler"], len(samplers), at.key("sampler"))]
+        sampler = {k: v for k, v in table(chosen, at).items() if isinstance(v, int)}
+    r, g, b = (float(c) for c in mean)
+    return Texture(pixels, sampler, (r, g, b))
+
+
+def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], used: bool, image: Any,
+              source: str) -> GltfMaterial:
+    """The rules of scene_format.md: transmission >= 0.5 is glass (its ior from KHR_materials_ior,
+    its tint the base colour); metallic >= 0.9 with roughness <= 0.1 is a mirror tinted by the base
+    colour; anything else is diffuse in the base colour. A texture's mean colour joins the factor."""
+    at = At(source, f"materials[{k}]")
+    pbr = table(value.get("pbrMetallicRoughness", {}), at.key("pbrMetallicRoughness"))
+    pbr_at = at.key("pbrMetallicRoughness")
+    factor = pbr_at.key("baseColorFactor").read(pbr.get("baseColorFactor", [1, 1, 1, 1]), f.numbers(4, f.UNIT))
+    base = np.asarray(factor[:3], np.float64)
+    metallic = number_at(pbr, "metallicFactor", 1.0, f.number(f.UNIT), pbr_at)
+    roughness = number_at(pbr, "roughnessFactor", 1.0, f.number(f.UNIT), pbr_at)
+    texture = None
+    if "baseColorTexture" in pbr and used:  # a texture nothing is drawn with need not be readable
+        info_at = pbr_at.key("baseColorTexture")
+        texture = _texture(header, table(pbr["baseColorTexture"], info_at), image, info_at)
+        base = base * np.asarray(texture.mean_color)
+    r, g, b = (float(c) for c in np.clip(base, 0.0, 1.0))
+    transmission = extension(value, "KHR_materials_transmission", at)
+    factor_t = number_at(transmission or {}, "transmissionFactor", 0.0, f.number(f.UNIT),
+                         at.key("extensions").key("KHR_materials_transmission"))
+    material: Material
+    if factor_t >= GLASS_TRANSMISSION:
+        ior = number_at(extension(value, "KHR_materials_ior", at) or {}, "ior", GlassMaterial().ior,
+                        f.number(f.Bounds(1.0, MAX_IOR)), at.key("extensions").key("KHR_materials_ior"))
+        material = GlassMaterial(ior, (r, g, b))
+    elif metallic >= MIRROR_METALLIC and roughness <= MIRROR_ROUGHNESS:
+        material = MirrorMaterial((r, g, b))
+    else:
+        material = DiffuseMaterial((r, g, b), texture)
+    return GltfMaterial(_label(header, k), material, texture is not None)
+
+
+def _lights(header: Mapping[str, Any], source: str) -> tuple[GltfLight, ...]:
+    """The KHR_lights_punctual lights placed on nodes of the scene, in tree order."""
+    defined = extension(header, "KHR_lights_punctual", At(source, ""))
+    lights = (defined or {}).get("lights", [])
+    nodes, placed = items(header, "nodes", source), []
+    for i, world in scene_nodes(header, source):
+        use = extension(nodes[i], "KHR_lights_punctual", At(source, f"nodes[{i}]"))
+        if use is None:
+            continue
+        at = At(source, "extensions.KHR_lights_punctual.lights")
+        k = index(use.get("light"), len(lights), At(source, f"nodes[{i}].extensions.KHR_lights_punctual.light"))
+        light, at = table(lights[k], at.index(k)), at.index(k)
+        kind = at.key("type").read(light.get("type"), f.choice(("directional", "point", "spot")))
+        color = at.key("color").read(light.get("color", [1, 1, 1]), f.vec3(f.NON_NEGATIVE))
+        intensity = number_at(light, "intensity", 1.0, f.number(f.NON_NEGATIVE), at)
+        placed.append(GltfLight(i, kind, color, intensity, world))
+    if len(placed) > MAX_LIGHTS:
+        raise SceneError(source, "extensions.KHR_lights_punctual", f"expected at most {MAX_LIGHTS} lights placed on "
+                         f"nodes (the shading loops over an array of {MAX_LIGHTS}), got {len(placed)}")
+    return tuple(placed)
+
+
+def _camera(header: Mapping[str, Any], source: str) -> tuple[int, np.ndarray, float] | None:
+    """The first node of the tree that holds a camera: a perspective one, or a refusal."""
+    nodes, cameras = items(header, "nodes", source), items(header, "cameras", source)
+    for i, world in scene_nodes(header, source):
+        if "camera" not in nodes[i]:
+            continue
+        c = index(nodes[i]["camera"], len(cameras), At(source, f"nodes[{i}].camera"))
+        at = At(source, f"cameras[{c}]")
+        if cameras[c].get("type") != "perspective":
+            raise at.key("type").error(f'expected "perspective" (the renderer is a pinhole camera; an orthographic '
+                                       f'one has no eye point), got {show(cameras[c].get("type"))}')
+        perspective = table(cameras[c].get("perspective"), at.key("perspective"))
+        yfov = at.key("perspective").key("yfov").read(perspective.get("yfov"), f.number(f.Bounds(0, math.radians(179), open_lo=True)))
+        return i, world, math.degrees(yfov)
+    return None
+
+
+def _unit(vector: np.ndarray, at: At) -> Vec3:
+    length = float(np.linalg.norm(vector))
+    if not length >= f.MIN_DIRECTION_LENGTH:
+        raise at.error("expected a node whose transform keeps directions (not scaled to nothing), got one that does not")
+    x, y, z = (float(c) / length for c in vector)
+    return (x, y, z)
+
+
+def _scene_camera(model: GltfFile) -> Camera:
+    """The file's first camera (looking down its node's -Z with +Y up, aspect from the frame), or
+    one framing every part from the TOML default camera's direction."""
+    if model.camera is None:
+        centre, radius = model.bounds()
+        away = np.subtract(Camera().eye, Camera().target)
+        distance = max(radius, 1e-6) / math.sin(math.radians(FRAMING_FOV_Y) / 2.0)
+        eye = centre + distance * away / np.linalg.norm(away)
+        return Camera(tuple(eye.tolist()), tuple(centre.tolist()), (0.0, 1.0, 0.0), FRAMING_FOV_Y)
+    node, world, fov_y = model.camera
+    at = At(model.source, f"nodes[{node}]")
+    forward, up = _unit(world[:3, :3] @ (0.0, 0.0, -1.0), at), _unit(world[:3, :3] @ (0.0, 1.0, 0.0), at)
+    eye = world[:3, 3]
+    target = eye + np.asarray(forward)
+    if np.linalg.norm(np.cross(forward, up)) < 1e-3:  # a shear can fold up onto the view direction
+        raise at.error("expected a camera whose up (+Y) and view (-Z) directions stay apart, got a sheared transform")
+    return Camera(tuple(eye.tolist()), tuple(target.tolist()), up, fov_y)
+
+
+def _scene_lights(model: GltfFile) -> tuple[Light, ...]:
+    """The file's lights on the renderer's unitless model (scene_format.md): a directional light
+    keeps its intensity (1 lux gives what intensity 1 gives); a point or spot light (candela, falling
+    off with the square of distance, which the renderer's point lights do not) gets the irradiance it
+    gives at the scene's centre, no nearer than the scene's radius: intensity / d^2. A spot light's
+    cone is not drawn: it lights all round, with a warning."""
+    if not model.lights:
+        return (DEFAULT_LIGHT,)
+    centre, radius = model.bounds()
+    lights = []
+    for light in model.lights:
+        at = At(model.source, f"nodes[{light.node}]")
+        if light.kind == "directional":
+            direction = _unit(light.world[:3, :3] @ (0.0, 0.0, -1.0), at)
+            lights.append(Light("directional", direction=direction, color=light.color, intensity=light.intensity))
+            continue
+        position = light.world[:3, 3]
+        distance = max(float(np.linalg.norm(position - centre)), radius)
+        x, y, z = (float(c) for c in position)
+        lights.append(Light("point", position=(x, y, z), color=light.color, intensity=light.intensity / distance ** 2))
+    spots = [f"nodes[{light.node}]" for light in model.lights if light.kind == "spot"]
+    if spots:
+        warnings.warn(SceneWarning(f"{model.source}: {len(spots)} spot light(s) ({', '.join(spots)}) lit as point "
+                                   f"lights: the renderer has no cone, so they light all round"), stacklevel=3)
+    return tuple(lights)
+
+
+def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str = "",
+                 position: Vec3 = (0.0, 0.0, 0.0), rotation: Vec3 = (0.0, 0.0, 0.0), scale: Vec3 = (1.0, 1.0, 1.0),
+                 animation: Animation | None = None) -> list[SceneObject]:
+    """The file's parts as objects named `prefix` + part name, each placed by the position, rotation,
+    scale and animation given (on top of the file's node transforms), with `overrides` (by material
+    label) replacing the file's materials. Warns once for the textured materials drawn flat."""
+    objects, textured = [], []
+    for part in model.parts:
+        mapped = model.material_of(part)
+        material = overrides.get(mapped.label, mapped.material)
+        if mapped.textured and mapped.label not in overrides and mapped.label not in textured:
+            textured.append(mapped.label)
+        objects.append(SceneObject(name=prefix + part.name, shape=GltfShape(model.path, part.part, part.mesh),
+                                   material=material, position=position, rotation=rotation, scale=scale,
+                                   animation=animation))
+    if textured:
+        names = ", ".join(f'"{label}"' for label in textured)
+        warnings.warn(SceneWarning(f"{model.source}: textures are not drawn yet: material(s) {names} use the mean "
+                                   f"colour of their baseColorTexture times baseColorFactor"), stacklevel=3)
+    return objects
+
+
+def gltf_scene(path: Path, source: str) -> Scene:
+    """A glTF file as a whole scene: its parts, its first camera (or a framing one), its lights (or
+    one default light), and the TOML format's default render settings and environment."""
+    model = read_gltf(path, source)
+    scene = Scene(source=source, render=RenderSettings(), camera=_scene_camera(model), environment=Environment(),
+                  lights=_scene_lights(model), objects=tuple(gltf_objects(model, {})))
+    check_scene(scene)
+    return scene

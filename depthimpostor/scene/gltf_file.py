@@ -1,0 +1,227 @@
+"""A glTF 2.0 file (.gltf or .glb) read into what the scene needs: its JSON, checked, the world
+matrix of every node of its scene, and each triangle primitive's arrays, decoded by trimesh.
+
+trimesh decodes the binary data (accessors, triangle strips, data URIs, external buffers, images):
+no glTF parsing is written here. What trimesh drops is read from the JSON, which is plain data:
+the extensions KHR_lights_punctual, KHR_materials_transmission and KHR_materials_ior, the exact
+material factors (trimesh rounds baseColorFactor to 8 bits), the primitive modes, and the node
+tree. The node tree's matrices are taken here too, because trimesh 5's scene graph leaves out the
+children of a node that holds a camera and places a camera by its own node's matrix alone.
+
+Every problem is a SceneError naming the file and the JSON path: `x.glb: nodes[2].matrix: ...`.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+import urllib.parse
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from depthimpostor.constants import MAX_COORDINATE
+from depthimpostor.errors import SceneError
+from depthimpostor.scene.fields import At, Reader, numbers, show
+
+GLTF_SUFFIXES = (".glb", ".gltf")
+#: The extensions a file may require (`extensionsRequired`): those read here. Any other required
+#: one changes what the file means in a way this reader would get wrong, so the file is refused.
+SUPPORTED_REQUIRED = ("KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior")
+
+# Primitive modes (glTF 2.0, 3.7.2.1): what trimesh decodes into triangles, and what has no surface.
+TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN = 4, 5, 6
+NOT_SURFACES = {0: "points", 1: "lines", 2: "a line loop", 3: "a line strip"}
+
+_GLB_MAGIC, _GLB_JSON = b"glTF", 0x4E4F534A
+
+
+def read_json(path: Path, source: str) -> dict[str, Any]:
+    """The file's JSON: the whole of a .gltf, the first chunk of a .glb."""
+    try:
+        data = path.read_bytes()
+    except IsADirectoryError as err:
+        raise SceneError(source, "", "expected a glTF file, got a directory") from err
+    except FileNotFoundError as err:
+        raise SceneError(source, "", "no such file") from err
+    except OSError as err:
+        raise SceneError(source, "", f"cannot read the file: {err.strerror or err}") from err
+    if path.suffix.lower() == ".glb":
+        if len(data) < 20 or data[:4] != _GLB_MAGIC:
+            raise SceneError(source, "", f'expected a binary glTF file (starting with "glTF"), got {show(data[:4])}')
+        length, kind = struct.unpack_from("<II", data, 12)
+        if kind != _GLB_JSON or 20 + length > len(data):
+            raise SceneError(source, "", "expected a binary glTF file whose first chunk is its JSON, got a "
+                                         "damaged or truncated file")
+        data = data[20:20 + length]
+    try:
+        header = json.loads(data.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise SceneError(source, "", f"expected glTF JSON, got a file that is not JSON: {err}") from err
+    if not isinstance(header, dict):
+        raise SceneError(source, "", f"expected glTF JSON (an object at the top), got {show(header)}")
+    return header
+
+
+def table(value: Any, at: At) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise at.error(f"expected a JSON object, got {show(value)}")
+    return value
+
+
+def items(header: Mapping[str, Any], key: str, source: str) -> list[Mapping[str, Any]]:
+    """The array of objects at `key` (empty when absent)."""
+    at, value = At(source, key), header.get(key, [])
+    if not isinstance(value, list):
+        raise at.error(f"expected an array, got {show(value)}")
+    return [table(v, at.index(i)) for i, v in enumerate(value)]
+
+
+def index(value: Any, count: int, at: At) -> int:
+    if not (isinstance(value, int) and not isinstance(value, bool) and 0 <= value < count):
+        raise at.error(f"expected an index in [0, {count}), got {show(value)}")
+    return value
+
+
+def check_header(header: Mapping[str, Any], source: str, folder: Path) -> None:
+    """The version, the required extensions and the files the JSON names."""
+    version = str(table(header.get("asset", {}), At(source, "asset")).get("version", ""))
+    if not version.startswith("2."):
+        raise SceneError(source, "asset.version", f'expected glTF "2.0", got {show(version)}')
+    required = header.get("extensionsRequired", [])
+    unsupported = [name for name in required if name not in SUPPORTED_REQUIRED] if isinstance(required, list) else [required]
+    if unsupported:
+        raise SceneError(source, "extensionsRequired", f"expected only extensions this reader supports "
+                         f"({', '.join(SUPPORTED_REQUIRED)}), got {show(unsupported[0])}")
+    for key in ("buffers", "images"):
+        for i, item in enumerate(items(header, key, source)):
+            uri = item.get("uri")
+            if isinstance(uri, str) and not uri.startswith("data:") and not (folder / urllib.parse.unquote(uri)).is_file():
+                raise SceneError(source, f"{key}[{i}].uri", f"expected a file next to the glTF file (in {folder}), "
+                                 f"got {show(uri)}: no such file")
+
+
+def node_matrix(node: Mapping[str, Any], at: At) -> np.ndarray:
+    """A node's local matrix: its `matrix` (column-major), or T @ R @ S from its TRS properties."""
+    if "matrix" in node:
+        matrix = np.array(at.key("matrix").read(node["matrix"], numbers(16)), dtype=np.float64).reshape(4, 4).T
+        if not np.allclose(matrix[3], (0.0, 0.0, 0.0, 1.0)):
+            raise at.key("matrix").error(f"expected an affine matrix (last row 0, 0, 0, 1), got {matrix[3].tolist()}")
+        return matrix
+    translation = at.key("translation").read(node.get("translation", [0, 0, 0]), numbers(3))
+    quaternion = np.array(at.key("rotation").read(node.get("rotation", [0, 0, 0, 1]), numbers(4, nonzero=True)))
+    x, y, z, w = quaternion / np.linalg.norm(quaternion)  # glTF's order; unit length, within rounding
+    # R = I + 2w [v]x + 2 [v]x^2 for the unit quaternion (v, w), v = (x, y, z).
+    cross = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    matrix = np.eye(4)
+    matrix[:3, :3] = (np.eye(3) + 2.0 * w * cross + 2.0 * cross @ cross) @ np.diag(at.key("scale").read(
+        node.get("scale", [1, 1, 1]), numbers(3)))
+    matrix[:3, 3] = translation
+    return matrix
+
+
+def scene_nodes(header: Mapping[str, Any], source: str) -> Iterator[tuple[int, np.ndarray]]:
+    """Every node of the file's scene (`scene`, or the first) with its world matrix, depth first in
+    the order the file lists them: parents before children, each child as parent @ local."""
+    nodes, scenes = items(header, "nodes", source), items(header, "scenes", source)
+    if not scenes:
+        return
+    chosen = index(header.get("scene", 0), len(scenes), At(source, "scene"))
+    roots = scenes[chosen].get("nodes", [])
+    at = At(source, f"scenes[{chosen}].nodes")
+    stack = [(index(root, len(nodes), at.index(i)), np.eye(4)) for i, root in enumerate(roots)][::-1]
+    seen: set[int] = set()
+    while stack:
+        i, parent = stack.pop()
+        if i in seen:
+            raise SceneError(source, f"nodes[{i}]", "expected a node tree (each node with one parent, no cycles), "
+                                                    "got a node reached twice")
+        seen.add(i)
+        world = parent @ node_matrix(nodes[i], At(source, f"nodes[{i}]"))
+        if not np.isfinite(world).all():
+            raise SceneError(source, f"nodes[{i}]", "expected finite transforms, got a world matrix that overflows")
+        yield i, world
+        children = nodes[i].get("children", [])
+        if not isinstance(children, list):
+            raise SceneError(source, f"nodes[{i}].children", f"expected an array of node indices, got {show(children)}")
+        child_at = At(source, f"nodes[{i}].children")
+        stack.extend((index(c, len(nodes), child_at.index(k)), world) for k, c in reversed(list(enumerate(children))))
+
+
+@dataclass(frozen=True, eq=False)
+class Primitive:
+    """One triangle primitive's arrays, in its mesh's local space, as trimesh decoded them."""
+
+    positions: np.ndarray  # (N, 3)
+    faces: np.ndarray  # (M, 3)
+    normals: np.ndarray | None  # (N, 3) from the file's NORMAL, or None (glTF then asks for flat normals)
+    uvs: np.ndarray | None  # (N, 2) TEXCOORD_0 in glTF's convention (v down from the image's top)
+    image: Any  # the PIL image of its material's baseColorTexture, where trimesh read one
+
+
+def primitive_modes(header: Mapping[str, Any], source: str) -> Iterator[tuple[int, int, Mapping[str, Any], int]]:
+    """(mesh, primitive, its JSON, its mode) for every primitive of every mesh, in file order."""
+    for m, mesh in enumerate(items(header, "meshes", source)):
+        primitives = mesh.get("primitives", [])
+        if not isinstance(primitives, list):
+            raise SceneError(source, f"meshes[{m}].primitives", f"expected an array, got {show(primitives)}")
+        for p, value in enumerate(primitives):
+            primitive = table(value, At(source, f"meshes[{m}].primitives[{p}]"))
+            mode = primitive.get("mode", TRIANGLES)
+            yield m, p, primitive, mode
+
+
+def decode_primitives(path: Path, header: Mapping[str, Any], source: str) -> dict[tuple[int, int], Primitive]:
+    """Each triangle primitive, by (mesh, primitive). trimesh's scene keeps one geometry per
+    primitive it decodes (points, lines, triangles and strips; not loops, line strips or fans), in
+    the file's order, whether a node uses it or not: that order pairs them with the JSON's."""
+    import trimesh  # only glTF and model files need it
+
+    try:
+        with np.errstate(invalid="ignore", over="ignore"):
+            loaded = trimesh.load(str(path), force="scene")
+    except Exception as error:  # trimesh raises anything on a bad file; the user needs the name
+        raise SceneError(source, "", f"cannot read the glTF file: {type(error).__name__}: {error}") from error
+    if not isinstance(loaded, trimesh.Scene):  # force="scene" promises one
+        raise SceneError(source, "", f"cannot read the glTF file: trimesh gave a {type(loaded).__name__}")
+    decoded = [(m, p, primitive) for m, p, primitive, mode in primitive_modes(header, source) if mode in (0, 1, 4, 5)]
+    geometry = list(loaded.geometry.values())
+    if len(geometry) != len(decoded):
+        raise SceneError(source, "meshes", f"expected trimesh to decode the file's {len(decoded)} primitives, "
+                                           f"got {len(geometry)} (a damaged file, or one trimesh cannot read)")
+    result = {}
+    for (m, p, primitive), mesh in zip(decoded, geometry, strict=True):
+        if primitive.get("mode", TRIANGLES) not in (TRIANGLES, TRIANGLE_STRIP):
+            continue
+        if not isinstance(mesh, trimesh.Trimesh):
+            raise SceneError(source, f"meshes[{m}].primitives[{p}]", f"expected triangles, got {type(mesh).__name__}")
+        visual = mesh.visual
+        uvs = getattr(visual, "uv", None)
+        if uvs is not None:
+            uvs = np.asarray(uvs, np.float64).copy()
+            uvs[:, 1] = 1.0 - uvs[:, 1]  # trimesh flips v for a lower-left origin; glTF's is the top-left
+        material = getattr(visual, "material", None)
+        has_normals = "NORMAL" in primitive.get("attributes", {})
+        result[m, p] = Primitive(
+            positions=np.asarray(mesh.vertices, np.float64), faces=np.asarray(mesh.faces, np.int64),
+            normals=np.asarray(mesh.vertex_normals, np.float64) if has_normals else None,
+            uvs=uvs, image=getattr(material, "baseColorTexture", None))
+    largest = max((float(np.abs(p.positions).max(initial=0.0)) for p in result.values()), default=0.0)
+    if not largest <= MAX_COORDINATE:  # also NaN
+        raise SceneError(source, "accessors", f"expected vertex coordinates of magnitude at most {MAX_COORDINATE:g} "
+                                              f"(float32 geometry squares distances), got {largest:g}")
+    return result
+
+
+def number_at(value: Mapping[str, Any], key: str, default: float, reader: Reader[float], at: At) -> float:
+    """An optional number of a JSON object, read as strictly as a scene file's."""
+    return at.key(key).read(value[key], reader) if key in value else default
+
+
+def extension(value: Mapping[str, Any], name: str, at: At) -> Mapping[str, Any] | None:
+    """The object's extension `name`, or None."""
+    extensions = table(value.get("extensions", {}), at.key("extensions"))
+    return table(extensions[name], at.key("extensions").key(name)) if name in extensions else None

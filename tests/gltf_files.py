@@ -1,0 +1,107 @@
+"""Small glTF files built in the tests (nothing downloaded): a writer of the JSON and one binary
+buffer, enough for node trees, materials with their extensions, cameras, lights and textures."""
+
+from __future__ import annotations
+
+import io
+import json
+import struct
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+from PIL import Image
+
+FLOAT, UNSIGNED_INT = 5126, 5125
+
+
+class GltfWriter:
+    def __init__(self) -> None:
+        self.json: dict[str, Any] = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": []}],
+                                     "nodes": [], "meshes": [], "accessors": [], "bufferViews": []}
+        self.blob = bytearray()
+
+    def _append(self, key: str, value: dict[str, Any]) -> int:
+        self.json.setdefault(key, []).append(value)
+        return len(self.json[key]) - 1
+
+    def view(self, data: bytes) -> int:
+        self.blob += b"\0" * (-len(self.blob) % 4)
+        start = len(self.blob)
+        self.blob += data
+        return self._append("bufferViews", {"buffer": 0, "byteOffset": start, "byteLength": len(data)})
+
+    def accessor(self, array: np.ndarray, kind: str) -> int:
+        data = np.ascontiguousarray(array, np.uint32 if kind == "SCALAR" else np.float32)
+        accessor = {"bufferView": self.view(data.tobytes()), "componentType": UNSIGNED_INT if kind == "SCALAR" else FLOAT,
+                    "count": len(data), "type": kind}
+        if kind == "VEC3":
+            accessor |= {"min": data.min(axis=0).tolist(), "max": data.max(axis=0).tolist()}
+        return self._append("accessors", accessor)
+
+    def primitive(self, positions: Any, indices: Any = None, normals: Any = None, uvs: Any = None,
+                  material: int | None = None, mode: int | None = None) -> dict[str, Any]:
+        primitive: dict[str, Any] = {"attributes": {"POSITION": self.accessor(np.asarray(positions), "VEC3")}}
+        if indices is not None:
+            primitive["indices"] = self.accessor(np.asarray(indices).ravel(), "SCALAR")
+        if normals is not None:
+            primitive["attributes"]["NORMAL"] = self.accessor(np.asarray(normals), "VEC3")
+        if uvs is not None:
+            primitive["attributes"]["TEXCOORD_0"] = self.accessor(np.asarray(uvs), "VEC2")
+        if material is not None:
+            primitive["material"] = material
+        if mode is not None:
+            primitive["mode"] = mode
+        return primitive
+
+    def box(self, size: float = 1.0, material: int | None = None, normals: bool = False) -> dict[str, Any]:
+        """A closed box centred at the origin (flat normals from the loader unless `normals`)."""
+        box = trimesh.creation.box(extents=(size, size, size))
+        return self.primitive(box.vertices, box.faces, box.vertex_normals if normals else None, material=material)
+
+    def mesh(self, *primitives: dict[str, Any], name: str | None = None) -> int:
+        return self._append("meshes", {"primitives": list(primitives)} | ({"name": name} if name else {}))
+
+    def node(self, root: bool = True, **fields: Any) -> int:
+        i = self._append("nodes", fields)
+        if root:
+            self.json["scenes"][0]["nodes"].append(i)
+        return i
+
+    def material(self, name: str | None = None, color: Any = (1, 1, 1), metallic: float = 0.0,
+                 roughness: float = 1.0, **fields: Any) -> int:
+        pbr = {"baseColorFactor": [*color, 1.0], "metallicFactor": metallic, "roughnessFactor": roughness}
+        return self._append("materials", {"pbrMetallicRoughness": pbr} | ({"name": name} if name else {}) | fields)
+
+    def texture(self, rgba: np.ndarray) -> int:
+        png = io.BytesIO()
+        Image.fromarray(np.asarray(rgba, np.uint8)).save(png, format="PNG")
+        image = self._append("images", {"bufferView": self.view(png.getvalue()), "mimeType": "image/png"})
+        sampler = self._append("samplers", {"magFilter": 9729, "wrapS": 10497})
+        return self._append("textures", {"source": image, "sampler": sampler})
+
+    def light(self, **fields: Any) -> int:
+        extensions = self.json.setdefault("extensions", {}).setdefault("KHR_lights_punctual", {"lights": []})
+        extensions["lights"].append(fields)
+        self.json.setdefault("extensionsUsed", []).append("KHR_lights_punctual")
+        return len(extensions["lights"]) - 1
+
+    def write(self, path: Path) -> Path:
+        """A .glb (the buffer in its BIN chunk) or a .gltf with the buffer in `<stem>.bin` beside it."""
+        blob = bytes(self.blob) + b"\0" * (-len(self.blob) % 4)
+        if path.suffix == ".gltf":
+            (path.parent / f"{path.stem}.bin").write_bytes(blob)
+            path.write_text(json.dumps(self.json | {"buffers": [{"uri": f"{path.stem}.bin", "byteLength": len(blob)}]}))
+            return path
+        text = json.dumps(self.json | {"buffers": [{"byteLength": len(blob)}]}).encode()
+        text += b" " * (-len(text) % 4)
+        chunks = struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(blob), 0x004E4942) + blob
+        path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks)
+        return path
+
+
+def quaternion(axis: tuple[float, float, float], degrees: float) -> list[float]:
+    """glTF's XYZW rotation quaternion."""
+    half = np.radians(degrees) / 2.0
+    return [*(np.sin(half) * np.asarray(axis, float) / np.linalg.norm(axis)).tolist(), float(np.cos(half))]
