@@ -31,6 +31,12 @@ class TextureUnit(IntEnum):
     RAY_DIRECTIONS = 13
     FRAME = 14  # the viewer's frame, copied into the window (passes/present.py)
     GLYPHS = 15  # the overlay's font (passes/overlay.py)
+    # The scene's image textures (passes/textures.py), slot k on MATERIAL_TEXTURE_0 + k: the
+    # ray-traced methods' shader samples every reflected object's at once (constants.MAX_TEXTURES).
+    MATERIAL_TEXTURE_0 = 16
+    MATERIAL_TEXTURE_1 = 17
+    MATERIAL_TEXTURE_2 = 18
+    MATERIAL_TEXTURE_3 = 19
 
 
 @unique

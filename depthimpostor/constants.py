@@ -72,6 +72,14 @@ class MaterialKind(IntEnum):
     MIRROR = 2
 
 
+class Wrap(IntEnum):
+    """A texture's wrap mode along one axis: GL's own enum values, which glTF's samplers use too."""
+
+    REPEAT = 10497
+    CLAMP_TO_EDGE = 33071
+    MIRRORED_REPEAT = 33648
+
+
 class LightKind(IntEnum):
     DIRECTIONAL = 0
     POINT = 1
@@ -120,6 +128,12 @@ MAX_INTERNAL_REFLECTIONS = 2
 MIN_PATH_WEIGHT = 1.0 / 256.0
 #: Analytic planes (floors, walls) a reflected ray is intersected with exactly.
 MAX_ANALYTIC_PLANES = 8
+#: Distinct image textures in one scene. The ray-traced methods sample every reflected object's
+#: texture in one shader, each on its own texture unit (bindings.TextureUnit.MATERIAL_TEXTURE_*):
+#: GLSL 3.30 indexes an array of samplers only with constants, so the shader picks one of this
+#: many by an if-chain. Kept small: 16 units are what GL 3.3 guarantees a fragment shader, and
+#: the mirror shader's other samplers take 16 already (llvmpipe and desktop GPUs give 32).
+MAX_TEXTURES = 4
 #: Depth images one mirror may own (one per reflected object): bounds the uniform block,
 #: 64 x 176 bytes = 11 KiB, under GL's guaranteed 16 KiB.
 MAX_DEPTH_IMAGES_PER_MIRROR = 64
@@ -197,17 +211,21 @@ DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
 
 #: One reflected object of the ray-traced method (std140): the world-to-local transform (the
 #: checker is laid out in local coordinates), colour_a with the checker scale in w, colour_b, and
-#: (material kind, object id, 0, 0).
+#: (material kind, object id, texture slot or -1, 0), and the texture's UV scale in texture.xy.
 TRIANGLE_OBJECT_FIELDS: tuple[tuple[str, str], ...] = (
     ("world_to_local", "mat4"),
     ("color_a", "vec4"),
     ("color_b", "vec4"),
     ("kind_and_id", "ivec4"),
+    ("texture", "vec4"),
 )
 #: Width of the float textures holding BVH nodes and triangles: element i is texel
 #: (i % width, i / width). 1024 is the smallest GL_MAX_TEXTURE_SIZE GL 3.3 allows; the height
 #: grows with the count and is checked against the driver's own limit.
 BVH_TEXTURE_WIDTH = 1024
+#: Texels one triangle takes in the BVH's triangle texture: its corners p0 p1 p2 (p0.w: its
+#: object's slot), its corner normals n0 n1 n2, and its corner UVs (u0 v0 u1 v1), (u2 v2 0 0).
+BVH_TRIANGLE_TEXELS = 8
 
 
 def _std140_dtype(fields: tuple[tuple[str, str], ...]) -> np.dtype:
@@ -238,6 +256,7 @@ def glsl_constants() -> dict[str, str]:
     defines: dict[str, str] = {
         "MAX_LIGHTS": str(MAX_LIGHTS),
         "MAX_ANALYTIC_PLANES": str(MAX_ANALYTIC_PLANES),
+        "MAX_TEXTURES": str(MAX_TEXTURES),
         "MAX_DEPTH_IMAGES_PER_MIRROR": str(MAX_DEPTH_IMAGES_PER_MIRROR),
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
         "NO_OBJECT": str(NO_OBJECT),
@@ -250,6 +269,7 @@ def glsl_constants() -> dict[str, str]:
         "EMPTY_SPAN_MIN": f"{EMPTY_SPAN_MIN!r}",
         "EMPTY_SPAN_MAX": f"{EMPTY_SPAN_MAX!r}",
         "BVH_TEXTURE_WIDTH": str(BVH_TEXTURE_WIDTH),
+        "BVH_TRIANGLE_TEXELS": str(BVH_TRIANGLE_TEXELS),
         "SOFT_SHADOW_RAYS": str(SOFT_SHADOW_RAYS),
         "SHADOW_NORMAL_OFFSET_TEXELS": f"{SHADOW_NORMAL_OFFSET_TEXELS!r}",
         "MAX_INTERNAL_REFLECTIONS": str(MAX_INTERNAL_REFLECTIONS),
@@ -257,7 +277,7 @@ def glsl_constants() -> dict[str, str]:
     }
     defines.update(glsl_bindings())
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",
-                ShadowKind: "SHADOW", Unseen: "UNSEEN"}
+                ShadowKind: "SHADOW", Unseen: "UNSEEN", Wrap: "WRAP"}
     for enum, prefix in prefixes.items():
         defines.update({f"{prefix}_{member.name}": str(int(member)) for member in enum})
     return defines

@@ -43,8 +43,8 @@ class Mesh:
     normals: np.ndarray  # (N, 3) float32, unit length, per vertex
     indices: np.ndarray  # (M, 3) uint32, counter-clockwise seen from outside
     # (N, 2) float32 texture coordinates per vertex, or None. glTF's convention: (0, 0) is the
-    # image's top-left corner (its first row), v grows downwards. Only glTF parts have them today;
-    # they are kept for the texture work, and no pass reads them yet.
+    # image's top-left corner (its first row), v grows downwards. glTF parts, planes and boxes
+    # have them (textures.py; scene_format.md says which shapes have none).
     uvs: np.ndarray | None = None
 
     def __post_init__(self) -> None:
@@ -112,8 +112,10 @@ class Mesh:
         return candidates[best].copy(), radii[best]
 
     def interleaved(self) -> np.ndarray:
-        """(N, 6) float32 rows `x y z nx ny nz`, contiguous, ready for a GL vertex buffer."""
-        return np.ascontiguousarray(np.hstack([self.positions, self.normals]), dtype=np.float32)
+        """(N, 8) float32 rows `x y z nx ny nz u v` (u v zero without UVs), contiguous, ready for a
+        GL vertex buffer."""
+        uvs = self.uvs if self.uvs is not None else np.zeros((len(self.positions), 2), np.float32)
+        return np.ascontiguousarray(np.hstack([self.positions, self.normals, uvs]), dtype=np.float32)
 
 
 def plane(width: float, depth: float, subdivisions: int = 1) -> Mesh:
@@ -126,7 +128,15 @@ def plane(width: float, depth: float, subdivisions: int = 1) -> Mesh:
     zz, xx = np.meshgrid(z, x, indexing="ij")
     positions = np.stack([xx, np.zeros_like(xx), zz], axis=-1).reshape(-1, 3)
     normals = np.tile((0.0, 1.0, 0.0), (len(positions), 1))
-    return Mesh(positions, normals, _grid_triangles(subdivisions + 1, subdivisions + 1, False, False))
+    return Mesh(positions, normals, _grid_triangles(subdivisions + 1, subdivisions + 1, False, False),
+                plane_uvs(positions, width, depth))
+
+
+def plane_uvs(local: np.ndarray, width: float, depth: float) -> np.ndarray:
+    """A plane's UVs: the image over the whole rectangle, u along +x and v along +z, so that seen
+    from above (+Y) with -Z ahead, the image stands upright (its top row at -z). The mirror
+    shader's analytic planes compute theirs by the same rule (reflected_scene.glsl)."""
+    return np.stack([local[:, 0] / width + 0.5, local[:, 2] / depth + 0.5], axis=-1)
 
 
 def box(size: Sequence[float]) -> Mesh:
@@ -138,6 +148,7 @@ def box(size: Sequence[float]) -> Mesh:
     positions: list[np.ndarray] = []
     normals: list[np.ndarray] = []
     indices: list[np.ndarray] = []
+    uvs: list[np.ndarray] = []
     for axis in range(3):
         for sign in (1.0, -1.0):
             normal = np.zeros(3)
@@ -152,7 +163,20 @@ def box(size: Sequence[float]) -> Mesh:
             positions.append(np.array(corners))
             normals.append(np.tile(normal, (4, 1)))
             indices.append(first + np.array([[0, 1, 2], [0, 2, 3]]))
-    return Mesh(np.concatenate(positions), np.concatenate(normals), np.concatenate(indices))
+            uvs.append(_box_face_uvs(positions[-1], normal, half))
+    return Mesh(np.concatenate(positions), np.concatenate(normals), np.concatenate(indices), np.concatenate(uvs))
+
+
+def _box_face_uvs(corners: np.ndarray, normal: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """One box face's UVs: the whole image on the face, upright seen from outside. On a side
+    face, u runs to the viewer's right (up x normal) and v down (-Y); the top face is laid out as
+    a plane (u along +x, v along +z), the bottom as the top seen from below (v along -z)."""
+    if normal[1] != 0.0:
+        right, down = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, normal[1]])
+    else:
+        right, down = np.cross((0.0, 1.0, 0.0), normal), np.array([0.0, -1.0, 0.0])
+    extent = (float(np.abs(right) @ half), float(np.abs(down) @ half))
+    return np.stack([corners @ right / (2 * extent[0]) + 0.5, corners @ down / (2 * extent[1]) + 0.5], axis=-1)
 
 
 def sphere(radius: float, segments: int = 96, rings: int = 48) -> Mesh:

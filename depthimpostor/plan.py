@@ -18,7 +18,7 @@ from typing import Any
 
 from .bvh import node_count
 from .constants import (
-    BVH_TEXTURE_WIDTH, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, Algorithm, Method,
+    BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, Algorithm, Method,
 )
 from .culling import Reach
 from .geometry import ObjectGeometry
@@ -304,7 +304,7 @@ def _bvh_bytes(triangles: int, named: bool) -> int:
     uniform block of object records."""
     def rows(texels: int) -> int:
         return max(1, math.ceil(texels / BVH_TEXTURE_WIDTH))
-    textures = rows(3 * node_count(triangles)) + rows(6 * triangles) + (rows(triangles) if named else 0)
+    textures = rows(3 * node_count(triangles)) + rows(BVH_TRIANGLE_TEXELS * triangles) + (rows(triangles) if named else 0)
     return textures * BVH_TEXTURE_WIDTH * 16 + MAX_DEPTH_IMAGES_PER_MIRROR * TRIANGLE_OBJECT_DTYPE.itemsize
 
 

@@ -29,6 +29,7 @@ from .passes.glass import GlassInterior
 from .passes.baked_images import BakedImages
 from .passes.impostors import ImpostorPass
 from .passes.meshes import GpuMeshes
+from .passes.textures import GpuTextures
 from .passes.mirrors import REFLECTION_OUTPUTS, MirrorPass, ReflectedObjects
 from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
@@ -127,6 +128,7 @@ class Renderer:
         self.camera = fitted_camera(self.view, scene.render.size, self.bounds, self.reversed_z)
         check_fits(ctx, scene, self.plan)  # before any GL object is made
         self.meshes = GpuMeshes(ctx)
+        self.textures = GpuTextures(ctx)  # the scene's image textures, bound for every frame
         self._presenter: FramePresenter | None = None  # made when a frame is first put in a caller's framebuffer
         with kept_state(ctx), allocating(ctx, "--size or --impostor-res"):
             self._make_targets(scene.render.size)
@@ -439,6 +441,7 @@ class Renderer:
 
     def _draw_frame(self) -> RenderStats:
         shadow_maps, stand_in = self.shadow_maps, self.stand_in
+        self.textures.use(self.scene)  # before any bake: baked images show the textures
         if shadow_maps is not None:
             shadow_maps.use()
         shadows_stale = shadow_maps is not None and bool(shadow_maps.stale)
@@ -587,6 +590,7 @@ class Renderer:
     def release(self) -> None:
         self._release_passes()
         self.meshes.release()
+        self.textures.release()
         self.programs.release()
         self._release_targets()
 

@@ -24,7 +24,9 @@ from embreex.mesh_construction import TriangleMesh
 from .constants import MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
 from .geometry import ObjectGeometry
 from .lights import light_sample_points
+from .meshes import plane_uvs
 from .scene.model import CheckerMaterial, DiffuseMaterial, GlassMaterial, Material, MirrorMaterial, Scene
+from .textures import texture_bilinear
 
 Array = np.ndarray
 
@@ -50,14 +52,18 @@ def environment(scene: Scene, directions: Array) -> Array:
     return np.where((y >= 0.0)[:, None], up, down)
 
 
-def material_albedo(material: Material, local_positions: Array) -> Array:
-    """shaders/lib/shading.glsl's material_albedo in numpy (checker in the local XZ plane)."""
+def material_albedo(material: Material, local_positions: Array, uvs: Array | None = None) -> Array:
+    """shaders/lib/shading.glsl's material_albedo in numpy for traced rays (checker in the local XZ
+    plane; a texture sampled at `uvs` on level 0, bilinearly: textures.py's comparison rule)."""
     if isinstance(material, CheckerMaterial):
         cell = np.floor(local_positions[:, [0, 2]] / material.scale).astype(np.int64)
         even = ((cell[:, 0] + cell[:, 1]) & 1) == 0
         return np.where(even[:, None], material.color_a, material.color_b)
     if isinstance(material, DiffuseMaterial):
-        return np.broadcast_to(np.asarray(material.color, float), local_positions.shape).copy()
+        color = np.broadcast_to(np.asarray(material.color, float), local_positions.shape).copy()
+        if material.texture is not None and uvs is not None:
+            color *= texture_bilinear(material.texture, uvs)
+        return color
     raise TypeError(f"{material!r} is not a diffuse material")
 
 
@@ -195,7 +201,11 @@ class TruthTracer:
             points = origins[mask] + directions[mask] * t[mask, None]
             local = (np.linalg.inv(item.model_matrix) @ np.c_[points, np.ones(len(points))].T).T[:, :3]
             if isinstance(item.object.material, (DiffuseMaterial, CheckerMaterial)):
-                albedo[mask] = material_albedo(item.object.material, local)
+                uvs = None
+                if mesh.uvs is not None:  # as triangles.glsl: the corners' UVs by the hit's barycentrics
+                    uvs = (1 - u - v) * mesh.uvs[triangles[:, 0]] + u * mesh.uvs[triangles[:, 1]] \
+                        + v * mesh.uvs[triangles[:, 2]]
+                albedo[mask] = material_albedo(item.object.material, local, uvs)
             elif isinstance(item.object.material, MirrorMaterial):
                 # Seen from behind: the ray runs along the outward face normal.
                 behind = np.flatnonzero(mask)[_dot(directions[mask], face_normals(mesh.positions, triangles)) > 0.0]
@@ -223,7 +233,8 @@ class TruthTracer:
             object_id[closer] = item.index
             backing[closer] = False  # a plane before a mirror's back hides it
             normal[closer] = plane_normal / np.linalg.norm(plane_normal)
-            albedo[closer] = material_albedo(item.object.material, local[closer])
+            albedo[closer] = material_albedo(item.object.material, local[closer],
+                                             plane_uvs(local[closer], *item.object.shape.size))  # type: ignore[union-attr]
 
 
 def _dot(a: Array, b: Array) -> Array:

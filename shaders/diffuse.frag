@@ -10,6 +10,7 @@ uniform Material u_material;
 in vec3 v_world_position;
 in vec3 v_local_position;
 in vec3 v_world_normal;
+in vec2 v_uv;
 
 layout(location = 0) out vec4 out_color;
 #if WRITE_DEPTH_IMAGE
@@ -27,7 +28,7 @@ uniform int u_triangle_offset;
 
 void main() {
     vec3 normal = safe_normalize(v_world_normal, vec3(0.0, 1.0, 0.0));
-    out_color = vec4(shade(material_albedo(u_material, v_local_position), v_world_position, normal), 1.0);
+    out_color = vec4(shade(material_albedo(u_material, v_local_position, v_uv, true), v_world_position, normal), 1.0);
 #if WRITE_DEPTH_IMAGE
 #ifdef BACK_LAYER
     // The back layer of a depth image (drawn with front faces culled): its colour, the outward

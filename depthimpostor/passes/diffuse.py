@@ -38,13 +38,14 @@ class DiffusePass:
         `back_layer` the one drawing a depth image's back layer (see diffuse_defines)."""
         defines = diffuse_defines(scene, write_depth_image, triangle_offsets is not None, back_layer)
         self.program = programs.get(*DIFFUSE_PROGRAM, defines)
+        self.scene = scene  # for its texture slots
         self.meshes = meshes
         self.triangle_offsets = triangle_offsets
 
     def draw(self, items: list[ObjectGeometry], view_projection: np.ndarray) -> int:
         """Draw the objects; returns the number of draw calls."""
         for item in items:
-            write_material(self.program, "u_material", item.object.material)
+            write_material(self.program, "u_material", item.object.material, self.scene)
             write(self.program, "u_object_id", item.index)
             if self.triangle_offsets is not None:
                 write(self.program, "u_triangle_offset", self.triangle_offsets[item.index])

@@ -36,7 +36,8 @@ class GpuMeshes:
         if key not in self._vertex_arrays:
             vertices, indices = self._buffers_of(item)
             # An attribute the shader does not read is compiled away; skip its bytes instead.
-            layout = [("3f", name) if name in program else ("12x", None) for name in ("in_position", "in_normal")]
+            attributes = (("in_position", 3), ("in_normal", 3), ("in_uv", 2))
+            layout = [(f"{n}f", name) if name in program else (f"{4 * n}x", None) for name, n in attributes]
             fmt = " ".join(kind for kind, _ in layout)
             names = [name for _, name in layout if name is not None]
             self._vertex_arrays[key] = self.ctx.vertex_array(
@@ -56,9 +57,9 @@ class GpuMeshes:
 
     @staticmethod
     def bytes_for(meshes: list[Mesh]) -> int:
-        """GPU memory of the buffers of `meshes` (each one once): interleaved float32 positions and
-        normals, and uint32 indices."""
-        return sum(len(mesh.positions) * 24 + len(mesh.indices) * 12 for mesh in {id(m): m for m in meshes}.values())
+        """GPU memory of the buffers of `meshes` (each one once): interleaved float32 positions,
+        normals and UVs, and uint32 indices."""
+        return sum(len(mesh.positions) * 32 + len(mesh.indices) * 12 for mesh in {id(m): m for m in meshes}.values())
 
     def release(self) -> None:
         self.forget_vertex_arrays()

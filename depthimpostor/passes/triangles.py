@@ -16,6 +16,7 @@ from ..bindings import TextureUnit, UniformBlock
 from ..bvh import build_bvh
 from ..constants import (
     BVH_TEXTURE_WIDTH,
+    BVH_TRIANGLE_TEXELS,
     MAX_DEPTH_IMAGES_PER_MIRROR,
     TRIANGLE_OBJECT_DTYPE,
 )
@@ -24,7 +25,7 @@ from ..geometry import ObjectGeometry
 from ..meshes import Mesh
 from ..scene.model import Scene
 from .atlas import plural
-from .uniforms import bind_texture, bind_uniform_block, material_fields
+from .uniforms import bind_texture, bind_uniform_block, material_fields, texture_fields
 
 
 
@@ -41,28 +42,34 @@ def _texture(ctx: moderngl.Context, texels: np.ndarray, source: str) -> moderngl
     return texture
 
 
-def object_records(objects: list[ObjectGeometry]) -> np.ndarray:
+def object_records(scene: Scene, objects: list[ObjectGeometry]) -> np.ndarray:
     records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, TRIANGLE_OBJECT_DTYPE)
     for slot, item in enumerate(objects):
         kind, color_a, color_b, scale = material_fields(item.object.material)
+        texture, uv_scale = texture_fields(scene, item.object.material)
         # std140 mat4 is column-major: the numpy row holds a column.
         records[slot]["world_to_local"] = np.linalg.inv(item.model_matrix).T
         records[slot]["color_a"] = (*color_a, scale)
         records[slot]["color_b"] = (*color_b, 0.0)
-        records[slot]["kind_and_id"] = (int(kind), item.index, 0, 0)
+        records[slot]["kind_and_id"] = (int(kind), item.index, texture, 0)
+        records[slot]["texture"] = (*uv_scale, 0.0, 0.0)
     return records
 
 
-def _triangle_list(worlds: list[Mesh]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Every triangle's corners and corner normals, and its object's slot. A mirror that reflects
-    nothing still gets a BVH for its shader to walk: one degenerate triangle (its three corners at
-    the origin), which no ray meets (ray_triangle's determinant is exactly 0)."""
+def _triangle_list(worlds: list[Mesh]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every triangle's corners, corner normals and corner UVs (zero without), and its object's
+    slot. A mirror that reflects nothing still gets a BVH for its shader to walk: one degenerate
+    triangle (its three corners at the origin), which no ray meets (ray_triangle's determinant is
+    exactly 0)."""
     if not worlds:
-        return np.zeros((1, 3, 3), np.float32), np.zeros((1, 3, 3), np.float32), np.zeros(1, np.int64)
+        return (np.zeros((1, 3, 3), np.float32), np.zeros((1, 3, 3), np.float32), np.zeros((1, 3, 2), np.float32),
+                np.zeros(1, np.int64))
     triangles = np.concatenate([mesh.positions[mesh.indices] for mesh in worlds])
     normals = np.concatenate([mesh.normals[mesh.indices] for mesh in worlds])
+    uvs = np.concatenate([mesh.uvs[mesh.indices] if mesh.uvs is not None else np.zeros((len(mesh.indices), 3, 2))
+                          for mesh in worlds])
     slots = np.concatenate([np.full(len(mesh.indices), slot) for slot, mesh in enumerate(worlds)])
-    return triangles, normals, slots
+    return triangles, normals, uvs, slots
 
 
 class TrianglePass:
@@ -80,20 +87,22 @@ class TrianglePass:
         the BVH's order, so that a triangle a depth image names can be intersected."""
         self.ctx = ctx
         worlds = world_meshes if world_meshes is not None else [item.world_mesh for item in reflected]
-        triangles, normals, slots = _triangle_list(worlds)
+        triangles, normals, uvs, slots = _triangle_list(worlds)
         bvh = build_bvh(triangles)
         self.triangle_count = sum(len(mesh.indices) for mesh in worlds)
         nodes = np.zeros((bvh.node_count, 3, 4), np.float32)
         nodes[:, 0, :3], nodes[:, 0, 3] = bvh.lower, bvh.first
         nodes[:, 1, :3], nodes[:, 1, 3] = bvh.upper, bvh.count
         nodes[:, 2, 0] = bvh.skip
-        ordered = np.zeros((len(triangles), 6, 4), np.float32)
+        ordered = np.zeros((len(triangles), BVH_TRIANGLE_TEXELS, 4), np.float32)
         ordered[:, :3, :3] = triangles[bvh.order]
         ordered[:, 0, 3] = slots[bvh.order]
-        ordered[:, 3:, :3] = normals[bvh.order]
+        ordered[:, 3:6, :3] = normals[bvh.order]
+        ordered[:, 6, :] = uvs[bvh.order, :2].reshape(-1, 4)
+        ordered[:, 7, :2] = uvs[bvh.order, 2]
         self.nodes = _texture(ctx, nodes.reshape(-1, 4), scene.source)
         self.triangles = _texture(ctx, ordered.reshape(-1, 4), scene.source)
-        self.objects = ctx.buffer(object_records(reflected).tobytes())
+        self.objects = ctx.buffer(object_records(scene, reflected).tobytes())
         self.places: moderngl.Texture | None = None
         if places:  # at most MAX_NAMED_TRIANGLES of them (scene/limits.py, checked in the plan)
             place = np.zeros((len(triangles), 4), np.float32)

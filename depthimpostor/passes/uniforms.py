@@ -12,7 +12,7 @@ import moderngl
 import numpy as np
 
 from ..bindings import TextureUnit, UniformBlock
-from ..constants import MAX_ANALYTIC_PLANES, MAX_LIGHTS, LightKind, MaterialKind, ShadowKind
+from ..constants import MAX_ANALYTIC_PLANES, MAX_LIGHTS, MAX_TEXTURES, LightKind, MaterialKind, ShadowKind, Wrap
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, PlaneShape, Scene
@@ -23,9 +23,11 @@ from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, PlaneShape
 
 
 def shading_defines(scene: Scene) -> dict[str, int]:
-    """The variant of every shading program that the scene's lights call for: shadow rays only
-    in scenes where a light casts shadows on something."""
-    return {"SHADOWS": 1} if scene.has_shadows else {}
+    """The variant of every shading program that the scene's lights and materials call for: shadow
+    rays only in scenes where a light casts shadows on something, texture sampling only in scenes
+    with image textures (TEXTURE_COUNT of them)."""
+    return {**({"SHADOWS": 1} if scene.has_shadows else {}),
+            **({"TEXTURE_COUNT": len(scene.textures)} if scene.textures else {})}
 
 
 def write(program: moderngl.Program | moderngl.ComputeShader, name: str,
@@ -78,12 +80,31 @@ def material_fields(material: Material) -> MaterialFields:
     raise TypeError(f"{material!r} is not a diffuse material")
 
 
-def write_material(program: moderngl.Program, name: str, material: Material) -> None:
+def texture_fields(scene: Scene, material: Material) -> tuple[int, tuple[float, float]]:
+    """(texture slot or -1, UV scale): shading.glsl's Material.texture and uv_scale."""
+    texture = material.texture if isinstance(material, DiffuseMaterial) else None
+    return scene.texture_slot(material), texture.scale if texture is not None else (1.0, 1.0)
+
+
+def write_material(program: moderngl.Program, name: str, material: Material, scene: Scene) -> None:
     kind, color_a, color_b, scale = material_fields(material)
     write(program, f"{name}.kind", int(kind))
     write(program, f"{name}.color_a", tuple(color_a))
     write(program, f"{name}.color_b", tuple(color_b))
     write(program, f"{name}.scale", float(scale))
+    slot, uv_scale = texture_fields(scene, material)
+    write(program, f"{name}.texture", slot)
+    write(program, f"{name}.uv_scale", uv_scale)
+
+
+def write_textures(program: moderngl.Program, scene: Scene) -> None:
+    """Where the scene's texture slots are bound (passes/textures.py binds them there), and their
+    wrap modes, for the bilinear sampling of traced rays."""
+    wraps = np.full((MAX_TEXTURES, 2), int(Wrap.REPEAT), np.int32)
+    for slot, texture in enumerate(scene.textures):
+        write(program, f"u_material_texture_{slot}", TextureUnit.MATERIAL_TEXTURE_0 + slot)
+        wraps[slot] = texture.wrap
+    write(program, "u_material_texture_wrap", wraps)
 
 
 def write_lighting(program: moderngl.Program, scene: Scene) -> None:
@@ -124,6 +145,7 @@ def write_scene_uniforms(program: moderngl.Program, scene: Scene, planes: Sequen
     the programs that trace them: the mirror shader's variants) the analytic planes. The renderer
     hands this to its ProgramCache, which alone calls it."""
     write_lighting(program, scene)
+    write_textures(program, scene)
     if "u_plane_count" in program:
         write_analytic_planes(program, scene, planes)
 
@@ -147,7 +169,7 @@ def write_analytic_planes(program: moderngl.Program, scene: Scene, planes: Seque
         half_sizes[i] = (width / 2.0, depth / 2.0)
         normals[i] = normal / np.linalg.norm(normal)
         object_ids[i] = plane.index
-        write_material(program, f"u_plane_material[{i}]", plane.object.material)
+        write_material(program, f"u_plane_material[{i}]", plane.object.material, scene)
     # Arrays of plain types are single uniforms named without an index; write them whole.
     write(program, "u_plane_count", len(planes))
     write(program, "u_plane_world_to_local", world_to_local)

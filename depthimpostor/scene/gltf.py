@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from depthimpostor.constants import MAX_IOR, MAX_LIGHTS
+from depthimpostor.constants import MAX_IOR, MAX_LIGHTS, Wrap
 from depthimpostor.errors import SceneError, SceneWarning
 from depthimpostor.meshes import Mesh
 from depthimpostor.scene import fields as f
@@ -27,6 +27,7 @@ from depthimpostor.scene.gltf_file import (
     primitive_modes, read_json, scene_nodes, table,
 )
 from depthimpostor.scene.limits import check_scene
+from depthimpostor.textures import texture_from_image
 from depthimpostor.scene.model import (
     Animation, Camera, DiffuseMaterial, Environment, GlassMaterial, GltfShape, Light, Material, MirrorMaterial,
     RenderSettings, Scene, SceneObject, Texture,
@@ -46,7 +47,7 @@ DEFAULT_LIGHT = Light("directional", direction=(-0.4, -1.0, -0.3))
 class GltfMaterial:
     label: str  # its name, or "materials[k]" when it has none: what a TOML override names
     material: Material
-    textured: bool  # drawn with its texture's mean colour (the one-line warning names it)
+    textured: bool  # a mirror or glass with a texture, tinted by its mean colour (the one-line warning names it)
 
 
 @dataclass(frozen=True, eq=False)
@@ -203,17 +204,9 @@ def _local_mesh(group: list[Primitive]) -> Mesh:
                 np.concatenate(uvs) if any_uvs else None)
 
 
-def _srgb_to_linear(encoded: np.ndarray) -> np.ndarray:
-    """The sRGB transfer function undone (IEC 61966-2-1), for values in [0, 1]."""
-    return np.where(encoded <= 0.04045, encoded / 12.92, ((encoded + 0.055) / 1.055) ** 2.4)
-
-
-def _texture(header: Mapping[str, Any], info: Mapping[str, Any], image: Any, at: At) -> Texture:
+def _texture(header: Mapping[str, Any], info: Mapping[str, Any], image: Any, at: At, source: str) -> Texture:
     if image is None:
         raise at.error("expected an image trimesh can decode (PNG or JPEG), got one it could not read")
-    pixels = np.asarray(image.convert("RGBA"), dtype=np.uint8).copy()
-    pixels.flags.writeable = False
-    mean = _srgb_to_linear(pixels[..., :3].reshape(-1, 3) / 255.0).mean(axis=0)
     textures = header.get("textures", [])
     texture = table(textures[index(info.get("index"), len(textures), at.key("index"))], at)
     sampler: dict[str, int] = {}
@@ -221,15 +214,20 @@ def _texture(header: Mapping[str, Any], info: Mapping[str, Any], image: Any, at:
         samplers = header.get("samplers", [])
         chosen = samplers[index(texture["sampler"], len(samplers), at.key("sampler"))]
         sampler = {k: v for k, v in table(chosen, at).items() if isinstance(v, int)}
-    r, g, b = (float(c) for c in mean)
-    return Texture(pixels, sampler, (r, g, b))
+        sampler_at = At(source, f"samplers[{texture['sampler']}]")
+        for key in ("wrapS", "wrapT"):
+            if key in sampler and sampler[key] not in {int(mode) for mode in Wrap}:
+                raise sampler_at.key(key).error(f"expected a wrap mode {', '.join(str(int(m)) for m in Wrap)}, "
+                                                f"got {show(sampler[key])}")
+    return texture_from_image(image, sampler)
 
 
 def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], used: bool, image: Any,
               source: str) -> GltfMaterial:
     """The rules of scene_format.md: transmission >= 0.5 is glass (its ior from KHR_materials_ior,
     its tint the base colour); metallic >= 0.9 with roughness <= 0.1 is a mirror tinted by the base
-    colour; anything else is diffuse in the base colour. A texture's mean colour joins the factor."""
+    colour; anything else is diffuse in the base colour, its texture drawn. A mirror's or glass's
+    tint cannot hold a texture: its mean colour joins the factor there."""
     at = At(source, f"materials[{k}]")
     pbr = table(value.get("pbrMetallicRoughness", {}), at.key("pbrMetallicRoughness"))
     pbr_at = at.key("pbrMetallicRoughness")
@@ -240,9 +238,10 @@ def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], used:
     texture = None
     if "baseColorTexture" in pbr and used:  # a texture nothing is drawn with need not be readable
         info_at = pbr_at.key("baseColorTexture")
-        texture = _texture(header, table(pbr["baseColorTexture"], info_at), image, info_at)
-        base = base * np.asarray(texture.mean_color)
+        texture = _texture(header, table(pbr["baseColorTexture"], info_at), image, info_at, source)
     r, g, b = (float(c) for c in np.clip(base, 0.0, 1.0))
+    tinted = base * np.asarray(texture.mean_color) if texture is not None else base
+    tr, tg, tb = (float(c) for c in np.clip(tinted, 0.0, 1.0))
     transmission = extension(value, "KHR_materials_transmission", at)
     factor_t = number_at(transmission or {}, "transmissionFactor", 0.0, f.number(f.UNIT),
                          at.key("extensions").key("KHR_materials_transmission"))
@@ -250,12 +249,12 @@ def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], used:
     if factor_t >= GLASS_TRANSMISSION:
         ior = number_at(extension(value, "KHR_materials_ior", at) or {}, "ior", GlassMaterial().ior,
                         f.number(f.Bounds(1.0, MAX_IOR)), at.key("extensions").key("KHR_materials_ior"))
-        material = GlassMaterial(ior, (r, g, b))
+        material = GlassMaterial(ior, (tr, tg, tb))
     elif metallic >= MIRROR_METALLIC and roughness <= MIRROR_ROUGHNESS:
-        material = MirrorMaterial((r, g, b))
+        material = MirrorMaterial((tr, tg, tb))
     else:
         material = DiffuseMaterial((r, g, b), texture)
-    return GltfMaterial(_label(header, k), material, texture is not None)
+    return GltfMaterial(_label(header, k), material, texture is not None and not isinstance(material, DiffuseMaterial))
 
 
 def _lights(header: Mapping[str, Any], source: str) -> tuple[GltfLight, ...]:
@@ -356,20 +355,30 @@ def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str
                  animation: Animation | None = None) -> list[SceneObject]:
     """The file's parts as objects named `prefix` + part name, each placed by the position, rotation,
     scale and animation given (on top of the file's node transforms), with `overrides` (by material
-    label) replacing the file's materials. Warns once for the textured materials drawn flat."""
-    objects, textured = [], []
+    label) replacing the file's materials. Warns once for the textured mirrors and glass, whose
+    tint takes the texture's mean colour."""
+    objects, textured, no_uvs = [], [], []
     for part in model.parts:
         mapped = model.material_of(part)
         material = overrides.get(mapped.label, mapped.material)
         if mapped.textured and mapped.label not in overrides and mapped.label not in textured:
             textured.append(mapped.label)
+        if isinstance(material, DiffuseMaterial) and material.texture is not None and part.mesh.uvs is None:
+            # A textured material on a part without TEXCOORD_0: nothing says where the image goes.
+            tint = np.clip(np.multiply(material.color, material.texture.mean_color), 0.0, 1.0)
+            material = DiffuseMaterial((float(tint[0]), float(tint[1]), float(tint[2])))
+            no_uvs.append(part.name)
         objects.append(SceneObject(name=prefix + part.name, shape=GltfShape(model.path, part.part, part.mesh),
                                    material=material, position=position, rotation=rotation, scale=scale,
                                    animation=animation))
+    if no_uvs:
+        warnings.warn(SceneWarning(f"{model.source}: {len(no_uvs)} textured part(s) without TEXCOORD_0 (the first "
+                                   f'"{no_uvs[0]}") drawn in the mean colour of their texture'), stacklevel=3)
     if textured:
         names = ", ".join(f'"{label}"' for label in textured)
-        warnings.warn(SceneWarning(f"{model.source}: textures are not drawn yet: material(s) {names} use the mean "
-                                   f"colour of their baseColorTexture times baseColorFactor"), stacklevel=3)
+        warnings.warn(SceneWarning(f"{model.source}: textures are not drawn on mirrors and glass: material(s) {names} "
+                                   f"are tinted by the mean colour of their baseColorTexture times baseColorFactor"),
+                      stacklevel=3)
     return objects
 
 

@@ -6,6 +6,7 @@ the method or on what the mirrors can see. `render` builds its plan before any G
 |---|---|---|---|
 | a number in a scene file, and how far an object reaches from the origin | `MAX_COORDINATE` (1e18) | load: the field (`fields.py`); the object, from its position, scale, shape and orbit (`check_scene`; a model file's when the plan loads it) | float32 geometry squares distances |
 | lights | `MAX_LIGHTS` (8) | load | the shading loops over a uniform array of that size |
+| distinct image textures | `MAX_TEXTURES` (4) | load | the traced methods sample each on a texture unit of its own |
 | planes that are not mirrors (floors, walls) | `MAX_ANALYTIC_PLANES` (8) | load | intersected exactly from a uniform array of that size |
 | `render.max_bounces` | `MAX_BOUNCES` (4) | load | each bounce bakes an image per pair of mirrors |
 | `render.max_bounces` > 1 with two or more mirrors or glass | the depth method alone | plan (`check_method`) | only the depth method bakes reflectors into each other's images |
@@ -21,6 +22,7 @@ Limits of the GL itself (texture sizes, memory) are the plan's figures against t
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
@@ -30,6 +32,7 @@ from depthimpostor.constants import (
     MAX_DEPTH_IMAGES_PER_MIRROR,
     MAX_LIGHTS,
     MAX_NAMED_TRIANGLES,
+    MAX_TEXTURES,
     Method,
 )
 from depthimpostor.errors import SceneError
@@ -94,10 +97,33 @@ def check_scene(scene: Scene) -> None:
         raise SceneError(scene.source, f"objects[{planes[MAX_ANALYTIC_PLANES]}]",
                          f"expected at most {MAX_ANALYTIC_PLANES} planes that are not mirrors (floors and walls are "
                          f"intersected exactly, from an array of {MAX_ANALYTIC_PLANES}), got {len(planes)}")
+    if len(scene.textures) > MAX_TEXTURES:
+        first = next(i for i, obj in enumerate(scene.objects) if scene.texture_slot(obj.material) == MAX_TEXTURES)
+        raise SceneError(scene.source, f"objects[{first}].material.texture",
+                         f"expected at most {MAX_TEXTURES} distinct image textures in a scene (the ray-traced methods "
+                         f"sample each on a texture unit of its own), got {len(scene.textures)}")
+    _check_textured_shapes(scene)
     for index, obj in enumerate(scene.objects):
         local_reach = shape_reach(obj.shape)
         if local_reach is not None:
             _check_reach(scene, index, local_reach)
+
+
+#: The shapes whose meshes carry UVs (meshes.py); a glTF part has them where the file gives TEXCOORD_0.
+TEXTURED_SHAPES = (PlaneShape, BoxShape)
+
+
+def _check_textured_shapes(scene: Scene) -> None:
+    """A texture needs UVs: on a plane, a box, or a glTF part with TEXCOORD_0."""
+    for index, obj in enumerate(scene.objects):
+        if scene.texture_slot(obj.material) < 0:
+            continue
+        if isinstance(obj.shape, TEXTURED_SHAPES) or (isinstance(obj.shape, GltfShape) and obj.shape.mesh.uvs is not None):
+            continue
+        name = re.sub(r"(?<!^)(?=[A-Z])", "_", type(obj.shape).__name__.removesuffix("Shape")).lower()
+        kind = "a glTF part without TEXCOORD_0" if isinstance(obj.shape, GltfShape) else f"a {name} shape"
+        raise SceneError(scene.source, f"objects[{index}].material.texture", "expected a shape with texture coordinates "
+                         f"(a plane, a box, or a glTF part with TEXCOORD_0), got {kind}, which has none")
 
 
 def check_model_reach(scene: Scene, index: int, model: Mesh) -> None:

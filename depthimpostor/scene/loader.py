@@ -17,17 +17,18 @@ if sys.version_info >= (3, 11):
 else:  # tomllib joined the standard library in 3.11; tomli is the same parser (pyproject declares it)
     import tomli as tomllib
 
-from depthimpostor.constants import MAX_BOUNCES, MAX_IOR
+from depthimpostor.constants import MAX_BOUNCES, MAX_IOR, Wrap
 from depthimpostor.errors import SceneError
 from depthimpostor.scene import fields as f
 from depthimpostor.scene.gltf import gltf_objects, gltf_scene, read_gltf
 from depthimpostor.scene.gltf_file import GLTF_SUFFIXES
 from depthimpostor.scene.limits import check_scene
+from depthimpostor.textures import read_texture
 from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_variant, show
 from depthimpostor.scene.model import (
     IMPOSTOR_RESOLUTION, ZERO, Animation, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial,
     Environment, GlassMaterial, Light, Material, MeshShape, MirrorMaterial, PlaneShape, RenderSettings, Scene,
-    SceneObject, Shape, SphereShape, TorusKnotShape, TorusShape,
+    SceneObject, Shape, SphereShape, Texture, TorusKnotShape, TorusShape,
 )
 
 MODEL_PATH_VARIABLE = "DEPTHIMPOSTOR_MODEL_PATH"
@@ -95,8 +96,34 @@ _SHAPES: dict[str, Variant[Shape]] = {
     "gltf": Variant(("path",), lambda t: _placed_elsewhere(t)),
 }
 
+#: A TOML texture's `wrap`: the same modes a glTF sampler has.
+_WRAPS = {"repeat": Wrap.REPEAT, "clamp": Wrap.CLAMP_TO_EDGE, "mirrored_repeat": Wrap.MIRRORED_REPEAT}
+
+
+def _texture(t: Table) -> Texture:
+    """A diffuse material's `texture`: a path, or a table { path, scale, wrap }. The path is found
+    as a model file's is: in the scene's folder, then $DEPTHIMPOSTOR_MODEL_PATH."""
+    value, at = t.data["texture"], t.at.key("texture")
+    table = Table({"path": value} if isinstance(value, str) else value, at, ("path", "scale", "wrap"))
+    written = table.req("path", NAME)
+    scale = cast(tuple[float, float], table.opt("scale", f.numbers(2, f.POSITIVE), (1.0, 1.0)))
+    wrap = _WRAPS[table.opt("wrap", f.choice(list(_WRAPS)), "repeat")]
+    folders = model_folders(t.at.base_dir)
+    found = next((folder / Path(written).expanduser() for folder in folders
+                  if (folder / Path(written).expanduser()).is_file()), Path(t.at.base_dir) / written)
+    path_at = at if isinstance(value, str) else at.key("path")
+    return read_texture(found, path_at, scale, (wrap, wrap))
+
+
+def _diffuse(t: Table) -> DiffuseMaterial:
+    """A diffuse colour, or an image texture times a colour (white unless given)."""
+    if "texture" not in t.data:
+        return DiffuseMaterial(t.req("color", _COLOR))
+    return DiffuseMaterial(t.opt("color", _COLOR, (1.0, 1.0, 1.0)), _texture(t))
+
+
 _MATERIALS: dict[str, Variant[Material]] = {
-    "diffuse": Variant(("color",), lambda t: DiffuseMaterial(t.req("color", _COLOR))),
+    "diffuse": Variant(("color", "texture"), _diffuse),
     "checker": Variant(("color_a", "color_b", "scale"), lambda t: CheckerMaterial(
         t.req("color_a", _COLOR), t.req("color_b", _COLOR), t.opt("scale", _LENGTH, 1.0))),
     "mirror": Variant(("tint",), lambda t: MirrorMaterial(t.opt("tint", _COLOR, MirrorMaterial().tint))),

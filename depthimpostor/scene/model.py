@@ -225,19 +225,26 @@ Shape = PlaneShape | BoxShape | SphereShape | CylinderShape | TorusShape | Torus
 
 @dataclass(frozen=True, eq=False)
 class Texture:
-    """A glTF material's baseColorTexture, kept for the texture work: no pass draws it yet, and the
-    material's `color` holds the factor times the image's mean colour instead (scene_format.md)."""
+    """An image texture on a diffuse material: a glTF baseColorTexture, or a TOML `texture`. The
+    albedo is the material's colour times the texel (decoded from sRGB to linear), at the mesh's
+    `uvs` times `scale`. Compared by identity: a scene's distinct textures are its texture slots."""
 
     image: np.ndarray = dataclasses.field(repr=False)  # (H, W, 4) uint8 RGBA as stored (sRGB), row 0 the top
     sampler: dict[str, int]  # the glTF sampler: magFilter, minFilter, wrapS, wrapT where given
     mean_color: Vec3  # the mean of the image's RGB decoded to linear
+    scale: tuple[float, float] = (1.0, 1.0)  # UV multipliers: how many times the image repeats across u and v
+
+    @property
+    def wrap(self) -> tuple[int, int]:
+        """The (s, t) wrap modes: GL enums, REPEAT where the sampler gives none (glTF's default)."""
+        return self.sampler.get("wrapS", 10497), self.sampler.get("wrapT", 10497)
 
 
 @dataclass(frozen=True)
 class DiffuseMaterial:
     color: Vec3 = (0.8, 0.8, 0.8)
-    # A glTF baseColorTexture (the per-vertex UVs are the object's mesh.uvs); `color` already
-    # includes its mean colour. Compared by identity.
+    # An image texture (the per-vertex UVs are the object's mesh.uvs): the albedo is `color` times
+    # its texel. Compared by identity.
     texture: Texture | None = None
 
 
@@ -360,6 +367,24 @@ class Scene:
         """Does any light cast a shadow on anything? Only then do shadow maps and the shaders'
         SHADOWS variant exist."""
         return bool(self.shadowed_lights and self.shadow_casters)
+
+    @property
+    def textures(self) -> tuple[Texture, ...]:
+        """The distinct image textures of the objects' materials (by identity), in object order:
+        texture slot k is the k-th (passes/textures.py binds it on MATERIAL_TEXTURE_0 + k)."""
+        seen: dict[int, Texture] = {}
+        for obj in self.objects:
+            texture = getattr(obj.material, "texture", None)
+            if isinstance(texture, Texture):
+                seen.setdefault(id(texture), texture)
+        return tuple(seen.values())
+
+    def texture_slot(self, material: Material) -> int:
+        """The slot of the material's texture, or -1 for a material without one."""
+        texture = getattr(material, "texture", None)
+        if texture is None:
+            return -1
+        return next(k for k, t in enumerate(self.textures) if t is texture)
 
     @property
     def diffuse_objects(self) -> tuple[SceneObject, ...]:

@@ -12,20 +12,35 @@ uniform vec3 u_light_radiance[MAX_LIGHTS];  // color * intensity
 #include "shadows.glsl"
 #endif
 
+#ifdef TEXTURE_COUNT
+#include "material_texture.glsl"
+#endif
+
 struct Material {
     int kind;       // MATERIAL_DIFFUSE or MATERIAL_CHECKER
     vec3 color_a;
     vec3 color_b;
     float scale;
+    int texture;    // a diffuse material's texture slot, or -1
+    vec2 uv_scale;  // its UV multipliers (Texture.scale)
 };
 
 // The checker is laid out in the object's local XZ plane (the plane shape's own plane): a 3-D
-// checker would flicker on a plane at y = 0, where floor(y / scale) jumps between -1 and 0.
-vec3 material_albedo(Material material, vec3 local_position) {
+// checker would flicker on a plane at y = 0, where floor(y / scale) jumps between -1 and 0. A
+// textured diffuse material's colour is color_a times the texel: trilinear where `filtered`
+// (rasterized fragments), level 0 bilinear otherwise (traced rays: material_texture.glsl).
+vec3 material_albedo(Material material, vec3 local_position, vec2 uv, bool filtered) {
     if (material.kind == MATERIAL_CHECKER) {
         ivec2 cell = ivec2(floor(local_position.xz / material.scale));
         return ((cell.x + cell.y) & 1) == 0 ? material.color_a : material.color_b;
     }
+#ifdef TEXTURE_COUNT
+    if (material.texture >= 0) {
+        vec2 scaled = uv * material.uv_scale;
+        return material.color_a * (filtered ? texture_filtered(material.texture, scaled)
+                                            : texture_bilinear(material.texture, scaled));
+    }
+#endif
     return material.color_a;
 }
 

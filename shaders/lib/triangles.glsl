@@ -6,7 +6,8 @@
 #include "shading.glsl"
 
 uniform sampler2D u_bvh_nodes;      // 3 texels a node: (lower, first), (upper, count), (skip, 0, 0, 0)
-uniform sampler2D u_bvh_triangles;  // 6 texels a triangle: p0 (w: object slot), p1, p2, n0, n1, n2
+// BVH_TRIANGLE_TEXELS a triangle: p0 (w: object slot), p1, p2, n0, n1, n2, (uv0, uv1), (uv2, 0, 0)
+uniform sampler2D u_bvh_triangles;
 layout(std140) uniform TriangleObjects {
     TriangleObject u_triangle_objects[MAX_DEPTH_IMAGES_PER_MIRROR];
 };
@@ -47,29 +48,34 @@ float ray_triangle(vec3 origin, vec3 direction, vec3 p0, vec3 p1, vec3 p2, out v
 
 // The ray against triangle i (of the BVH's order): t (or -1) and the barycentrics.
 float intersect_triangle(vec3 origin, vec3 direction, int i, out vec2 uv) {
-    return ray_triangle(origin, direction, bvh_fetch(u_bvh_triangles, 6 * i).xyz, bvh_fetch(u_bvh_triangles, 6 * i + 1).xyz,
-                        bvh_fetch(u_bvh_triangles, 6 * i + 2).xyz, uv);
+    int base = BVH_TRIANGLE_TEXELS * i;
+    return ray_triangle(origin, direction, bvh_fetch(u_bvh_triangles, base).xyz, bvh_fetch(u_bvh_triangles, base + 1).xyz,
+                        bvh_fetch(u_bvh_triangles, base + 2).xyz, uv);
 }
 
 // Triangle i's geometric normal, outward (meshes wind their triangles counter-clockwise seen from
 // outside, and keep that under mirroring transforms: meshes.py), not unit length.
 vec3 triangle_normal(int i) {
-    vec3 p0 = bvh_fetch(u_bvh_triangles, 6 * i).xyz;
-    return cross(bvh_fetch(u_bvh_triangles, 6 * i + 1).xyz - p0, bvh_fetch(u_bvh_triangles, 6 * i + 2).xyz - p0);
+    int base = BVH_TRIANGLE_TEXELS * i;
+    vec3 p0 = bvh_fetch(u_bvh_triangles, base).xyz;
+    return cross(bvh_fetch(u_bvh_triangles, base + 1).xyz - p0, bvh_fetch(u_bvh_triangles, base + 2).xyz - p0);
 }
 
 // The hit on triangle i at t (barycentrics uv), to be shaded as the rasterizer shades the object
 // (trace_reflected does, with the interpolated normal and the material's albedo at the point).
 RayHit triangle_hit(vec3 origin, vec3 direction, int i, float t, vec2 uv, int samples) {
-    int base = 6 * i;
+    int base = BVH_TRIANGLE_TEXELS * i;
     int slot = int(bvh_fetch(u_bvh_triangles, base).w);
     vec3 normal = safe_normalize((1.0 - uv.x - uv.y) * bvh_fetch(u_bvh_triangles, base + 3).xyz
                                  + uv.x * bvh_fetch(u_bvh_triangles, base + 4).xyz
                                  + uv.y * bvh_fetch(u_bvh_triangles, base + 5).xyz, -direction);
     TriangleObject object = u_triangle_objects[slot];
     vec3 position = origin + direction * t;
-    Material material = Material(object.kind_and_id.x, object.color_a.xyz, object.color_b.xyz, object.color_a.w);
-    vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz);
+    Material material = Material(object.kind_and_id.x, object.color_a.xyz, object.color_b.xyz, object.color_a.w,
+                                 object.kind_and_id.z, object.texture.xy);
+    vec4 uv01 = bvh_fetch(u_bvh_triangles, base + 6);
+    vec2 texture_uv = (1.0 - uv.x - uv.y) * uv01.xy + uv.x * uv01.zw + uv.y * bvh_fetch(u_bvh_triangles, base + 7).xy;
+    vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz, texture_uv, false);
     return unlit_hit(t, uv, albedo, normal, float(object.kind_and_id.y), samples);
 }
 

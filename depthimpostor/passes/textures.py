@@ -1,0 +1,87 @@
+"""GPU copies of the scene's image textures: sRGB, mipmapped, trilinear, the sampler's wrap modes.
+
+Each `Texture` (by identity) is uploaded once, as GL_SRGB8_ALPHA8 so that the GPU decodes its
+texels to linear before filtering (moderngl has no sRGB flag; `ctx.texture` takes the internal
+format). Texture slot k of the scene (Scene.textures) is bound on TextureUnit.MATERIAL_TEXTURE_0
++ k for every frame: the diffuse pass, every bake, and the traced methods' shader all read it
+there (passes/uniforms.write_textures points their samplers at those units).
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import moderngl
+
+from ..bindings import TextureUnit
+from ..constants import MAX_TEXTURES, Wrap
+from ..context import gl_function
+from ..errors import GpuLimitError
+from ..scene.model import Scene, Texture
+
+#: GL_SRGB8_ALPHA8: 8-bit sRGB colour, linear alpha (moderngl exports no name for it).
+GL_SRGB8_ALPHA8 = 0x8C43
+
+_REPEAT_X = {Wrap.REPEAT: True, Wrap.CLAMP_TO_EDGE: False, Wrap.MIRRORED_REPEAT: True}
+
+
+GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T = 0x0DE1, 0x2802, 0x2803
+
+
+def _set_wrap(ctx: moderngl.Context, gpu: moderngl.Texture, wrap_s: Wrap, wrap_t: Wrap) -> None:
+    """Both wrap modes set through glTexParameteri (on the texture bound to its slot-0 unit, which
+    GpuTextures.use binds again before any draw), for the mode moderngl cannot set."""
+    address = gl_function(ctx, "glTexParameteri")
+    if not address:
+        raise GpuLimitError(f"{ctx.info['GL_RENDERER']}: no glTexParameteri entry point found for a mirrored-repeat "
+                            f"texture")
+    tex_parameter = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_uint, ctypes.c_int)(address)
+    gpu.use(texture_unit(0))
+    tex_parameter(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, int(wrap_s))
+    tex_parameter(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, int(wrap_t))
+
+
+def texture_unit(slot: int) -> int:
+    """The texture unit of the scene's texture slot `slot` (< MAX_TEXTURES: scene/limits.py)."""
+    return int(TextureUnit.MATERIAL_TEXTURE_0) + slot
+
+
+class GpuTextures:
+    """Owns the uploaded textures (made when a frame first needs them) and binds a scene's."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
+        # Keyed by the texture itself (identity: Texture has eq=False), which keeps it alive.
+        self._textures: dict[Texture, moderngl.Texture] = {}
+
+    def _upload(self, texture: Texture) -> moderngl.Texture:
+        height, width = texture.image.shape[:2]
+        # Row 0 of the image (its top) goes first: texture coordinate v = 0 is the image's top,
+        # glTF's convention, with no flip anywhere.
+        gpu = self.ctx.texture((width, height), 4, texture.image.tobytes(), internal_format=GL_SRGB8_ALPHA8)
+        gpu.build_mipmaps()
+        gpu.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)  # trilinear
+        gpu.anisotropy = 1.0
+        wrap_s, wrap_t = (Wrap(mode) for mode in texture.wrap)
+        gpu.repeat_x, gpu.repeat_y = _REPEAT_X[wrap_s], _REPEAT_X[wrap_t]
+        # moderngl's repeat flags know REPEAT and CLAMP_TO_EDGE alone: a mirrored one is set in GL.
+        if Wrap.MIRRORED_REPEAT in (wrap_s, wrap_t):
+            _set_wrap(self.ctx, gpu, wrap_s, wrap_t)
+        return gpu
+
+    def use(self, scene: Scene) -> None:
+        """Bind the scene's textures on their units, uploading those not yet on the GPU."""
+        for slot, texture in enumerate(scene.textures[:MAX_TEXTURES]):
+            if texture not in self._textures:
+                self._textures[texture] = self._upload(texture)
+            self._textures[texture].use(texture_unit(slot))
+
+    @staticmethod
+    def bytes_for(scene: Scene) -> int:
+        """GPU memory of the scene's textures: 4 bytes a texel, a third more for the mipmaps."""
+        return sum(texture.image.shape[0] * texture.image.shape[1] * 4 * 4 // 3 for texture in scene.textures)
+
+    def release(self) -> None:
+        for texture in self._textures.values():
+            texture.release()
+        self._textures.clear()

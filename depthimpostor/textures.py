@@ -1,0 +1,89 @@
+"""Image textures on the CPU: decoding images into `Texture`s, and the numpy sampling the truth
+uses, the same algorithm as shaders/lib/material_texture.glsl's `texture_bilinear`.
+
+The comparison rule. The rasterized passes (the camera view and every baked image) sample with
+mipmaps and trilinear filtering, as a renderer should. The ray-traced paths (triangles.glsl, the
+analytic planes) cannot: a reflected ray has no screen-space derivatives to choose a mip level
+from. They filter level 0 bilinearly, in the shader, from four texelFetch reads (the GPU decodes
+each from sRGB), with weights computed in float32 rather than by the texture unit, whose
+sub-texel weights have as few as 8 bits on common hardware. The truth does exactly that in
+numpy, so raytrace against the truth differs by float rounding alone; the depth-image methods
+show their baked, trilinearly filtered colours and differ by that filtering too.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, UnidentifiedImageError
+
+from .constants import Wrap
+from .scene.fields import At
+from .scene.model import Texture
+
+
+def srgb_to_linear(encoded: np.ndarray) -> np.ndarray:
+    """The sRGB transfer function undone (IEC 61966-2-1), for values in [0, 1]."""
+    return np.where(encoded <= 0.04045, encoded / 12.92, ((encoded + 0.055) / 1.055) ** 2.4)
+
+
+def texture_from_image(image: Image.Image, sampler: dict[str, int], scale: tuple[float, float] = (1.0, 1.0)) -> Texture:
+    """A Texture of a decoded image: its RGBA pixels as stored (sRGB, row 0 the top), read-only."""
+    pixels = np.asarray(image.convert("RGBA"), dtype=np.uint8).copy()
+    pixels.flags.writeable = False
+    mean = srgb_to_linear(pixels[..., :3].reshape(-1, 3) / 255.0).mean(axis=0)
+    r, g, b = (float(c) for c in mean)
+    return Texture(pixels, sampler, (r, g, b), scale)
+
+
+_CACHE: dict[tuple[Path, int, tuple[float, float], tuple[int, int]], Texture] = {}
+
+
+def read_texture(path: Path, at: At, scale: tuple[float, float], wrap: tuple[int, int]) -> Texture:
+    """The image file at `path` (PNG, JPEG, anything Pillow reads) as a texture, one Texture per
+    (file, modification time, scale, wrap) so that objects sharing an image share a slot; a file
+    that is missing or is not an image is refused at `at`."""
+    try:
+        resolved = path.resolve(strict=True)
+        key = (resolved, resolved.stat().st_mtime_ns, scale, wrap)
+    except OSError:
+        raise at.error(f"expected an existing image file, got {str(path)!r}: not found") from None
+    if key not in _CACHE:
+        try:
+            with Image.open(resolved) as image:
+                image.load()
+                texture = texture_from_image(image, {"wrapS": wrap[0], "wrapT": wrap[1]}, scale)
+        except (UnidentifiedImageError, OSError, ValueError) as error:
+            raise at.error(f"expected an image file Pillow can decode (PNG, JPEG, ...), got {str(path)!r}: "
+                           f"{error}") from None
+        _CACHE[key] = texture
+    return _CACHE[key]
+
+
+def wrap_texels(index: np.ndarray, size: int, mode: int) -> np.ndarray:
+    """Integer texel coordinates brought into [0, size) by a wrap mode (the GL rules)."""
+    if mode == Wrap.CLAMP_TO_EDGE:
+        return np.clip(index, 0, size - 1)
+    if mode == Wrap.MIRRORED_REPEAT:
+        period = np.mod(index, 2 * size)
+        return np.where(period < size, period, 2 * size - 1 - period)
+    return np.mod(index, size)
+
+
+def texture_bilinear(texture: Texture, uvs: np.ndarray) -> np.ndarray:
+    """The texture's linear RGB at (n, 2) UVs (before `scale`): level 0, bilinear, its wrap modes:
+    material_texture.glsl's texture_bilinear in numpy."""
+    height, width = texture.image.shape[:2]
+    linear = srgb_to_linear(texture.image[..., :3] / 255.0)
+    x = uvs * np.asarray(texture.scale) * (width, height) - 0.5  # texel centres at half-integers
+    base = np.floor(x)
+    fraction = x - base
+    i0, j0 = base[:, 0].astype(np.int64), base[:, 1].astype(np.int64)
+    wrap_s, wrap_t = texture.wrap
+    columns = [wrap_texels(i0 + k, width, wrap_s) for k in (0, 1)]
+    rows = [wrap_texels(j0 + k, height, wrap_t) for k in (0, 1)]
+    fx, fy = fraction[:, 0:1], fraction[:, 1:2]
+    top = linear[rows[0], columns[0]] * (1 - fx) + linear[rows[0], columns[1]] * fx
+    bottom = linear[rows[1], columns[0]] * (1 - fx) + linear[rows[1], columns[1]] * fx
+    return np.asarray(top * (1 - fy) + bottom * fy)
