@@ -7,7 +7,7 @@ from functools import cached_property
 
 import numpy as np
 
-from . import meshes
+from . import meshes, textured_meshes
 from .meshes import Mesh
 from .scene.model import (
     BoxShape,
@@ -23,8 +23,15 @@ from .scene.model import (
 )
 
 
-def mesh_for_shape(shape: Shape) -> Mesh:
-    """The local-space mesh of a shape (procedural, or loaded through trimesh)."""
+def mesh_for_shape(shape: Shape, textured: bool = False) -> Mesh:
+    """The local-space mesh of a shape (procedural, or loaded through trimesh); `textured` (an
+    object with an image texture) gives the round shapes a seam for their UVs (textured_meshes.py)."""
+    if textured and isinstance(shape, SphereShape):
+        return textured_meshes.sphere(shape.radius)
+    if textured and isinstance(shape, CylinderShape):
+        return textured_meshes.cylinder(shape.radius, shape.height)
+    if textured and isinstance(shape, TorusShape):
+        return textured_meshes.torus(shape.major, shape.minor)
     if isinstance(shape, PlaneShape):
         return meshes.plane(*shape.size)
     if isinstance(shape, BoxShape):
@@ -96,10 +103,11 @@ def triangle_offsets(objects: list[ObjectGeometry]) -> dict[int, int]:
 def scene_geometry(objects: tuple[SceneObject, ...]) -> list[ObjectGeometry]:
     """Every object's geometry; objects of one shape share one local mesh (meshes are read-only),
     so that a thousand equal spheres cost one sphere's arrays, GPU buffer and bounding sphere."""
-    local: dict[Shape, Mesh] = {}
+    local: dict[tuple[Shape, bool], Mesh] = {}
     geometry = []
     for index, obj in enumerate(objects):
-        if obj.shape not in local:
-            local[obj.shape] = mesh_for_shape(obj.shape)
-        geometry.append(ObjectGeometry(index, obj, local[obj.shape]))
+        key = (obj.shape, getattr(obj.material, "texture", None) is not None)
+        if key not in local:
+            local[key] = mesh_for_shape(*key)
+        geometry.append(ObjectGeometry(index, obj, local[key]))
     return geometry

@@ -137,27 +137,44 @@ def test_a_node_with_two_materials_is_two_objects(tmp_path: Path) -> None:
     assert [len(o.shape.mesh.indices) for o in objects] == [24, 12]  # type: ignore[union-attr]
 
 
-def test_a_textured_material_is_its_mean_colour_with_one_warning(tmp_path: Path) -> None:
-    w = GltfWriter()
+def _textured(w: GltfWriter, name: str, **pbr: object) -> tuple[np.ndarray, int]:
     image = np.zeros((4, 8, 4), np.uint8)
     image[..., 3] = 255
     image[:, :4, 0] = 255  # left half red, right half black: the linear mean is 0.5 red
     image[:2, :, 2] = 188  # the top half sRGB 188 blue, about 0.5 in linear: 0.25 in the mean
-    wood = w.material("Wood", (0.5, 1.0, 1.0), pbrMetallicRoughness={
-        "baseColorFactor": [0.5, 1.0, 1.0, 1.0], "baseColorTexture": {"index": w.texture(image)}})
+    material = w.material(name, (0.5, 1.0, 1.0), pbrMetallicRoughness={
+        "baseColorFactor": [0.5, 1.0, 1.0, 1.0], "baseColorTexture": {"index": w.texture(image)}, **pbr})
+    return image, material
+
+
+def test_a_textured_diffuse_material_keeps_its_texture_and_factor_without_a_warning(tmp_path: Path) -> None:
+    w = GltfWriter()
+    image, wood = _textured(w, "Wood")
     uvs = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
     w.node(mesh=w.mesh(w.primitive(TRIANGLE, [[0, 1, 2]], uvs=uvs, material=wood)))
     path = w.write(tmp_path / "wood.glb")
-    with pytest.warns(SceneWarning) as caught:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # textures are drawn: no warning
         obj = load_scene(path).objects[0]
-    assert len(caught) == 1 and '"Wood"' in str(caught[0].message) and "textures are not drawn yet" in str(caught[0].message)
     material = obj.material
     assert isinstance(material, DiffuseMaterial) and material.texture is not None
-    assert np.allclose(material.color, (0.5 * 0.5, 0.0, 0.5029 / 2), atol=2e-3)  # the factor times the mean
-    # Kept for the texture work: the image as stored, and the UVs in glTF's convention.
+    assert material.color == (0.5, 1.0, 1.0)  # the factor alone: the texel multiplies it when drawn
+    assert np.allclose(material.texture.mean_color, (0.5, 0.0, 0.5029 / 2), atol=2e-3)
     assert np.array_equal(material.texture.image, image)
     assert material.texture.sampler == {"magFilter": 9729, "wrapS": 10497}
     assert np.allclose(obj.shape.mesh.uvs, uvs)  # type: ignore[union-attr]
+
+
+def test_a_textured_mirror_is_tinted_by_the_mean_colour_with_one_warning(tmp_path: Path) -> None:
+    w = GltfWriter()
+    _, chrome = _textured(w, "Chrome", metallicFactor=1.0, roughnessFactor=0.0)
+    w.node(mesh=w.mesh(w.primitive(TRIANGLE, [[0, 1, 2]], uvs=[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], material=chrome)))
+    with pytest.warns(SceneWarning) as caught:
+        obj = load_scene(w.write(tmp_path / "chrome.glb")).objects[0]
+    assert len(caught) == 1 and '"Chrome"' in str(caught[0].message)
+    assert "textures are not drawn on mirrors and glass" in str(caught[0].message)
+    assert isinstance(obj.material, MirrorMaterial)
+    assert np.allclose(obj.material.tint, (0.5 * 0.5, 0.0, 0.5029 / 2), atol=2e-3)  # the factor times the mean
 
 
 # --- camera and lights ---------------------------------------------------------------------------------

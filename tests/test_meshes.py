@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from depthimpostor import textured_meshes
+
 from depthimpostor.errors import DepthImpostorError
 from depthimpostor.meshes import (
     Mesh,
@@ -290,10 +292,35 @@ def test_transformed_rejects_singular_and_projective_matrices() -> None:
 def test_interleaved_layout() -> None:
     mesh = sphere(1.0, segments=8, rings=4)
     rows = mesh.interleaved()
-    assert rows.dtype == np.float32 and rows.shape == (len(mesh.positions), 6)
+    assert rows.dtype == np.float32 and rows.shape == (len(mesh.positions), 8)
     assert rows.flags.c_contiguous
     np.testing.assert_array_equal(rows[:, :3], mesh.positions)
-    np.testing.assert_array_equal(rows[:, 3:], mesh.normals)
+    np.testing.assert_array_equal(rows[:, 3:6], mesh.normals)
+    np.testing.assert_array_equal(rows[:, 6:], 0.0)  # a sphere has no UVs: zeros
+    textured = box((1.0, 2.0, 3.0))
+    assert textured.uvs is not None
+    np.testing.assert_array_equal(textured.interleaved()[:, 6:], textured.uvs)
+
+
+@pytest.mark.parametrize("make", [lambda: textured_meshes.sphere(1.0, 16, 8), lambda: textured_meshes.cylinder(1.0, 2.0, 16),
+                                  lambda: textured_meshes.torus(1.0, 0.3, 16, 8)], ids=["sphere", "cylinder", "torus"])
+def test_textured_round_shapes_have_the_same_triangles_and_uvs_in_the_unit_square(make: Callable[[], Mesh]) -> None:
+    mesh = make()
+    assert mesh.uvs is not None and mesh.uvs.min() >= 0.0 and mesh.uvs.max() <= 1.0
+    assert outward_fraction(mesh) >= 0.99
+    assert len(np.unique(mesh.indices)) == len(mesh.positions)
+
+
+def test_plane_and_box_uvs_show_the_image_upright_from_outside() -> None:
+    # The plane: u along +x, v along +z (the image's top row at -z).
+    flat = plane(2.0, 4.0)
+    assert flat.uvs is not None
+    np.testing.assert_allclose(flat.uvs, np.c_[flat.positions[:, 0] / 2.0 + 0.5, flat.positions[:, 2] / 4.0 + 0.5])
+    # The box's +Z face: u to the right (+x), v down (-y), as a viewer in front of it sees it.
+    cube = box((2.0, 2.0, 2.0))
+    assert cube.uvs is not None
+    front = cube.normals[:, 2] > 0.5
+    np.testing.assert_allclose(cube.uvs[front], np.c_[cube.positions[front, 0] / 2 + 0.5, 0.5 - cube.positions[front, 1] / 2])
 
 
 def test_mesh_arrays_are_read_only() -> None:

@@ -32,6 +32,7 @@ PLAN_COUNTS = {
     "carousel.toml": (4, 7, 1, 5),  # the knot behind the wall mirror: skipped for it
     "default.toml": (4, 5, 0, 5),
     "checker_near_mirror.toml": (4, 4, 0, 5),
+    "textured_near_mirror.toml": (4, 4, 0, 5),  # checker_near_mirror with image textures
     "glass_and_mirrors.toml": (7, 15, 0, 11),  # 3 reflectors x 3 objects + 3 x 2 of bounce 2
     "grid_3x3.toml": (4, 8, 0, 5),
     "lecture_8x9.toml": (4, 72, 0, 5),

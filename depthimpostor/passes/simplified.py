@@ -39,7 +39,30 @@ def simplified_mesh(mesh: Mesh, target_triangles: int) -> Mesh:
     points, faces = fast_simplification.simplify(
         np.asarray(welded.vertices, np.float64), np.asarray(welded.faces, np.int32), target_count=target_triangles
     )
-    return crease_shaded(np.asarray(points, np.float64), np.asarray(faces, np.int64))
+    simplified = crease_shaded(np.asarray(points, np.float64), np.asarray(faces, np.int64))
+    return simplified if mesh.uvs is None else with_carried_uvs(mesh, mesh.uvs, simplified)
+
+
+def with_carried_uvs(original: Mesh, original_uvs: np.ndarray, simplified: Mesh) -> Mesh:
+    """`simplified` (3 vertices a triangle, crease_shaded's) with UVs from `original`: each triangle
+    takes the UV layout of the original triangle whose centroid is nearest its own, extended
+    linearly over its plane. One chart a triangle keeps a seam from smearing the whole image across
+    a triangle that straddles it (the welding before decimation joins the seam's two sides)."""
+    corners = original.positions[original.indices].astype(np.float64)  # (n, 3, 3)
+    centroids = corners.mean(axis=1)
+    mine = simplified.positions.reshape(-1, 3, 3).astype(np.float64)
+    nearest = np.concatenate([
+        np.argmin(((chunk.mean(axis=1)[:, None, :] - centroids[None]) ** 2).sum(axis=2), axis=1)
+        for chunk in np.array_split(mine, max(1, len(mine) * len(centroids) // 2**22))
+    ])
+    # Barycentric coordinates of each corner in the plane of its original triangle (least squares).
+    p0, edges = corners[nearest, 0], corners[nearest, 1:] - corners[nearest, :1]  # (m, 3), (m, 2, 3)
+    gram = np.einsum("mij,mkj->mik", edges, edges)
+    rhs = np.einsum("mij,mcj->mci", edges, mine - p0[:, None, :])
+    weights = np.linalg.solve(gram[:, None].repeat(3, axis=1), rhs[..., None])[..., 0]  # (m, 3 corners, 2)
+    uv = original_uvs[original.indices[nearest]].astype(np.float64)  # (m, 3, 2)
+    uvs = uv[:, None, 0] + weights[..., :1] * (uv[:, None, 1] - uv[:, None, 0]) + weights[..., 1:] * (uv[:, None, 2] - uv[:, None, 0])
+    return Mesh(simplified.positions, simplified.normals, simplified.indices, uvs.reshape(-1, 2))
 
 
 def crease_shaded(positions: np.ndarray, faces: np.ndarray) -> Mesh:

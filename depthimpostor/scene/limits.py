@@ -109,12 +109,14 @@ def check_scene(scene: Scene) -> None:
             _check_reach(scene, index, local_reach)
 
 
-#: The shapes whose meshes carry UVs (meshes.py); a glTF part has them where the file gives TEXCOORD_0.
-TEXTURED_SHAPES = (PlaneShape, BoxShape)
+#: The shapes whose meshes carry UVs (meshes.py, textured_meshes.py); a glTF part has them where the
+#: file gives TEXCOORD_0. A torus knot (no natural image layout on its tube) and a mesh file (read
+#: without its UVs) have none.
+TEXTURED_SHAPES = (PlaneShape, BoxShape, SphereShape, CylinderShape, TorusShape)
 
 
 def _check_textured_shapes(scene: Scene) -> None:
-    """A texture needs UVs: on a plane, a box, or a glTF part with TEXCOORD_0."""
+    """A texture needs UVs: TEXTURED_SHAPES have them."""
     for index, obj in enumerate(scene.objects):
         if scene.texture_slot(obj.material) < 0:
             continue
@@ -123,7 +125,7 @@ def _check_textured_shapes(scene: Scene) -> None:
         name = re.sub(r"(?<!^)(?=[A-Z])", "_", type(obj.shape).__name__.removesuffix("Shape")).lower()
         kind = "a glTF part without TEXCOORD_0" if isinstance(obj.shape, GltfShape) else f"a {name} shape"
         raise SceneError(scene.source, f"objects[{index}].material.texture", "expected a shape with texture coordinates "
-                         f"(a plane, a box, or a glTF part with TEXCOORD_0), got {kind}, which has none")
+                         f"(a plane, box, sphere, cylinder, torus, or a glTF part with TEXCOORD_0), got {kind}, which has none")
 
 
 def check_model_reach(scene: Scene, index: int, model: Mesh) -> None:

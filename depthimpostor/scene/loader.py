@@ -112,7 +112,7 @@ def _texture(t: Table) -> Texture:
     found = next((folder / Path(written).expanduser() for folder in folders
                   if (folder / Path(written).expanduser()).is_file()), Path(t.at.base_dir) / written)
     path_at = at if isinstance(value, str) else at.key("path")
-    return read_texture(found, path_at, scale, (wrap, wrap))
+    return read_texture(found, path_at, scale, (int(wrap), int(wrap)))
 
 
 def _diffuse(t: Table) -> DiffuseMaterial:
