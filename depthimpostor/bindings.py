@@ -37,6 +37,11 @@ class TextureUnit(IntEnum):
     MATERIAL_TEXTURE_1 = 17
     MATERIAL_TEXTURE_2 = 18
     MATERIAL_TEXTURE_3 = 19
+    # The same images' level 0 as 8-bit integers, for traced rays (material_texture.glsl).
+    MATERIAL_TEXELS_0 = 20
+    MATERIAL_TEXELS_1 = 21
+    MATERIAL_TEXELS_2 = 22
+    MATERIAL_TEXELS_3 = 23
 
 
 @unique

@@ -32,6 +32,7 @@ from .passes.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atla
 from .passes.baked_images import BakedImages, ImagePlan, SecondLayer
 from .passes.impostors import ImpostorPass
 from .passes.meshes import GpuMeshes
+from .passes.textures import GpuTextures
 from .passes.mirrors import REFLECTION_OUTPUTS, REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
 from .passes.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
 from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
@@ -319,6 +320,8 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     records = MAX_DEPTH_IMAGES_PER_MIRROR * DEPTH_IMAGE_DTYPE.itemsize  # one mirror's uniform block
     memory = {"frame colour and depth": width * height * (16 + 4),
               "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry])}
+    if scene.textures:
+        memory["textures"] = GpuTextures.bytes_for(scene)
     if reflection_data:
         memory["reflection outputs"] = width * height * 16 * REFLECTION_OUTPUTS
     if count_samples:

@@ -4,11 +4,12 @@ uses, the same algorithm as shaders/lib/material_texture.glsl's `texture_bilinea
 The comparison rule. The rasterized passes (the camera view and every baked image) sample with
 mipmaps and trilinear filtering, as a renderer should. The ray-traced paths (triangles.glsl, the
 analytic planes) cannot: a reflected ray has no screen-space derivatives to choose a mip level
-from. They filter level 0 bilinearly, in the shader, from four texelFetch reads (the GPU decodes
-each from sRGB), with weights computed in float32 rather than by the texture unit, whose
-sub-texel weights have as few as 8 bits on common hardware. The truth does exactly that in
+from. They filter level 0 bilinearly, in the shader, from four texelFetch reads of the 8-bit
+texels decoded through one exact sRGB table (SRGB_TABLE: a GPU's own decode may be approximate,
+llvmpipe's by up to 0.0012), with weights computed in float32 rather than by the texture unit,
+whose sub-texel weights have as few as 8 bits on common hardware. The truth does exactly that in
 numpy, so raytrace against the truth differs by float rounding alone; the depth-image methods
-show their baked, trilinearly filtered colours and differ by that filtering too.
+show their baked, trilinearly filtered (and GPU-decoded) colours and differ by that too.
 """
 
 from __future__ import annotations
@@ -26,6 +27,10 @@ from .scene.model import Texture
 def srgb_to_linear(encoded: np.ndarray) -> np.ndarray:
     """The sRGB transfer function undone (IEC 61966-2-1), for values in [0, 1]."""
     return np.where(encoded <= 0.04045, encoded / 12.92, ((encoded + 0.055) / 1.055) ** 2.4)
+
+
+#: Every 8-bit sRGB value decoded, in float32: the traced rays' decode table (material_texture.glsl).
+SRGB_TABLE = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
 
 
 def texture_from_image(image: Image.Image, sampler: dict[str, int], scale: tuple[float, float] = (1.0, 1.0)) -> Texture:
@@ -75,7 +80,7 @@ def texture_bilinear(texture: Texture, uvs: np.ndarray) -> np.ndarray:
     """The texture's linear RGB at (n, 2) UVs (before `scale`): level 0, bilinear, its wrap modes:
     material_texture.glsl's texture_bilinear in numpy."""
     height, width = texture.image.shape[:2]
-    linear = srgb_to_linear(texture.image[..., :3] / 255.0)
+    linear = SRGB_TABLE[texture.image[..., :3]].astype(np.float64)
     x = uvs * np.asarray(texture.scale) * (width, height) - 0.5  # texel centres at half-integers
     base = np.floor(x)
     fraction = x - base

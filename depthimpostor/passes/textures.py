@@ -4,7 +4,9 @@ Each `Texture` (by identity) is uploaded once, as GL_SRGB8_ALPHA8 so that the GP
 texels to linear before filtering (moderngl has no sRGB flag; `ctx.texture` takes the internal
 format). Texture slot k of the scene (Scene.textures) is bound on TextureUnit.MATERIAL_TEXTURE_0
 + k for every frame: the diffuse pass, every bake, and the traced methods' shader all read it
-there (passes/uniforms.write_textures points their samplers at those units).
+there (passes/uniforms.write_textures points their samplers at those units); its level 0 as
+8-bit integers on MATERIAL_TEXELS_0 + k, which traced rays decode through an exact table
+(material_texture.glsl).
 """
 
 from __future__ import annotations
@@ -51,8 +53,9 @@ class GpuTextures:
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
-        # Keyed by the texture itself (identity: Texture has eq=False), which keeps it alive.
-        self._textures: dict[Texture, moderngl.Texture] = {}
+        # Keyed by the texture itself (identity: Texture has eq=False), which keeps it alive: the
+        # sRGB mipmapped texture and level 0 as 8-bit integers (traced rays decode those exactly).
+        self._textures: dict[Texture, tuple[moderngl.Texture, moderngl.Texture]] = {}
 
     def _upload(self, texture: Texture) -> moderngl.Texture:
         height, width = texture.image.shape[:2]
@@ -69,19 +72,30 @@ class GpuTextures:
             _set_wrap(self.ctx, gpu, wrap_s, wrap_t)
         return gpu
 
+    def _upload_texels(self, texture: Texture) -> moderngl.Texture:
+        """Level 0 as GL_RGBA8UI: texelFetch alone reads it (no filter, no wrap: the shader wraps)."""
+        height, width = texture.image.shape[:2]
+        texels = self.ctx.texture((width, height), 4, texture.image.tobytes(), dtype="u1")
+        texels.filter = (moderngl.NEAREST, moderngl.NEAREST)  # an integer texture is incomplete otherwise
+        return texels
+
     def use(self, scene: Scene) -> None:
         """Bind the scene's textures on their units, uploading those not yet on the GPU."""
         for slot, texture in enumerate(scene.textures[:MAX_TEXTURES]):
             if texture not in self._textures:
-                self._textures[texture] = self._upload(texture)
-            self._textures[texture].use(texture_unit(slot))
+                self._textures[texture] = self._upload(texture), self._upload_texels(texture)
+            filtered, texels = self._textures[texture]
+            filtered.use(texture_unit(slot))
+            texels.use(int(TextureUnit.MATERIAL_TEXELS_0) + slot)
 
     @staticmethod
     def bytes_for(scene: Scene) -> int:
-        """GPU memory of the scene's textures: 4 bytes a texel, a third more for the mipmaps."""
-        return sum(texture.image.shape[0] * texture.image.shape[1] * 4 * 4 // 3 for texture in scene.textures)
+        """GPU memory of the scene's textures: 4 bytes a texel, a third more for the mipmaps, and
+        the integer copy of level 0."""
+        return sum(texture.image.shape[0] * texture.image.shape[1] * 4 * 7 // 3 for texture in scene.textures)
 
     def release(self) -> None:
-        for texture in self._textures.values():
-            texture.release()
+        for filtered, texels in self._textures.values():
+            filtered.release()
+            texels.release()
         self._textures.clear()

@@ -65,13 +65,18 @@ def _model_file(t: Table, suffixes: tuple[str, ...]) -> tuple[Path, str]:
     at, written = t.at.key("path"), t.req("path", NAME)
     if Path(written).suffix.lower() not in suffixes:
         raise at.error(f"expected a path to a {', '.join(suffixes)} file, got {json.dumps(written)}")
-    folders = model_folders(t.at.base_dir)
+    return find_file(written, at, "model file"), written
+
+
+def find_file(written: str, at: At, kind: str) -> Path:
+    """A file named in a scene (a model, a texture), looked for in model_folders, resolved."""
+    folders = model_folders(at.base_dir)
     for folder in folders:
         candidate = folder / Path(written).expanduser()  # joining an absolute path ignores the folder
         if candidate.is_file():
-            return candidate.resolve(), written
+            return candidate.resolve()
     searched = ", ".join(str(folder.resolve()) for folder in folders)
-    raise at.error(f"expected an existing model file, got {json.dumps(written)}: not found in the scene's "
+    raise at.error(f"expected an existing {kind}, got {json.dumps(written)}: not found in the scene's "
                    f"folder or ${MODEL_PATH_VARIABLE} (searched: {searched})")
 
 
@@ -108,11 +113,8 @@ def _texture(t: Table) -> Texture:
     written = table.req("path", NAME)
     scale = cast(tuple[float, float], table.opt("scale", f.numbers(2, f.POSITIVE), (1.0, 1.0)))
     wrap = _WRAPS[table.opt("wrap", f.choice(list(_WRAPS)), "repeat")]
-    folders = model_folders(t.at.base_dir)
-    found = next((folder / Path(written).expanduser() for folder in folders
-                  if (folder / Path(written).expanduser()).is_file()), Path(t.at.base_dir) / written)
     path_at = at if isinstance(value, str) else at.key("path")
-    return read_texture(found, path_at, scale, (int(wrap), int(wrap)))
+    return read_texture(find_file(written, path_at, "image file"), path_at, scale, (int(wrap), int(wrap)))
 
 
 def _diffuse(t: Table) -> DiffuseMaterial:

@@ -1,18 +1,26 @@
-// The scene's image textures (passes/textures.py binds texture slot k on texture unit
-// MATERIAL_TEXTURE_0 + k; TEXTURE_COUNT of them, at most MAX_TEXTURES). Stored as SRGB8_ALPHA8:
-// the GPU decodes each texel to linear before it filters. GLSL 3.30 indexes a sampler array only
-// with constants, hence the if-chains over the slot.
+// The scene's image textures (passes/textures.py binds texture slot k on texture units
+// MATERIAL_TEXTURE_0 + k and MATERIAL_TEXELS_0 + k; TEXTURE_COUNT of them, at most MAX_TEXTURES).
+// GLSL 3.30 indexes a sampler array only with constants, hence the if-chains over the slot.
+// u_material_texture_k: SRGB8_ALPHA8 with mipmaps, which the GPU decodes to linear before it
+// filters. u_material_texels_k: level 0 as 8-bit integers, decoded here through the exact table
+// u_srgb_to_linear, because a GPU's own sRGB decode may be approximate (llvmpipe's is off by up
+// to 0.0012, 2.5 % of the darkest values), and traced rays are held to the truth's float noise.
 uniform sampler2D u_material_texture_0;
+uniform usampler2D u_material_texels_0;
 #if TEXTURE_COUNT > 1
 uniform sampler2D u_material_texture_1;
+uniform usampler2D u_material_texels_1;
 #endif
 #if TEXTURE_COUNT > 2
 uniform sampler2D u_material_texture_2;
+uniform usampler2D u_material_texels_2;
 #endif
 #if TEXTURE_COUNT > 3
 uniform sampler2D u_material_texture_3;
+uniform usampler2D u_material_texels_3;
 #endif
 uniform ivec2 u_material_texture_wrap[MAX_TEXTURES];  // (s, t) wrap modes: WRAP_* (GL's enums)
+uniform float u_srgb_to_linear[256];  // textures.srgb_to_linear(k / 255) in float32
 
 // Mipmapped, trilinear, the sampler's wrap modes: for rasterized fragments, whose derivatives
 // choose the level (the camera view and every baked image).
@@ -31,28 +39,30 @@ vec3 texture_filtered(int slot, vec2 uv) {
 
 ivec2 texture_level0_size(int slot) {
 #if TEXTURE_COUNT > 1
-    if (slot == 1) return textureSize(u_material_texture_1, 0);
+    if (slot == 1) return textureSize(u_material_texels_1, 0);
 #endif
 #if TEXTURE_COUNT > 2
-    if (slot == 2) return textureSize(u_material_texture_2, 0);
+    if (slot == 2) return textureSize(u_material_texels_2, 0);
 #endif
 #if TEXTURE_COUNT > 3
-    if (slot == 3) return textureSize(u_material_texture_3, 0);
+    if (slot == 3) return textureSize(u_material_texels_3, 0);
 #endif
-    return textureSize(u_material_texture_0, 0);
+    return textureSize(u_material_texels_0, 0);
 }
 
+// Texel `texel` of level 0, decoded from sRGB by the exact table.
 vec3 texel_level0(int slot, ivec2 texel) {
+    uvec4 encoded = texelFetch(u_material_texels_0, texel, 0);
 #if TEXTURE_COUNT > 1
-    if (slot == 1) return texelFetch(u_material_texture_1, texel, 0).rgb;
+    if (slot == 1) encoded = texelFetch(u_material_texels_1, texel, 0);
 #endif
 #if TEXTURE_COUNT > 2
-    if (slot == 2) return texelFetch(u_material_texture_2, texel, 0).rgb;
+    if (slot == 2) encoded = texelFetch(u_material_texels_2, texel, 0);
 #endif
 #if TEXTURE_COUNT > 3
-    if (slot == 3) return texelFetch(u_material_texture_3, texel, 0).rgb;
+    if (slot == 3) encoded = texelFetch(u_material_texels_3, texel, 0);
 #endif
-    return texelFetch(u_material_texture_0, texel, 0).rgb;
+    return vec3(u_srgb_to_linear[encoded.r], u_srgb_to_linear[encoded.g], u_srgb_to_linear[encoded.b]);
 }
 
 // An integer texel coordinate brought into [0, size) by a wrap mode (textures.py's wrap_texels).
