@@ -33,6 +33,8 @@ class TextureUnit(IntEnum):
     GLYPHS = 15  # the overlay's font (passes/overlay.py)
     # The scene's image textures (passes/textures.py), slot k on MATERIAL_TEXTURE_0 + k: the
     # ray-traced methods' shader samples every reflected object's at once (constants.MAX_TEXTURES).
+    # Past 15: a unit's number need only be below GL's combined count (48 in GL 3.3); what one
+    # shader samples at once stays within the 16 a fragment shader has (material_texture.glsl).
     MATERIAL_TEXTURE_0 = 16
     MATERIAL_TEXTURE_1 = 17
     MATERIAL_TEXTURE_2 = 18

@@ -3,6 +3,7 @@
 // the window depth also goes to a 32-bit float attachment, the depth image's Z, with the object's
 // id beside it for images that show several objects: cube-map faces).
 #include "lib/common.glsl"
+#define RASTERIZED_TEXTURES 1  // trilinear, mipmapped textures (lib/material_texture.glsl)
 #include "lib/shading.glsl"
 
 uniform Material u_material;
@@ -28,7 +29,7 @@ uniform int u_triangle_offset;
 
 void main() {
     vec3 normal = safe_normalize(v_world_normal, vec3(0.0, 1.0, 0.0));
-    out_color = vec4(shade(material_albedo(u_material, v_local_position, v_uv, true), v_world_position, normal), 1.0);
+    out_color = vec4(shade(material_albedo(u_material, v_local_position, v_uv), v_world_position, normal), 1.0);
 #if WRITE_DEPTH_IMAGE
 #ifdef BACK_LAYER
     // The back layer of a depth image (drawn with front faces culled): its colour, the outward

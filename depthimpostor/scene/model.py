@@ -6,6 +6,7 @@ The defaults here are the only copy: the loader reads a missing field's value fr
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from fractions import Fraction
 from collections.abc import Sequence
@@ -368,10 +369,11 @@ class Scene:
         SHADOWS variant exist."""
         return bool(self.shadowed_lights and self.shadow_casters)
 
-    @property
+    @functools.cached_property
     def textures(self) -> tuple[Texture, ...]:
         """The distinct image textures of the objects' materials (by identity), in object order:
-        texture slot k is the k-th (passes/textures.py binds it on MATERIAL_TEXTURE_0 + k)."""
+        texture slot k is the k-th (passes/textures.py binds it on MATERIAL_TEXTURE_0 + k).
+        Computed once: the fields are frozen."""
         seen: dict[int, Texture] = {}
         for obj in self.objects:
             texture = getattr(obj.material, "texture", None)
@@ -379,12 +381,14 @@ class Scene:
                 seen.setdefault(id(texture), texture)
         return tuple(seen.values())
 
+    @functools.cached_property
+    def _texture_slots(self) -> dict[int, int]:
+        return {id(texture): k for k, texture in enumerate(self.textures)}
+
     def texture_slot(self, material: Material) -> int:
         """The slot of the material's texture, or -1 for a material without one."""
         texture = getattr(material, "texture", None)
-        if texture is None:
-            return -1
-        return next(k for k, t in enumerate(self.textures) if t is texture)
+        return -1 if texture is None else self._texture_slots[id(texture)]
 
     @property
     def diffuse_objects(self) -> tuple[SceneObject, ...]:

@@ -1,30 +1,43 @@
 // The scene's image textures (passes/textures.py binds texture slot k on texture units
 // MATERIAL_TEXTURE_0 + k and MATERIAL_TEXELS_0 + k; TEXTURE_COUNT of them, at most MAX_TEXTURES).
 // GLSL 3.30 indexes a sampler array only with constants, hence the if-chains over the slot.
-// u_material_texture_k: SRGB8_ALPHA8 with mipmaps, which the GPU decodes to linear before it
-// filters. u_material_texels_k: level 0 as 8-bit integers, decoded here through the exact table
-// u_srgb_to_linear, because a GPU's own sRGB decode may be approximate (llvmpipe's is off by up
-// to 0.0012, 2.5 % of the darkest values), and traced rays are held to the truth's float noise.
+// Rasterized fragments (RASTERIZED_TEXTURES: diffuse.frag) read u_material_texture_k:
+// SRGB8_ALPHA8 with mipmaps, which the GPU decodes to linear before it filters. Traced rays (the
+// mirror shader) read u_material_texels_k: level 0 as 8-bit integers, decoded here through the
+// exact table u_srgb_to_linear, because a GPU's own sRGB decode may be approximate (llvmpipe's is
+// off by up to 0.0012, 2.5 % of the darkest values), and traced rays are held to the truth's float
+// noise. Each shader declares one of the two sets: the mirror shader's other samplers take up to
+// 12 of the 16 units GL 3.3 guarantees a fragment shader.
+#ifdef RASTERIZED_TEXTURES
 uniform sampler2D u_material_texture_0;
-uniform usampler2D u_material_texels_0;
 #if TEXTURE_COUNT > 1
 uniform sampler2D u_material_texture_1;
-uniform usampler2D u_material_texels_1;
 #endif
 #if TEXTURE_COUNT > 2
 uniform sampler2D u_material_texture_2;
-uniform usampler2D u_material_texels_2;
 #endif
 #if TEXTURE_COUNT > 3
 uniform sampler2D u_material_texture_3;
+#endif
+#else
+uniform usampler2D u_material_texels_0;
+#if TEXTURE_COUNT > 1
+uniform usampler2D u_material_texels_1;
+#endif
+#if TEXTURE_COUNT > 2
+uniform usampler2D u_material_texels_2;
+#endif
+#if TEXTURE_COUNT > 3
 uniform usampler2D u_material_texels_3;
 #endif
 uniform ivec2 u_material_texture_wrap[MAX_TEXTURES];  // (s, t) wrap modes: WRAP_* (GL's enums)
 uniform float u_srgb_to_linear[256];  // textures.srgb_to_linear(k / 255) in float32
+#endif
 
+#ifdef RASTERIZED_TEXTURES
 // Mipmapped, trilinear, the sampler's wrap modes: for rasterized fragments, whose derivatives
 // choose the level (the camera view and every baked image).
-vec3 texture_filtered(int slot, vec2 uv) {
+vec3 material_texel(int slot, vec2 uv) {
 #if TEXTURE_COUNT > 1
     if (slot == 1) return texture(u_material_texture_1, uv).rgb;
 #endif
@@ -37,6 +50,7 @@ vec3 texture_filtered(int slot, vec2 uv) {
     return texture(u_material_texture_0, uv).rgb;
 }
 
+#else
 ivec2 texture_level0_size(int slot) {
 #if TEXTURE_COUNT > 1
     if (slot == 1) return textureSize(u_material_texels_1, 0);
@@ -81,7 +95,7 @@ ivec2 wrap_texels(ivec2 index, ivec2 size, ivec2 mode) {
 // Level 0, bilinear, weights in float32: for traced rays, which have no derivatives to choose a
 // level from. The truth (textures.py's texture_bilinear) is this in numpy: see the comparison
 // rule there.
-vec3 texture_bilinear(int slot, vec2 uv) {
+vec3 material_texel(int slot, vec2 uv) {
     ivec2 size = texture_level0_size(slot);
     vec2 x = uv * vec2(size) - 0.5;  // texel centres at half-integers
     vec2 base = floor(x);
@@ -96,3 +110,4 @@ vec3 texture_bilinear(int slot, vec2 uv) {
     vec3 bottom = c01 * (1.0 - fraction.x) + c11 * fraction.x;
     return top * (1.0 - fraction.y) + bottom * fraction.y;
 }
+#endif

@@ -102,7 +102,7 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
         if (t > 0.0 && all(lessThanEqual(abs(p.xz), u_plane_half_size[i])) && (!best.hit || t < best.t)) {
             // The plane's UVs as meshes.plane_uvs lays them out: the image over the whole rectangle.
             vec2 uv = p.xz / (2.0 * u_plane_half_size[i]) + 0.5;
-            best = unlit_hit(t, p.xz, material_albedo(u_plane_material[i], p, uv, false), u_plane_normal[i],
+            best = unlit_hit(t, p.xz, material_albedo(u_plane_material[i], p, uv), u_plane_normal[i],
                              float(u_plane_object_id[i]), 0);
         }
     }

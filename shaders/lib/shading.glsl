@@ -27,9 +27,9 @@ struct Material {
 
 // The checker is laid out in the object's local XZ plane (the plane shape's own plane): a 3-D
 // checker would flicker on a plane at y = 0, where floor(y / scale) jumps between -1 and 0. A
-// textured diffuse material's colour is color_a times the texel: trilinear where `filtered`
-// (rasterized fragments), level 0 bilinear otherwise (traced rays: material_texture.glsl).
-vec3 material_albedo(Material material, vec3 local_position, vec2 uv, bool filtered) {
+// textured diffuse material's colour is color_a times the texel: trilinear in rasterized
+// fragments, level 0 bilinear for traced rays (material_texture.glsl).
+vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
     if (material.kind == MATERIAL_CHECKER) {
         ivec2 cell = ivec2(floor(local_position.xz / material.scale));
         return ((cell.x + cell.y) & 1) == 0 ? material.color_a : material.color_b;
@@ -37,8 +37,7 @@ vec3 material_albedo(Material material, vec3 local_position, vec2 uv, bool filte
 #ifdef TEXTURE_COUNT
     if (material.texture >= 0) {
         vec2 scaled = uv * material.uv_scale;
-        return material.color_a * (filtered ? texture_filtered(material.texture, scaled)
-                                            : texture_bilinear(material.texture, scaled));
+        return material.color_a * material_texel(material.texture, scaled);
     }
 #endif
     return material.color_a;
