@@ -39,11 +39,9 @@ class TextureUnit(IntEnum):
     MATERIAL_TEXTURE_1 = 17
     MATERIAL_TEXTURE_2 = 18
     MATERIAL_TEXTURE_3 = 19
-    # The same images' level 0 as 8-bit integers, for traced rays (material_texture.glsl).
-    MATERIAL_TEXELS_0 = 20
-    MATERIAL_TEXELS_1 = 21
-    MATERIAL_TEXELS_2 = 22
-    MATERIAL_TEXELS_3 = 23
+    # Every one's level 0 as 8-bit integers, stacked in one texture, for traced rays: the mirror
+    # shader samples this one unit for them all (material_texture.glsl).
+    MATERIAL_TEXELS = 20
 
 
 @unique

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
-from .constants import Wrap
+from .constants import MAX_TEXTURES, Wrap
 from .scene.fields import At
-from .scene.model import Texture
+from .scene.model import Scene, Texture
 
 
 def srgb_to_linear(encoded: np.ndarray) -> np.ndarray:
@@ -64,6 +64,18 @@ def read_texture(path: Path, at: At, scale: tuple[float, float], wrap: tuple[int
                            f"{error}") from None
         _CACHE[key] = texture
     return _CACHE[key]
+
+
+def texel_rects(scene: Scene) -> np.ndarray:
+    """(MAX_TEXTURES, 4) int32: where slot k's level 0 lies in the traced rays' texel stack
+    (passes/textures.py): (x, y, width, height), the images stacked top to bottom in slot order."""
+    rects = np.zeros((MAX_TEXTURES, 4), np.int32)
+    y = 0
+    for slot, texture in enumerate(scene.textures[:MAX_TEXTURES]):
+        height, width = texture.image.shape[:2]
+        rects[slot] = (0, y, width, height)
+        y += height
+    return rects
 
 
 def wrap_texels(index: np.ndarray, size: int, mode: int) -> np.ndarray:

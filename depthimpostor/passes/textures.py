@@ -4,9 +4,9 @@ Each `Texture` (by identity) is uploaded once, as GL_SRGB8_ALPHA8 so that the GP
 texels to linear before filtering (moderngl has no sRGB flag; `ctx.texture` takes the internal
 format). Texture slot k of the scene (Scene.textures) is bound on TextureUnit.MATERIAL_TEXTURE_0
 + k for every frame: the diffuse pass, every bake, and the traced methods' shader all read it
-there (passes/uniforms.write_textures points their samplers at those units); its level 0 as
-8-bit integers on MATERIAL_TEXELS_0 + k, which traced rays decode through an exact table
-(material_texture.glsl).
+there (passes/uniforms.write_textures points their samplers at those units); every slot's level 0 as
+8-bit integers, stacked in one texture on MATERIAL_TEXELS, which traced rays decode through an
+exact table (material_texture.glsl).
 """
 
 from __future__ import annotations
@@ -14,12 +14,14 @@ from __future__ import annotations
 import ctypes
 
 import moderngl
+import numpy as np
 
 from ..bindings import TextureUnit
 from ..constants import MAX_TEXTURES, Wrap
 from ..context import gl_function
 from ..errors import GpuLimitError
 from ..scene.model import Scene, Texture
+from ..textures import texel_rects
 
 #: GL_SRGB8_ALPHA8: 8-bit sRGB colour, linear alpha (moderngl exports no name for it).
 GL_SRGB8_ALPHA8 = 0x8C43
@@ -53,9 +55,11 @@ class GpuTextures:
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
-        # Keyed by the texture itself (identity: Texture has eq=False), which keeps it alive: the
-        # sRGB mipmapped texture and level 0 as 8-bit integers (traced rays decode those exactly).
-        self._textures: dict[Texture, tuple[moderngl.Texture, moderngl.Texture]] = {}
+        # Keyed by the texture itself (identity: Texture has eq=False), which keeps it alive.
+        self._textures: dict[Texture, moderngl.Texture] = {}
+        # Every texture's level 0 as 8-bit integers, stacked (textures.texel_rects), for the
+        # textures it was made of (traced rays decode these exactly).
+        self._texels: tuple[tuple[Texture, ...], moderngl.Texture] | None = None
 
     def _upload(self, texture: Texture) -> moderngl.Texture:
         height, width = texture.image.shape[:2]
@@ -72,30 +76,51 @@ class GpuTextures:
             _set_wrap(self.ctx, gpu, wrap_s, wrap_t)
         return gpu
 
-    def _upload_texels(self, texture: Texture) -> moderngl.Texture:
-        """Level 0 as GL_RGBA8UI: texelFetch alone reads it (no filter, no wrap: the shader wraps)."""
-        height, width = texture.image.shape[:2]
-        texels = self.ctx.texture((width, height), 4, texture.image.tobytes(), dtype="u1")
+    def _texel_stack(self, scene: Scene) -> moderngl.Texture:
+        """Level 0 of each of the scene's textures, stacked top to bottom as texel_rects says,
+        as GL_RGBA8UI: texelFetch alone reads it (no filter; the shader wraps)."""
+        textures = scene.textures[:MAX_TEXTURES]
+        if self._texels is not None and self._texels[0] == textures:
+            return self._texels[1]
+        if self._texels is not None:
+            self._texels[1].release()
+        rects = texel_rects(scene)
+        width, height = int(rects[:, 2].max()), int((rects[:, 1] + rects[:, 3]).max())
+        limit = self.ctx.info["GL_MAX_TEXTURE_SIZE"]
+        if height > limit:
+            raise GpuLimitError(f"the scene's textures stack to {height} texel rows for traced rays, over this GL's "
+                                f"limit of {limit} ({self.ctx.info['GL_RENDERER']}): use fewer or smaller images")
+        stack = np.zeros((height, width, 4), np.uint8)
+        for texture, (x, y, w, h) in zip(textures, rects[: len(textures)], strict=True):
+            stack[y:y + h, x:x + w] = texture.image
+        texels = self.ctx.texture((width, height), 4, stack.tobytes(), dtype="u1")
         texels.filter = (moderngl.NEAREST, moderngl.NEAREST)  # an integer texture is incomplete otherwise
+        self._texels = (textures, texels)
         return texels
 
     def use(self, scene: Scene) -> None:
         """Bind the scene's textures on their units, uploading those not yet on the GPU."""
         for slot, texture in enumerate(scene.textures[:MAX_TEXTURES]):
             if texture not in self._textures:
-                self._textures[texture] = self._upload(texture), self._upload_texels(texture)
-            filtered, texels = self._textures[texture]
-            filtered.use(texture_unit(slot))
-            texels.use(int(TextureUnit.MATERIAL_TEXELS_0) + slot)
+                self._textures[texture] = self._upload(texture)
+            self._textures[texture].use(texture_unit(slot))
+        if scene.textures:
+            self._texel_stack(scene).use(TextureUnit.MATERIAL_TEXELS)
 
     @staticmethod
     def bytes_for(scene: Scene) -> int:
         """GPU memory of the scene's textures: 4 bytes a texel, a third more for the mipmaps, and
-        the integer copy of level 0."""
-        return sum(texture.image.shape[0] * texture.image.shape[1] * 4 * 7 // 3 for texture in scene.textures)
+        the stack of level 0 copies (as wide as the widest)."""
+        if not scene.textures:
+            return 0
+        rects = texel_rects(scene)
+        stack = int(rects[:, 2].max()) * int((rects[:, 1] + rects[:, 3]).max()) * 4
+        return stack + sum(texture.image.shape[0] * texture.image.shape[1] * 4 * 4 // 3 for texture in scene.textures)
 
     def release(self) -> None:
-        for filtered, texels in self._textures.values():
-            filtered.release()
-            texels.release()
+        for texture in self._textures.values():
+            texture.release()
         self._textures.clear()
+        if self._texels is not None:
+            self._texels[1].release()
+            self._texels = None

@@ -16,7 +16,7 @@ from ..constants import MAX_ANALYTIC_PLANES, MAX_LIGHTS, MAX_TEXTURES, LightKind
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, PlaneShape, Scene
-from ..textures import SRGB_TABLE
+from ..textures import SRGB_TABLE, texel_rects
 
 
 #: Where every shading program finds the shadow maps (lib/shadows.glsl; passes/shadows.py binds
@@ -104,8 +104,9 @@ def write_textures(program: moderngl.Program, scene: Scene) -> None:
     wraps = np.full((MAX_TEXTURES, 2), int(Wrap.REPEAT), np.int32)
     for slot, texture in enumerate(scene.textures):
         write(program, f"u_material_texture_{slot}", TextureUnit.MATERIAL_TEXTURE_0 + slot)
-        write(program, f"u_material_texels_{slot}", TextureUnit.MATERIAL_TEXELS_0 + slot)
         wraps[slot] = texture.wrap
+    write(program, "u_material_texels", TextureUnit.MATERIAL_TEXELS)
+    write(program, "u_material_texels_rect", texel_rects(scene))
     write(program, "u_material_texture_wrap", wraps)
     write(program, "u_srgb_to_linear", SRGB_TABLE)
 

@@ -3,11 +3,12 @@
 // GLSL 3.30 indexes a sampler array only with constants, hence the if-chains over the slot.
 // Rasterized fragments (RASTERIZED_TEXTURES: diffuse.frag) read u_material_texture_k:
 // SRGB8_ALPHA8 with mipmaps, which the GPU decodes to linear before it filters. Traced rays (the
-// mirror shader) read u_material_texels_k: level 0 as 8-bit integers, decoded here through the
-// exact table u_srgb_to_linear, because a GPU's own sRGB decode may be approximate (llvmpipe's is
-// off by up to 0.0012, 2.5 % of the darkest values), and traced rays are held to the truth's float
-// noise. Each shader declares one of the two sets: the mirror shader's other samplers take up to
-// 12 of the 16 units GL 3.3 guarantees a fragment shader.
+// mirror shader) read u_material_texels: every texture's level 0 as 8-bit integers, stacked in
+// one texture (slot k's rectangle u_material_texels_rect[k]: one sampler, so that the mirror
+// shader stays within the 16 GL 3.3 guarantees a fragment shader), decoded here through the exact
+// table u_srgb_to_linear, because a GPU's own sRGB decode may be approximate (llvmpipe's is off by
+// up to 0.0012, 2.5 % of the darkest values), and traced rays are held to the truth's float noise.
+// texelFetch with the wrap done here on integer coordinates never reads a neighbour's texels.
 #ifdef RASTERIZED_TEXTURES
 uniform sampler2D u_material_texture_0;
 #if TEXTURE_COUNT > 1
@@ -20,16 +21,8 @@ uniform sampler2D u_material_texture_2;
 uniform sampler2D u_material_texture_3;
 #endif
 #else
-uniform usampler2D u_material_texels_0;
-#if TEXTURE_COUNT > 1
-uniform usampler2D u_material_texels_1;
-#endif
-#if TEXTURE_COUNT > 2
-uniform usampler2D u_material_texels_2;
-#endif
-#if TEXTURE_COUNT > 3
-uniform usampler2D u_material_texels_3;
-#endif
+uniform usampler2D u_material_texels;
+uniform ivec4 u_material_texels_rect[MAX_TEXTURES];  // slot k's (x, y) origin and (width, height)
 uniform ivec2 u_material_texture_wrap[MAX_TEXTURES];  // (s, t) wrap modes: WRAP_* (GL's enums)
 uniform float u_srgb_to_linear[256];  // textures.srgb_to_linear(k / 255) in float32
 #endif
@@ -52,30 +45,12 @@ vec3 material_texel(int slot, vec2 uv) {
 
 #else
 ivec2 texture_level0_size(int slot) {
-#if TEXTURE_COUNT > 1
-    if (slot == 1) return textureSize(u_material_texels_1, 0);
-#endif
-#if TEXTURE_COUNT > 2
-    if (slot == 2) return textureSize(u_material_texels_2, 0);
-#endif
-#if TEXTURE_COUNT > 3
-    if (slot == 3) return textureSize(u_material_texels_3, 0);
-#endif
-    return textureSize(u_material_texels_0, 0);
+    return u_material_texels_rect[slot].zw;
 }
 
-// Texel `texel` of level 0, decoded from sRGB by the exact table.
+// Texel `texel` (in [0, size)) of the slot's level 0, decoded from sRGB by the exact table.
 vec3 texel_level0(int slot, ivec2 texel) {
-    uvec4 encoded = texelFetch(u_material_texels_0, texel, 0);
-#if TEXTURE_COUNT > 1
-    if (slot == 1) encoded = texelFetch(u_material_texels_1, texel, 0);
-#endif
-#if TEXTURE_COUNT > 2
-    if (slot == 2) encoded = texelFetch(u_material_texels_2, texel, 0);
-#endif
-#if TEXTURE_COUNT > 3
-    if (slot == 3) encoded = texelFetch(u_material_texels_3, texel, 0);
-#endif
+    uvec4 encoded = texelFetch(u_material_texels, u_material_texels_rect[slot].xy + texel, 0);
     return vec3(u_srgb_to_linear[encoded.r], u_srgb_to_linear[encoded.g], u_srgb_to_linear[encoded.b]);
 }
 
