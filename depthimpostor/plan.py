@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from enum import Enum
 from typing import Any
 
 from .bvh import node_count
@@ -40,6 +39,7 @@ from .passes.triangles import TrianglePass
 from .scene.limits import check_method, check_model_reach, check_scene
 from .scene.model import MeshShape, Scene
 from .shaders import ProgramKey, program_key
+from .graph import Pass, RenderNode, build_graph, format_graph
 from .world import World
 
 #: Each method's stand-in for the reflected objects. Both cube-map methods look up the same cube
@@ -53,19 +53,6 @@ STAND_INS: dict[Method, type[BakedImages | TrianglePass]] = {
     Method.RAYTRACE: TrianglePass,
     Method.HYBRID: HybridPass,
 }
-
-
-class Pass(Enum):
-    """The render passes, in the order a frame runs them; the value names them in plans and stats."""
-
-    SHADOW_MAPS = "shadow maps"
-    STAND_IN = "reflected objects"  # the method's bake: depth images, cube maps, billboards, triangles
-    BOUNCES = "reflections of reflections"
-    PYRAMIDS = "depth pyramids"
-    ENVIRONMENT = "environment"
-    DIFFUSE = "diffuse objects"
-    GLASS_INTERIORS = "glass interiors"
-    REFLECTORS = "mirrors and glass"
 
 
 #: When each pass runs: the passes that bake run again only for what moved.
@@ -135,6 +122,8 @@ class RenderPlan:
     # The baked images of each reflector (by index), with their cameras: what the stand-in bakes,
     # so that it does not plan them again.
     image_plans: dict[int, list[ImagePlan]] = field(default_factory=dict, compare=False, repr=False)
+    # The passes as the render graph the renderer runs (graph.py): each with what it reads and writes.
+    graph: tuple[RenderNode, ...] = ()
 
     def runs(self, stage: Pass) -> bool:
         return any(planned.stage is stage for planned in self.passes)
@@ -158,6 +147,7 @@ class RenderPlan:
                         "height": i.height, "why": i.reason} for i in self.images],
             "skipped": [{"reflector": s.reflector, "object": s.target, "why": s.reason} for s in self.skipped],
             "variants": [{"stages": list(v.key[0]), "defines": dict(v.key[1]), "why": v.reason} for v in self.variants],
+            "graph": [{"pass": n.stage.value, "reads": list(n.reads), "writes": list(n.writes)} for n in self.graph],
             "memory_bytes": dict(self.memory),
         }
 
@@ -174,6 +164,7 @@ class RenderPlan:
             lines += [f"  {s.reflector} -> {s.target}: {s.reason}" for s in self.skipped]
         lines.append(f"shader variants ({len(self.variants)}):")
         lines += [f"  {v.name}\n      why: {v.reason}" for v in self.variants]
+        lines.append(format_graph(self.graph))
         total = sum(self.memory.values())
         parts = ", ".join(f"{name} {size / 2**20:.2f}" for name, size in self.memory.items())
         lines.append(f"memory: {total / 2**20:.2f} MiB" + (f" ({parts})" if parts else ""))
@@ -293,9 +284,13 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             variant(REFLECTOR_PROGRAM, reflector_defines(scene, defines, True), f"glass (GLASS), {method.option} method")
     memory = plan_memory(scene, method, algorithm, geometry, images, True in shown_in_bounces, reflection_data,
                          count_samples)
-    return RenderPlan(scene.source, method, algorithm, tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage))),
-                      tuple(images), tuple(skipped), tuple(PlannedVariant(k, r) for k, r in variants.items()), memory,
-                      image_plans)
+    ordered = tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage)))
+    outputs = (("baked images", "BVH") if stand_in is HybridPass
+               else ("baked images",) if issubclass(stand_in, BakedImages) else ("BVH",))
+    graph = build_graph([(p.stage, p.reason) for p in ordered], outputs,
+                        method.marches_depth_images and algorithm == Algorithm.HIERARCHICAL and bool(images))
+    return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
+                      tuple(PlannedVariant(k, r) for k, r in variants.items()), memory, image_plans, graph)
 
 
 def _bvh_bytes(triangles: int, named: bool) -> int:

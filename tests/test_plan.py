@@ -18,7 +18,8 @@ from depthimpostor.cli import main
 from depthimpostor.constants import Algorithm, Method
 from depthimpostor.culling import Reach, may_shadow, reach
 from depthimpostor.geometry import scene_geometry
-from depthimpostor.plan import Pass, plan_render
+from depthimpostor.graph import Pass
+from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION
 from depthimpostor.scene import Scene, load_scene
