@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
+from .colour import display_encode
 from .constants import NO_OBJECT, Algorithm, Method
 from .context import bind_default_framebuffer
 from .culling import may_shadow
@@ -53,10 +54,6 @@ class RenderStats:
     draw_seconds: list[float] = field(default_factory=list)  # one entry per frame
     # The mirror pass's share of each frame, when the renderer was asked to time it.
     mirror_seconds: list[float] = field(default_factory=list)
-
-
-def to_uint8(color: np.ndarray) -> np.ndarray:
-    return (np.clip(np.nan_to_num(color, nan=0.0), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
 def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC:
@@ -435,6 +432,7 @@ class Renderer:
 
     def _draw_frame(self) -> RenderStats:
         shadow_maps, stand_in = self.shadow_maps, self.stand_in
+        self.environment.use()  # an equirect sky's image: bakes see it too
         if shadow_maps is not None:
             shadow_maps.use()
         shadows_stale = shadow_maps is not None and bool(shadow_maps.stale)
@@ -531,8 +529,10 @@ class Renderer:
         return np.frombuffer(data, dtype=np.float32).reshape(height, width, 3).copy()
 
     def read_color(self) -> np.ndarray:
-        """The last frame as (height, width, 3) uint8, top row first, ready for a PNG."""
-        return to_uint8(self.read_color_float())
+        """The last frame as (height, width, 3) uint8, top row first, ready for a PNG: through the
+        scene's display transform (exposure, tone mapping, sRGB; colour.py)."""
+        render = self.scene.render
+        return display_encode(self.read_color_float(), render.tone_mapping, render.exposure)
 
     def read_sample_counts(self) -> np.ndarray:
         """(height, width) samples each mirror pixel's reflected ray read (0 outside mirrors)."""

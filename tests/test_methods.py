@@ -100,7 +100,7 @@ def test_every_method_renders_every_scene_finite(ctx: moderngl.Context, path: Pa
     assert_finite(image)
 
 
-@pytest.mark.parametrize("name", ["default", "bunny", "lecture_8x9", "grid_3x3"])
+@pytest.mark.parametrize("name", ["default", "bunny", "lecture_8x9", "grid_3x3", "hdr_sky"])
 def test_raytrace_matches_the_embree_truth(ctx: moderngl.Context, name: str) -> None:
     scene = load_scene(SCENES / f"{name}.toml").with_overrides(size=(320, 180))
     with Renderer(ctx, scene, reflection_data=True, method=Method.RAYTRACE) as renderer:

@@ -6,6 +6,7 @@ each write checks membership first instead of catching errors.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import moderngl
@@ -21,12 +22,23 @@ from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, PlaneShape
 #: them there once per frame). The unit is past those of every method's stand-in (0 to 4).
 SHADOW_MAP_UNIT = 5
 SHADOW_MAPS_BINDING = 2
+#: Where every program that reads the environment finds an equirect one's image
+#: (lib/environment.glsl; passes/environment.py binds it there once per frame, before any bake).
+#: Past every other pass's units (0 to 13: gpu.py's rays are 12 and 13). Here beside the shadow
+#: maps' unit, not in passes/environment.py, because write_lighting points every program at it
+#: and that module imports this one.
+ENVIRONMENT_MAP_UNIT = 14
 
 
 def shading_defines(scene: Scene) -> dict[str, int]:
     """The variant of every shading program that the scene's lights call for: shadow rays only
     in scenes where a light casts shadows on something."""
     return {"SHADOWS": 1} if scene.has_shadows else {}
+
+
+def environment_defines(scene: Scene) -> dict[str, int]:
+    """The variant of every program that reads the environment: ENVIRONMENT_MAP for an image."""
+    return {"ENVIRONMENT_MAP": 1} if scene.environment.is_map else {}
 
 
 def write(program: moderngl.Program | moderngl.ComputeShader, name: str,
@@ -115,9 +127,19 @@ def write_lighting(program: moderngl.Program, scene: Scene) -> None:
     write(program, "u_light_radius", radii)
     write(program, "u_shadow_depth", SHADOW_MAP_UNIT)
     bind_uniform_block(program, "ShadowMaps", SHADOW_MAPS_BINDING)
-    write(program, "u_env_zenith", tuple(scene.environment.zenith))
-    write(program, "u_env_horizon", tuple(scene.environment.horizon))
-    write(program, "u_env_ground", tuple(scene.environment.ground))
+    write_environment(program, scene)
+
+
+def write_environment(program: moderngl.Program, scene: Scene) -> None:
+    """lib/environment.glsl's uniforms: the gradient's colours, or the map's unit and settings."""
+    env = scene.environment
+    write(program, "u_env_zenith", tuple(env.zenith))
+    write(program, "u_env_horizon", tuple(env.horizon))
+    write(program, "u_env_ground", tuple(env.ground))
+    write(program, "u_env_map", ENVIRONMENT_MAP_UNIT)
+    write(program, "u_env_intensity", float(env.intensity))
+    radians = math.radians(env.rotation)
+    write(program, "u_env_rotation", (math.cos(radians), math.sin(radians)))
 
 
 def write_scene_uniforms(program: moderngl.Program, scene: Scene, planes: Sequence[ObjectGeometry]) -> None:
