@@ -428,7 +428,7 @@ class Renderer:
             self._presenter = None
         if self._presenter is None:
             self._presenter = FramePresenter(self.ctx, self.programs, size)
-        self._presenter.draw(self.color_framebuffer, target, viewport)
+        self._presenter.draw(self.color_framebuffer, target, viewport, self.scene.render)
 
     def _draw_frame(self) -> RenderStats:
         shadow_maps, stand_in = self.shadow_maps, self.stand_in
