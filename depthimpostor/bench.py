@@ -38,7 +38,7 @@ from .context import describe
 from .errors import GpuLimitError
 from .limits import check_fits, context_limits, planned_bytes
 from .outputs import Outputs
-from .passes.impostors import BakedImages
+from .passes.baked_images import BakedImages
 from .plan import STAND_INS, plan_render
 from .renderer import Renderer
 from .scene import Scene

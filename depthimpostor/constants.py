@@ -10,6 +10,8 @@ from enum import IntEnum
 
 import numpy as np
 
+from .bindings import glsl_bindings
+
 
 class Algorithm(IntEnum):
     """How a ray is intersected with a depth image: the lecture's two linear marches, and the
@@ -281,6 +283,7 @@ def glsl_constants() -> dict[str, str]:
         "ACES_A": f"{ACES_A!r}", "ACES_B": f"{ACES_B!r}", "ACES_C": f"{ACES_C!r}", "ACES_D": f"{ACES_D!r}",
         "ACES_E": f"{ACES_E!r}",
     }
+    defines.update(glsl_bindings())
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",
                 ShadowKind: "SHADOW", Unseen: "UNSEEN", ToneMapping: "TONE_MAPPING"}
     for enum, prefix in prefixes.items():

@@ -16,9 +16,11 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
+from .gl_state import NO_DEPTH_TEST, raster_state
+from .bindings import TextureUnit, UniformBlock
 from .constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm, Method
 from .context import bind_default_framebuffer
-from .passes.impostors import DEPTH_IMAGES_BINDING, ImpostorAtlas, bind_impostors
+from .passes.atlas import ImpostorAtlas, bind_impostors
 from .passes.mirrors import reflection_defines
 from .passes.pyramid import DepthPyramid
 from .passes.uniforms import write
@@ -28,8 +30,6 @@ from .shaders import ProgramCache
 #: Rays per row of the query framebuffer.
 _ROW = 1024
 #: Texture units of the ray inputs (after every unit the reflected-scene chunks use).
-_ORIGINS_UNIT = 12
-_DIRECTIONS_UNIT = 13
 
 
 class QueriedImage(Protocol):
@@ -96,14 +96,14 @@ class RayQuery:
             bind_impostors(self.program, self.atlas)
             if self.pyramid is not None:
                 self.pyramid.bind(self.program)
-            inputs[0].use(_ORIGINS_UNIT)
-            inputs[1].use(_DIRECTIONS_UNIT)
-            write(self.program, "u_ray_origins", _ORIGINS_UNIT)
-            write(self.program, "u_ray_directions", _DIRECTIONS_UNIT)
+            inputs[0].use(TextureUnit.RAY_ORIGINS)
+            inputs[1].use(TextureUnit.RAY_DIRECTIONS)
+            write(self.program, "u_ray_origins", TextureUnit.RAY_ORIGINS)
+            write(self.program, "u_ray_directions", TextureUnit.RAY_DIRECTIONS)
             write(self.program, "u_depth_image_count", self.image_count)
-            self.uniform_buffer.bind_to_uniform_block(DEPTH_IMAGES_BINDING)
-            self.ctx.disable(moderngl.DEPTH_TEST)
-            self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
+            self.uniform_buffer.bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
+            with raster_state(self.ctx, NO_DEPTH_TEST):
+                self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
             hit, color, stats = (
                 np.frombuffer(framebuffer.read(components=4, attachment=i, dtype="f4"), np.float32)
                 .reshape(padded, 4)[:count].astype(np.float64)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import moderngl
 
 from .errors import GpuLimitError
-from .passes.impostors import atlas_grid
+from .passes.atlas import atlas_grid
 from .plan import RenderPlan
 from .scene.model import Scene
 

@@ -28,9 +28,9 @@ from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
 from .passes.environment import ENVIRONMENT_PROGRAM, environment_map_bytes
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .passes.hybrid import HybridPass
-from .passes.impostors import (
-    BACK_FACE_PROGRAM, BEYOND_PROGRAM, BakedImages, ImpostorAtlas, ImpostorPass, SecondLayer, atlas_grid, image_label, plural,
-)
+from .passes.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
+from .passes.baked_images import BakedImages, SecondLayer
+from .passes.impostors import ImpostorPass
 from .passes.meshes import GpuMeshes
 from .passes.mirrors import REFLECTION_OUTPUTS, REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
 from .passes.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes

@@ -26,7 +26,8 @@ from .limits import allocating, check_fits
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
 from .passes.glass import GlassInterior
-from .passes.impostors import BakedImages, ImpostorPass
+from .passes.baked_images import BakedImages
+from .passes.impostors import ImpostorPass
 from .passes.meshes import GpuMeshes
 from .passes.mirrors import REFLECTION_OUTPUTS, MirrorPass, ReflectedObjects
 from .passes.samples import SamplesPass

@@ -6,7 +6,7 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 // Each slot's depth image in the atlas: (x, y, width, height), in slot order.
-layout(std430, binding = 0) readonly buffer Tiles {
+layout(std430, binding = STORAGE_PYRAMID_TILES) readonly buffer Tiles {
     ivec4 u_tiles[];
 };
 uniform int u_tile_count;
@@ -14,8 +14,8 @@ uniform int u_columns;     // slots per row, as in the atlas
 uniform int u_slot_pitch;  // level-1 texels per slot and axis
 uniform int u_level;       // the level written (1 = the texture's mip 0)
 
-layout(rg32f, binding = 0) uniform readonly image2D u_source;   // level 1: the depth atlas; else level - 1
-layout(rg32f, binding = 1) uniform writeonly image2D u_target;  // level u_level
+layout(rg32f, binding = IMAGE_PYRAMID_SOURCE) uniform readonly image2D u_source;   // level 1: the depth atlas; else level - 1
+layout(rg32f, binding = IMAGE_PYRAMID_TARGET) uniform writeonly image2D u_target;  // level u_level
 
 const vec2 EMPTY_SPAN = vec2(EMPTY_SPAN_MIN, EMPTY_SPAN_MAX);
 

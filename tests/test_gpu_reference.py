@@ -12,7 +12,7 @@ from conftest import SCENES
 from depthimpostor import reference
 from depthimpostor.constants import Algorithm
 from depthimpostor.gpu import RayQuery
-from depthimpostor.passes.impostors import DepthImage
+from depthimpostor.passes.atlas import DepthImage
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
 

@@ -19,7 +19,7 @@ from conftest import SCENES
 from depthimpostor.constants import BACKGROUND_DEPTH, EMPTY_SPAN_MAX, EMPTY_SPAN_MIN, Algorithm
 from depthimpostor.errors import ContextError
 from depthimpostor.gpu import RayQuery, query_depth_images
-from depthimpostor.passes.impostors import ImpostorAtlas
+from depthimpostor.passes.atlas import ImpostorAtlas
 from depthimpostor.passes.pyramid import DepthPyramid, PyramidLayout, coarse_levels, level_size
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene

@@ -151,8 +151,9 @@ def test_hybrid_refuses_more_triangles_than_a_sample_can_name(monkeypatch: pytes
 #: property of the scene). A new one needs a case in LIMITS, and the check before planning.
 RAISES = {
     "passes/cubemaps.py": 1,  # object around a cube map's centre
-    "passes/impostors.py": 4,  # a frustum around an object; the atlas past GL_MAX_TEXTURE_SIZE (GL);
-                               # images with bounces; depth images per mirror
+    "passes/atlas.py": 2,  # a frustum around an object; the atlas past GL_MAX_TEXTURE_SIZE (GL)
+    "passes/baked_images.py": 1,  # depth images per mirror
+    "passes/impostors.py": 1,  # images with bounces
     "passes/shadows.py": 1,  # light among its casters
     "passes/triangles.py": 1,  # BVH texture past GL_MAX_TEXTURE_SIZE (GL)
     "passes/uniforms.py": 2,  # lights, analytic planes: the loader and the plan refuse them first

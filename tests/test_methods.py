@@ -20,7 +20,7 @@ from depthimpostor.compare import compare
 from depthimpostor.constants import NO_OBJECT, Method
 from depthimpostor.errors import SceneError
 from depthimpostor.meshes import sphere
-from depthimpostor.passes.impostors import BakedImages
+from depthimpostor.passes.baked_images import BakedImages
 from depthimpostor.passes.simplified import crease_shaded, simplified_mesh
 from depthimpostor.renderer import STAND_INS, Renderer
 from depthimpostor.scene import Scene, load_scene, parse_scene

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..constants import MAX_DEPTH_IMAGES_PER_MIRROR
 from ..geometry import ObjectGeometry
-from .impostors import BakedImages, SecondLayer
+from .baked_images import BakedImages, SecondLayer
 from .uniforms import write
 
 

@@ -18,25 +18,22 @@ which GL leaves undefined even for disjoint regions.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-import moderngl
-
+from ..gl_state import raster_state
+from ..bindings import UniformBlock
 from ..constants import BACKGROUND_DEPTH
 from ..scene.model import Scene
 from .glass import GlassInterior
-from .impostors import DEPTH_IMAGES_BINDING, DepthImage, ImpostorAtlas, color_mask, mirror_centre
-from .mirrors import bounce_defines, outward_faces_front, reflector_program, reflector_tint, write_glass
+from .atlas import DepthImage, ImpostorAtlas, color_mask, mirror_centre
+from .baked_images import BakedImages
+from .mirrors import REFLECTORS, bounce_defines, reflector_program, reflector_tint, write_glass
 from .uniforms import write
-
-if TYPE_CHECKING:
-    from .impostors import ImpostorPass
 
 
 class BounceBaker:
-    """Bakes the images of mirrors (levels 2 and up) of an ImpostorPass, after its others."""
+    """Bakes the images of mirrors (levels 2 and up) of the depth-image method's BakedImages, after
+    its others."""
 
-    def __init__(self, images: ImpostorPass, scene: Scene) -> None:
+    def __init__(self, images: BakedImages, scene: Scene) -> None:
         self.images = images
         ctx, resolution = images.ctx, images.atlas.resolution
         defines = bounce_defines()
@@ -49,7 +46,7 @@ class BounceBaker:
         self.transfer = ctx.buffer(reserve=resolution * resolution * 8)  # one tile of RG32F
         # Per (mirror, bounces): the records a mirror drawn into a bounce k image reads (k - 1).
         self.level_buffers = {
-            (index, level): images._uniform_buffer(images.images_at(index, level))
+            (index, level): images.uniform_buffer(images.images_at(index, level))
             for index in images.images_by_mirror for level in range(1, images.final_level)
         }
 
@@ -77,17 +74,16 @@ class BounceBaker:
         framebuffer.color_mask = color_mask(2, (True,) * 4, (True,) * 4)
         framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=tile)
         framebuffer.color_mask = color_mask(2, (True,) * 4, (True, False, False, False))
-        images.ctx.enable(moderngl.DEPTH_TEST)
         images.bind(program)
         below = image.level - 1
-        self.level_buffers[(shown.index, below)].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
+        self.level_buffers[(shown.index, below)].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
         write(program, "u_depth_image_count", len(images.images_at(shown.index, below)))
         write(program, "u_eye", tuple(mirror_centre(image.mirror)))
         write(program, "u_tint", reflector_tint(shown))
         write(program, "u_mirror_id", shown.index)
-        with outward_faces_front(images.ctx):  # the image's flip, for the mirror's backing
+        with raster_state(images.ctx, REFLECTORS):  # the image's flip, for the mirror's backing
             images.meshes.draw(program, shown, image.camera.view_projection)
-        draws += 1 + images._bake_back_faces(image, framebuffer, tile)
+        draws += 1 + images.bake_back_faces(image, framebuffer, tile)
         framebuffer.color_mask = color_mask(2, (True,) * 4, (True,) * 4)
         self._copy(tile, image.tile)
         images.baked(image)

@@ -22,7 +22,8 @@ from ..geometry import ObjectGeometry
 from ..ppc import PPC
 from ..scene.model import Scene
 from ..resolution import MIN_AUTO_RESOLUTION
-from .impostors import BakedImages, DepthImage, ImagePlan, SecondLayer, mirror_centre, per_object_plan
+from .atlas import DepthImage, mirror_centre
+from .baked_images import BakedImages, ImagePlan, SecondLayer, per_object_plan
 from .uniforms import write
 
 #: The faces in the order lib/cube_map.glsl's cube_face() numbers them: +x, -x, +y, -y, +z, -z,

@@ -6,10 +6,12 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from ..bindings import TextureUnit
+from ..gl_state import NO_DEPTH_TEST, raster_state
 from ..ppc import PPC
 from ..scene.model import Environment, Scene
 from ..shaders import ProgramCache
-from .uniforms import ENVIRONMENT_MAP_UNIT, environment_defines, write
+from .uniforms import environment_defines, write
 
 ENVIRONMENT_PROGRAM = ("fullscreen.vert", "environment.frag")
 
@@ -36,15 +38,14 @@ class EnvironmentPass:
     def use(self) -> None:
         """Bind the map where every program that reads the environment looks for it."""
         if self.map is not None:
-            self.map.use(ENVIRONMENT_MAP_UNIT)
+            self.map.use(TextureUnit.ENVIRONMENT_MAP)
 
     def draw(self, camera: PPC) -> None:
         write(self.program, "u_camera_a", tuple(camera.a))
         write(self.program, "u_camera_b", tuple(camera.b))
         write(self.program, "u_camera_c", tuple(camera.c))
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
-        self.ctx.enable(moderngl.DEPTH_TEST)
+        with raster_state(self.ctx, NO_DEPTH_TEST):
+            self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
 
     def release(self) -> None:
         self.vertex_array.release()

@@ -24,20 +24,19 @@ import math
 import moderngl
 import numpy as np
 
+from ..gl_state import raster_state
+from ..bindings import TextureUnit, UniformBlock
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE
 from ..eye import eye_depth
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
 from ..shaders import ProgramCache
-from .impostors import BAKE_CULLS_FRONT_FACES
+from .atlas import BACK_FACES, FRONT_FACES
 from .meshes import GpuMeshes
 from .uniforms import bind_texture, bind_uniform_block, write
 
 INTERIOR_PROGRAM = ("mesh.vert", "glass_interior.frag")
 #: Past the other passes' units (0 to 5) and uniform-block bindings (0 to 2).
-GLASS_FRONT_UNIT = 6
-GLASS_BACK_UNIT = 7
-GLASS_INTERIOR_BINDING = 3
 #: The interior image's side at least, in texels (a glass a few pixels wide on screen).
 MIN_INTERIOR_RESOLUTION = 16
 
@@ -83,13 +82,11 @@ class GlassInterior:
         for texture in (self.front, self.back):
             texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self._depth = ctx.depth_renderbuffer((size, size))
-        # (framebuffer, the face GL culls for it): front faces keep GL's "back" culled except
-        # that a depth image's projection flips y (see BAKE_CULLS_FRONT_FACES).
-        keeps_back = BAKE_CULLS_FRONT_FACES
-        keeps_front = "front" if keeps_back == "back" else "back"
+        # (framebuffer, the state that keeps its faces): a depth image's projection flips y, so
+        # GL's faces are the other way round (see BAKE_CULLS_FRONT_FACES).
         self._layers = [
-            (ctx.framebuffer([self.front], self._depth), keeps_front),
-            (ctx.framebuffer([self.back], self._depth), keeps_back),
+            (ctx.framebuffer([self.front], self._depth), FRONT_FACES),
+            (ctx.framebuffer([self.back], self._depth), BACK_FACES),
         ]
         self._record = ctx.buffer(reserve=DEPTH_IMAGE_DTYPE.itemsize)
         self.camera: PPC | None = None
@@ -105,7 +102,6 @@ class GlassInterior:
         if max(camera.width, camera.height) > self.size:
             raise ValueError(f"an interior image of {camera.width}x{camera.height} does not fit {self.size}^2")
         viewport = (0, 0, camera.width, camera.height)
-        self.ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         # Baked inside the eye's pass, but a depth image: OpenGL's depth, which the GLASS shader reads.
         with eye_depth(self.ctx, reversed_=False):
             self._draw_layers(glass, camera, viewport)
@@ -114,22 +110,19 @@ class GlassInterior:
         return len(self._layers)
 
     def _draw_layers(self, glass: ObjectGeometry, camera: PPC, viewport: tuple[int, int, int, int]) -> None:
-        try:
-            for framebuffer, culled in self._layers:
-                framebuffer.use()
-                framebuffer.viewport = viewport
-                framebuffer.clear(0.0, 0.0, 0.0, BACKGROUND_DEPTH, depth=BACKGROUND_DEPTH, viewport=viewport)
-                self.ctx.cull_face = culled
+        for framebuffer, kept in self._layers:
+            framebuffer.use()
+            framebuffer.viewport = viewport
+            framebuffer.clear(0.0, 0.0, 0.0, BACKGROUND_DEPTH, depth=BACKGROUND_DEPTH, viewport=viewport)
+            with raster_state(self.ctx, kept):
                 self.meshes.draw(self.program, glass, camera.view_projection)
-        finally:
-            self.ctx.disable(moderngl.CULL_FACE)
 
     def bind(self, program: moderngl.Program) -> None:
         """Point a GLASS program at the last interior image made."""
-        bind_texture(program, "u_glass_front", self.front, GLASS_FRONT_UNIT)
-        bind_texture(program, "u_glass_back", self.back, GLASS_BACK_UNIT)
-        bind_uniform_block(program, "GlassInterior", GLASS_INTERIOR_BINDING)
-        self._record.bind_to_uniform_block(GLASS_INTERIOR_BINDING)
+        bind_texture(program, "u_glass_front", self.front, TextureUnit.GLASS_FRONT)
+        bind_texture(program, "u_glass_back", self.back, TextureUnit.GLASS_BACK)
+        bind_uniform_block(program, "GlassInterior", UniformBlock.GLASS_INTERIOR)
+        self._record.bind_to_uniform_block(UniformBlock.GLASS_INTERIOR)
         write(program, "u_glass_has_interior", self.camera is not None)
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:

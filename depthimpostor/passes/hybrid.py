@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import moderngl
 
+from ..bindings import TextureUnit
 from ..geometry import ObjectGeometry
 from ..scene.model import Scene
 from ..shaders import ProgramCache
@@ -21,7 +22,6 @@ from .triangles import TrianglePass
 from .uniforms import bind_texture
 
 #: The atlas's triangle ids, after the BVH's textures (passes/triangles.py).
-TRIANGLE_IDS_UNIT = 11
 
 
 class HybridPass(ImpostorPass):
@@ -61,7 +61,7 @@ class HybridPass(ImpostorPass):
         super().bind(program)
         self.triangles.bind(program)
         if self.atlas.triangles is not None:
-            bind_texture(program, "u_impostor_triangles", self.atlas.triangles, TRIANGLE_IDS_UNIT)
+            bind_texture(program, "u_impostor_triangles", self.atlas.triangles, TextureUnit.TRIANGLE_IDS)
 
     def release(self) -> None:
         self.triangles.release()

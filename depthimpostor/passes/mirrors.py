@@ -4,12 +4,11 @@ triangles), the analytic planes and the environment."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Protocol
 
 import moderngl
 
+from ..gl_state import RasterState, Winding, raster_state
 from ..constants import Algorithm, Method
 from ..geometry import ObjectGeometry
 from ..ppc import PPC
@@ -17,7 +16,7 @@ from ..scene.model import GlassMaterial, MirrorMaterial, Scene
 from ..shaders import ProgramCache
 from ..truth import MIRROR_BACKING_ALBEDO
 from .glass import GlassInterior, interior_camera, pixel_angle
-from .impostors import BAKE_CULLS_FRONT_FACES
+from .atlas import BAKE_CULLS_FRONT_FACES
 from .meshes import GpuMeshes
 from .uniforms import environment_defines, shading_defines, write
 
@@ -97,19 +96,13 @@ def reflector_tint(item: ObjectGeometry) -> tuple[float, float, float]:
 #: GL's front_face that makes a mirror's outward (counter-clockwise) faces GL's front faces, for
 #: mirror.frag's gl_FrontFacing (a mirror's back is its backing): every PPC projection, the
 #: frame's and a depth image's alike, puts image row 0 at window y = 0 and so turns them clockwise.
-OUTWARD_FRONT_FACE = "cw" if BAKE_CULLS_FRONT_FACES == "back" else "ccw"
+OUTWARD_FRONT_FACE: Winding = "cw" if BAKE_CULLS_FRONT_FACES == "back" else "ccw"
 
 
-@contextmanager
-def outward_faces_front(ctx: moderngl.Context) -> Iterator[None]:
-    """Draw reflectors with OUTWARD_FRONT_FACE, restoring GL's face winding after: the culling
-    of the other passes (BAKE_CULLS_FRONT_FACES) is set for the default one."""
-    previous = ctx.front_face
-    ctx.front_face = OUTWARD_FRONT_FACE
-    try:
-        yield
-    finally:
-        ctx.front_face = previous
+#: Reflectors are drawn with OUTWARD_FRONT_FACE (their shader tells a mirror's front from its
+#: backing by gl_FrontFacing); the other passes' culling (BAKE_CULLS_FRONT_FACES) is set for GL's
+#: default winding.
+REFLECTORS = RasterState(front_face=OUTWARD_FRONT_FACE)
 
 
 def write_glass(program: moderngl.Program, item: ObjectGeometry) -> None:
@@ -173,7 +166,7 @@ class MirrorPass:
             write(program, "u_tint", reflector_tint(item))
             write(program, "u_mirror_id", item.index)
             write(program, "u_tint_retraced", tint_retraced)
-            with outward_faces_front(program.ctx):
+            with raster_state(program.ctx, REFLECTORS):
                 self.meshes.draw(program, item, camera.view_projection)
             draws += 1
         return draws

@@ -12,6 +12,8 @@ from typing import Literal
 import moderngl
 import numpy as np
 
+from ..gl_state import RasterState, raster_state
+from ..bindings import TextureUnit
 from ..font import SOLID, GlyphAtlas, rasterize
 from ..shaders import ProgramCache
 from .uniforms import write
@@ -27,7 +29,6 @@ TEXT_COLOR = (1.0, 1.0, 1.0, 1.0)
 COLUMN_GAP = 16
 #: Floats per vertex: position (2), atlas texel (2), colour (4).
 _VERTEX_FLOATS = 8
-_GLYPHS_UNIT = 0
 
 
 @dataclass(frozen=True)
@@ -114,15 +115,11 @@ class OverlayPass:
             )
         vertex_array = self._vertex_array
         self._vertices.write(data)
-        self.glyphs.use(_GLYPHS_UNIT)
-        write(self.program, "u_glyphs", _GLYPHS_UNIT)
+        self.glyphs.use(TextureUnit.GLYPHS)
+        write(self.program, "u_glyphs", TextureUnit.GLYPHS)
         write(self.program, "u_target_size", (float(size[0]), float(size[1])))
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        self.ctx.enable(moderngl.BLEND)
-        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-        vertex_array.render(moderngl.TRIANGLES, vertices=len(vertices))
-        self.ctx.disable(moderngl.BLEND)
-        self.ctx.enable(moderngl.DEPTH_TEST)
+        with raster_state(self.ctx, RasterState(depth_test=False, blend=True)):
+            vertex_array.render(moderngl.TRIANGLES, vertices=len(vertices))
 
     def _release_buffers(self) -> None:
         for item in (self._vertex_array, self._vertices):

@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import moderngl
 
+from ..bindings import TextureUnit
 from ..constants import ToneMapping
+from ..gl_state import NO_DEPTH_TEST, raster_state
 from ..scene.model import RenderSettings
 from ..shaders import ProgramCache
 from .uniforms import write
 
-_FRAME_UNIT = 0
 
 
 class PresentPass:
@@ -30,16 +31,15 @@ class PresentPass:
         """Draw `frame` over the bound framebuffer's viewport (which must be the frame's size),
         whose lower-left corner is `origin`; an encoding pass through `display`'s exposure and
         tone mapping (the defaults' without it)."""
-        frame.use(_FRAME_UNIT)
-        write(self.program, "u_frame", _FRAME_UNIT)
+        frame.use(TextureUnit.FRAME)
+        write(self.program, "u_frame", TextureUnit.FRAME)
         write(self.program, "u_origin", origin)
         if self.encode:
             settings = display if display is not None else RenderSettings()
             write(self.program, "u_exposure_scale", 2.0 ** settings.exposure)
             write(self.program, "u_tone_mapping", int(ToneMapping[settings.tone_mapping.upper()]))
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
-        self.ctx.enable(moderngl.DEPTH_TEST)
+        with raster_state(self.ctx, NO_DEPTH_TEST):
+            self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
 
     def release(self) -> None:
         self.vertex_array.release()

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+from ..bindings import ImageUnit, StorageBuffer, TextureUnit
 from ..errors import ContextError
 from ..shaders import ProgramCache
 from .uniforms import bind_texture, write
@@ -39,9 +40,7 @@ PYRAMID_PROGRAM = "depth_pyramid.comp"
 #: Compute shaders and image load/store arrived with GL 4.3.
 REQUIRED_GL_VERSION = 430
 #: Texture unit of the pyramid in the mirror shader (after the atlas's colour and depth).
-PYRAMID_UNIT = 2
 #: Tile table binding of the build shader.
-_TILES_BINDING = 0
 #: The build shader's work-group edge (local_size_x and _y in depth_pyramid.comp).
 _GROUP = 8
 #: GL_RG32F, the image format of the atlas's depth layers and of the pyramid.
@@ -124,15 +123,15 @@ class DepthPyramid:
     def build(self, depth_layers: moderngl.Texture) -> None:
         """Fill every level from the atlas's depth layers, which hold the images just baked."""
         program = self.program
-        self.tiles.bind_to_storage_buffer(_TILES_BINDING)
+        self.tiles.bind_to_storage_buffer(StorageBuffer.PYRAMID_TILES)
         write(program, "u_tile_count", self.tile_count)
         write(program, "u_columns", self.layout.columns)
         write(program, "u_slot_pitch", self.layout.pitch)
         width, height = self.layout.size
         for level in range(1, self.layout.levels + 1):
             source, source_level = (depth_layers, 0) if level == 1 else (self.texture, level - 2)
-            source.bind_to_image(0, read=True, write=False, level=source_level, format=_RG32F)
-            self.texture.bind_to_image(1, read=False, write=True, level=level - 1, format=_RG32F)
+            source.bind_to_image(ImageUnit.PYRAMID_SOURCE, read=True, write=False, level=source_level, format=_RG32F)
+            self.texture.bind_to_image(ImageUnit.PYRAMID_TARGET, read=False, write=True, level=level - 1, format=_RG32F)
             write(program, "u_level", level)
             mip_width, mip_height = max(1, width >> (level - 1)), max(1, height >> (level - 1))
             program.run(-(-mip_width // _GROUP), -(-mip_height // _GROUP))
@@ -142,7 +141,7 @@ class DepthPyramid:
         self.builds += 1
 
     def bind(self, program: moderngl.Program) -> None:
-        bind_texture(program, "u_impostor_pyramid", self.texture, PYRAMID_UNIT)
+        bind_texture(program, "u_impostor_pyramid", self.texture, TextureUnit.PYRAMID)
 
     def read_level(self, level: int) -> np.ndarray:
         """Level `level` >= 1 of the whole texture as (rows, columns, 2) float32 (tests)."""

@@ -10,9 +10,11 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from ..gl_state import RasterState, raster_state
+from ..bindings import UniformBlock
 from ..ppc import PPC
 from ..shaders import ProgramCache
-from .impostors import DEPTH_IMAGES_BINDING, BakedImages
+from .baked_images import BakedImages
 from .uniforms import write, write_matrix
 
 
@@ -29,15 +31,14 @@ class SamplesPass:
         impostors.bind(self.program)
         write_matrix(self.program, "u_view_projection", camera.view_projection)
         write(self.program, "u_pixel_size", float(np.linalg.norm(camera.b)))
-        self.ctx.enable(moderngl.PROGRAM_POINT_SIZE)
         draws = 0
-        for mirror_index, images in impostors.images_by_mirror.items():
-            impostors.uniform_buffers[mirror_index].bind_to_uniform_block(DEPTH_IMAGES_BINDING)
-            for index, image in enumerate(images):
-                write(self.program, "u_image_index", index)
-                self.vertex_array.render(moderngl.POINTS, vertices=image.camera.width * image.camera.height)
-                draws += 1
-        self.ctx.disable(moderngl.PROGRAM_POINT_SIZE)
+        with raster_state(self.ctx, RasterState(point_size=True)):
+            for mirror_index, images in impostors.images_by_mirror.items():
+                impostors.uniform_buffers[mirror_index].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
+                for index, image in enumerate(images):
+                    write(self.program, "u_image_index", index)
+                    self.vertex_array.render(moderngl.POINTS, vertices=image.camera.width * image.camera.height)
+                    draws += 1
         return draws
 
     def release(self) -> None:

@@ -12,6 +12,8 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from ..gl_state import raster_state
+from ..bindings import TextureUnit, UniformBlock
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_LIGHTS, NO_OBJECT
 from ..context import bind_default_framebuffer
 from ..errors import SceneError
@@ -19,9 +21,8 @@ from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
 from ..scene.model import Scene
 from ..shaders import ProgramCache
-from .impostors import BACK_FACE_PROGRAM, BAKE_CULLS_FRONT_FACES, atlas_grid, plural
+from .atlas import BACK_FACE_PROGRAM, BACK_FACES, atlas_grid, plural
 from .meshes import GpuMeshes
-from .uniforms import SHADOW_MAP_UNIT, SHADOW_MAPS_BINDING
 
 
 #: A shadow map's single float attachment takes the window depth at location 0.
@@ -106,7 +107,6 @@ class ShadowMaps:
         """Render the stale shadow maps: the casters' visible surface into R, their nearest back
         face into G. Returns the number of draw calls."""
         self.framebuffer.use()
-        self.ctx.enable(moderngl.DEPTH_TEST)
         draws = 0
         try:
             for light, camera in self.cameras.items():
@@ -122,15 +122,12 @@ class ShadowMaps:
                 self.framebuffer.color_mask = (False,) * 4
                 self.framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=tile)
                 self.framebuffer.color_mask = (False, True, False, False)
-                self.ctx.enable(moderngl.CULL_FACE)
-                self.ctx.cull_face = BAKE_CULLS_FRONT_FACES
-                draws += self._draw_casters(camera)
-                self.ctx.disable(moderngl.CULL_FACE)
+                with raster_state(self.ctx, BACK_FACES):
+                    draws += self._draw_casters(camera)
                 self.bakes += 1
                 self.stale.discard(light)
         finally:
             self.framebuffer.color_mask = (True,) * 4
-            self.ctx.disable(moderngl.CULL_FACE)
         return draws
 
     def _draw_casters(self, camera: PPC) -> int:
@@ -140,8 +137,8 @@ class ShadowMaps:
 
     def use(self) -> None:
         """Bind the maps where every shading program looks for them (passes/uniforms.py)."""
-        self.layers.use(SHADOW_MAP_UNIT)
-        self.uniform_buffer.bind_to_uniform_block(SHADOW_MAPS_BINDING)
+        self.layers.use(TextureUnit.SHADOW_MAPS)
+        self.uniform_buffer.bind_to_uniform_block(UniformBlock.SHADOW_MAPS)
 
     def read(self, light: int) -> np.ndarray:
         """Light `light`'s map as (height, width, 2) float32 OpenGL depths, top row first."""

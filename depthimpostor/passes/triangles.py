@@ -12,6 +12,7 @@ import math
 import moderngl
 import numpy as np
 
+from ..bindings import TextureUnit, UniformBlock
 from ..bvh import build_bvh
 from ..constants import (
     BVH_TEXTURE_WIDTH,
@@ -22,13 +23,9 @@ from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..meshes import Mesh
 from ..scene.model import Scene
-from .impostors import plural
+from .atlas import plural
 from .uniforms import bind_texture, bind_uniform_block, material_fields
 
-NODES_UNIT = 8  # after the atlas (0, 1), the pyramid (2), shadow maps (5) and glass (6, 7): the hybrid method binds both
-TRIANGLES_UNIT = 9
-BVH_PLACES_UNIT = 10  # the hybrid method's: each triangle's place in the BVH's order
-TRIANGLE_OBJECTS_BINDING = 1
 
 
 def _texture(ctx: moderngl.Context, texels: np.ndarray, source: str) -> moderngl.Texture:
@@ -119,12 +116,12 @@ class TrianglePass:
         return 0
 
     def bind(self, program: moderngl.Program) -> None:
-        bind_texture(program, "u_bvh_nodes", self.nodes, NODES_UNIT)
-        bind_texture(program, "u_bvh_triangles", self.triangles, TRIANGLES_UNIT)
-        bind_uniform_block(program, "TriangleObjects", TRIANGLE_OBJECTS_BINDING)
-        self.objects.bind_to_uniform_block(TRIANGLE_OBJECTS_BINDING)
+        bind_texture(program, "u_bvh_nodes", self.nodes, TextureUnit.BVH_NODES)
+        bind_texture(program, "u_bvh_triangles", self.triangles, TextureUnit.BVH_TRIANGLES)
+        bind_uniform_block(program, "TriangleObjects", UniformBlock.TRIANGLE_OBJECTS)
+        self.objects.bind_to_uniform_block(UniformBlock.TRIANGLE_OBJECTS)
         if self.places is not None:
-            bind_texture(program, "u_bvh_places", self.places, BVH_PLACES_UNIT)
+            bind_texture(program, "u_bvh_places", self.places, TextureUnit.BVH_PLACES)
 
     def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
         """Every mirror traces the same triangles: nothing per mirror."""

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import moderngl
 import numpy as np
 
+from ..bindings import TextureUnit, UniformBlock
 from ..constants import MAX_ANALYTIC_PLANES, MAX_LIGHTS, LightKind, MaterialKind, ShadowKind
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
@@ -20,14 +21,6 @@ from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, PlaneShape
 
 #: Where every shading program finds the shadow maps (lib/shadows.glsl; passes/shadows.py binds
 #: them there once per frame). The unit is past those of every method's stand-in (0 to 4).
-SHADOW_MAP_UNIT = 5
-SHADOW_MAPS_BINDING = 2
-#: Where every program that reads the environment finds an equirect one's image
-#: (lib/environment.glsl; passes/environment.py binds it there once per frame, before any bake).
-#: Past every other pass's units (0 to 13: gpu.py's rays are 12 and 13). Here beside the shadow
-#: maps' unit, not in passes/environment.py, because write_lighting points every program at it
-#: and that module imports this one.
-ENVIRONMENT_MAP_UNIT = 14
 
 
 def shading_defines(scene: Scene) -> dict[str, int]:
@@ -125,8 +118,8 @@ def write_lighting(program: moderngl.Program, scene: Scene) -> None:
     write(program, "u_light_radiance", radiance)
     write(program, "u_light_shadows", shadows)
     write(program, "u_light_radius", radii)
-    write(program, "u_shadow_depth", SHADOW_MAP_UNIT)
-    bind_uniform_block(program, "ShadowMaps", SHADOW_MAPS_BINDING)
+    write(program, "u_shadow_depth", TextureUnit.SHADOW_MAPS)
+    bind_uniform_block(program, "ShadowMaps", UniformBlock.SHADOW_MAPS)
     write_environment(program, scene)
 
 
@@ -136,7 +129,7 @@ def write_environment(program: moderngl.Program, scene: Scene) -> None:
     write(program, "u_env_zenith", tuple(env.zenith))
     write(program, "u_env_horizon", tuple(env.horizon))
     write(program, "u_env_ground", tuple(env.ground))
-    write(program, "u_env_map", ENVIRONMENT_MAP_UNIT)
+    write(program, "u_env_map", TextureUnit.ENVIRONMENT_MAP)
     write(program, "u_env_intensity", float(env.intensity))
     radians = math.radians(env.rotation)
     write(program, "u_env_rotation", (math.cos(radians), math.sin(radians)))

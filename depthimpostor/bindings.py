@@ -1,0 +1,65 @@
+"""Every texture unit, uniform-block binding, storage-buffer binding and image unit the renderer's
+programs use, in one table (three.js's allocateTextureUnit, in its static form).
+
+The mirror shader samples most of these at once (the atlas, its pyramid, shadow maps, glass
+interiors, the BVH), so texture units are unique across the whole renderer, not per pass: a pass
+that binds its textures never unbinds another's. `@unique` makes a duplicate an import error.
+The compute pass's storage and image bindings are written into its GLSL as defines
+(glsl_bindings), so that they are not repeated by hand in GLSL.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum, unique
+
+
+@unique
+class TextureUnit(IntEnum):
+    IMPOSTOR_COLOR = 0  # the baked images' colours (passes/impostors.py)
+    IMPOSTOR_DEPTH = 1  # their depth layers
+    PYRAMID = 2  # the hierarchical traversal's min/max depth pyramid (passes/pyramid.py)
+    IMPOSTOR_BACK_COLOR = 3  # the back layer's colours
+    IMPOSTOR_BEYOND = 4  # where a second solid run begins (the hybrid method's)
+    SHADOW_MAPS = 5  # every light's shadow map (passes/shadows.py)
+    GLASS_FRONT = 6  # a glass object's interior image: front faces (passes/glass.py)
+    GLASS_BACK = 7  # and back faces
+    BVH_NODES = 8  # the ray-traced methods' BVH (passes/triangles.py)
+    BVH_TRIANGLES = 9
+    BVH_PLACES = 10  # the hybrid method's: each listed triangle's place in the BVH's order
+    TRIANGLE_IDS = 11  # the hybrid method's: the triangle each depth-image sample shows
+    RAY_ORIGINS = 12  # the GPU ray query's rays (gpu.py)
+    RAY_DIRECTIONS = 13
+    FRAME = 14  # the viewer's frame, copied into the window (passes/present.py)
+    GLYPHS = 15  # the overlay's font (passes/overlay.py)
+    # An equirect environment's image, read by every program that includes lib/environment.glsl
+    # (passes/environment.py binds it once per frame, before any bake). Past GL 3.3's 16 units per
+    # stage as a number, which is allowed: the limit is on the samplers one stage uses (the mirror
+    # shader's most is 13), and unit numbers run to GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS (>= 48).
+    ENVIRONMENT_MAP = 16
+
+
+@unique
+class UniformBlock(IntEnum):
+    DEPTH_IMAGES = 0  # one reflector's image records (passes/impostors.py)
+    TRIANGLE_OBJECTS = 1  # the ray-traced objects' materials and transforms (passes/triangles.py)
+    SHADOW_MAPS = 2  # the lights' shadow-map records (passes/shadows.py)
+    GLASS_INTERIOR = 3  # a glass object's interior-image record (passes/glass.py)
+
+
+@unique
+class StorageBuffer(IntEnum):
+    PYRAMID_TILES = 0  # the pyramid build's tile table (passes/pyramid.py, depth_pyramid.comp)
+
+
+@unique
+class ImageUnit(IntEnum):
+    PYRAMID_SOURCE = 0  # the level a pyramid level is built from
+    PYRAMID_TARGET = 1  # the level being built
+
+
+def glsl_bindings() -> dict[str, str]:
+    """The storage and image bindings as GLSL defines (STORAGE_PYRAMID_TILES, IMAGE_PYRAMID_SOURCE, ...),
+    for the shaders that must name them in a layout qualifier."""
+    defines = {f"STORAGE_{member.name}": str(int(member)) for member in StorageBuffer}
+    defines.update({f"IMAGE_{member.name}": str(int(member)) for member in ImageUnit})
+    return defines

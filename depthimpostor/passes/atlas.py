@@ -1,0 +1,305 @@
+"""The atlas every baked image lives in (depth images, cube-map faces, billboards), and each image's
+record: its camera, depth range and tile, in the layout the shaders read (constants.DEPTH_IMAGE_DTYPE).
+
+One atlas pair (RGBA8 colour; RG32F OpenGL depths of the visible surface and of the nearest back
+face behind it), one tile an image; each reflector gets a uniform buffer listing its own images.
+Also here: the faces a bake culls (a depth image's projection flips y), which the bakes of the
+baked images, the shadow maps and the glass interiors share.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import moderngl
+import numpy as np
+from numpy.typing import NDArray
+
+from ..gl_state import Face, RasterState, other_face
+from ..bindings import TextureUnit, UniformBlock
+from ..context import bind_default_framebuffer
+from ..constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, NO_OBJECT
+from ..errors import SceneError
+from ..geometry import ObjectGeometry
+from ..ppc import PPC, FrustumFitError
+from ..reference import DepthImageData
+from ..scene.model import Scene
+from .pyramid import PyramidLayout
+from .uniforms import bind_texture, bind_uniform_block
+
+
+
+
+def bind_impostors(program: moderngl.Program, atlas: ImpostorAtlas) -> None:
+    """Point a program that includes lib/baked_images.glsl at the atlas."""
+    bind_texture(program, "u_impostor_color", atlas.color, TextureUnit.IMPOSTOR_COLOR)
+    if atlas.depth is not None:
+        bind_texture(program, "u_impostor_depth", atlas.depth, TextureUnit.IMPOSTOR_DEPTH)
+    if atlas.back_color is not None:
+        bind_texture(program, "u_impostor_back_color", atlas.back_color, TextureUnit.IMPOSTOR_BACK_COLOR)
+    if atlas.beyond is not None:
+        bind_texture(program, "u_impostor_beyond", atlas.beyond, TextureUnit.IMPOSTOR_BEYOND)
+    bind_uniform_block(program, "DepthImages", UniformBlock.DEPTH_IMAGES)
+
+
+@dataclass(frozen=True, eq=False)
+class DepthImage:
+    """One baked image: its mirror, the objects it shows (one for a depth image or a billboard,
+    all reflected objects for a cube-map face), its camera, where it sits in the atlas, and where
+    its depth pyramid would sit (used only by the hierarchical algorithm: (x, y, levels))."""
+
+    mirror: ObjectGeometry
+    targets: tuple[ObjectGeometry, ...]
+    camera: PPC
+    tile_origin: tuple[int, int]
+    pyramid: tuple[int, int, int] = (0, 0, 0)
+    level: int = 0  # see ImagePlan
+    slot: int = 0  # its place in the atlas: what names it while its objects move
+    label: str = ""  # how plans and stats name it (image_label)
+
+    def moved(self, mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...], camera: PPC) -> DepthImage:
+        return dataclasses.replace(self, mirror=mirror, targets=targets, camera=camera)
+
+    @property
+    def target(self) -> ObjectGeometry:
+        """The one object of a per-object image."""
+        if len(self.targets) != 1:
+            raise ValueError(f"this image shows {len(self.targets)} objects, not one")
+        return self.targets[0]
+
+    @property
+    def tile(self) -> tuple[int, int, int, int]:
+        return (*self.tile_origin, self.camera.width, self.camera.height)
+
+    def record(self) -> NDArray[np.void]:
+        """The std140 record; `eye.w` names the object of a per-object image (NO_OBJECT for a
+        cube-map face, whose texels name their own)."""
+        object_id = self.targets[0].index if len(self.targets) == 1 else NO_OBJECT
+        return self.camera.depth_image_record(object_id, self.tile_origin, self.pyramid)
+
+
+#: Draws the nearest back face's window depth into the second layer.
+BACK_FACE_PROGRAM = ("mesh.vert", "window_depth.frag")
+#: Draws where a second solid run begins behind the first (the hybrid method's).
+BEYOND_PROGRAM = ("mesh.vert", "beyond_run.frag")
+
+
+#: The face GL culls to keep the back faces. A depth image's projection puts image row 0 (the top)
+#: at window y = 0, a mirror image of GL's usual y-up window: counter-clockwise outward faces
+#: arrive clockwise, so GL's "front" faces are the back ones and culling GL's "back" keeps them.
+BAKE_CULLS_FRONT_FACES: Face = "back"
+#: Baking the nearest back faces (the back layer, shadow maps' second layer): GL's "front" culled.
+BACK_FACES = RasterState(cull=BAKE_CULLS_FRONT_FACES)
+#: Baking the nearest front faces behind the layers (the hybrid method's second run): the others culled.
+FRONT_FACES = RasterState(cull=other_face(BAKE_CULLS_FRONT_FACES))
+
+
+def image_records(images: list[DepthImage]) -> bytes:
+    """A mirror's uniform block. It is declared with MAX_DEPTH_IMAGES_PER_MIRROR entries; a smaller
+    buffer would leave part of it unbacked, which GL leaves undefined."""
+    records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, dtype=DEPTH_IMAGE_DTYPE)
+    for i, image in enumerate(images):
+        records[i] = image.record()
+    return records.tobytes()
+
+
+def image_label(mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...], level: int, face: int | None) -> str:
+    """How plans and stats name an image: "mirror -> object", or a cube-map face by its number."""
+    shows = targets[0].object.name if face is None else f"face {face}"
+    return f"{mirror.object.name} -> {shows}" + (f" (bounce {level})" if level else "")
+
+
+def mirror_centre(mirror: ObjectGeometry) -> np.ndarray:
+    """The eye of a mirror's depth images: the centre of its bounding sphere."""
+    return mirror.bounding_sphere[0]
+
+
+def fit_depth_image_camera(scene: Scene, mirror: ObjectGeometry, target: ObjectGeometry, resolution: int) -> PPC:
+    """The depth image's camera: from the mirror's centre, the tightest frustum around the object."""
+    centre, _ = target.bounding_sphere
+    try:
+        return PPC.fitted(mirror_centre(mirror), target.world_mesh.positions, centre, resolution, resolution)
+    except FrustumFitError:
+        index = target.index
+        raise SceneError(
+            scene.source,
+            f"objects[{index}]",
+            f'object "{target.object.name}" surrounds or touches the centre of mirror "{mirror.object.name}": '
+            "no depth-image frustum can be fitted to it; move it away from the mirror's centre",
+        ) from None
+
+
+#: moderngl's colour mask: a 4-tuple for one attachment, a tuple of them for several (its stub
+#: knows the first form alone, hence Any).
+ColorMask = Any
+
+
+def color_mask(attachments: int, *per_attachment: tuple[bool, ...]) -> ColorMask:
+    """A colour mask in moderngl's form for a framebuffer of `attachments` colour attachments: the
+    masks given for the first ones, the rest masked off; one attachment's mask is a plain 4-tuple."""
+    given = list(per_attachment) + [(False,) * 4] * (attachments - len(per_attachment))
+    return given[0] if attachments == 1 else tuple(given)
+
+
+def atlas_grid(count: int) -> tuple[int, int]:
+    """Columns and rows of a near-square grid holding `count` tiles."""
+    columns = max(1, math.ceil(math.sqrt(count)))
+    return columns, max(1, math.ceil(count / columns))
+
+
+class ImpostorAtlas:
+    """The textures and framebuffers that hold every baked image of the scene: colour, (unless
+    `layers` is False: billboards need colour alone) the two float depth layers, (with
+    `back_colors`: depth images) the colour of the back layer, and (with `triangle_ids`: the
+    hybrid method's) the triangles each sample shows on both layers."""
+
+    def __init__(self, ctx: moderngl.Context, count: int, resolution: int, layers: bool = True,
+                 triangle_ids: bool = False, back_colors: bool = False, beyond: bool = False) -> None:
+        columns, rows = atlas_grid(count)
+        size = (columns * resolution, rows * resolution)
+        limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
+        if max(size) > limit:
+            raise SceneError(
+                "render settings",
+                "render.impostor_resolution",
+                f"{count} depth images of {resolution}x{resolution} need a {size[0]}x{size[1]} atlas, "
+                f"over this GL's limit of {limit}; lower the impostor resolution",
+            )
+        self.ctx = ctx
+        self.count = count
+        self.columns = columns
+        self.resolution = resolution
+        self.pyramid_layout = PyramidLayout.of_grid(columns, rows, resolution)
+        self.color = ctx.texture(size, 4, dtype="f1")
+        # (visible surface, second layer): see lib/baked_images.glsl.
+        self.depth = ctx.texture(size, 2, dtype="f4") if layers else None
+        # RG32F: the places in the BVH's list (diffuse.frag's WRITE_TRIANGLE_ID) of the triangles
+        # seen on the visible surface (R) and the back layer (G).
+        self.triangles = ctx.texture(size, 2, dtype="f4") if triangle_ids else None
+        self.textures = [self.color] if self.depth is None else [self.color, self.depth]
+        if self.triangles is not None:
+            self.textures.append(self.triangles)
+        # RGBA8: the back layer's colour (alpha 0: none drawn, as the colour atlas).
+        self.back_color = ctx.texture(size, 4, dtype="f1") if back_colors and layers else None
+        for texture in self.textures + ([self.back_color] if self.back_color is not None else []):
+            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._depth_buffer = ctx.depth_renderbuffer(size)
+        self.framebuffer = ctx.framebuffer(self.textures, self._depth_buffer)
+        # The back layer's pass writes its colour at location 0, and G of the layers behind it.
+        self.back_framebuffer: moderngl.Framebuffer | None = None
+        if self.back_color is not None:
+            self.back_framebuffer = ctx.framebuffer([self.back_color, *self.textures[1:]], self._depth_buffer)
+            # Images baked otherwise (reflectors at bounce k, copied in) have no back colour.
+            self.back_framebuffer.color_mask = self.masks((True,) * 4)
+            self.back_framebuffer.clear(1.0, 1.0, 1.0, 0.0)
+            self.back_framebuffer.color_mask = self.masks(*[(True,) * 4] * len(self.textures))
+        # R32F: where a second solid run begins behind the first (beyond_run.frag); 0 where not
+        # known (written by hand for tests): everything behind the first run is then unseen.
+        self.beyond = ctx.texture(size, 1, dtype="f4") if beyond and layers else None
+        self.beyond_framebuffer: moderngl.Framebuffer | None = None
+        if self.beyond is not None:
+            self.beyond.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self.beyond_framebuffer = ctx.framebuffer([self.beyond], self._depth_buffer)
+            self.beyond_framebuffer.clear(0.0)
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.color.size
+
+    @property
+    def bytes(self) -> int:
+        return self.bytes_for(self.count, self.resolution, self.depth is not None, self.triangles is not None,
+                              self.back_color is not None, self.beyond is not None)
+
+    @staticmethod
+    def bytes_for(count: int, resolution: int, layers: bool, triangle_ids: bool = False, back_colors: bool = False,
+                  beyond: bool = False) -> int:
+        """GPU memory of an atlas of `count` slots: colour, float layers (unless not `layers`),
+        triangle ids (with `triangle_ids`), back colours (with `back_colors`), where second runs
+        begin (with `beyond`) and the depth buffer used to bake."""
+        columns, rows = atlas_grid(count)
+        texel = 4 + (8 if layers else 0) + (8 if triangle_ids else 0) + (4 if back_colors and layers else 0) + 4
+        texel += 4 if beyond and layers else 0
+        return columns * rows * resolution * resolution * texel
+
+    def masks(self, *per_attachment: tuple[bool, ...]) -> ColorMask:
+        """A colour mask for this atlas's framebuffer (see color_mask)."""
+        return color_mask(len(self.textures), *per_attachment)
+
+    @property
+    def slot_count(self) -> int:
+        return self.pyramid_layout.columns * self.pyramid_layout.rows
+
+    def tile_origin(self, slot: int) -> tuple[int, int]:
+        return (slot % self.columns) * self.resolution, (slot // self.columns) * self.resolution
+
+    def slot_of(self, tile: tuple[int, ...]) -> int:
+        """The slot of the tile at (tile[0], tile[1])."""
+        return (tile[1] // self.resolution) * self.columns + tile[0] // self.resolution
+
+    def depth_layers(self) -> moderngl.Texture:
+        """The float layers (visible surface, second layer) of an atlas that keeps them."""
+        if self.depth is None:
+            raise ValueError("this atlas keeps colour alone (billboards): it holds no depth images")
+        return self.depth
+
+    def read(self, image: DepthImage) -> DepthImageData:
+        """One depth image as the numpy reference takes it (rows top to bottom, colour in [0, 1])."""
+        self.depth_layers()
+        viewport = image.tile
+        height, width = viewport[3], viewport[2]
+        color = np.frombuffer(self.framebuffer.read(viewport=viewport, components=4, attachment=0), np.uint8)
+        layers = np.frombuffer(
+            self.framebuffer.read(viewport=viewport, components=2, attachment=1, dtype="f4"), np.float32
+        ).reshape(height, width, 2)
+        back_color = None
+        if self.back_framebuffer is not None:
+            rgba = np.frombuffer(self.back_framebuffer.read(viewport=viewport, components=4, attachment=0), np.uint8)
+            rgba = rgba.reshape(height, width, 4)
+            back_color = np.where(rgba[..., 3:] > 0, rgba[..., :3] / 255.0, np.nan)
+        beyond = None
+        if self.beyond_framebuffer is not None:
+            beyond = np.frombuffer(self.beyond_framebuffer.read(viewport=viewport, components=1, dtype="f4"), np.float32)
+            beyond = beyond.reshape(height, width).copy()
+        return DepthImageData(
+            image.camera, color.reshape(height, width, 4)[..., :3] / 255.0, layers[..., 0].copy(),
+            image.target.index, layers[..., 1].copy(), back_color, beyond,
+        )
+
+    def write(self, tile_origin: tuple[int, int], data: DepthImageData) -> None:
+        """Store a depth image made elsewhere (tests build exact ones by hand)."""
+        height, width = data.depth.shape
+        viewport = (*tile_origin, width, height)
+        rgba = np.concatenate([np.rint(np.clip(data.color, 0, 1) * 255), np.full((height, width, 1), 255)], axis=2)
+        self.color.write(np.ascontiguousarray(rgba, np.uint8).tobytes(), viewport=viewport)
+        layers = np.stack([data.depth, data.back_layer], axis=2)
+        self.depth_layers().write(np.ascontiguousarray(layers, np.float32).tobytes(), viewport=viewport)
+        if self.back_color is not None:
+            back = np.zeros((height, width, 4))
+            if data.back_color is not None:
+                drawn = np.isfinite(data.back_color).all(axis=2)
+                back[drawn] = np.concatenate([np.rint(np.clip(data.back_color[drawn], 0, 1) * 255),
+                                              np.full((int(drawn.sum()), 1), 255)], axis=1)
+            self.back_color.write(np.ascontiguousarray(back, np.uint8).tobytes(), viewport=viewport)
+        if self.beyond is not None:
+            beyond = data.beyond_depth if data.beyond_depth is not None else np.zeros((height, width))
+            self.beyond.write(np.ascontiguousarray(beyond, np.float32).tobytes(), viewport=viewport)
+
+    def release(self) -> None:
+        bind_default_framebuffer(self.ctx)
+        extra: list[moderngl.Framebuffer | moderngl.Texture] = []
+        if self.back_framebuffer is not None and self.back_color is not None:
+            extra += [self.back_framebuffer, self.back_color]
+        if self.beyond_framebuffer is not None and self.beyond is not None:
+            extra += [self.beyond_framebuffer, self.beyond]
+        for item in (*extra, self.framebuffer, self._depth_buffer, *self.textures):
+            item.release()
+
+
+def plural(count: int, noun: str) -> str:
+    return f"{count} {noun}{'' if count == 1 else 's'}"
+
+

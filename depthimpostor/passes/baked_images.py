@@ -1,0 +1,300 @@
+"""The images baked from a reflector's centre, as one pass: the part the depth-image, cube-map and
+billboard methods share (passes/impostors.py, passes/cubemaps.py, passes/billboards.py): the plan
+of which images a reflector gets, the atlas, the per-reflector uniform buffers and the bake loop.
+Each method plans its own images and keeps its own second layer.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from enum import Enum
+from typing import ClassVar, NamedTuple
+
+import moderngl
+
+from ..gl_state import raster_state
+from ..bindings import TextureUnit, UniformBlock
+from ..constants import BACKGROUND_DEPTH, MAX_DEPTH_IMAGES_PER_MIRROR
+from ..errors import SceneError
+from ..geometry import ObjectGeometry, triangle_offsets
+from ..culling import Reach, reaches
+from ..ppc import PPC
+from ..resolution import MIN_AUTO_RESOLUTION, auto_resolution, scene_view
+from ..scene.model import Scene
+from ..shaders import ProgramCache
+from .diffuse import DiffusePass
+from .meshes import GpuMeshes
+from .uniforms import bind_texture, write
+from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural
+
+
+
+
+class SecondLayer(Enum):
+    """What the atlas's second texture holds besides the visible surface's depth (R)."""
+
+    BACK_FACE = "back face"  # G: the nearest back face behind it (depth images)
+    OBJECT_ID = "object id"  # G: the id of the object seen (cube-map faces show several)
+    NONE = "none"  # no float layers at all: colour alone (billboards)
+
+
+class ImagePlan(NamedTuple):
+    """One image to bake: the objects it shows and the camera that sees them. `level` 0 is an
+    image of diffuse objects, the same at every bounce; level k >= 2 is an image of another
+    mirror showing its own reflections of bounce k - 1 (render.max_bounces; depth images only)."""
+
+    targets: tuple[ObjectGeometry, ...]
+    camera: PPC
+    level: int = 0
+
+
+class BakedImages:
+    """Images baked from the mirrors' centres into one atlas, with a uniform buffer of records per
+    mirror: what the depth-image, cube-map and billboard methods share. They differ in the images
+    they plan (per object, or six faces) and in the second layer they keep."""
+
+    second_layer: ClassVar[SecondLayer]
+    #: Does each sample also record the triangle it shows (the hybrid method's exact surfaces)?
+    keeps_triangle_ids: ClassVar[bool] = False
+    #: Is the back layer drawn with its colour (depth images: a ray may come in through it)?
+    keeps_back_colors: ClassVar[bool] = False
+    #: Is it known where a second solid run begins (the hybrid method's: space behind the first
+    #: run up to there is seen empty)?
+    keeps_beyond: ClassVar[bool] = False
+    #: What one image is called in the CLI's and the viewer's summaries.
+    image_noun: ClassVar[str]
+    #: One image per reflected object (False: faces that show them all).
+    per_object: ClassVar[bool] = True
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        programs: ProgramCache,
+        scene: Scene,
+        meshes: GpuMeshes,
+        mirrors: list[ObjectGeometry],
+        reflected: list[ObjectGeometry],
+    ) -> None:
+        plan = self.plan_images(scene, mirrors, reflected)
+        self.ctx = ctx
+        self.programs = programs
+        self.scene = scene
+        self.meshes = meshes
+        layers = self.second_layer != SecondLayer.NONE
+        offsets = triangle_offsets(reflected) if self.keeps_triangle_ids else None
+        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=layers, triangle_offsets=offsets)
+        self.back_layer = (DiffusePass(programs, scene, meshes, write_depth_image=True, triangle_offsets=offsets,
+                                       back_layer=True) if self.keeps_back_colors else None)
+        count = sum(len(images) for images in plan.values())
+        # Slots as large as the largest image ("auto" sizes each image apart).
+        sides = [max(camera.width, camera.height) for images in plan.values() for _, camera, _ in images]
+        self.atlas = ImpostorAtlas(ctx, count, max(sides, default=1), layers, self.keeps_triangle_ids,
+                                   self.keeps_back_colors, self.keeps_beyond)
+        self.images_by_mirror: dict[int, list[DepthImage]] = {}
+        slot = 0
+        for mirror in mirrors:
+            images: list[DepthImage] = []
+            for targets, camera, level in plan[mirror.index]:
+                pyramid = self.atlas.pyramid_layout.entry(slot, camera.width, camera.height)
+                label = image_label(mirror, targets, level, None if self.per_object else len(images))
+                images.append(DepthImage(mirror, targets, camera, self.atlas.tile_origin(slot), pyramid, level, slot, label))
+                slot += 1
+            self.images_by_mirror[mirror.index] = images
+        self.final_level = scene.render.max_bounces
+        self.uniform_buffers = {index: self.uniform_buffer(self.images_at(index, self.final_level))
+                                for index in self.images_by_mirror}
+        self.bakes = 0  # images rendered so far (tests and stats check that nothing re-bakes)
+        self.bake_counts: Counter[str] = Counter()  # by image label
+        self.bounce_bakes = 0  # of them, images of reflectors (render.max_bounces > 1)
+        self.stale: set[int] = {image.slot for image in self.depth_images}  # slots the next bake renders
+
+    @property
+    def needs_bake(self) -> bool:
+        return bool(self.stale)
+
+    def bake_again(self) -> None:
+        """Render every image at the next bake, although nothing moved (the benchmark's)."""
+        self.stale = {image.slot for image in self.depth_images}
+
+    def refit(self, image: DepthImage, mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...]) -> PPC:
+        """The camera of `image` once its mirror or objects moved, at the image's own size."""
+        return fit_depth_image_camera(self.scene, mirror, targets[0], image.camera.width)
+
+    def move(self, geometry: dict[int, ObjectGeometry], moved: set[int], stale_targets: set[int]) -> None:
+        """Objects (by index) moved to `geometry`: their images are fitted again and, with every
+        image showing an object of `stale_targets` (a light that shades it moved, or a shadow
+        that may fall on it), baked at the next bake. Bounce images follow what they show."""
+        for index, images in self.images_by_mirror.items():
+            for i, image in enumerate(images):
+                mirror, targets = geometry[index], tuple(geometry[t.index] for t in image.targets)
+                if index in moved or any(t.index in moved for t in targets):
+                    images[i] = image.moved(mirror, targets, self.refit(image, mirror, targets))
+                    self.stale.add(image.slot)
+                elif not image.level and any(t.index in stale_targets for t in targets):
+                    self.stale.add(image.slot)
+        self._spread_staleness()
+        for index, buffer in self.uniform_buffers.items():
+            buffer.write(image_records(self.images_at(index, self.final_level)))
+        self._forget_fits()
+
+    def _spread_staleness(self) -> None:
+        """A bounce-k image of reflector B shows B's images of levels 0 and k - 1: stale with them."""
+        for level in range(2, self.final_level + 1):
+            for image in self.depth_images:
+                shown = image.targets[0].index if image.level == level else None
+                if shown is not None and any(other.slot in self.stale for other in self.images_at(shown, level - 1)):
+                    self.stale.add(image.slot)
+
+    def _forget_fits(self) -> None:
+        """Drop what a method derived from its images' cameras (cube-map boxes, billboard planes)."""
+
+    @classmethod
+    def plan_images(
+        cls, scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]
+    ) -> dict[int, list[ImagePlan]]:
+        """The images to bake for each mirror (by its index): by default one per reflected
+        object it may show (depth images, billboards); cube maps bake six faces instead."""
+        return per_object_plan(scene, mirrors, reflected)
+
+    def images_at(self, mirror_index: int, bounces: int) -> list[DepthImage]:
+        """The images a reflected ray of this mirror is traced against when it may make
+        `bounces` bounces: the diffuse objects', and the other mirrors' that show bounces - 1."""
+        return [image for image in self.images_by_mirror[mirror_index] if image.level in (0, bounces)]
+
+    @property
+    def depth_images(self) -> list[DepthImage]:
+        return [image for images in self.images_by_mirror.values() for image in images]
+
+    @property
+    def bytes(self) -> int:
+        return self.atlas.bytes + sum(buffer.size for buffer in self.uniform_buffers.values())
+
+    def describe(self) -> str:
+        sides = sorted({image.camera.width for image in self.depth_images}) or [self.atlas.resolution]
+        sizes = " to ".join(f"{side}x{side}" for side in dict.fromkeys((sides[0], sides[-1])))
+        return f"{plural(len(self.depth_images), self.image_noun)} of {sizes}"
+
+    def uniform_buffer(self, images: list[DepthImage]) -> moderngl.Buffer:
+        return self.ctx.buffer(image_records(images))
+
+    def bind(self, program: moderngl.Program) -> None:
+        bind_impostors(program, self.atlas)
+
+    def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
+        self.uniform_buffers[mirror.index].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
+        write(program, "u_depth_image_count", len(self.images_at(mirror.index, self.final_level)))
+
+    def bake(self) -> int:
+        """Render the stale images into their tiles; returns the number of draw calls."""
+        framebuffer = self.atlas.framebuffer
+        framebuffer.use()
+        # The visible surface writes colour, R, G when G is the object id, and the triangle ids.
+        atlas = self.atlas
+        everything = atlas.masks(*[(True,) * 4] * len(atlas.textures))
+        surface_mask = atlas.masks((True,) * 4, (True, self.second_layer == SecondLayer.OBJECT_ID, False, False),
+                                   (True, False, False, False))  # triangle ids: R, the visible surface's
+        draws = 0
+        with raster_state(self.ctx):
+            try:
+                for image in self.depth_images:
+                    if image.level or image.slot not in self.stale:  # ImpostorPass bakes images of mirrors after these
+                        continue
+                    framebuffer.viewport = image.tile
+                    # Cleared colour alpha 0 marks "nothing here"; both depth layers clear to
+                    # BACKGROUND_DEPTH, the value the depth buffer clears to.
+                    framebuffer.color_mask = everything
+                    framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
+                    framebuffer.color_mask = surface_mask
+                    draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
+                    if self.back_layer is not None:
+                        draws += self._bake_back_layer(image)
+                        if self.atlas.beyond is not None:
+                            draws += self._bake_beyond(image)
+                        framebuffer.use()
+                    elif self.second_layer == SecondLayer.BACK_FACE:
+                        draws += self.bake_back_faces(image, framebuffer, image.tile)
+                    self.baked(image)
+            finally:
+                framebuffer.color_mask = everything
+        return draws
+
+    def baked(self, image: DepthImage) -> None:
+        self.bakes += 1
+        self.bounce_bakes += bool(image.level)
+        self.bake_counts[image.label] += 1
+        self.stale.discard(image.slot)
+
+    def bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, int, int, int]) -> int:
+        """The nearest back face: the G layer alone, against a fresh depth buffer (images of
+        reflectors at bounce k >= 2, which have no colour of their backs to show)."""
+        back_faces = self.programs.get(*BACK_FACE_PROGRAM)
+        attachments = len(framebuffer.color_attachments)
+        framebuffer.color_mask = color_mask(attachments)
+        framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=tile)
+        framebuffer.color_mask = color_mask(attachments, (False,) * 4, (False, True, False, False))
+        with raster_state(self.ctx, BACK_FACES):
+            for target in image.targets:
+                self.meshes.draw(back_faces, target, image.camera.view_projection)
+        return len(image.targets)
+
+    def _bake_back_layer(self, image: DepthImage) -> int:
+        """The nearest back face's colour, depth (G) and triangle (G), against a fresh depth buffer."""
+        assert self.back_layer is not None and self.atlas.back_framebuffer is not None
+        framebuffer, atlas = self.atlas.back_framebuffer, self.atlas
+        framebuffer.use()
+        framebuffer.viewport = image.tile
+        framebuffer.color_mask = atlas.masks((True,) * 4)
+        framebuffer.clear(1.0, 1.0, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
+        framebuffer.color_mask = atlas.masks((True,) * 4, (False, True, False, False), (False, True, False, False))
+        with raster_state(self.ctx, BACK_FACES):
+            try:
+                return self.back_layer.draw(list(image.targets), image.camera.view_projection)
+            finally:
+                framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
+
+    def _bake_beyond(self, image: DepthImage) -> int:
+        """Where a second solid run begins behind the first (beyond_run.frag): the nearest front
+        face behind the layers just baked, which it reads (they are not attached here)."""
+        assert self.atlas.beyond_framebuffer is not None
+        program = self.programs.get(*BEYOND_PROGRAM)
+        framebuffer = self.atlas.beyond_framebuffer
+        framebuffer.use()
+        framebuffer.viewport = image.tile
+        framebuffer.clear(BACKGROUND_DEPTH, depth=BACKGROUND_DEPTH, viewport=image.tile)
+        bind_texture(program, "u_impostor_depth", self.atlas.depth_layers(), TextureUnit.IMPOSTOR_DEPTH)
+        with raster_state(self.ctx, FRONT_FACES):
+            for target in image.targets:
+                self.meshes.draw(program, target, image.camera.view_projection)
+        return len(image.targets)
+
+    def release(self) -> None:
+        for buffer in self.uniform_buffers.values():
+            buffer.release()
+        self.atlas.release()
+
+
+def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: ObjectGeometry) -> PPC:
+    """The camera of `target`'s image for `mirror`: fitted at render.impostor_resolution, or at
+    the resolution `view` (the scene's camera) asks for when it is "auto" (resolution.py)."""
+    if not scene.render.auto_resolution:
+        return fit_depth_image_camera(scene, mirror, target, int(scene.render.impostor_resolution))
+    probe = fit_depth_image_camera(scene, mirror, target, MIN_AUTO_RESOLUTION)
+    return fit_depth_image_camera(scene, mirror, target, auto_resolution(view, mirror, target, probe))
+
+
+def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry]) -> dict[int, list[ImagePlan]]:
+    """One image per mirror and reflected object it may show (culling.py), its frustum fitted to
+    the object. The images of one mirror share its uniform block, which has a fixed size."""
+    view = scene_view(scene)
+    plan = {}
+    for mirror, row in zip(mirrors, reaches(mirrors, reflected), strict=True):
+        shown = [target for target, why in zip(reflected, row, strict=True) if why is Reach.REACHABLE]
+        if len(shown) > MAX_DEPTH_IMAGES_PER_MIRROR:
+            raise SceneError(
+                scene.source, "objects",
+                f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} objects a mirror may reflect, got {len(shown)} "
+                f"for \"{mirror.object.name}\"",
+            )
+        plan[mirror.index] = [ImagePlan((target,), image_camera(scene, view, mirror, target)) for target in shown]
+    return plan
+

@@ -1,0 +1,45 @@
+"""The bindings table (depthimpostor/bindings.py) is the only place a texture unit or block binding is
+chosen: every number is unique within its kind (enum.unique), no module outside the table binds a
+literal, and the compute shader's layout qualifiers come from it."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from depthimpostor.bindings import ImageUnit, StorageBuffer, TextureUnit, UniformBlock, glsl_bindings
+from depthimpostor.constants import glsl_constants
+
+PACKAGE = Path(__file__).resolve().parent.parent / "depthimpostor"
+SHADERS = Path(__file__).resolve().parent.parent / "shaders"
+
+# A GL call that takes a unit or binding, given a number literal instead of the table's name.
+LITERAL_BINDING = re.compile(r"(\.use|bind_to_uniform_block|bind_to_storage_buffer|bind_to_image|bind_texture\([^)]*,)"
+                             r"\(?\s*\d+\s*[,)]")
+
+
+def test_every_unit_and_binding_fits_the_gl_minimums() -> None:
+    # GL 3.3 guarantees 48 texture units in all (GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS: what a unit's
+    # number must stay under), 16 samplers in one fragment shader (the mirror shader samples at most
+    # every unit but the viewer's own two) and 12 uniform blocks; GL 4.3 8 storage buffers and 8
+    # image units a compute shader.
+    shader_units = [unit for unit in TextureUnit if unit not in (TextureUnit.FRAME, TextureUnit.GLYPHS)]
+    assert max(TextureUnit) < 48 and len(shader_units) <= 16
+    assert max(UniformBlock) < 12
+    assert max(StorageBuffer) < 8 and max(ImageUnit) < 8
+
+
+def test_no_module_binds_a_literal_unit() -> None:
+    offenders = [f"{path.relative_to(PACKAGE)}:{number}: {line.strip()}"
+                 for path in PACKAGE.rglob("*.py") if path.name != "bindings.py"
+                 for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+                 if LITERAL_BINDING.search(line)]
+    assert not offenders, offenders
+
+
+def test_shaders_name_their_bindings_from_the_table() -> None:
+    assert set(glsl_bindings()) <= set(glsl_constants())
+    for path in SHADERS.rglob("*"):
+        if path.is_file():
+            text = path.read_text(encoding="utf-8")
+            assert not re.search(r"binding\s*=\s*\d", text), f"{path.name}: a binding number written by hand"
