@@ -31,6 +31,11 @@ class TextureUnit(IntEnum):
     RAY_DIRECTIONS = 13
     FRAME = 14  # the viewer's frame, copied into the window (passes/present.py)
     GLYPHS = 15  # the overlay's font (passes/overlay.py)
+    # An equirect environment's image, read by every program that includes lib/environment.glsl
+    # (passes/environment.py binds it once per frame, before any bake). Past GL 3.3's 16 units per
+    # stage as a number, which is allowed: the limit is on the samplers one stage uses (the mirror
+    # shader's most is 13), and unit numbers run to GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS (>= 48).
+    ENVIRONMENT_MAP = 16
 
 
 @unique

@@ -24,7 +24,7 @@ from .geometry import ObjectGeometry
 from .passes.billboards import BillboardPass
 from .passes.cubemaps import CubeMapPass
 from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
-from .passes.environment import ENVIRONMENT_PROGRAM
+from .passes.environment import ENVIRONMENT_PROGRAM, environment_map_bytes
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .passes.hybrid import HybridPass
 from .passes.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
@@ -36,6 +36,7 @@ from .passes.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
 from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
 from .passes.simplified import SimplifiedPass, simplified_mesh
 from .passes.triangles import TrianglePass
+from .passes.uniforms import environment_defines
 from .scene.limits import check_method, check_model_reach, check_scene
 from .scene.model import MeshShape, Scene
 from .shaders import ProgramKey, program_key
@@ -266,7 +267,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             variant((PYRAMID_PROGRAM,), None, "the hierarchical algorithm's min/max pyramid")
 
     passes.append(PlannedPass(Pass.ENVIRONMENT, f"the {scene.environment.type} sky behind everything"))
-    variant(ENVIRONMENT_PROGRAM, None, "the sky")
+    variant(ENVIRONMENT_PROGRAM, environment_defines(scene),
+            "the sky" + (" (ENVIRONMENT_MAP: an equirect image)" if scene.environment.is_map else ""))
     if diffuse:
         passes.append(PlannedPass(Pass.DIFFUSE, f"{plural(len(diffuse), 'object')} with diffuse materials"))
         variant(DIFFUSE_PROGRAM, diffuse_defines(scene, False),
@@ -318,6 +320,8 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
         memory["reflection outputs"] = width * height * 16 * REFLECTION_OUTPUTS
     if count_samples:
         memory["sample counts"] = width * height * 4
+    if scene.environment.is_map:
+        memory["environment map"] = environment_map_bytes(scene.environment)
     if scene.has_shadows:
         memory["shadow maps"] = (shadow_map_bytes(len(scene.shadowed_lights), scene.render.shadow_resolution)
                                  + MAX_LIGHTS * DEPTH_IMAGE_DTYPE.itemsize)

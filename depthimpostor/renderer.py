@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
+from .colour import display_encode
 from .constants import NO_OBJECT, Algorithm, Method
 from .context import bind_default_framebuffer
 from .culling import may_shadow
@@ -56,10 +57,6 @@ class RenderStats:
     draw_seconds: list[float] = field(default_factory=list)  # one entry per frame
     # The mirror pass's share of each frame, when the renderer was asked to time it.
     mirror_seconds: list[float] = field(default_factory=list)
-
-
-def to_uint8(color: np.ndarray) -> np.ndarray:
-    return (np.clip(np.nan_to_num(color, nan=0.0), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
 def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC:
@@ -436,12 +433,13 @@ class Renderer:
             self._presenter = None
         if self._presenter is None:
             self._presenter = FramePresenter(self.ctx, self.programs, size)
-        self._presenter.draw(self.color_framebuffer, target, viewport)
+        self._presenter.draw(self.color_framebuffer, target, viewport, self.scene.render)
 
     def _draw_frame(self) -> RenderStats:
         """One frame: the plan's render graph (plan.graph), node by node. The bakes run only for
         what is stale, and are timed apart from the eye's passes."""
         graph = self.plan.graph
+        self.environment.use()  # an equirect sky's image: bakes see it too
         if self.shadow_maps is not None:  # bound for every pass that shades, bakes included
             self.shadow_maps.use()
         bakes = [node.stage for node in graph if node.stage in BAKES and self._stale(node.stage)]
@@ -562,8 +560,10 @@ class Renderer:
         return np.frombuffer(data, dtype=np.float32).reshape(height, width, 3).copy()
 
     def read_color(self) -> np.ndarray:
-        """The last frame as (height, width, 3) uint8, top row first, ready for a PNG."""
-        return to_uint8(self.read_color_float())
+        """The last frame as (height, width, 3) uint8, top row first, ready for a PNG: through the
+        scene's display transform (exposure, tone mapping, sRGB; colour.py)."""
+        render = self.scene.render
+        return display_encode(self.read_color_float(), render.tone_mapping, render.exposure)
 
     def read_sample_counts(self) -> np.ndarray:
         """(height, width) samples each mirror pixel's reflected ray read (0 outside mirrors)."""

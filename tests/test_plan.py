@@ -35,6 +35,7 @@ PLAN_COUNTS = {
     "checker_near_mirror.toml": (4, 4, 0, 5),
     "glass_and_mirrors.toml": (7, 15, 0, 11),  # 3 reflectors x 3 objects + 3 x 2 of bounce 2
     "grid_3x3.toml": (4, 8, 0, 5),
+    "hdr_sky.toml": (4, 4, 0, 5),  # 2 mirrors x 2 objects; the sky's ENVIRONMENT_MAP variants
     "lecture_8x9.toml": (4, 72, 0, 5),
     "planar_mirror.toml": (4, 3, 0, 5),
     "shadows.toml": (5, 4, 0, 6),

@@ -18,7 +18,7 @@ from ..truth import MIRROR_BACKING_ALBEDO
 from .glass import GlassInterior, interior_camera, pixel_angle
 from .atlas import BAKE_CULLS_FRONT_FACES
 from .meshes import GpuMeshes
-from .uniforms import shading_defines, write
+from .uniforms import environment_defines, shading_defines, write
 
 
 class ReflectedObjects(Protocol):
@@ -66,8 +66,8 @@ REFLECTOR_PROGRAM = ("mesh.vert", "mirror.frag")
 
 
 def reflector_defines(scene: Scene, defines: dict[str, int], glass: bool) -> dict[str, int]:
-    """The mirror shader's variant for mirrors or (GLASS) for glass, under the scene's lights."""
-    return {**defines, **shading_defines(scene), **({"GLASS": 1} if glass else {})}
+    """The mirror shader's variant for mirrors or (GLASS) for glass, under the scene's lights and environment."""
+    return {**defines, **shading_defines(scene), **environment_defines(scene), **({"GLASS": 1} if glass else {})}
 
 
 def bounce_defines() -> dict[str, int]:
