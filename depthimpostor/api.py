@@ -18,7 +18,8 @@ import numpy as np
 from .constants import Algorithm, Method
 from .context import Backend, create_context
 from .limits import limit_memory
-from .renderer import Renderer, to_uint8
+from .colour import display_encode
+from .renderer import Renderer
 from .scene import Scene, load_scene
 
 
@@ -35,8 +36,9 @@ def render_image(
     max_memory: int | None = None,
 ) -> np.ndarray:
     """Render one frame of `scene` (a TOML file's path, or a `Scene`) and return it as a
-    (height, width, 3) array, row 0 at the top (as images and PIL have it): uint8, or float32
-    linear colour, unclamped.
+    (height, width, 3) array, row 0 at the top (as images and PIL have it): uint8, through the
+    scene's display transform (render.exposure, render.tone_mapping, sRGB encoding: docs/colour.md),
+    or float32 linear colour, unclamped.
 
     `size` (width, height) and `impostor_resolution` override the scene's; `method` is one of
     depth, cubemap, cubemap-parallax, billboard, simplified, raytrace, hybrid and `algorithm` one of
@@ -66,7 +68,8 @@ def render_image(
     finally:
         if own:
             context.release()
-    return to_uint8(color) if dtype == "uint8" else color
+    render = loaded.render
+    return display_encode(color, render.tone_mapping, render.exposure) if dtype == "uint8" else color
 
 
 def _method(name: str) -> Method:

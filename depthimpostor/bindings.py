@@ -31,17 +31,21 @@ class TextureUnit(IntEnum):
     RAY_DIRECTIONS = 13
     FRAME = 14  # the viewer's frame, copied into the window (passes/present.py)
     GLYPHS = 15  # the overlay's font (passes/overlay.py)
-    # The scene's image textures (passes/textures.py), slot k on MATERIAL_TEXTURE_0 + k: the
-    # ray-traced methods' shader samples every reflected object's at once (constants.MAX_TEXTURES).
-    # Past 15: a unit's number need only be below GL's combined count (48 in GL 3.3); what one
-    # shader samples at once stays within the 16 a fragment shader has (material_texture.glsl).
-    MATERIAL_TEXTURE_0 = 16
-    MATERIAL_TEXTURE_1 = 17
-    MATERIAL_TEXTURE_2 = 18
-    MATERIAL_TEXTURE_3 = 19
+    # An equirect environment's image, read by every program that includes lib/environment.glsl
+    # (passes/environment.py binds it once per frame, before any bake). Past GL 3.3's 16 units per
+    # stage as a number, which is allowed: the limit is on the samplers one stage uses (the mirror
+    # shader's most is 14, with MATERIAL_TEXELS), and unit numbers run to
+    # GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS (>= 48).
+    ENVIRONMENT_MAP = 16
+    # The scene's image textures (passes/textures.py), slot k on MATERIAL_TEXTURE_0 + k, read by
+    # the diffuse pass alone (constants.MAX_TEXTURES).
+    MATERIAL_TEXTURE_0 = 17
+    MATERIAL_TEXTURE_1 = 18
+    MATERIAL_TEXTURE_2 = 19
+    MATERIAL_TEXTURE_3 = 20
     # Every one's level 0 as 8-bit integers, stacked in one texture, for traced rays: the mirror
     # shader samples this one unit for them all (material_texture.glsl).
-    MATERIAL_TEXELS = 20
+    MATERIAL_TEXELS = 21
 
 
 @unique

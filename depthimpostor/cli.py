@@ -19,14 +19,15 @@ from .constants import Algorithm, Method
 from .context import create_context, describe
 from .errors import DepthImpostorError, SceneError, SceneWarning
 from .compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
-from .outputs import Outputs, check_file, check_folder, write_image
+from .colour import TONE_MAPPINGS
+from .outputs import Outputs, check_file, check_folder, is_float_image, write_float_image, write_image
 from .limits import check_fits, limit_memory, parse_memory
 from .plan import RenderPlan, plan_render
-from .renderer import Renderer, RenderStats, to_uint8
+from .renderer import Renderer, RenderStats
 from .resources import default_scene_path
 from .scene import Scene, load_scene
 from .scene.fields import SIZE, Reader
-from .scene.model import AUTO_RESOLUTION, IMPOSTOR_RESOLUTION
+from .scene.model import AUTO_RESOLUTION, EXPOSURE, IMPOSTOR_RESOLUTION
 
 T = TypeVar("T")
 
@@ -98,7 +99,8 @@ def _resolution(text: str) -> int | str:
 def _load(args: argparse.Namespace) -> Scene:
     scene = load_scene(args.scene or default_scene_path())
     return scene.with_overrides(size=args.size, impostor_resolution=args.impostor_res,
-                                simplified_triangles=args.simplified_triangles)
+                                simplified_triangles=args.simplified_triangles,
+                                tone_mapping=getattr(args, "tone_mapping", None), exposure=getattr(args, "exposure", None))
 
 
 def _stand_in(renderer: Renderer) -> str:
@@ -112,7 +114,8 @@ def _stand_in(renderer: Renderer) -> str:
 
 
 def _render(args: argparse.Namespace) -> int:
-    output = check_file(Path(args.output), "-o")
+    output = check_file(Path(args.output), "-o", float_image=True)
+    linear = is_float_image(output)  # .exr, .hdr: the frame's linear float colour, for post-processing
     scene = _load(args)
     ctx = _context(args)
     renderer_name = describe(ctx)
@@ -123,13 +126,13 @@ def _render(args: argparse.Namespace) -> int:
             for frame in range(args.frames + 1):  # the first frame bakes the depth images and warms up
                 renderer.set_time(args.time + frame / args.fps)
                 stats = renderer.render()
-            image = renderer.read_color()
+            image = renderer.read_color_float() if linear else renderer.read_color()
             stand_in = _stand_in(renderer)
             plan = renderer.plan
     finally:
         ctx.release()
     timed = stats.draw_seconds[1:]
-    print(write_image(output, image))
+    print(write_float_image(output, image) if linear else write_image(output, image))
     print(
         f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)}), {stand_in}, "
         f"{scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}"
@@ -206,7 +209,7 @@ def _truth(args: argparse.Namespace) -> int:
         comparison, _ = _compare_frame(ctx, _load(args), args, Method.RAYTRACE)
     finally:
         ctx.release()
-    print(write_image(output, to_uint8(comparison.truth)))
+    print(write_image(output, comparison.image(comparison.truth)))
     return 0
 
 
@@ -329,7 +332,7 @@ def _view(args: argparse.Namespace) -> int:
     return run_viewer(options)
 
 
-def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) -> None:
+def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True, display: bool = True) -> None:
     command.add_argument("scene", nargs="?", help="scene file (TOML, or a .glb/.gltf glTF file); the built-in default scene if omitted")
     command.add_argument("--size", type=_size, help="output size WxH, overriding the scene's render.size")
     command.add_argument("--impostor-res", type=_resolution,
@@ -337,6 +340,13 @@ def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True) ->
                               "sized so that a sample covers about one reflected pixel), overriding the scene's")
     command.add_argument("--simplified-triangles", type=int,
                          help="--method simplified: triangles per reflected object at most, overriding the scene's")
+    if display:
+        command.add_argument("--tone-mapping", choices=TONE_MAPPINGS,
+                             help="how the 8-bit image compresses linear colour into [0, 1], overriding the scene's "
+                                  "render.tone_mapping: none (clamp), aces (Narkowicz 2015), reinhard (docs/colour.md)")
+        command.add_argument("--exposure", type=_checked(EXPOSURE, _finite),
+                             help="stops the linear colour is scaled by (2^exposure) before tone mapping and sRGB "
+                                  "encoding, overriding the scene's render.exposure")
     _max_memory_argument(command)
     if not headless:
         return
@@ -380,7 +390,9 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
     render = commands.add_parser("render", help="render a scene headless to a PNG")
     _scene_arguments(render)
-    render.add_argument("-o", "--output", default="render.png", help="output PNG (default: render.png)")
+    render.add_argument("-o", "--output", default="render.png",
+                        help="output image (default: render.png): 8-bit sRGB through the display transform, or the "
+                             "linear float frame for .exr (32-bit float) and .hdr (Radiance RGBE)")
     _method_arguments(render)
     render.add_argument("--frames", type=_positive, default=3, help="frames timed after the first (default 3)")
     render.add_argument("--time", type=_finite, default=0.0,
@@ -392,7 +404,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.set_defaults(run=_render)
 
     plan = commands.add_parser("plan", help="the passes, depth images and shader variants a scene calls for, and why")
-    _scene_arguments(plan)
+    _scene_arguments(plan, display=False)
     _method_arguments(plan)
     plan.add_argument("--json", action="store_true", help="print the plan as JSON")
     plan.set_defaults(run=_plan)

@@ -2,7 +2,9 @@
 
 Figures, over the mirror and glass pixels of one frame ("mirror pixels" below; a glass pixel's
 reflected ray is the one measured for objects and geometry, its colour blends in the refraction):
-- colour RMSE and PSNR of the displayed (clamped) colours;
+- colour RMSE and PSNR in linear space (COLOUR_SPACE): the frame's linear float colour, each
+  channel clamped to [0, 1], before exposure, tone mapping and sRGB encoding, which are for
+  display alone (docs/colour.md); a figure does not change with them;
 - the share of pixels whose reflected ray hit another object than the truth's (the environment
   counting as an object);
 - over the mirror pixels that show a reflected object (in the truth), the share that show the
@@ -32,10 +34,14 @@ from PIL import Image, ImageDraw
 from .constants import NO_OBJECT
 from .font import load_font
 from .outputs import Outputs
-from .renderer import ReflectionData, Renderer, to_uint8
+from .colour import display_encode, quantize
+from .renderer import ReflectionData, Renderer
 from .truth import SpecularTruth, TruthTracer
 
 WORST_PIXELS = 8
+#: Where colour errors are measured, as the report states it.
+COLOUR_SPACE = ("linear: the frame's float colour, each channel clamped to [0, 1], before exposure, tone mapping "
+                "and sRGB encoding")
 #: A pixel showing a reflected object shows the wrong surface when its colour is off by more than
 #: this in its largest channel: 8-bit rounding and shading from interpolated normals stay far below
 #: it, a checker square of the wrong colour (or a side coloured like another) far above.
@@ -98,6 +104,13 @@ class Comparison:
     figures: Figures
     truth_frame: TruthFrame  # what the truth saw: another method's frame of the same rays reuses it
     direct_mask: np.ndarray  # (h, w) pixels seen directly and measured (scenes with shadows; else none)
+    # The display transform of the report's images (render.tone_mapping, render.exposure); the
+    # figures are measured before it.
+    display: tuple[str, float] = ("none", 0.0)
+
+    def image(self, linear: np.ndarray) -> np.ndarray:
+        """Measured (linear) colours as the report shows them: through the display transform."""
+        return display_encode(linear, *self.display)
 
 
 def trace_direct(renderer: Renderer, mirror_mask: np.ndarray) -> np.ndarray:
@@ -203,7 +216,8 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
         retraced_pixels=retraced,
         retraced_share=float(retraced / count) if count else 0.0,
     )
-    return Comparison(render, truth_image, mask, geometric, figures, truth, direct)
+    display = (renderer.scene.render.tone_mapping, renderer.scene.render.exposure)
+    return Comparison(render, truth_image, mask, geometric, figures, truth, direct, display)
 
 
 def _worst_pixels(
@@ -237,12 +251,14 @@ def heat_map(comparison: Comparison, limit: float = 0.25) -> np.ndarray:
 
 
 def write_report(comparison: Comparison, folder: Path, settings: dict[str, object], out: Outputs) -> list[Path]:
-    """The report's images and JSON, written through `out` (in place once all of them are)."""
+    """The report's images and JSON, written through `out` (in place once all of them are). The
+    difference image is a chart: its false colours are written as they are, not encoded."""
     images = {
-        "render.png": comparison.render, "truth.png": comparison.truth, "difference.png": heat_map(comparison),
+        "render.png": comparison.image(comparison.render), "truth.png": comparison.image(comparison.truth),
+        "difference.png": quantize(heat_map(comparison)),
     }
-    written = [out.image(folder / name, to_uint8(image)) for name, image in images.items()]
-    report = {"settings": settings, "figures": asdict(comparison.figures)}
+    written = [out.image(folder / name, image) for name, image in images.items()]
+    report = {"settings": settings, "colour_space": COLOUR_SPACE, "figures": asdict(comparison.figures)}
     written.append(out.text(folder / "report.json", json.dumps(report, indent=2) + "\n"))
     return written
 
@@ -250,7 +266,7 @@ def write_report(comparison: Comparison, folder: Path, settings: dict[str, objec
 def format_table(figures: Figures) -> str:
     rows = [
         ("mirror and glass pixels" if figures.glass_pixels else "mirror pixels", f"{figures.mirror_pixels}"),
-        ("colour RMSE", f"{figures.color_rmse:.4f}"),
+        ("colour RMSE (linear)", f"{figures.color_rmse:.4f}"),
         ("PSNR", f"{figures.psnr_db:.2f} dB"),
         ("wrong object", f"{100 * figures.wrong_object_share:.3f} % of mirror pixels"),
         ("wrong surface", (f"{100 * figures.wrong_surface_share:.2f} % of the {figures.object_pixels} mirror pixels "
@@ -296,7 +312,7 @@ def side_by_side(comparisons: dict[str, Comparison]) -> np.ndarray:
     first = next(iter(comparisons.values()))
     rows, columns = mirror_crop(first.mirror_mask)
     pictures = {name: c.render for name, c in comparisons.items()} | {"truth (Embree)": first.truth}
-    tiles = [to_uint8(picture[rows, columns]) for picture in pictures.values()]
+    tiles = [first.image(picture[rows, columns]) for picture in pictures.values()]
     height, width = tiles[0].shape[:2]
     sheet = Image.new("RGB", (len(tiles) * (width + 2), height + LABEL_HEIGHT), (255, 255, 255))
     draw = ImageDraw.Draw(sheet)

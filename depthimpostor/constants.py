@@ -80,6 +80,19 @@ class Wrap(IntEnum):
     MIRRORED_REPEAT = 33648
 
 
+class ToneMapping(IntEnum):
+    """How linear colour is compressed into [0, 1] for display (`render.tone_mapping`,
+    depthimpostor/colour.py and shaders/lib/display.glsl; docs/colour.md)."""
+
+    NONE = 0  # clamped to [0, 1]
+    ACES = 1  # Narkowicz's 2015 fit of the ACES filmic curve
+    REINHARD = 2  # x / (1 + x)
+
+    @property
+    def option(self) -> str:
+        return self.name.lower()
+
+
 class LightKind(IntEnum):
     DIRECTIONAL = 0
     POINT = 1
@@ -126,6 +139,15 @@ MAX_INTERNAL_REFLECTIONS = 2
 #: A path inside glass whose share of the light is below this (one 8-bit step of a colour <= 1)
 #: is not followed further.
 MIN_PATH_WEIGHT = 1.0 / 256.0
+#: The sRGB transfer function (IEC 61966-2-1): a linear value c <= SRGB_LINEAR_LIMIT is encoded as
+#: SRGB_LINEAR_SLOPE * c, a larger one as (1 + SRGB_OFFSET) * c^(1 / SRGB_GAMMA) - SRGB_OFFSET.
+SRGB_LINEAR_LIMIT = 0.0031308
+SRGB_LINEAR_SLOPE = 12.92
+SRGB_OFFSET = 0.055
+SRGB_GAMMA = 2.4
+#: Narkowicz's 2015 fit of the ACES filmic tone curve ("ACES Filmic Tone Mapping Curve"):
+#: f(x) = clamp(x (A x + B) / (x (C x + D) + E), 0, 1), per channel.
+ACES_A, ACES_B, ACES_C, ACES_D, ACES_E = 2.51, 0.03, 2.43, 0.59, 0.14
 #: Analytic planes (floors, walls) a reflected ray is intersected with exactly.
 MAX_ANALYTIC_PLANES = 8
 #: Distinct image textures in one scene. The ray-traced methods sample every reflected object's
@@ -274,10 +296,16 @@ def glsl_constants() -> dict[str, str]:
         "SHADOW_NORMAL_OFFSET_TEXELS": f"{SHADOW_NORMAL_OFFSET_TEXELS!r}",
         "MAX_INTERNAL_REFLECTIONS": str(MAX_INTERNAL_REFLECTIONS),
         "MIN_PATH_WEIGHT": f"{MIN_PATH_WEIGHT!r}",
+        "SRGB_LINEAR_LIMIT": f"{SRGB_LINEAR_LIMIT!r}",
+        "SRGB_LINEAR_SLOPE": f"{SRGB_LINEAR_SLOPE!r}",
+        "SRGB_OFFSET": f"{SRGB_OFFSET!r}",
+        "SRGB_GAMMA": f"{SRGB_GAMMA!r}",
+        "ACES_A": f"{ACES_A!r}", "ACES_B": f"{ACES_B!r}", "ACES_C": f"{ACES_C!r}", "ACES_D": f"{ACES_D!r}",
+        "ACES_E": f"{ACES_E!r}",
     }
     defines.update(glsl_bindings())
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",
-                ShadowKind: "SHADOW", Unseen: "UNSEEN", Wrap: "WRAP"}
+                ShadowKind: "SHADOW", Unseen: "UNSEEN", ToneMapping: "TONE_MAPPING", Wrap: "WRAP"}
     for enum, prefix in prefixes.items():
         defines.update({f"{prefix}_{member.name}": str(int(member)) for member in enum})
     return defines

@@ -20,6 +20,7 @@ import moderngl
 
 from .context import bind_default_framebuffer
 from .passes.present import PresentPass
+from .scene.model import RenderSettings
 from .shaders import ProgramCache
 
 Method = TypeVar("Method", bound=Callable[..., Any])
@@ -58,15 +59,16 @@ class FramePresenter:
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, size: tuple[int, int]) -> None:
         self.ctx = ctx
         self.size = size
-        # Float, as the frame is: a float target gets the values unclamped.
+        # Float, as the frame is: the display transform reads the linear values, not 8-bit ones.
         self.texture = ctx.texture(size, 4, dtype="f4")
         self.framebuffer = ctx.framebuffer([self.texture])
-        self.present = PresentPass(ctx, programs)
+        self.present = PresentPass(ctx, programs, encode=True)
 
     def draw(self, frame: moderngl.Framebuffer, target: moderngl.Framebuffer,
-             viewport: tuple[int, int, int, int] | None = None) -> None:
+             viewport: tuple[int, int, int, int] | None = None, display: RenderSettings | None = None) -> None:
         """Put `frame` (the renderer's colour framebuffer) into `viewport` of `target` (default: all
-        of it); the viewport must be the frame's size."""
+        of it) through `display`'s display transform, as `read_color` gives it; the viewport must
+        be the frame's size."""
         x, y, width, height = viewport if viewport is not None else (0, 0, *target.size)
         if (width, height) != self.size:
             raise ValueError(f"the target's viewport is {width}x{height}, the frame {self.size[0]}x{self.size[1]}: "
@@ -76,7 +78,7 @@ class FramePresenter:
         target.use()
         self.ctx.viewport = (x, y, width, height)
         try:
-            self.present.draw(self.texture, (x, y))
+            self.present.draw(self.texture, (x, y), display)
         finally:
             target.viewport = kept
 

@@ -126,6 +126,10 @@ def parse_memory(text: str) -> int:
     return int(float(match["number"]) * 1024**power)
 
 
+#: What sizes an equirect environment's texture.
+_MAP_SETTING = "the size of environment.path's image"
+
+
 @dataclass(frozen=True)
 class Surface:
     """One texture or renderbuffer the plan calls for: its size, its largest texel, and the setting
@@ -147,6 +151,9 @@ def surfaces(scene: Scene, plan: RenderPlan) -> list[Surface]:
     outputs are as large or smaller), glass interiors (RGBA32F, as large as the frame's larger
     side), the atlas of baked images (RG32F depth layers) and the shadow maps (RG32F)."""
     found = [Surface("frame's colour buffer", scene.render.size, 16, "--size", renderbuffer=True)]
+    image = scene.environment.image
+    if image is not None:
+        found.append(Surface("environment map", (image.shape[1], image.shape[0]), 12, _MAP_SETTING))
     if "glass interiors" in plan.memory:
         side = max(scene.render.size)
         found.append(Surface("glass interior image", (side, side), 16, "--size"))
@@ -212,7 +219,7 @@ def check_fits(ctx: moderngl.Context, scene: Scene, plan: RenderPlan) -> None:
 #: impostor resolution.
 _MEMORY_SETTINGS = {"shadow maps": "render.shadow_resolution", "glass interiors": "--size",
                     "frame colour and depth": "--size", "reflection outputs": "--size", "sample counts": "--size",
-                    "meshes": "the scene's meshes (fewer or smaller objects)"}
+                    "meshes": "the scene's meshes (fewer or smaller objects)", "environment map": _MAP_SETTING}
 
 
 def _largest_share(plan: RenderPlan) -> tuple[str, int, str]:

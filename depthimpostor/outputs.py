@@ -22,6 +22,7 @@ import numpy as np
 from PIL import Image
 
 from .errors import OutputError
+from .hdr import HDR_SUFFIXES, write_hdr
 
 Writer = Callable[[IO[bytes]], None]
 
@@ -63,12 +64,18 @@ def _writable_folder(folder: Path, option: str, shown: Path) -> None:
                 made.rmdir()
 
 
-def check_file(path: Path, option: str, image: bool = True) -> Path:
+def is_float_image(path: Path) -> bool:
+    """Does the name ask for a float image (linear, unclamped: .exr or .hdr; hdr.py writes them)?"""
+    return path.suffix.lower() in HDR_SUFFIXES
+
+
+def check_file(path: Path, option: str, image: bool = True, float_image: bool = False) -> Path:
     """Refuse, before any work, an output file that cannot be written: a folder, an image format
-    Pillow cannot write (when `image`), a folder one cannot write in."""
+    Pillow cannot write (when `image`; `float_image`: or a float .exr or .hdr), a folder one cannot
+    write in."""
     if path.is_dir():
         raise OutputError(f"{option} {path}: expected a file name, got an existing folder")
-    if image:
+    if image and not (float_image and is_float_image(path)):
         image_format(path, option)
     if not _stream(path):
         _writable_folder(path.parent, option, path)
@@ -87,6 +94,10 @@ def _image_writer(image: np.ndarray | Image.Image, path: Path) -> Writer:
     picture = image if isinstance(image, Image.Image) else Image.fromarray(image)
     name = image_format(path, "output")
     return lambda file: picture.save(file, format=name)
+
+
+def _float_image_writer(image: np.ndarray, path: Path) -> Writer:
+    return lambda file: write_hdr(file, image, path.suffix)
 
 
 def _text_writer(text: str) -> Writer:
@@ -134,6 +145,10 @@ class Outputs:
     def image(self, path: Path, image: np.ndarray | Image.Image, exclusive: bool = False) -> Path:
         return self.write(path, _image_writer(image, Path(path)), exclusive)
 
+    def float_image(self, path: Path, image: np.ndarray) -> Path:
+        """A (height, width, 3) float image as .exr or .hdr (by `path`'s suffix)."""
+        return self.write(path, _float_image_writer(image, Path(path)))
+
     def text(self, path: Path, text: str) -> Path:
         return self.write(path, _text_writer(text))
 
@@ -177,6 +192,12 @@ def write_image(path: Path, image: np.ndarray | Image.Image, exclusive: bool = F
     """One image, atomically (`exclusive`: never over an existing file, FileExistsError instead)."""
     with Outputs() as out:
         return out.image(path, image, exclusive)
+
+
+def write_float_image(path: Path, image: np.ndarray) -> Path:
+    """One float image (.exr or .hdr), atomically."""
+    with Outputs() as out:
+        return out.float_image(path, image)
 
 
 def write_text(path: Path, text: str) -> Path:

@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from enum import Enum
 from typing import Any
 
 from .bvh import node_count
@@ -25,7 +24,7 @@ from .geometry import ObjectGeometry
 from .passes.billboards import BillboardPass
 from .passes.cubemaps import CubeMapPass
 from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
-from .passes.environment import ENVIRONMENT_PROGRAM
+from .passes.environment import ENVIRONMENT_PROGRAM, environment_map_bytes
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .passes.hybrid import HybridPass
 from .passes.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
@@ -38,9 +37,11 @@ from .passes.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
 from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
 from .passes.simplified import SimplifiedPass, simplified_mesh
 from .passes.triangles import TrianglePass
+from .passes.uniforms import environment_defines
 from .scene.limits import check_method, check_model_reach, check_scene
 from .scene.model import MeshShape, Scene
 from .shaders import ProgramKey, program_key
+from .graph import Pass, RenderNode, build_graph, format_graph
 from .world import World
 
 #: Each method's stand-in for the reflected objects. Both cube-map methods look up the same cube
@@ -54,19 +55,6 @@ STAND_INS: dict[Method, type[BakedImages | TrianglePass]] = {
     Method.RAYTRACE: TrianglePass,
     Method.HYBRID: HybridPass,
 }
-
-
-class Pass(Enum):
-    """The render passes, in the order a frame runs them; the value names them in plans and stats."""
-
-    SHADOW_MAPS = "shadow maps"
-    STAND_IN = "reflected objects"  # the method's bake: depth images, cube maps, billboards, triangles
-    BOUNCES = "reflections of reflections"
-    PYRAMIDS = "depth pyramids"
-    ENVIRONMENT = "environment"
-    DIFFUSE = "diffuse objects"
-    GLASS_INTERIORS = "glass interiors"
-    REFLECTORS = "mirrors and glass"
 
 
 #: When each pass runs: the passes that bake run again only for what moved.
@@ -136,6 +124,8 @@ class RenderPlan:
     # The baked images of each reflector (by index), with their cameras: what the stand-in bakes,
     # so that it does not plan them again.
     image_plans: dict[int, list[ImagePlan]] = field(default_factory=dict, compare=False, repr=False)
+    # The passes as the render graph the renderer runs (graph.py): each with what it reads and writes.
+    graph: tuple[RenderNode, ...] = ()
 
     def runs(self, stage: Pass) -> bool:
         return any(planned.stage is stage for planned in self.passes)
@@ -159,6 +149,7 @@ class RenderPlan:
                         "height": i.height, "why": i.reason} for i in self.images],
             "skipped": [{"reflector": s.reflector, "object": s.target, "why": s.reason} for s in self.skipped],
             "variants": [{"stages": list(v.key[0]), "defines": dict(v.key[1]), "why": v.reason} for v in self.variants],
+            "graph": [{"pass": n.stage.value, "reads": list(n.reads), "writes": list(n.writes)} for n in self.graph],
             "memory_bytes": dict(self.memory),
         }
 
@@ -175,6 +166,7 @@ class RenderPlan:
             lines += [f"  {s.reflector} -> {s.target}: {s.reason}" for s in self.skipped]
         lines.append(f"shader variants ({len(self.variants)}):")
         lines += [f"  {v.name}\n      why: {v.reason}" for v in self.variants]
+        lines.append(format_graph(self.graph))
         total = sum(self.memory.values())
         parts = ", ".join(f"{name} {size / 2**20:.2f}" for name, size in self.memory.items())
         lines.append(f"memory: {total / 2**20:.2f} MiB" + (f" ({parts})" if parts else ""))
@@ -276,7 +268,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             variant((PYRAMID_PROGRAM,), None, "the hierarchical algorithm's min/max pyramid")
 
     passes.append(PlannedPass(Pass.ENVIRONMENT, f"the {scene.environment.type} sky behind everything"))
-    variant(ENVIRONMENT_PROGRAM, None, "the sky")
+    variant(ENVIRONMENT_PROGRAM, environment_defines(scene),
+            "the sky" + (" (ENVIRONMENT_MAP: an equirect image)" if scene.environment.is_map else ""))
     if diffuse:
         passes.append(PlannedPass(Pass.DIFFUSE, f"{plural(len(diffuse), 'object')} with diffuse materials"))
         variant(DIFFUSE_PROGRAM, diffuse_defines(scene, False),
@@ -294,9 +287,13 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             variant(REFLECTOR_PROGRAM, reflector_defines(scene, defines, True), f"glass (GLASS), {method.option} method")
     memory = plan_memory(scene, method, algorithm, geometry, images, True in shown_in_bounces, reflection_data,
                          count_samples)
-    return RenderPlan(scene.source, method, algorithm, tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage))),
-                      tuple(images), tuple(skipped), tuple(PlannedVariant(k, r) for k, r in variants.items()), memory,
-                      image_plans)
+    ordered = tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage)))
+    outputs = (("baked images", "BVH") if stand_in is HybridPass
+               else ("baked images",) if issubclass(stand_in, BakedImages) else ("BVH",))
+    graph = build_graph([(p.stage, p.reason) for p in ordered], outputs,
+                        method.marches_depth_images and algorithm == Algorithm.HIERARCHICAL and bool(images))
+    return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
+                      tuple(PlannedVariant(k, r) for k, r in variants.items()), memory, image_plans, graph)
 
 
 def _bvh_bytes(triangles: int, named: bool) -> int:
@@ -326,6 +323,8 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
         memory["reflection outputs"] = width * height * 16 * REFLECTION_OUTPUTS
     if count_samples:
         memory["sample counts"] = width * height * 4
+    if scene.environment.is_map:
+        memory["environment map"] = environment_map_bytes(scene.environment)
     if scene.has_shadows:
         memory["shadow maps"] = (shadow_map_bytes(len(scene.shadowed_lights), scene.render.shadow_resolution)
                                  + MAX_LIGHTS * DEPTH_IMAGE_DTYPE.itemsize)

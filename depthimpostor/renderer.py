@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
+from .colour import display_encode
 from .constants import NO_OBJECT, Algorithm, Method
 from .context import bind_default_framebuffer
 from .culling import may_shadow
@@ -35,7 +36,8 @@ from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
 from .passes.triangles import TrianglePass
 from .passes.uniforms import write_scene_uniforms
-from .plan import STAND_INS, Pass, RenderPlan, check_stand_in, plan_render
+from .graph import BAKES, Pass
+from .plan import STAND_INS, RenderPlan, check_stand_in, plan_render
 from .ppc import PPC
 from .scene.model import Camera, Scene
 from .shaders import ProgramCache, ShaderLibrary
@@ -56,10 +58,6 @@ class RenderStats:
     draw_seconds: list[float] = field(default_factory=list)  # one entry per frame
     # The mirror pass's share of each frame, when the renderer was asked to time it.
     mirror_seconds: list[float] = field(default_factory=list)
-
-
-def to_uint8(color: np.ndarray) -> np.ndarray:
-    return (np.clip(np.nan_to_num(color, nan=0.0), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
 def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC:
@@ -437,21 +435,22 @@ class Renderer:
             self._presenter = None
         if self._presenter is None:
             self._presenter = FramePresenter(self.ctx, self.programs, size)
-        self._presenter.draw(self.color_framebuffer, target, viewport)
+        self._presenter.draw(self.color_framebuffer, target, viewport, self.scene.render)
 
     def _draw_frame(self) -> RenderStats:
-        shadow_maps, stand_in = self.shadow_maps, self.stand_in
-        self.textures.use(self.scene)  # before any bake: baked images show the textures
-        if shadow_maps is not None:
-            shadow_maps.use()
-        shadows_stale = shadow_maps is not None and bool(shadow_maps.stale)
-        if shadows_stale or (stand_in is not None and self._stand_in_stale()):
+        """One frame: the plan's render graph (plan.graph), node by node. The bakes run only for
+        what is stale, and are timed apart from the eye's passes."""
+        graph = self.plan.graph
+        self.environment.use()  # an equirect sky's image: bakes see it too
+        self.textures.use(self.scene)  # the image textures: baked images show them too
+        if self.shadow_maps is not None:  # bound for every pass that shades, bakes included
+            self.shadow_maps.use()
+        bakes = [node.stage for node in graph if node.stage in BAKES and self._stale(node.stage)]
+        if bakes:
             self.ctx.finish()
             start = time.perf_counter()
-            if shadow_maps is not None and shadows_stale:
-                self._bake_shadow_maps(shadow_maps)
-            if stand_in is not None and self._stand_in_stale():  # the images show shadows: maps first
-                self._bake_stand_in(stand_in)
+            for stage in bakes:
+                self._run_bake(stage)
             self.ctx.finish()
             self.stats.bake_seconds.append(time.perf_counter() - start)
 
@@ -460,8 +459,16 @@ class Renderer:
         self.framebuffer.use()
         self.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=clear_depth(self.ctx))
         self.color_framebuffer.use()
+        mirror_start: float | None = None  # when the mirror pass began, where it is timed apart
         with eye_depth(self.ctx):
-            mirror_start = self._draw_eye_passes()
+            for node in graph:
+                if node.stage in BAKES:
+                    continue
+                if node.stage in (Pass.GLASS_INTERIORS, Pass.REFLECTORS) and self.time_mirror_pass \
+                        and mirror_start is None:
+                    self.ctx.finish()
+                    mirror_start = time.perf_counter()
+                self._run_eye_pass(node.stage)
         self.ctx.finish()
         end = time.perf_counter()
         self.stats.draw_seconds.append(end - start)
@@ -470,35 +477,56 @@ class Renderer:
         self.stats.frames += 1
         return self.stats
 
-    def _draw_eye_passes(self) -> float | None:
-        """What the eye sees, under its depth convention: the environment, the diffuse objects
-        (or the samples), the reflectors. Returns when the mirror pass began, where it is timed."""
-        self.environment.draw(self.camera)
-        self.stats.passes[Pass.ENVIRONMENT.value] += 1
+    def _stale(self, stage: Pass) -> bool:
+        """Does a baking node have anything to do this frame?"""
+        if stage is Pass.SHADOW_MAPS:
+            return self.shadow_maps is not None and bool(self.shadow_maps.stale)
+        if stage is Pass.STAND_IN:
+            return self.stand_in is not None and self._stand_in_stale()
+        # Bounce images and pyramids follow the stand-in's images: stale when any of them is.
+        return self.impostors is not None and self._stand_in_stale()
+
+    def _run_bake(self, stage: Pass) -> None:
+        impostors = self.impostors
+        if stage is Pass.SHADOW_MAPS and self.shadow_maps is not None:
+            self._bake_shadow_maps(self.shadow_maps)
+        elif stage is Pass.STAND_IN and self.stand_in is not None:  # the images show shadows: maps first
+            self._bake_stand_in(self.stand_in)
+        elif stage is Pass.BOUNCES and impostors is not None:
+            bounces_before, before = impostors.bounce_bakes, impostors.bake_counts.copy()
+            self.stats.draw_calls += impostors.bake_bounces()
+            self._count_images(impostors.bake_counts - before)
+            if impostors.bounce_bakes > bounces_before:
+                self.stats.passes[Pass.BOUNCES.value] += 1
+        elif stage is Pass.PYRAMIDS and impostors is not None and impostors.pyramid is not None:
+            impostors.build_pyramids()
+            self.stats.passes[Pass.PYRAMIDS.value] += 1
+
+    def _run_eye_pass(self, stage: Pass) -> None:
+        """The environment, the diffuse objects (or the samples), glass interiors, the reflectors."""
         view_projection = self.camera.view_projection
-        sampled = self.sampled
-        if self.show_samples and self.samples is not None and sampled is not None:
-            drawn = [g for g in self.diffuse_objects if g.is_analytic_plane]
-            self.stats.draw_calls += self.samples.draw(sampled, self.camera)
-        else:
+        if stage is Pass.ENVIRONMENT:
+            self.environment.draw(self.camera)
+        elif stage is Pass.DIFFUSE and self.diffuse is not None:
+            sampled = self.sampled
             drawn = self.diffuse_objects
-        if self.diffuse is not None:
+            if self.show_samples and self.samples is not None and sampled is not None:
+                drawn = [g for g in self.diffuse_objects if g.is_analytic_plane]
+                self.stats.draw_calls += self.samples.draw(sampled, self.camera)
             self.stats.draw_calls += self.diffuse.draw(drawn, view_projection)
-            self.stats.passes[Pass.DIFFUSE.value] += 1
-        mirror_start: float | None = None  # set when the mirror pass is timed
-        if self.mirror_pass is not None:
-            if self.time_mirror_pass:
-                self.ctx.finish()
-                mirror_start = time.perf_counter()
-            interiors_before = self._interiors_made()
+        elif stage is Pass.GLASS_INTERIORS and self.mirror_pass is not None:
+            before = self._interiors_made()
+            self.stats.draw_calls += self.mirror_pass.make_interiors(self.reflectors, self.camera)
+            made = self._interiors_made() - before
+            if not made:
+                return
+            self.stats.interiors_made += made
+        elif stage is Pass.REFLECTORS and self.mirror_pass is not None:
             self.stats.draw_calls += self.mirror_pass.draw(self.reflectors, self.camera, self.framebuffer,
                                                            self.tint_retraced)
-            self.stats.passes[Pass.REFLECTORS.value] += 1
-            made = self._interiors_made() - interiors_before
-            if made:
-                self.stats.interiors_made += made
-                self.stats.passes[Pass.GLASS_INTERIORS.value] += 1
-        return mirror_start
+        else:
+            return
+        self.stats.passes[stage.value] += 1
 
     def _interiors_made(self) -> int:
         return sum(interior.bakes for interior in self.glass_interiors.values())
@@ -514,22 +542,19 @@ class Renderer:
         self.stats.passes[Pass.SHADOW_MAPS.value] += 1
 
     def _bake_stand_in(self, stand_in: ReflectedObjects) -> None:
-        """Bake the method's stale images (or upload its triangles)."""
+        """Bake the method's stale images but those of reflectors in reflectors (the bounce node's),
+        or upload its triangles."""
         baked = self.baked_images
         before = baked.bake_counts.copy() if baked is not None else Counter()
-        pyramids = self.impostors is not None and self.impostors.pyramid is not None
-        bounces_before = baked.bounce_bakes if baked is not None else 0
         self.stats.draw_calls += stand_in.bake()
         self.stats.passes[Pass.STAND_IN.value] += 1
         if baked is not None:
-            new = baked.bake_counts - before
-            self.stats.images_baked += new
-            self.stats.depth_images_baked += sum(new.values())
-            if baked.bounce_bakes > bounces_before:
-                self.stats.passes[Pass.BOUNCES.value] += 1
-            if pyramids:
-                self.stats.passes[Pass.PYRAMIDS.value] += 1
+            self._count_images(baked.bake_counts - before)
         self._baked = True
+
+    def _count_images(self, new: Counter[str]) -> None:
+        self.stats.images_baked += new
+        self.stats.depth_images_baked += sum(new.values())
 
     def read_color_float(self) -> np.ndarray:
         """The last frame as (height, width, 3) float32, top row first, unclamped."""
@@ -538,8 +563,10 @@ class Renderer:
         return np.frombuffer(data, dtype=np.float32).reshape(height, width, 3).copy()
 
     def read_color(self) -> np.ndarray:
-        """The last frame as (height, width, 3) uint8, top row first, ready for a PNG."""
-        return to_uint8(self.read_color_float())
+        """The last frame as (height, width, 3) uint8, top row first, ready for a PNG: through the
+        scene's display transform (exposure, tone mapping, sRGB; colour.py)."""
+        render = self.scene.render
+        return display_encode(self.read_color_float(), render.tone_mapping, render.exposure)
 
     def read_sample_counts(self) -> np.ndarray:
         """(height, width) samples each mirror pixel's reflected ray read (0 outside mirrors)."""

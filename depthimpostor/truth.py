@@ -25,7 +25,7 @@ from .constants import MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
 from .geometry import ObjectGeometry
 from .lights import light_sample_points
 from .meshes import plane_uvs
-from .scene.model import CheckerMaterial, DiffuseMaterial, GlassMaterial, Material, MirrorMaterial, Scene
+from .scene.model import CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MirrorMaterial, Scene
 from .textures import texture_bilinear
 
 Array = np.ndarray
@@ -43,13 +43,54 @@ class TruthHits:
 
 
 def environment(scene: Scene, directions: Array) -> Array:
-    """shaders/lib/environment.glsl in numpy."""
+    """shaders/lib/environment.glsl in numpy: the gradient, or an equirect map's `equirect_lookup`."""
     env = scene.environment
+    if env.is_map:
+        return equirect_lookup(env, directions)
     norm = np.linalg.norm(directions, axis=1, keepdims=True)
     y = np.clip(np.where(norm > 1e-20, directions / np.maximum(norm, 1e-300), [0.0, 1.0, 0.0])[:, 1], -1.0, 1.0)
     up = np.asarray(env.horizon) + (np.asarray(env.zenith) - env.horizon) * np.clip(y, 0, None)[:, None]
     down = np.asarray(env.horizon) + (np.asarray(env.ground) - env.horizon) * np.clip(-y, 0, None)[:, None]
     return np.where((y >= 0.0)[:, None], up, down)
+
+
+def equirect_lookup(env: Environment, directions: Array) -> Array:
+    """An equirect environment's radiance along each direction, as lib/environment.glsl reads it.
+
+    The rule, the same texels with the same filter on both sides: the direction d (any length)
+    is first turned by -rotation about +Y (the sky turns by +rotation). Its longitude
+    atan2(x, -z) (0 along -Z, pi/2 along +X) maps to u = longitude / 2 pi + 0.5 across the image
+    and its angle from the zenith atan2(|(x, z)|, y) to v = angle / pi down it (row 0 at the
+    zenith; straight up or down, where the longitude is undefined, it is 0). The texel position
+    (u W - 0.5, v H - 0.5) is filtered bilinearly from the four float32 texels around it,
+    columns wrapping around and rows clamped at the poles; the result is times `intensity`. The
+    shader filters with texelFetch and float weights (not the sampler's 8-bit ones), so the two
+    differ only by float32 rounding of the angles and weights."""
+    image = env.image
+    if image is None:
+        raise ValueError(f"a {env.type} environment has no image")
+    height, width = image.shape[:2]
+    radians = np.radians(env.rotation)
+    c, s = np.cos(radians), np.sin(radians)
+    x = c * directions[:, 0] - s * directions[:, 2]
+    y = directions[:, 1]
+    z = s * directions[:, 0] + c * directions[:, 2]
+    horizontal = np.hypot(x, z)
+    around = horizontal > 0.0
+    longitude = np.where(around, np.arctan2(x, -z), 0.0)
+    polar = np.where(around, np.arctan2(horizontal, y), np.where(y < 0.0, np.pi, 0.0))
+    tx = (longitude / (2.0 * np.pi) + 0.5) * width - 0.5
+    ty = polar / np.pi * height - 0.5
+    bx, by = np.floor(tx), np.floor(ty)
+    fx, fy = (tx - bx)[:, None], (ty - by)[:, None]
+    x0 = (bx.astype(np.int64) + width) % width
+    x1 = (bx.astype(np.int64) + 1 + width) % width
+    y0 = np.clip(by.astype(np.int64), 0, height - 1)
+    y1 = np.clip(by.astype(np.int64) + 1, 0, height - 1)
+    texels = image.astype(np.float64)
+    top = texels[y0, x0] + (texels[y0, x1] - texels[y0, x0]) * fx
+    bottom = texels[y1, x0] + (texels[y1, x1] - texels[y1, x0]) * fx
+    return env.intensity * (top + (bottom - top) * fy)
 
 
 def material_albedo(material: Material, local_positions: Array, uvs: Array | None = None) -> Array:

@@ -14,6 +14,7 @@ import pytest
 
 import depthimpostor
 from conftest import SCENES, assert_finite
+from depthimpostor.colour import display_encode
 from depthimpostor.scene import load_scene
 
 SIZE = (64, 36)
@@ -32,7 +33,8 @@ def test_render_image_is_the_frame_the_renderer_draws(ctx: moderngl.Context) -> 
     color = depthimpostor.render_image(scene, dtype="float32", ctx=ctx)
     assert color.dtype == np.float32 and color.shape == image.shape
     assert_finite(color)
-    assert np.abs(np.clip(color, 0, 1) * 255 - expected).max() <= 1
+    # uint8 is the float frame, linear, through the display transform (sRGB-encoded: docs/colour.md).
+    assert np.abs(display_encode(color).astype(int) - expected).max() <= 1
     assert ctx.error == "GL_NO_ERROR"
 
 

@@ -12,8 +12,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 import pytest
-import tomllib
-from conftest import PROJECT_ROOT, SCENES
+from conftest import PROJECT_ROOT, SCENES, tomllib  # tomli on Python 3.10
 
 from depthimpostor import culling
 from depthimpostor.constants import (

@@ -112,7 +112,7 @@ def assert_raytrace_matches_the_truth(ctx: moderngl.Context, scene: Scene, mirro
         assert figures.geometric_error_max < 1e-3  # a share of the object's radius
 
 
-@pytest.mark.parametrize("name", ["default", "bunny", "lecture_8x9", "grid_3x3"])
+@pytest.mark.parametrize("name", ["default", "bunny", "lecture_8x9", "grid_3x3", "hdr_sky"])
 def test_raytrace_matches_the_embree_truth(ctx: moderngl.Context, name: str) -> None:
     assert_raytrace_matches_the_truth(ctx, load_scene(SCENES / f"{name}.toml"))
 

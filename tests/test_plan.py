@@ -18,7 +18,8 @@ from depthimpostor.cli import main
 from depthimpostor.constants import Algorithm, Method
 from depthimpostor.culling import Reach, may_shadow, reach
 from depthimpostor.geometry import scene_geometry
-from depthimpostor.plan import Pass, plan_render
+from depthimpostor.graph import Pass
+from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION
 from depthimpostor.scene import Scene, load_scene
@@ -35,6 +36,7 @@ PLAN_COUNTS = {
     "textured_near_mirror.toml": (4, 4, 0, 5),  # checker_near_mirror with image textures
     "glass_and_mirrors.toml": (7, 15, 0, 11),  # 3 reflectors x 3 objects + 3 x 2 of bounce 2
     "grid_3x3.toml": (4, 8, 0, 5),
+    "hdr_sky.toml": (4, 4, 0, 5),  # 2 mirrors x 2 objects; the sky's ENVIRONMENT_MAP variants
     "lecture_8x9.toml": (4, 72, 0, 5),
     "planar_mirror.toml": (4, 3, 0, 5),
     "shadows.toml": (5, 4, 0, 6),

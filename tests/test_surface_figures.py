@@ -27,6 +27,7 @@ from depthimpostor.compare import (
 from depthimpostor.constants import NO_OBJECT, Method
 from depthimpostor.renderer import ReflectionData, Renderer
 from depthimpostor.scene import load_scene
+from depthimpostor.scene.model import RenderSettings
 
 # Small, but the checker squares of the near objects still span several pixels each.
 SIZE = (320, 180)
@@ -64,6 +65,7 @@ def _synthetic() -> tuple[Renderer, TruthFrame]:
     stand_in = SimpleNamespace(
         read_reflection_data=lambda: data, read_color_float=lambda: render_color, glass=[],
         reflected_objects=[SimpleNamespace(index=OBJECT, bounding_sphere=(np.zeros(3), 1.0))],
+        scene=SimpleNamespace(render=RenderSettings()),  # the display settings of the report's images
     )
     return cast(Renderer, stand_in), truth
 

@@ -73,6 +73,9 @@ def main() -> int:
         if args.action == "record":
             np.savez_compressed(path, frame=np.asarray(frame) if not isinstance(frame, str) else np.array(frame))
             continue
+        if not path.exists():  # a scene or method added since the recording: nothing to compare with
+            print(f"new     {path.stem}: not in the recording", flush=True)
+            continue
         before = np.load(path)["frame"]
         if isinstance(frame, str) or before.dtype.kind == "U":
             same = isinstance(frame, str) and before.dtype.kind == "U" and str(before) == frame

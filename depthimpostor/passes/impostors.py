@@ -102,14 +102,15 @@ class ImpostorPass(BakedImages):
     def describe(self) -> str:
         return super().describe() + (" with depth pyramids" if self.pyramid is not None else "")
 
-    def bake(self) -> int:
-        baking = self.needs_bake
-        draws = super().bake()
-        if self.bounces is not None:
-            draws += self.bounces.bake()
-        if self.pyramid is not None and baking:
+    def bake_bounces(self) -> int:
+        """The stale images of reflectors in reflectors (the render graph's bounce node: after
+        `bake`, which bakes the others); returns the draw calls."""
+        return self.bounces.bake() if self.bounces is not None else 0
+
+    def build_pyramids(self) -> None:
+        """The min/max pyramids of every image, from the atlas as baked (the graph's pyramid node)."""
+        if self.pyramid is not None:
             self.pyramid.build(self.atlas.depth_layers())
-        return draws
 
     def bind(self, program: moderngl.Program) -> None:
         super().bind(program)

@@ -18,7 +18,7 @@ from ..truth import MIRROR_BACKING_ALBEDO
 from .glass import GlassInterior, interior_camera, pixel_angle
 from .atlas import BAKE_CULLS_FRONT_FACES
 from .meshes import GpuMeshes
-from .uniforms import shading_defines, write
+from .uniforms import environment_defines, shading_defines, write
 
 
 class ReflectedObjects(Protocol):
@@ -66,8 +66,8 @@ REFLECTOR_PROGRAM = ("mesh.vert", "mirror.frag")
 
 
 def reflector_defines(scene: Scene, defines: dict[str, int], glass: bool) -> dict[str, int]:
-    """The mirror shader's variant for mirrors or (GLASS) for glass, under the scene's lights."""
-    return {**defines, **shading_defines(scene), **({"GLASS": 1} if glass else {})}
+    """The mirror shader's variant for mirrors or (GLASS) for glass, under the scene's lights and environment."""
+    return {**defines, **shading_defines(scene), **environment_defines(scene), **({"GLASS": 1} if glass else {})}
 
 
 def bounce_defines() -> dict[str, int]:
@@ -141,6 +141,20 @@ class MirrorPass:
         self.meshes = meshes
         self.reflected = reflected
 
+    def make_interiors(self, reflectors: list[ObjectGeometry], camera: PPC) -> int:
+        """The interior image of each glass object the eye or the glass has moved since it was made
+        (the render graph's glass-interior node); returns the draw calls."""
+        draws = 0
+        for item in reflectors:
+            if not item.object.is_glass:
+                continue
+            interior = self.interiors[item.index]
+            seen_from = (tuple(camera.C), pixel_angle(camera), item.time)  # what the image depends on
+            if interior.seen_from != seen_from:
+                draws += interior.bake(item, interior_camera(camera.C, item, seen_from[1], interior.size))
+                interior.seen_from = seen_from
+        return draws
+
     def draw(self, reflectors: list[ObjectGeometry], camera: PPC, framebuffer: moderngl.Framebuffer,
              tint_retraced: bool = False) -> int:
         """Draw the reflectors into `framebuffer` as `camera` sees them; returns the draw calls.
@@ -153,10 +167,6 @@ class MirrorPass:
                 raise TypeError(f"object {item.object.name!r} is not a reflector of this pass's scene")
             if glass:
                 interior = self.interiors[item.index]
-                seen_from = (tuple(camera.C), pixel_angle(camera), item.time)  # what the image depends on
-                if interior.seen_from != seen_from:
-                    draws += interior.bake(item, interior_camera(camera.C, item, seen_from[1], interior.size))
-                    interior.seen_from = seen_from
                 interior.bind(program)
                 write_glass(program, item)
             framebuffer.use()

@@ -6,6 +6,7 @@ each write checks membership first instead of catching errors.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import moderngl
@@ -29,6 +30,11 @@ def shading_defines(scene: Scene) -> dict[str, int]:
     with image textures (TEXTURE_COUNT of them)."""
     return {**({"SHADOWS": 1} if scene.has_shadows else {}),
             **({"TEXTURE_COUNT": len(scene.textures)} if scene.textures else {})}
+
+
+def environment_defines(scene: Scene) -> dict[str, int]:
+    """The variant of every program that reads the environment: ENVIRONMENT_MAP for an image."""
+    return {"ENVIRONMENT_MAP": 1} if scene.environment.is_map else {}
 
 
 def write(program: moderngl.Program | moderngl.ComputeShader, name: str,
@@ -139,9 +145,19 @@ def write_lighting(program: moderngl.Program, scene: Scene) -> None:
     write(program, "u_light_radius", radii)
     write(program, "u_shadow_depth", TextureUnit.SHADOW_MAPS)
     bind_uniform_block(program, "ShadowMaps", UniformBlock.SHADOW_MAPS)
-    write(program, "u_env_zenith", tuple(scene.environment.zenith))
-    write(program, "u_env_horizon", tuple(scene.environment.horizon))
-    write(program, "u_env_ground", tuple(scene.environment.ground))
+    write_environment(program, scene)
+
+
+def write_environment(program: moderngl.Program, scene: Scene) -> None:
+    """lib/environment.glsl's uniforms: the gradient's colours, or the map's unit and settings."""
+    env = scene.environment
+    write(program, "u_env_zenith", tuple(env.zenith))
+    write(program, "u_env_horizon", tuple(env.horizon))
+    write(program, "u_env_ground", tuple(env.ground))
+    write(program, "u_env_map", TextureUnit.ENVIRONMENT_MAP)
+    write(program, "u_env_intensity", float(env.intensity))
+    radians = math.radians(env.rotation)
+    write(program, "u_env_rotation", (math.cos(radians), math.sin(radians)))
 
 
 def write_scene_uniforms(program: moderngl.Program, scene: Scene, planes: Sequence[ObjectGeometry]) -> None:

@@ -19,6 +19,7 @@ else:  # tomllib joined the standard library in 3.11; tomli is the same parser (
 
 from depthimpostor.constants import MAX_BOUNCES, MAX_IOR, Wrap
 from depthimpostor.errors import SceneError
+from depthimpostor.hdr import HDR_SUFFIXES, HdrImageError, read_hdr
 from depthimpostor.scene import fields as f
 from depthimpostor.scene.gltf import gltf_objects, gltf_scene, read_gltf
 from depthimpostor.scene.gltf_file import GLTF_SUFFIXES
@@ -26,7 +27,7 @@ from depthimpostor.scene.limits import check_scene
 from depthimpostor.textures import read_texture
 from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_variant, show
 from depthimpostor.scene.model import (
-    IMPOSTOR_RESOLUTION, ZERO, Animation, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial,
+    EXPOSURE, IMPOSTOR_RESOLUTION, TONE_MAPPING, ZERO, Animation, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial,
     Environment, GlassMaterial, Light, Material, MeshShape, MirrorMaterial, PlaneShape, RenderSettings, Scene,
     SceneObject, Shape, SphereShape, Texture, TorusKnotShape, TorusShape,
 )
@@ -218,9 +219,41 @@ def _constant(t: Table) -> Environment:
     return Environment("constant", color, color, color, color)
 
 
+#: The largest side of an environment map: GL 4.1 and later guarantee textures of 16384 texels a side.
+MAX_ENVIRONMENT_SIDE = 16384
+
+
+def _equirect(t: Table) -> Environment:
+    at, written = t.at.key("path"), t.req("path", NAME)
+    if Path(written).suffix.lower() not in HDR_SUFFIXES:
+        raise at.error(f"expected a path to a {' or '.join(HDR_SUFFIXES)} file, got {json.dumps(written)}")
+    path = t.at.base_dir / Path(written).expanduser()  # joining an absolute path ignores the folder
+    if not path.is_file():
+        raise at.error(f"expected an existing HDR image, got {json.dumps(written)}: not found "
+                       f"(looked for {path.resolve()})")
+    try:
+        image = read_hdr(path)
+    except HdrImageError as error:
+        raise at.error(f"{json.dumps(written)}: {error}") from None
+    except OSError as error:
+        raise at.error(f"cannot read {json.dumps(written)}: {error.strerror or error}") from None
+    height, width = image.shape[:2]
+    if max(width, height) > MAX_ENVIRONMENT_SIDE:
+        raise at.error(f"expected an image of at most {MAX_ENVIRONMENT_SIDE} pixels a side, got {width}x{height}")
+    # Radiance is not negative; a few processed files hold tiny negative values, which would shade as
+    # negative light: they are taken as 0, by the shader and the truth alike (they read this array).
+    image = np.maximum(image, 0.0)
+    image.flags.writeable = False
+    d = Environment()
+    return Environment("equirect", path=path.resolve(), image=image,
+                       intensity=t.opt("intensity", f.number(f.NON_NEGATIVE), d.intensity),
+                       rotation=t.opt("rotation", f.number(f.Bounds(-360.0, 360.0)), d.rotation))
+
+
 _ENVIRONMENTS: dict[str, Variant[Environment]] = {
     "gradient": Variant(("zenith", "horizon", "ground"), _gradient),
     "constant": Variant(("color",), _constant),
+    "equirect": Variant(("path", "intensity", "rotation"), _equirect),
 }
 
 
@@ -231,7 +264,9 @@ def _render(t: Table) -> RenderSettings:
                           simplified_triangles=t.opt("simplified_triangles", TRIANGLE_TARGET, d.simplified_triangles),
                           shadow_resolution=t.opt("shadow_resolution", RESOLUTION, d.shadow_resolution),
                           max_bounces=t.opt("max_bounces", f.integer(f.Bounds(1, MAX_BOUNCES)), d.max_bounces),
-                          ambient=t.opt("ambient", f.number(f.UNIT), d.ambient))
+                          ambient=t.opt("ambient", f.number(f.UNIT), d.ambient),
+                          tone_mapping=t.opt("tone_mapping", TONE_MAPPING, d.tone_mapping),
+                          exposure=t.opt("exposure", EXPOSURE, d.exposure))
 
 
 def _camera(t: Table) -> Camera:
@@ -318,7 +353,8 @@ def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
     scene = Scene(
         source=source,
         render=_render(top.section("render", ("size", "impostor_resolution", "ambient", "simplified_triangles",
-                                              "shadow_resolution", "max_bounces"))),
+                                              "shadow_resolution", "max_bounces", "tone_mapping",
+                                              "exposure"))),
         camera=_camera(top.section("camera", ("eye", "target", "up", "fov_y"))),
         environment=top.variant("environment", _ENVIRONMENTS, default=Environment(), default_type="gradient"),
         lights=tuple(read_variant(value, at, _LIGHTS) for value, at in top.array("lights")),

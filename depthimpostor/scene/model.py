@@ -15,8 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
+from depthimpostor.colour import TONE_MAPPINGS
 from depthimpostor.meshes import Mesh
-from depthimpostor.scene.fields import RESOLUTION, SIZE, TRIANGLE_TARGET, At, Reader, Vec3, word_or
+from depthimpostor.scene.fields import (
+    RESOLUTION, SIZE, TRIANGLE_TARGET, At, Bounds, Reader, Vec3, choice, number, word_or,
+)
 
 ZERO: Vec3 = (0.0, 0.0, 0.0)
 
@@ -24,6 +27,10 @@ ZERO: Vec3 = (0.0, 0.0, 0.0)
 AUTO_RESOLUTION = "auto"
 #: What `impostor_resolution` may be, in the file and on the command line alike.
 IMPOSTOR_RESOLUTION: Reader[int | str] = word_or(AUTO_RESOLUTION, RESOLUTION)
+#: What `tone_mapping` and `exposure` may be, in the file and on the command line alike: 2^20 is
+#: past any useful scale of a frame (and 2^exposure stays a finite float).
+TONE_MAPPING = choice(TONE_MAPPINGS)
+EXPOSURE = number(Bounds(-20.0, 20.0))
 
 
 @dataclass(frozen=True)
@@ -39,6 +46,10 @@ class RenderSettings:
     # Mirror bounces a camera ray may make: at 1 a mirror does not appear in another mirror;
     # at k the depth images of bounce k show mirrors with their reflections of bounce k - 1.
     max_bounces: int = 1
+    # The display transform of images written or shown (depthimpostor/colour.py, docs/colour.md):
+    # the frame stays linear; 8-bit output is 2^exposure times it, tone mapped, sRGB encoded.
+    tone_mapping: str = "none"  # "none" (clamped), "aces" or "reinhard"
+    exposure: float = 0.0  # stops
 
     @property
     def auto_resolution(self) -> bool:
@@ -59,7 +70,10 @@ class Environment:
     """What a reflected ray that hits nothing sees.
 
     A "gradient" blends zenith, horizon and ground (`color` is its horizon); a "constant" one has
-    zenith = horizon = ground = color, so a shader can treat both alike.
+    zenith = horizon = ground = color, so a shader can treat both alike. An "equirect" one is an
+    HDR image (`image`, read from `path`) of every direction, longitude across and latitude down,
+    times `intensity`, turned `rotation` degrees about +Y (shaders/lib/environment.glsl and
+    truth.equirect_lookup state the lookup).
     """
 
     type: str = "gradient"
@@ -67,6 +81,17 @@ class Environment:
     zenith: Vec3 = (0.35, 0.55, 0.9)
     horizon: Vec3 = (0.9, 0.9, 0.95)
     ground: Vec3 = (0.3, 0.28, 0.25)
+    path: Path | None = None  # "equirect": the image file, resolved and absolute
+    intensity: float = 1.0
+    rotation: float = 0.0  # degrees, counter-clockwise about +Y seen from above
+    # "equirect": (height, width, 3) float32 linear RGB, row 0 at the zenith, read-only. Not compared:
+    # the path names it, and arrays have no single truth value.
+    image: np.ndarray | None = dataclasses.field(default=None, compare=False, repr=False)
+
+    @property
+    def is_map(self) -> bool:
+        """Is it an image (the shaders' ENVIRONMENT_MAP variant) rather than colours?"""
+        return self.image is not None
 
 
 def _vec3(v: np.ndarray) -> Vec3:
@@ -396,7 +421,8 @@ class Scene:
         return tuple(o for o in self.objects if not o.is_specular)
 
     def with_overrides(self, size: tuple[int, int] | None = None, impostor_resolution: int | str | None = None,
-                       simplified_triangles: int | None = None) -> Scene:
+                       simplified_triangles: int | None = None, tone_mapping: str | None = None,
+                       exposure: float | None = None) -> Scene:
         """This scene with render settings from the command line, checked as strictly as the file's."""
         at = At("command line", "")
         render = self.render
@@ -408,4 +434,8 @@ class Scene:
         if simplified_triangles is not None:
             target = at.key("--simplified-triangles").read(simplified_triangles, TRIANGLE_TARGET)
             render = dataclasses.replace(render, simplified_triangles=target)
+        if tone_mapping is not None:
+            render = dataclasses.replace(render, tone_mapping=at.key("--tone-mapping").read(tone_mapping, TONE_MAPPING))
+        if exposure is not None:
+            render = dataclasses.replace(render, exposure=at.key("--exposure").read(exposure, EXPOSURE))
         return dataclasses.replace(self, render=render)

@@ -169,9 +169,13 @@ class Viewer:
     # ------------------------------------------------------------------ GL objects
     def _make_viewer_passes(self) -> None:
         self.overlay = OverlayPass(self.ctx, self.programs, self.font_pixels)
+        # The linear frame through the display transform (as a screenshot is written), then the
+        # overlay over it, then the whole flipped into the window.
+        self.display = PresentPass(self.ctx, self.programs, encode=True, flip=False)
         self.present = PresentPass(self.ctx, self.programs)
 
     def _make_frame_target(self) -> None:
+        self.linear_texture = self.ctx.texture(self.frame_size, 4, dtype="f4")
         self.frame_texture = self.ctx.texture(self.frame_size, 4)
         self.frame_framebuffer = self.ctx.framebuffer([self.frame_texture])
 
@@ -179,10 +183,12 @@ class Viewer:
         bind_default_framebuffer(self.ctx)
         self.frame_framebuffer.release()
         self.frame_texture.release()
+        self.linear_texture.release()
 
     def release(self) -> None:
         self._release_frame_target()
         self.overlay.release()
+        self.display.release()
         self.present.release()
         self.programs.release()
         self.renderer.release()
@@ -361,6 +367,7 @@ class Viewer:
             print(error, file=sys.stderr, flush=True)
             return "shader reload failed (the error is in the terminal); drawing with the last good shaders"
         self.overlay.release()
+        self.display.release()
         self.present.release()
         self.programs.release()
         self.programs = fresh
@@ -420,8 +427,9 @@ class Viewer:
             else:
                 self.log.screenshots.append(str(path))
                 self.say(f"screenshot {path}")
-        self.ctx.copy_framebuffer(self.frame_framebuffer, renderer.color_framebuffer)
+        self.ctx.copy_framebuffer(self.linear_texture, renderer.color_framebuffer)
         self.frame_framebuffer.use()
+        self.display.draw(self.linear_texture, display=renderer.scene.render)
         self.overlay.draw(self.panels(), self.frame_size)
         self.ctx.screen.use()
         # The window's framebuffer was measured when the context was made; after a resize the

@@ -1,5 +1,40 @@
 // What a ray sees when it hits nothing: a vertical gradient (a constant environment is the
-// gradient with three equal colours). Mirrored by depthimpostor.truth for the ray tracer.
+// gradient with three equal colours), or (ENVIRONMENT_MAP) an equirectangular HDR image.
+// Mirrored by depthimpostor.truth (`environment`, `equirect_lookup`) for the ray tracer, which
+// reads the same texels with the same filter.
+#ifdef ENVIRONMENT_MAP
+uniform sampler2D u_env_map;  // RGB32F, row 0 at the zenith; read texel by texel, never filtered by GL
+uniform float u_env_intensity;
+uniform vec2 u_env_rotation;  // (cos, sin) of environment.rotation: the sky turned about +Y
+
+const float ENV_PI = 3.14159265358979;
+
+// The longitude atan(x, -z) (0 straight down -Z, increasing toward +X) runs across the image from
+// -pi at its left edge to pi at its right; the angle from the zenith runs down it from 0 to pi.
+// Texel centres sit at half-texel offsets. The filter is bilinear, done here with four texelFetch
+// rather than by the sampler: GPUs weight a hardware-filtered texel with 8 fractional bits,
+// which the float64 truth could not reproduce; columns wrap around, rows stop at the poles.
+vec3 environment(vec3 direction) {
+    vec3 d = vec3(u_env_rotation.x * direction.x - u_env_rotation.y * direction.z, direction.y,
+                  u_env_rotation.y * direction.x + u_env_rotation.x * direction.z);
+    float horizontal = length(d.xz);
+    // atan(0, 0) is undefined: straight up or down every longitude is the same direction.
+    float longitude = horizontal > 0.0 ? atan(d.x, -d.z) : 0.0;
+    float polar = horizontal > 0.0 ? atan(horizontal, d.y) : (d.y < 0.0 ? ENV_PI : 0.0);
+    ivec2 size = textureSize(u_env_map, 0);
+    vec2 texel = vec2((longitude / (2.0 * ENV_PI) + 0.5) * float(size.x), polar / ENV_PI * float(size.y)) - 0.5;
+    vec2 base = floor(texel);
+    vec2 f = texel - base;
+    // base.x is in [-1, width - 1]: adding the width before the remainder keeps it non-negative.
+    int x0 = (int(base.x) + size.x) % size.x;
+    int x1 = (int(base.x) + 1 + size.x) % size.x;
+    int y0 = clamp(int(base.y), 0, size.y - 1);
+    int y1 = clamp(int(base.y) + 1, 0, size.y - 1);
+    vec3 top = mix(texelFetch(u_env_map, ivec2(x0, y0), 0).rgb, texelFetch(u_env_map, ivec2(x1, y0), 0).rgb, f.x);
+    vec3 bottom = mix(texelFetch(u_env_map, ivec2(x0, y1), 0).rgb, texelFetch(u_env_map, ivec2(x1, y1), 0).rgb, f.x);
+    return u_env_intensity * mix(top, bottom, f.y);
+}
+#else
 uniform vec3 u_env_zenith;
 uniform vec3 u_env_horizon;
 uniform vec3 u_env_ground;
@@ -8,3 +43,4 @@ vec3 environment(vec3 direction) {
     float y = clamp(safe_normalize(direction, vec3(0.0, 1.0, 0.0)).y, -1.0, 1.0);
     return y >= 0.0 ? mix(u_env_horizon, u_env_zenith, y) : mix(u_env_horizon, u_env_ground, -y);
 }
+#endif

@@ -1,0 +1,88 @@
+"""The frame as a graph of passes: the plan's passes (plan.py) in the order a frame runs them, each
+with the named resources it reads and writes. Built from the plan, checked (every resource read has
+been written by an earlier pass, or is the frame's own cleared target), printed by
+`depthimpostor plan`, and run node by node by the renderer (renderer.py's `_run`), so that what
+runs is what the plan says. This is not a scheduler: about eight nodes in a fixed order.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from enum import Enum
+
+
+class Pass(Enum):
+    """The render passes, in the order a frame runs them; the value names them in plans and stats."""
+
+    SHADOW_MAPS = "shadow maps"
+    STAND_IN = "reflected objects"  # the method's bake: depth images, cube maps, billboards, triangles
+    BOUNCES = "reflections of reflections"
+    PYRAMIDS = "depth pyramids"
+    ENVIRONMENT = "environment"
+    DIFFUSE = "diffuse objects"
+    GLASS_INTERIORS = "glass interiors"
+    REFLECTORS = "mirrors and glass"
+
+
+#: What every frame starts with: its colour and depth targets, cleared.
+FRAME = ("frame colour", "frame depth")
+
+#: The passes that bake (they run only for what is stale) and the eye's passes (every frame).
+BAKES = (Pass.SHADOW_MAPS, Pass.STAND_IN, Pass.BOUNCES, Pass.PYRAMIDS)
+
+
+@dataclass(frozen=True)
+class RenderNode:
+    stage: Pass
+    reads: tuple[str, ...]
+    writes: tuple[str, ...]
+    why: str  # the plan's reason
+
+    def format(self) -> str:
+        reads = ", ".join(self.reads) or "nothing"
+        return f"{self.stage.value}: reads {reads}; writes {', '.join(self.writes)}"
+
+
+def build_graph(stages: Sequence[tuple[Pass, str]], stand_in: tuple[str, ...], reads_pyramids: bool) -> tuple[RenderNode, ...]:
+    """The planned passes (`stages`: each with the plan's reason) as nodes. `stand_in`: what the
+    method's stand-in makes for the reflectors to read ("baked images", "BVH"); `reads_pyramids`:
+    the reflectors' variant marches with the hierarchical traversal. GraphError where a pass
+    would read what nothing wrote."""
+    planned = {stage for stage, _ in stages}
+    shadows = ("shadow maps",) if Pass.SHADOW_MAPS in planned else ()
+    pyramids = ("depth pyramids",) if reads_pyramids else ()
+    bounces = ("bounce images",) if Pass.BOUNCES in planned else ()
+    interiors = ("glass interiors",) if Pass.GLASS_INTERIORS in planned else ()
+    io: dict[Pass, tuple[tuple[str, ...], tuple[str, ...]]] = {
+        Pass.SHADOW_MAPS: ((), ("shadow maps",)),
+        # Baked images are shaded, shadows included; a BVH is triangles alone.
+        Pass.STAND_IN: (shadows if "baked images" in stand_in else (), stand_in),
+        Pass.BOUNCES: (("baked images", *shadows), bounces),
+        Pass.PYRAMIDS: (("baked images", *bounces), ("depth pyramids",)),
+        Pass.ENVIRONMENT: (("frame colour",), ("frame colour",)),
+        Pass.DIFFUSE: (("frame colour", "frame depth", *shadows), ("frame colour", "frame depth")),
+        Pass.GLASS_INTERIORS: ((), interiors),
+        Pass.REFLECTORS: (("frame colour", "frame depth", *stand_in, *pyramids, *bounces, *interiors, *shadows),
+                          ("frame colour", "frame depth")),
+    }
+    nodes = tuple(RenderNode(stage, *io[stage], why) for stage, why in stages)
+    check_graph(nodes)
+    return nodes
+
+
+class GraphError(RuntimeError):
+    """A plan whose passes read what none wrote: a bug in planning, not in the scene."""
+
+
+def check_graph(nodes: tuple[RenderNode, ...]) -> None:
+    written = set(FRAME)
+    for node in nodes:
+        missing = [name for name in node.reads if name not in written]
+        if missing:
+            raise GraphError(f"the {node.stage.value} pass reads {', '.join(missing)}, which no earlier pass writes")
+        written.update(node.writes)
+
+
+def format_graph(nodes: tuple[RenderNode, ...]) -> str:
+    return "\n".join([f"graph ({len(nodes)} nodes, in order):"] + [f"  {node.format()}" for node in nodes])

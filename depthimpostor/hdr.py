@@ -1,0 +1,111 @@
+"""HDR images: environment maps read, float frames written.
+
+Two well-kept libraries, one per format, each the reference or the most used reader of its format:
+OpenEXR's own Python bindings (the Academy Software Foundation's; numpy in and out) for .exr, and
+OpenCV for Radiance .hdr (RGBE), which OpenEXR does not read and Pillow does not either. (OpenCV
+5's wheels no longer carry an EXR codec, and imageio reads .hdr only through OpenCV or a FreeImage
+binary it downloads at run time.)
+
+Images are (height, width, 3) float32 linear RGB, row 0 at the top.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+
+#: The files an equirect environment and a float frame (`-o frame.exr`) may be.
+HDR_SUFFIXES = (".hdr", ".exr")
+
+_EXR_MAGIC = b"\x76\x2f\x31\x01"
+_RADIANCE_MAGIC = b"#?"  # "#?RADIANCE" or "#?RGBE": the first line of every Radiance picture file
+
+
+class HdrImageError(ValueError):
+    """A file that is not an HDR image this package reads; the message says why (no path: the
+    caller names the file and the field)."""
+
+
+def read_hdr(path: Path) -> np.ndarray:
+    """A .hdr or .exr file's RGB as (height, width, 3) float32, row 0 at the top.
+
+    Raises HdrImageError for a file that is not one (by its first bytes, not its name), that its
+    library cannot decode, or whose pixels are not finite; OSError where it cannot be read."""
+    with open(path, "rb") as file:
+        head = file.read(4)
+    if head == _EXR_MAGIC:
+        image = _read_exr(path)
+    elif head.startswith(_RADIANCE_MAGIC):
+        image = _read_radiance(path)
+    else:
+        raise HdrImageError("expected an HDR image (an OpenEXR .exr or a Radiance .hdr file), got a file that is "
+                            f"neither (it starts with {head!r})")
+    if image.shape[0] < 1 or image.shape[1] < 1:
+        raise HdrImageError(f"expected an image of at least 1x1 pixels, got {image.shape[1]}x{image.shape[0]}")
+    bad = ~np.isfinite(image)
+    if bad.any():
+        y, x, _ = np.argwhere(bad)[0]
+        raise HdrImageError(f"expected finite pixel values, got {image[y, x].tolist()} at pixel ({x}, {y})")
+    return np.ascontiguousarray(image, dtype=np.float32)
+
+
+def _read_exr(path: Path) -> np.ndarray:
+    import OpenEXR
+
+    try:
+        with OpenEXR.File(str(path)) as exr:
+            channels = exr.channels()
+            # The bindings group R, G, B (and A) into one "RGB" or "RGBA" channel of (h, w, n) pixels.
+            for name in ("RGB", "RGBA"):
+                if name in channels:
+                    return np.asarray(channels[name].pixels, dtype=np.float32)[..., :3]
+            if "Y" in channels:  # a luminance image: grey
+                grey = np.asarray(channels["Y"].pixels, dtype=np.float32)
+                return np.repeat(grey[..., None], 3, axis=2)
+    except RuntimeError as error:  # the library's word for a damaged or truncated file
+        raise HdrImageError(f"expected a readable OpenEXR image, got one OpenEXR cannot decode ({error})") from None
+    raise HdrImageError(f"expected an OpenEXR image with R, G and B (or Y) channels, got {sorted(channels)}")
+
+
+def _read_radiance(path: Path) -> np.ndarray:
+    import cv2
+    from cv2.utils import logging as cv2_logging
+
+    # OpenCV answers a file it cannot decode with None, after logging its own error to stderr: this
+    # function's HdrImageError says it once, in the package's words.
+    level = cv2_logging.getLogLevel()
+    cv2_logging.setLogLevel(cv2_logging.LOG_LEVEL_SILENT)
+    try:
+        image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    finally:
+        cv2_logging.setLogLevel(level)
+    if image is None or image.dtype != np.float32 or image.ndim != 3 or image.shape[2] != 3:
+        raise HdrImageError("expected a readable Radiance image, got one OpenCV cannot decode")
+    return image[..., ::-1]  # OpenCV's BGR
+
+
+def write_hdr(file: IO[bytes], image: np.ndarray, suffix: str) -> None:
+    """Write a (height, width, 3) float image (row 0 at the top) into `file` as `suffix` (.exr:
+    32-bit float, ZIP-compressed, lossless; .hdr: Radiance RGBE, 8-bit mantissas with a shared
+    exponent, about 1 % precision, no negative values)."""
+    pixels = np.ascontiguousarray(image, dtype=np.float32)
+    if suffix.lower() == ".exr":
+        import OpenEXR
+
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+        buffer = io.BytesIO()
+        with OpenEXR.File(header, {"RGB": pixels}) as exr:
+            exr.write(buffer)
+        file.write(buffer.getvalue())
+    elif suffix.lower() == ".hdr":
+        import cv2
+
+        ok, encoded = cv2.imencode(".hdr", np.ascontiguousarray(np.maximum(pixels, 0.0)[..., ::-1]))
+        if not ok:
+            raise ValueError("OpenCV could not encode the image as Radiance .hdr")
+        file.write(encoded.tobytes())
+    else:
+        raise ValueError(f"expected one of {HDR_SUFFIXES}, got {suffix!r}")
