@@ -150,11 +150,10 @@ SRGB_GAMMA = 2.4
 ACES_A, ACES_B, ACES_C, ACES_D, ACES_E = 2.51, 0.03, 2.43, 0.59, 0.14
 #: Analytic planes (floors, walls) a reflected ray is intersected with exactly.
 MAX_ANALYTIC_PLANES = 8
-#: Distinct image textures in one scene. The ray-traced methods sample every reflected object's
-#: texture in one shader, each on its own texture unit (bindings.TextureUnit.MATERIAL_TEXTURE_*):
-#: GLSL 3.30 indexes an array of samplers only with constants, so the shader picks one of this
-#: many by an if-chain. Kept small: 16 units are what GL 3.3 guarantees a fragment shader, and
-#: the mirror shader's other samplers take 16 already (llvmpipe and desktop GPUs give 32).
+#: Distinct image textures in one scene. Each is bound for the whole frame on a texture unit of
+#: its own (bindings.TextureUnit.MATERIAL_TEXTURE_*), which the diffuse pass picks by an if-chain
+#: (GLSL 3.30 indexes an array of samplers only with constants); traced rays read all of them from
+#: one stacked texture (MATERIAL_TEXELS) through this many rectangles. Kept small: units are few.
 MAX_TEXTURES = 4
 #: Depth images one mirror may own (one per reflected object): bounds the uniform block,
 #: 64 x 176 bytes = 11 KiB, under GL's guaranteed 16 KiB.

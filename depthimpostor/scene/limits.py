@@ -6,7 +6,7 @@ the method or on what the mirrors can see. `render` builds its plan before any G
 |---|---|---|---|
 | a number in a scene file, and how far an object reaches from the origin | `MAX_COORDINATE` (1e18) | load: the field (`fields.py`); the object, from its position, scale, shape and orbit (`check_scene`; a model file's when the plan loads it) | float32 geometry squares distances |
 | lights | `MAX_LIGHTS` (8) | load | the shading loops over a uniform array of that size |
-| distinct image textures | `MAX_TEXTURES` (4) | load | the traced methods sample each on a texture unit of its own |
+| distinct image textures | `MAX_TEXTURES` (4) | load | each is bound on a texture unit of its own for the whole frame |
 | planes that are not mirrors (floors, walls) | `MAX_ANALYTIC_PLANES` (8) | load | intersected exactly from a uniform array of that size |
 | `render.max_bounces` | `MAX_BOUNCES` (4) | load | each bounce bakes an image per pair of mirrors |
 | `render.max_bounces` > 1 with two or more mirrors or glass | the depth method alone | plan (`check_method`) | only the depth method bakes reflectors into each other's images |
@@ -100,8 +100,8 @@ def check_scene(scene: Scene) -> None:
     if len(scene.textures) > MAX_TEXTURES:
         first = next(i for i, obj in enumerate(scene.objects) if scene.texture_slot(obj.material) == MAX_TEXTURES)
         raise SceneError(scene.source, f"objects[{first}].material.texture",
-                         f"expected at most {MAX_TEXTURES} distinct image textures in a scene (the ray-traced methods "
-                         f"sample each on a texture unit of its own), got {len(scene.textures)}")
+                         f"expected at most {MAX_TEXTURES} distinct image textures in a scene (each is bound on a "
+                         f"texture unit of its own for the whole frame), got {len(scene.textures)}")
     _check_textured_shapes(scene)
     for index, obj in enumerate(scene.objects):
         local_reach = shape_reach(obj.shape)
