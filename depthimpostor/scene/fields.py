@@ -239,3 +239,16 @@ def read_variant(value: Any, at: At, variants: Mapping[str, Variant[T]], default
     head = Table(value, at, None)
     kind = head.req("type", kinds) if default_type is None else head.opt("type", kinds, default_type)
     return variants[kind].build(Table(value, at, ("type", *variants[kind].fields)))
+
+
+def read_file_bytes(path: Path, source: str, expected: str) -> bytes:
+    """A scene file's bytes, or one SceneError naming what went wrong (`expected`: what the file
+    should be, said when a directory is given instead)."""
+    try:
+        return path.read_bytes()
+    except IsADirectoryError as err:
+        raise SceneError(source, "", f"expected {expected}, got a directory") from err
+    except FileNotFoundError as err:
+        raise SceneError(source, "", "no such file") from err
+    except OSError as err:
+        raise SceneError(source, "", f"cannot read the file: {err.strerror or err}") from err

@@ -25,7 +25,7 @@ import numpy as np
 
 from depthimpostor.constants import MAX_COORDINATE
 from depthimpostor.errors import SceneError
-from depthimpostor.scene.fields import At, Reader, numbers, show
+from depthimpostor.scene.fields import At, Reader, numbers, read_file_bytes, show
 
 GLTF_SUFFIXES = (".glb", ".gltf")
 #: The extensions a file may require (`extensionsRequired`): those read here. Any other required
@@ -41,14 +41,7 @@ _GLB_MAGIC, _GLB_JSON = b"glTF", 0x4E4F534A
 
 def read_json(path: Path, source: str) -> dict[str, Any]:
     """The file's JSON: the whole of a .gltf, the first chunk of a .glb."""
-    try:
-        data = path.read_bytes()
-    except IsADirectoryError as err:
-        raise SceneError(source, "", "expected a glTF file, got a directory") from err
-    except FileNotFoundError as err:
-        raise SceneError(source, "", "no such file") from err
-    except OSError as err:
-        raise SceneError(source, "", f"cannot read the file: {err.strerror or err}") from err
+    data = read_file_bytes(path, source, "a glTF file")
     if path.suffix.lower() == ".glb":
         if len(data) < 20 or data[:4] != _GLB_MAGIC:
             raise SceneError(source, "", f'expected a binary glTF file (starting with "glTF"), got {show(data[:4])}')

@@ -25,7 +25,7 @@ from depthimpostor.scene.gltf import gltf_objects, gltf_scene, read_gltf
 from depthimpostor.scene.gltf_file import GLTF_SUFFIXES
 from depthimpostor.scene.limits import check_scene
 from depthimpostor.textures import read_texture
-from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_variant, show
+from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_file_bytes, read_variant, show
 from depthimpostor.scene.model import (
     EXPOSURE, IMPOSTOR_RESOLUTION, TONE_MAPPING, ZERO, Animation, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial,
     Environment, GlassMaterial, Light, Material, MeshShape, MirrorMaterial, PlaneShape, RenderSettings, Scene,
@@ -371,13 +371,7 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
     if Path(source).suffix.lower() in GLTF_SUFFIXES:
         return gltf_scene(Path(source), source)
     try:
-        text = Path(source).read_bytes().decode("utf-8")
-    except IsADirectoryError as err:
-        raise SceneError(source, "", "expected a scene file, got a directory") from err
-    except FileNotFoundError as err:
-        raise SceneError(source, "", "no such file") from err
-    except OSError as err:
-        raise SceneError(source, "", f"cannot read the file: {err.strerror or err}") from err
+        text = read_file_bytes(Path(source), source, "a scene file").decode("utf-8")
     except UnicodeDecodeError as err:
         raise SceneError(source, "", f"expected UTF-8 text, got an undecodable byte at offset {err.start}") from err
     try:
