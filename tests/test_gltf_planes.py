@@ -17,7 +17,7 @@ from depthimpostor.constants import Method
 from depthimpostor.geometry import scene_geometry
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
-from depthimpostor.scene.model import GltfShape, PlaneShape
+from depthimpostor.scene.model import GltfShape, PlaneShape, SceneObject
 from gltf_files import GltfWriter, quaternion
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -116,3 +116,46 @@ def test_the_showcase_loads_its_room_as_planes_and_renders_through_every_method(
         with Renderer(ctx, small, method=method) as renderer:
             renderer.render()
             assert_finite(renderer.read_color_float())
+
+
+def place_in_toml(tmp_path: Path, placement: str) -> Scene:
+    path = rectangle_file(tmp_path, [[0, 1], [2, 1], [2, 0], [0, 0]])
+    (tmp_path / "s.toml").write_text(f'[[objects]]\nname = "wall"\nshape = {{ type = "gltf", path = "{path.name}" }}\n'
+                                     f"{placement}\n")
+    return load_quietly(tmp_path / "s.toml")
+
+
+def test_a_toml_placement_moves_the_plane_as_it_moves_the_mesh(tmp_path: Path) -> None:
+    # The same corners and UVs as the file's rectangle under the object's own matrix.
+    scene = place_in_toml(tmp_path, "position = [1.0, 2.0, 3.0]\nrotation = [20.0, -70.0, 35.0]\nscale = 1.5")
+    (obj,) = scene.objects
+    assert isinstance(obj.shape, PlaneShape)
+    outer = SceneObject("placement", obj.shape, position=(1.0, 2.0, 3.0), rotation=(20.0, -70.0, 35.0),
+                        scale=(1.5, 1.5, 1.5)).model_matrix()
+    expected = meshes.Mesh(*_rectangle_world(), None).transformed(outer)
+    (geometry,) = scene_geometry(scene.objects)
+    for point in expected.positions:
+        assert np.linalg.norm(geometry.world_mesh.positions - point, axis=1).min() < 1e-5
+    assert obj.shape.size == pytest.approx((4.5, 3.0), abs=1e-5)
+    assert geometry.model_matrix[:3, :3] @ (0.0, 1.0, 0.0) == pytest.approx(expected.normals[0], abs=1e-6)
+
+
+def _rectangle_world() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """rectangle_file's corners in its file's world space (turned 30 degrees about Y, moved)."""
+    turn = np.array([[np.cos(np.pi / 6), 0, np.sin(np.pi / 6)], [0, 1, 0], [-np.sin(np.pi / 6), 0, np.cos(np.pi / 6)]])
+    corners = np.array([[-1.5, -1, 0], [1.5, -1, 0], [1.5, 1, 0], [-1.5, 1, 0]]) @ turn.T + (0.5, 1.0, -2.0)
+    return corners, np.tile(turn @ (0.0, 0.0, 1.0), (4, 1)), np.array([[0, 1, 2], [0, 2, 3]])
+
+
+@pytest.mark.parametrize("placement", ['scale = [1.0, 2.0, 1.0]',
+                                       'animation = { type = "rotate", axis = [0.0, 1.0, 0.0], degrees_per_second = 30.0 }'])
+def test_a_non_uniform_scale_or_an_animation_keeps_the_mesh(tmp_path: Path, placement: str) -> None:
+    (obj,) = place_in_toml(tmp_path, placement).objects
+    assert isinstance(obj.shape, GltfShape)
+
+
+def test_the_showcase_walls_share_one_texture_slot() -> None:
+    scene = load_quietly(ROOT / "scenes" / "showcase.toml")
+    walls = [o for o in scene.objects if o.name in ("room/Back wall", "room/Left wall")]
+    assert walls[0].material.texture is walls[1].material.texture  # type: ignore[union-attr]
+    assert len(scene.textures) == 3  # wood (4 x 4 repeats), tiles (4 x 0.8), the crates' arrow
