@@ -35,7 +35,7 @@ class Rectangle:
 
 def find_rectangle(mesh: Mesh) -> Rectangle | None:
     """The rectangle the mesh's triangles cover, or None: all triangles facing one way in one plane,
-    their areas summing to the area of a box (around one of their edge directions) whose four
+    their areas summing to the area of a box (along an edge from the farthest vertex) whose four
     corners are vertices of the mesh."""
     p = np.asarray(mesh.positions, np.float64)
     tri = p[np.asarray(mesh.indices)]
@@ -53,16 +53,27 @@ def find_rectangle(mesh: Mesh) -> Rectangle | None:
     centre0 = p.mean(axis=0)
     if np.abs((p - centre0) @ normal).max() > RELATIVE_TOLERANCE * extent:
         return None
-    for edge in tri[:, 1] - tri[:, 0]:
-        along = edge - normal * float(edge @ normal)
-        if np.linalg.norm(along) <= RELATIVE_TOLERANCE * extent:
-            continue
-        x = along / np.linalg.norm(along)
-        z = np.cross(x, normal)
-        found = _box(p, centre0, x, normal, z, 0.5 * area2, extent)
+    for x in _corner_sides(p, tri, centre0, normal, RELATIVE_TOLERANCE * extent):
+        found = _box(p, centre0, x, normal, np.cross(x, normal), 0.5 * area2, extent)
         if found is not None:
             return _oriented(mesh, *found, x, normal)
     return None
+
+
+def _corner_sides(p: np.ndarray, tri: np.ndarray, centre: np.ndarray, normal: np.ndarray,
+                  near: float) -> list[np.ndarray]:
+    """The in-plane unit directions of the edges leaving the vertex farthest from `centre`. Were
+    the part a rectangle, that vertex is a corner (a convex shape's farthest point is a corner) and
+    the triangles filling its right angle have edges along both sides: so these few directions are
+    the only ones worth trying, and a large flat mesh costs one pass per direction, not per edge."""
+    corner = p[np.argmax(np.linalg.norm(p - centre, axis=1))]
+    directions = []
+    for triangle in tri[np.linalg.norm(tri - corner, axis=2).min(axis=1) <= near]:
+        for other in triangle:
+            along = other - corner - normal * float((other - corner) @ normal)
+            if np.linalg.norm(along) > near:
+                directions.append(along / np.linalg.norm(along))
+    return directions
 
 
 def _box(p: np.ndarray, origin: np.ndarray, x: np.ndarray, normal: np.ndarray, z: np.ndarray, area: float,
