@@ -40,6 +40,8 @@ PLAN_COUNTS = {
     "lecture_8x9.toml": (4, 72, 0, 5),
     "planar_mirror.toml": (4, 3, 0, 5),
     "shadows.toml": (5, 4, 0, 6),
+    # The glTF room: its floor, walls and mirror are planes; mirror and glass ball x 2 crates and a torus.
+    "showcase.toml": (5, 6, 0, 7),
     "two_mirrors.toml": (5, 4, 0, 7),
     "hard/grazing.toml": (4, 3, 0, 5),
     "hard/huge.toml": (4, 5, 0, 5),

@@ -8,6 +8,7 @@ it; `gltf_objects` the objects a TOML scene's `shape = { type = "gltf" }` places
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from collections.abc import Mapping
@@ -26,11 +27,12 @@ from depthimpostor.scene.gltf_file import (
     NOT_SURFACES, TRIANGLE_FAN, Primitive, check_header, decode_primitives, extension, index, items, number_at,
     primitive_modes, read_json, scene_nodes, table,
 )
+from depthimpostor.scene.gltf_planes import Rectangle, find_rectangle, plane_placement
 from depthimpostor.scene.limits import check_scene
 from depthimpostor.textures import texture_from_image
 from depthimpostor.scene.model import (
     Animation, Camera, DiffuseMaterial, Environment, GlassMaterial, GltfShape, Light, Material, MirrorMaterial,
-    RenderSettings, Scene, SceneObject, Texture,
+    PlaneShape, RenderSettings, Scene, SceneObject, Texture,
 )
 
 #: The mirror rule: a material at least this metallic and at most this rough is a mirror.
@@ -56,6 +58,7 @@ class GltfPart:
     part: str  # for messages: 'nodes[3] "Chair", material "Wood"'
     material: int | None  # index into the file's materials; None: glTF's default (white, diffuse)
     mesh: Mesh  # in the file's world space
+    rectangle: Rectangle | None  # where the mesh is one flat rectangle: placed as a plane (gltf_planes.py)
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,7 +165,8 @@ def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, i
             label = "default" if material is None else _label(header, material)
             name = node if len(groups) == 1 else f"{node} ({label})"
             part = f'nodes[{i}]' + (f' "{names[i]}"' if names[i] else "") + f', material "{label}"'
-            parts.append(GltfPart(name, part, material, _local_mesh(group).transformed(world)))
+            mesh = _local_mesh(group).transformed(world)
+            parts.append(GltfPart(name, part, material, mesh, find_rectangle(mesh)))
     return parts
 
 
@@ -350,6 +354,33 @@ def _scene_lights(model: GltfFile) -> tuple[Light, ...]:
     return tuple(lights)
 
 
+def _as_plane(part: GltfPart, material: Material, position: Vec3, rotation: Vec3, scale: Vec3,
+              animation: Animation | None, scaled: dict[tuple[int, float, float], Texture]) -> SceneObject | None:
+    """The part as a `plane` object where it is one rectangle (scene_format.md, "glTF rectangles"):
+    not glass (a plane has no inside), not moving (floors and walls are fixed planes), under a
+    uniform scale (a plane's placement has one), its texture (if any) on UVs that are the plane's
+    times a scale, which the plane's texture then carries (one texture per image and scale, in
+    `scaled`, so that two walls tiled alike share a texture slot)."""
+    rectangle = part.rectangle
+    if rectangle is None or isinstance(material, GlassMaterial) or animation is not None or len(set(scale)) != 1:
+        return None
+    if isinstance(material, DiffuseMaterial) and material.texture is not None:
+        if rectangle.uv_scale is None:
+            return None
+        if rectangle.uv_scale != (1.0, 1.0):
+            texture = material.texture
+            repeats = (texture.scale[0] * rectangle.uv_scale[0], texture.scale[1] * rectangle.uv_scale[1])
+            key = (id(texture), *repeats)
+            scaled.setdefault(key, dataclasses.replace(texture, scale=repeats))
+            material = DiffuseMaterial(material.color, scaled[key])
+    placed = plane_placement(rectangle, position, rotation, scale[0])
+    if placed is None:
+        return None
+    width, depth = rectangle.size
+    return SceneObject(name=part.name, shape=PlaneShape((scale[0] * width, scale[0] * depth)), material=material,
+                       position=placed[0], rotation=placed[1])
+
+
 def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str = "",
                  position: Vec3 = (0.0, 0.0, 0.0), rotation: Vec3 = (0.0, 0.0, 0.0), scale: Vec3 = (1.0, 1.0, 1.0),
                  animation: Animation | None = None) -> list[SceneObject]:
@@ -358,6 +389,7 @@ def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str
     label) replacing the file's materials. Warns once for the textured mirrors and glass, whose
     tint takes the texture's mean colour."""
     objects, textured, no_uvs = [], [], []
+    scaled: dict[tuple[int, float, float], Texture] = {}
     for part in model.parts:
         mapped = model.material_of(part)
         material = overrides.get(mapped.label, mapped.material)
@@ -368,6 +400,10 @@ def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str
             tint = np.clip(np.multiply(material.color, material.texture.mean_color), 0.0, 1.0)
             material = DiffuseMaterial((float(tint[0]), float(tint[1]), float(tint[2])))
             no_uvs.append(part.name)
+        plane = _as_plane(part, material, position, rotation, scale, animation, scaled)
+        if plane is not None:
+            objects.append(dataclasses.replace(plane, name=prefix + part.name))
+            continue
         objects.append(SceneObject(name=prefix + part.name, shape=GltfShape(model.path, part.part, part.mesh),
                                    material=material, position=position, rotation=rotation, scale=scale,
                                    animation=animation))
