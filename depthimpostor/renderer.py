@@ -525,8 +525,7 @@ class Renderer:
         self._color.write((total / samples).astype(np.float32).tobytes())
         self.last_sub_frames = kept
         # One frame, whose time is its sub-frames' (reading them back is not counted).
-        stats.frames = frames + 1
-        stats.sub_frames += samples - 1  # _draw_frame counted one per sub-frame
+        stats.frames = frames + 1  # _draw_frame counted each sub-frame in sub_frames, and as a frame
         stats.draw_seconds[draws:] = [sum(stats.draw_seconds[draws:])]
         if self.time_mirror_pass:
             stats.mirror_seconds[mirrors:] = [sum(stats.mirror_seconds[mirrors:])]
