@@ -203,7 +203,8 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
     pixels' colour error) are measured on the averages, over the pixels any sub-frame saw a mirror
     in. The object and geometric figures are those of the first sub-frame alone: an average of
     object ids or hit points means nothing."""
-    frames = renderer.sub_frames()
+    frames = (renderer.sub_frames() if renderer.scene.render.samples > 1
+              else [SubFrame(None, renderer.read_color_float(), renderer.read_reflection_data())])
     truths = _truths(renderer, frames, truth)
     data = _reflection(frames[0])
     renders = [np.clip(frame.color, 0.0, 1.0) for frame in frames]

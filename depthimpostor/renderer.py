@@ -81,7 +81,7 @@ class SubFrame:
     """One sub-pixel position of a supersampled frame: its camera, linear colour (top row first),
     and the reflection data of its rays where the renderer keeps them."""
 
-    camera: PPC
+    camera: PPC | None  # None: the renderer's own camera (a frame without anti-aliasing)
     color: np.ndarray  # (h, w, 3) float32
     reflection: ReflectionData | None
 
