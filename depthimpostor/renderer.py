@@ -133,6 +133,7 @@ class Renderer:
         self.time_mirror_pass = time_mirror_pass
         self.stats = RenderStats()
         self.last_sub_frames: list[SubFrame] = []  # the last supersampled frame's (render.samples > 1)
+        self._unjittered: PPC | None = None  # the frame's camera while its sub-frames are drawn
         self.programs = ProgramCache(ctx, shaders)
         # The eye's depth convention (eye.py): reversed-Z where GL has clip control.
         self.reversed_z = reversed_z(ctx) is not None
@@ -511,6 +512,7 @@ class Renderer:
         frames, draws, mirrors = stats.frames, len(stats.draw_seconds), len(stats.mirror_seconds)
         total: np.ndarray | None = None
         kept: list[SubFrame] = []
+        self._unjittered = base
         try:
             for dx, dy in SAMPLE_OFFSETS[samples]:
                 self.camera = jittered(base, dx, dy)
@@ -520,7 +522,7 @@ class Renderer:
                 kept.append(SubFrame(self.camera, rgba[..., :3].copy(),
                                      self.read_reflection_data() if self.reflection_data else None))
         finally:
-            self.camera = base
+            self.camera, self._unjittered = base, None
         assert total is not None
         self._color.write((total / samples).astype(np.float32).tobytes())
         self.last_sub_frames = kept
@@ -583,7 +585,11 @@ class Renderer:
             self.stats.draw_calls += self.diffuse.draw(drawn, view_projection)
         elif stage is Pass.GLASS_INTERIORS and self.mirror_pass is not None:
             before = self._interiors_made()
-            self.stats.draw_calls += self.mirror_pass.make_interiors(self.reflectors, self.camera)
+            # A glass interior depends on the eye's position and pixel size, not on a sub-pixel
+            # jitter: made from the frame's own camera, so that rounding in the jittered one's
+            # corner does not make it again for every sample.
+            unjittered = self._unjittered if self._unjittered is not None else self.camera
+            self.stats.draw_calls += self.mirror_pass.make_interiors(self.reflectors, unjittered)
             made = self._interiors_made() - before
             if not made:
                 return

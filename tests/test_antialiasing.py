@@ -12,14 +12,14 @@ import moderngl
 import numpy as np
 import pytest
 
-from conftest import assert_finite, scene_from_toml
+from conftest import SCENES, assert_finite, scene_from_toml
 from depthimpostor.cli import main
 from depthimpostor.compare import compare
 from depthimpostor.constants import SAMPLE_OFFSETS, Method
 from depthimpostor.errors import SceneError
 from depthimpostor.graph import Pass
 from depthimpostor.renderer import Renderer
-from depthimpostor.scene import Scene
+from depthimpostor.scene import Scene, load_scene
 
 EDGES = """\
 [render]
@@ -162,3 +162,15 @@ def test_bad_sample_counts_are_refused_on_the_command_line(value: str, capsys: p
     assert exit_.value.code == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert "--samples" in lines[-1] and ("expected one of: 1, 4, 8" in lines[-1] or "integer" in lines[-1])
+
+
+def test_glass_interiors_are_made_once_a_frame(ctx: moderngl.Context) -> None:
+    """A jitter keeps the eye and the pixel's size, all a glass interior depends on."""
+    scene = load_scene(SCENES / "glass_and_mirrors.toml").with_overrides(size=(64, 48), samples=8)
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        renderer.render()
+        assert_finite(renderer.read_color_float())
+        glass = len(renderer.glass)
+        assert glass and renderer.stats.interiors_made == glass
+        assert renderer.stats.passes[Pass.REFLECTORS.value] == 16
