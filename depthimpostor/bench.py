@@ -119,6 +119,8 @@ def machine_lines(ctx: moderngl.Context, settings: BenchSettings, scenes: Sequen
         f"methods {[m.option for m in settings.methods]}, depth-image algorithms "
         f"{[a.name.lower() for a in settings.algorithms]}, {settings.warmup} warm-up + {settings.frames} timed "
         f"frames, {settings.bakes} timed bakes",
+        # render.samples: a frame's time is its sub-frames'; colour figures are on averaged colours.
+        f"anti-aliasing: {', '.join(f'{scene.source} {scene.render.samples}' for scene in scenes)} samples per pixel",
     ]
 
 

@@ -27,7 +27,7 @@ from .renderer import Renderer, RenderStats
 from .resources import default_scene_path
 from .scene import Scene, load_scene
 from .scene.fields import SIZE, Reader
-from .scene.model import AUTO_RESOLUTION, EXPOSURE, IMPOSTOR_RESOLUTION
+from .scene.model import AUTO_RESOLUTION, EXPOSURE, IMPOSTOR_RESOLUTION, SAMPLES
 
 T = TypeVar("T")
 
@@ -79,6 +79,13 @@ def _finite(text: str) -> float:
     return value
 
 
+def _integer(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+
+
 def _positive_float(text: str) -> float:
     value = _finite(text)
     if value <= 0.0:
@@ -100,7 +107,8 @@ def _load(args: argparse.Namespace) -> Scene:
     scene = load_scene(args.scene or default_scene_path())
     return scene.with_overrides(size=args.size, impostor_resolution=args.impostor_res,
                                 simplified_triangles=args.simplified_triangles,
-                                tone_mapping=getattr(args, "tone_mapping", None), exposure=getattr(args, "exposure", None))
+                                tone_mapping=getattr(args, "tone_mapping", None), exposure=getattr(args, "exposure", None),
+                                samples=args.samples)
 
 
 def _stand_in(renderer: Renderer) -> str:
@@ -147,7 +155,8 @@ def format_stats(stats: RenderStats, plan: RenderPlan, start: float, fps: float)
     end = start + (stats.frames - 1) / fps
     lines = [f"work over {stats.frames} frames (scene time {start:g} to {end:g} s at {fps:g} frames/s):"]
     runs = ", ".join(f"{planned.stage.value} {stats.passes[planned.stage.value]}" for planned in plan.passes)
-    lines.append(f"  passes run (frames): {runs}")
+    lines.append(f"  passes run (frames): {runs}"
+                 + (f" ({plan.samples} sub-pixel frames per frame: {stats.sub_frames} in all)" if plan.samples > 1 else ""))
     unplanned = sorted(set(stats.passes) - {planned.stage.value for planned in plan.passes})
     if unplanned:
         lines.append(f"  passes run that the plan lacks: {', '.join(unplanned)}")
@@ -237,6 +246,7 @@ def _compare(args: argparse.Namespace) -> int:
                 "size": list(scene.render.size),
                 "impostor_resolution": scene.render.impostor_resolution,
                 "simplified_triangles": scene.render.simplified_triangles,
+                "samples": scene.render.samples,
                 "algorithm": args.algorithm,
                 "method": method.option,
                 "stand_in": kept,
@@ -279,6 +289,7 @@ def _bench(args: argparse.Namespace) -> int:
     from .bench import BenchSettings, check_bench, machine_lines, run_bench, total_configurations, write_results
 
     scenes = [load_scene(path) for path in args.scenes] or [load_scene(default_scene_path())]
+    scenes = [scene.with_overrides(samples=args.samples) for scene in scenes]
     if ALL_METHODS in args.methods:
         methods = tuple(Method)
     else:
@@ -347,10 +358,17 @@ def _scene_arguments(command: argparse.ArgumentParser, headless: bool = True, di
         command.add_argument("--exposure", type=_checked(EXPOSURE, _finite),
                              help="stops the linear colour is scaled by (2^exposure) before tone mapping and sRGB "
                                   "encoding, overriding the scene's render.exposure")
+    _samples_argument(command)
     _max_memory_argument(command)
     if not headless:
         return
     _backend_argument(command)
+
+
+def _samples_argument(command: argparse.ArgumentParser) -> None:
+    command.add_argument("--samples", type=_checked(SAMPLES, _integer),
+                         help="anti-aliasing: frames drawn per pixel at jittered sub-pixel positions and averaged "
+                              "(1, 4 or 8), overriding the scene's render.samples (docs/colour.md)")
 
 
 def _memory(text: str) -> int:
@@ -436,6 +454,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--warmup", type=_non_negative, default=2, help="untimed frames before them (default 2)")
     bench.add_argument("--bakes", type=_positive, default=3, help="timed re-bakes per configuration (default 3)")
     bench.add_argument("-o", "--output", default="results", help="output folder (default: results/)")
+    _samples_argument(bench)
     _backend_argument(bench)
     _max_memory_argument(bench)
     bench.set_defaults(run=_bench)

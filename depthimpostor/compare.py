@@ -23,6 +23,7 @@ shadows the direct view *is* the truth (the same shading, rasterized) and is not
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import asdict, dataclass, field
@@ -35,7 +36,8 @@ from .constants import NO_OBJECT
 from .font import load_font
 from .outputs import Outputs
 from .colour import display_encode, quantize
-from .renderer import ReflectionData, Renderer
+from .ppc import PPC
+from .renderer import ReflectionData, Renderer, SubFrame
 from .truth import SpecularTruth, TruthTracer
 
 WORST_PIXELS = 8
@@ -72,6 +74,9 @@ class Figures:
     # The hybrid method: mirror pixels whose ray was traced against the real triangles.
     retraced_pixels: int = 0
     retraced_share: float = 0.0
+    # render.samples: the colour figures are on colours averaged over this many sub-pixel frames
+    # (the render's and the truth's alike), the object and geometric ones of the first (compare()).
+    samples: int = 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,6 +91,8 @@ class TruthFrame:
     # Scenes with shadows: the truth of the pixels seen directly (NaN where not measured: mirrors,
     # and the few silhouette pixels where the rasterizer and the traced ray see different objects).
     direct: np.ndarray | None = None
+    # An anti-aliased frame's: the truth of each sub-frame (this one is the first's), else ().
+    sub_frames: tuple[TruthFrame, ...] = ()
 
     def fits(self, data: ReflectionData) -> bool:
         """Were these the rays of `data`? The same scene and camera give the same rays whatever
@@ -113,12 +120,12 @@ class Comparison:
         return display_encode(linear, *self.display)
 
 
-def trace_direct(renderer: Renderer, mirror_mask: np.ndarray) -> np.ndarray:
-    """The truth of every pixel seen directly: a primary ray through its centre, traced against
-    every object and shaded with real shadow rays. NaN where the ray meets a mirror (on its
-    reflecting side: its back is a diffuse backing) or glass, or the rasterizer saw one (mirror
-    pixels have their own truth)."""
-    camera = renderer.camera
+def trace_direct(renderer: Renderer, mirror_mask: np.ndarray, camera: PPC | None = None) -> np.ndarray:
+    """The truth of every pixel seen directly: a primary ray through its centre (of `camera`, the
+    renderer's by default, or a sub-frame's), traced against every object and shaded with real
+    shadow rays. NaN where the ray meets a mirror (on its reflecting side: its back is a diffuse
+    backing) or glass, or the rasterizer saw one (mirror pixels have their own truth)."""
+    camera = renderer.camera if camera is None else camera
     rows, columns = np.mgrid[0:camera.height, 0:camera.width] + 0.5
     directions = camera.ray_direction(columns.ravel(), rows.ravel())
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
@@ -135,14 +142,16 @@ def trace_direct(renderer: Renderer, mirror_mask: np.ndarray) -> np.ndarray:
     return np.where(seen_mirror[..., None], np.nan, hits.color.reshape(mirror_mask.shape + (3,)))
 
 
-def trace_truth(renderer: Renderer, data: ReflectionData) -> TruthFrame:
-    """The truth for the mirror and glass pixels of the renderer's last frame, whose reflection
-    outputs are `data` (and, in scenes with shadows, for the pixels seen directly)."""
+def trace_truth(renderer: Renderer, data: ReflectionData, camera: PPC | None = None) -> TruthFrame:
+    """The truth for the mirror and glass pixels of the renderer's last frame (or of one of its
+    sub-frames, seen through `camera`), whose reflection outputs are `data` (and, in scenes with
+    shadows, for the pixels seen directly)."""
+    camera = renderer.camera if camera is None else camera
     mask = data.mirror_mask
     specular = SpecularTruth(renderer.scene, renderer.reflected_objects, renderer.reflectors, renderer.analytic_planes,
                              renderer.shadow_casters)
     origins = data.origin[mask]
-    incoming = origins - renderer.camera.C
+    incoming = origins - camera.C
     incoming /= np.maximum(np.linalg.norm(incoming, axis=1, keepdims=True), 1e-300)
     surface, hits = specular.surface_color(data.mirror_id[mask], origins, data.normal[mask], incoming,
                                            data.direction[mask], renderer.scene.render.max_bounces)
@@ -152,39 +161,74 @@ def trace_truth(renderer: Renderer, data: ReflectionData) -> TruthFrame:
     object_id[mask] = hits.object_id
     position = np.zeros(mask.shape + (3,))
     position[mask] = hits.position
-    direct = trace_direct(renderer, mask) if renderer.scene.has_shadows else None
+    direct = trace_direct(renderer, mask, camera) if renderer.scene.has_shadows else None
     return TruthFrame(mask, data.direction, color, object_id, position, direct)
+
+
+def _truths(renderer: Renderer, frames: list[SubFrame], truth: TruthFrame | None) -> list[TruthFrame]:
+    """The truth of each sub-frame: `truth`'s (an earlier comparison's) where it was traced for
+    the same rays, else traced now at each sub-frame's own sub-pixel positions."""
+    given = (truth.sub_frames or (truth,)) if truth is not None else ()
+    data = [_reflection(frame) for frame in frames]
+    if len(given) == len(frames) and all(t.fits(d) for t, d in zip(given, data, strict=True)):
+        return list(given)
+    return [trace_truth(renderer, d, frame.camera) for frame, d in zip(frames, data, strict=True)]
+
+
+def _reflection(frame: SubFrame) -> ReflectionData:
+    if frame.reflection is None:
+        raise ValueError("this renderer was made without reflection_data=True")
+    return frame.reflection
+
+
+def _truth_image(render: np.ndarray, data: ReflectionData, truth: TruthFrame) -> tuple[np.ndarray, np.ndarray]:
+    """One (sub-)frame's truth image, and its pixels seen directly and measured (scenes with
+    shadows). Outside the mirrors the truth is the render itself (primary visibility is the
+    rasterizer's), unless shadows make the direct view an approximation too."""
+    truth_image = np.where(data.mirror_mask[..., None], truth.color, render)
+    direct = np.zeros_like(data.mirror_mask)
+    if truth.direct is not None:
+        direct = ~np.isnan(truth.direct[..., 0])
+        truth_image = np.where(direct[..., None], np.clip(np.nan_to_num(truth.direct), 0.0, 1.0), truth_image)
+    return truth_image, direct
 
 
 def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
     """Compare the renderer's last frame (made with reflection_data=True) with the truth: traced
-    now, or `truth` (an earlier comparison's `truth_frame`) when it was traced for the same rays."""
-    data = renderer.read_reflection_data()
-    render = np.clip(renderer.read_color_float(), 0.0, 1.0)
-    if truth is None or not truth.fits(data):
-        truth = trace_truth(renderer, data)
-    mask = data.mirror_mask
-    # Outside the mirrors the truth is the render itself (primary visibility is the rasterizer's),
-    # unless shadows make the direct view an approximation too.
-    truth_image = np.where(mask[..., None], truth.color, render)
-    direct_pixels, direct_rmse = 0, 0.0
-    direct = np.zeros_like(mask)
-    if truth.direct is not None:
-        direct = ~np.isnan(truth.direct[..., 0])
-        truth_image = np.where(direct[..., None], np.clip(np.nan_to_num(truth.direct), 0.0, 1.0), truth_image)
-        direct_pixels = int(direct.sum())
-        direct_rmse = float(np.sqrt(((render - truth_image)[direct] ** 2).mean())) if direct_pixels else 0.0
-    truth_object, truth_position = truth.object_id, truth.position
+    now, or `truth` (an earlier comparison's `truth_frame`) when it was traced for the same rays.
+
+    An anti-aliased frame (render.samples > 1) is compared sub-frame by sub-frame at the same
+    sub-pixel positions: the truth is traced for each sub-frame's rays, each side's colours are
+    clamped and averaged alike, and the colour figures (RMSE, PSNR, direct and glass RMSE, worst
+    pixels' colour error) are measured on the averages, over the pixels any sub-frame saw a mirror
+    in. The object and geometric figures are those of the first sub-frame alone: an average of
+    object ids or hit points means nothing."""
+    frames = (renderer.sub_frames() if renderer.scene.render.samples > 1
+              else [SubFrame(None, renderer.read_color_float(), renderer.read_reflection_data())])
+    truths = _truths(renderer, frames, truth)
+    data = _reflection(frames[0])
+    renders = [np.clip(frame.color, 0.0, 1.0) for frame in frames]
+    images = [_truth_image(r, _reflection(f), t) for r, f, t in zip(renders, frames, truths, strict=True)]
+    render = np.mean(renders, axis=0)
+    truth_image = np.mean([image for image, _ in images], axis=0)
+    mask = np.logical_or.reduce([_reflection(f).mirror_mask for f in frames])
+    direct = np.logical_or.reduce([d for _, d in images]) & ~mask
+    glass_ids = [g.index for g in renderer.glass]
+    glass = np.logical_or.reduce([f.mirror_mask & np.isin(f.mirror_id, glass_ids) for f in map(_reflection, frames)])
+    direct_pixels = int(direct.sum())
+    direct_rmse = float(np.sqrt(((render - truth_image)[direct] ** 2).mean())) if direct_pixels else 0.0
+    truth_object, truth_position = truths[0].object_id, truths[0].position
     count = int(mask.sum())
     squared = ((render - truth_image) ** 2)[mask]
     rmse = float(np.sqrt(squared.mean())) if count else 0.0
-    wrong = (data.object_id != truth_object) & mask
-    glass = mask & np.isin(data.mirror_id, [g.index for g in renderer.glass])
+    first_mask = data.mirror_mask
+    wrong = (data.object_id != truth_object) & first_mask
+    first_count = int(first_mask.sum())
     glass_pixels = int(glass.sum())
     glass_rmse = float(np.sqrt(((render - truth_image)[glass] ** 2).mean())) if glass_pixels else 0.0
 
     radius = {g.index: g.bounding_sphere[1] for g in renderer.reflected_objects}
-    measured = mask & (data.object_id == truth_object) & np.isin(truth_object, list(radius))
+    measured = first_mask & (data.object_id == truth_object) & np.isin(truth_object, list(radius))
     geometric = np.full(mask.shape, np.nan)
     if measured.any():
         radii = np.vectorize(radius.get)(truth_object[measured])
@@ -193,15 +237,15 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
 
     color_error = np.abs(render - truth_image).max(axis=2)
     worst = _worst_pixels(mask, wrong, geometric, color_error, data.object_id, truth_object)
-    shows_object = mask & np.isin(truth_object, list(radius))
+    shows_object = first_mask & np.isin(truth_object, list(radius))
     wrong_surface = shows_object & (wrong | (color_error > WRONG_SURFACE_COLOR_ERROR))
     object_pixels = int(shows_object.sum())
-    retraced = int((data.retraced & mask).sum())
+    retraced = int((data.retraced & first_mask).sum())
     figures = Figures(
         mirror_pixels=count,
         color_rmse=rmse,
         psnr_db=float(20 * math.log10(1.0 / rmse)) if rmse > 0 else float("inf"),
-        wrong_object_share=float(wrong.sum() / count) if count else 0.0,
+        wrong_object_share=float(wrong.sum() / first_count) if first_count else 0.0,
         geometric_pixels=int(measured.sum()),
         geometric_error_median=float(np.median(values)) if len(values) else 0.0,
         geometric_error_p95=float(np.percentile(values, 95)) if len(values) else 0.0,
@@ -214,10 +258,12 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
         object_pixels=object_pixels,
         wrong_surface_share=float(wrong_surface.sum() / object_pixels) if object_pixels else 0.0,
         retraced_pixels=retraced,
-        retraced_share=float(retraced / count) if count else 0.0,
+        retraced_share=float(retraced / first_count) if first_count else 0.0,
+        samples=len(frames),
     )
     display = (renderer.scene.render.tone_mapping, renderer.scene.render.exposure)
-    return Comparison(render, truth_image, mask, geometric, figures, truth, direct, display)
+    truth_frame = truths[0] if len(truths) == 1 else dataclasses.replace(truths[0], sub_frames=tuple(truths))
+    return Comparison(render, truth_image, mask, geometric, figures, truth_frame, direct, display)
 
 
 def _worst_pixels(
@@ -276,6 +322,9 @@ def format_table(figures: Figures) -> str:
         ("geometric error, max", f"{100 * figures.geometric_error_max:.3f} %"),
         ("pixels measured (geometry)", f"{figures.geometric_pixels}"),
     ]
+    if figures.samples > 1:
+        rows.append(("samples per pixel", f"{figures.samples}: colour figures on the averaged colours of render and "
+                     "truth, object and geometric figures of the first sample's rays"))
     if figures.retraced_pixels:
         rows.append(("re-traced rays", f"{100 * figures.retraced_share:.2f} % of mirror pixels ({figures.retraced_pixels})"))
     if figures.glass_pixels:

@@ -93,6 +93,20 @@ class ToneMapping(IntEnum):
         return self.name.lower()
 
 
+#: `render.samples`: the sub-pixel positions a supersampled frame is drawn at, in pixels from each
+#: pixel's centre (x right, y down), one frame per position, averaged in linear colour
+#: (renderer.py, docs/colour.md). 1: the centre, today's frame exactly. 4: the rotated grid, and
+#: 8: the "8 rooks" pattern, both Direct3D's standard multisample positions (in 1/16 pixel), so
+#: that no two samples share a row or a column and near-horizontal and near-vertical edges get
+#: as many intermediate levels as there are samples.
+SAMPLE_OFFSETS: dict[int, tuple[tuple[float, float], ...]] = {
+    1: ((0.0, 0.0),),
+    4: tuple((x / 16.0, y / 16.0) for x, y in ((-2, -6), (6, -2), (-6, 2), (2, 6))),
+    8: tuple((x / 16.0, y / 16.0) for x, y in ((1, -3), (-1, 3), (5, 1), (-3, -5), (-5, 5), (-7, -1), (3, 7),
+                                                (7, -7))),
+}
+
+
 class LightKind(IntEnum):
     DIRECTIONAL = 0
     POINT = 1

@@ -126,6 +126,16 @@ class RenderPlan:
     image_plans: dict[int, list[ImagePlan]] = field(default_factory=dict, compare=False, repr=False)
     # The passes as the render graph the renderer runs (graph.py): each with what it reads and writes.
     graph: tuple[RenderNode, ...] = ()
+    # render.samples: the eye's passes run this many times per frame (at sub-pixel positions), the bakes once.
+    samples: int = 1
+
+    def samples_line(self) -> str:
+        """What anti-aliasing costs: eye passes per frame, and no GPU memory (the average is host-side)."""
+        if self.samples == 1:
+            return "anti-aliasing: none (render.samples = 1: one ray per pixel centre)"
+        return (f"anti-aliasing: {self.samples} samples: the eye's passes (environment, diffuse, reflectors) run "
+                f"{self.samples} times per frame at jittered sub-pixel positions, bakes and glass interiors once; "
+                "no GPU memory beyond one sample's (the frames are averaged in host memory)")
 
     def runs(self, stage: Pass) -> bool:
         return any(planned.stage is stage for planned in self.passes)
@@ -151,6 +161,7 @@ class RenderPlan:
             "variants": [{"stages": list(v.key[0]), "defines": dict(v.key[1]), "why": v.reason} for v in self.variants],
             "graph": [{"pass": n.stage.value, "reads": list(n.reads), "writes": list(n.writes)} for n in self.graph],
             "memory_bytes": dict(self.memory),
+            "samples": self.samples,
         }
 
     def format(self) -> str:
@@ -167,6 +178,7 @@ class RenderPlan:
         lines.append(f"shader variants ({len(self.variants)}):")
         lines += [f"  {v.name}\n      why: {v.reason}" for v in self.variants]
         lines.append(format_graph(self.graph))
+        lines.append(self.samples_line())
         total = sum(self.memory.values())
         parts = ", ".join(f"{name} {size / 2**20:.2f}" for name, size in self.memory.items())
         lines.append(f"memory: {total / 2**20:.2f} MiB" + (f" ({parts})" if parts else ""))
@@ -293,7 +305,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     graph = build_graph([(p.stage, p.reason) for p in ordered], outputs,
                         method.marches_depth_images and algorithm == Algorithm.HIERARCHICAL and bool(images))
     return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
-                      tuple(PlannedVariant(k, r) for k, r in variants.items()), memory, image_plans, graph)
+                      tuple(PlannedVariant(k, r) for k, r in variants.items()), memory, image_plans, graph,
+                      scene.render.samples)
 
 
 def _bvh_bytes(triangles: int, named: bool) -> int:

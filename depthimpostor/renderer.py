@@ -16,7 +16,7 @@ import moderngl
 import numpy as np
 
 from .colour import display_encode
-from .constants import NO_OBJECT, Algorithm, Method
+from .constants import NO_OBJECT, SAMPLE_OFFSETS, Algorithm, Method
 from .context import bind_default_framebuffer
 from .culling import may_shadow
 from .embedding import FramePresenter, kept_state, keeps_gl_state
@@ -58,6 +58,9 @@ class RenderStats:
     draw_seconds: list[float] = field(default_factory=list)  # one entry per frame
     # The mirror pass's share of each frame, when the renderer was asked to time it.
     mirror_seconds: list[float] = field(default_factory=list)
+    # Frames drawn at a sub-pixel position (render.samples per frame; 1 per frame without
+    # anti-aliasing). A frame's draw time is the sum of its sub-frames'.
+    sub_frames: int = 0
 
 
 def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC:
@@ -65,6 +68,22 @@ def camera_of(scene: Scene, geometry: list[ObjectGeometry] | None = None) -> PPC
     scene's bounds). `geometry` is the scene's, when the caller has already built it."""
     spheres = [g.bounding_sphere for g in (geometry if geometry is not None else scene_geometry(scene.objects))]
     return fitted_camera(scene.camera, scene.render.size, spheres, reversed_=False)
+
+
+def jittered(camera: PPC, dx: float, dy: float) -> PPC:
+    """`camera` with its image shifted by (dx, dy) pixels: pixel (i, j)'s centre ray is the
+    original camera's ray through (i + 0.5 + dx, j + 0.5 + dy). The eye and the pixel's size stay."""
+    return dataclasses.replace(camera, c=camera.c + camera.a * dx + camera.b * dy)
+
+
+@dataclass(frozen=True, eq=False)
+class SubFrame:
+    """One sub-pixel position of a supersampled frame: its camera, linear colour (top row first),
+    and the reflection data of its rays where the renderer keeps them."""
+
+    camera: PPC | None  # None: the renderer's own camera (a frame without anti-aliasing)
+    color: np.ndarray  # (h, w, 3) float32
+    reflection: ReflectionData | None
 
 
 @dataclass(frozen=True)
@@ -113,6 +132,8 @@ class Renderer:
         self.count_samples = count_samples
         self.time_mirror_pass = time_mirror_pass
         self.stats = RenderStats()
+        self.last_sub_frames: list[SubFrame] = []  # the last supersampled frame's (render.samples > 1)
+        self._unjittered: PPC | None = None  # the frame's camera while its sub-frames are drawn
         self.programs = ProgramCache(ctx, shaders)
         # The eye's depth convention (eye.py): reversed-Z where GL has clip control.
         self.reversed_z = reversed_z(ctx) is not None
@@ -148,8 +169,9 @@ class Renderer:
     def _make_targets(self, size: tuple[int, int]) -> None:
         ctx = self.ctx
         # Float colour so that a NaN or Inf from a shader survives to be caught by a test,
-        # instead of being clamped into a plausible-looking 8-bit pixel.
-        self._color = ctx.renderbuffer(size, 4, dtype="f4")
+        # instead of being clamped into a plausible-looking 8-bit pixel. A texture, not a
+        # renderbuffer: a supersampled frame's average is written back into it.
+        self._color = ctx.texture(size, 4, dtype="f4")
         self._depth = make_depth_buffer(ctx, size)
         self._reflection_outputs = [
             ctx.renderbuffer(size, 4, dtype="f4") for _ in range(REFLECTION_OUTPUTS if self.reflection_data else 0)
@@ -423,7 +445,8 @@ class Renderer:
         """
         # The passes expect the depth test on and nothing else (no blending of the caller's).
         with kept_state(self.ctx, enable_only=moderngl.DEPTH_TEST):
-            stats = self._draw_frame()
+            samples = self.scene.render.samples
+            stats = self._draw_frame() if samples == 1 else self._draw_supersampled(samples)
             if target is not None:
                 self._put_frame(target, viewport)
         return stats
@@ -475,7 +498,53 @@ class Renderer:
         if self.time_mirror_pass:
             self.stats.mirror_seconds.append(end - mirror_start if mirror_start is not None else 0.0)
         self.stats.frames += 1
+        self.stats.sub_frames += 1
         return self.stats
+
+    def _draw_supersampled(self, samples: int) -> RenderStats:
+        """One anti-aliased frame: the graph drawn once per sub-pixel position of SAMPLE_OFFSETS
+        (the eye camera's corner shifted, so that every ray the mirror shader traces moves with
+        its pixel), the linear colours averaged into the colour target. Bakes do not depend on the
+        eye and run once; glass interiors depend on the eye's position and pixel size, which a
+        jitter keeps, so they are made once too. The sub-frames stay (`sub_frames`) for `compare`,
+        which traces the truth at the same positions."""
+        base, stats = self.camera, self.stats
+        frames, draws, mirrors = stats.frames, len(stats.draw_seconds), len(stats.mirror_seconds)
+        total: np.ndarray | None = None
+        kept: list[SubFrame] = []
+        self._unjittered = base
+        try:
+            for dx, dy in SAMPLE_OFFSETS[samples]:
+                self.camera = jittered(base, dx, dy)
+                self._draw_frame()
+                rgba = self._read_rgba()
+                total = rgba.astype(np.float64) if total is None else total + rgba
+                kept.append(SubFrame(self.camera, rgba[..., :3].copy(),
+                                     self.read_reflection_data() if self.reflection_data else None))
+        finally:
+            self.camera, self._unjittered = base, None
+        assert total is not None
+        self._color.write((total / samples).astype(np.float32).tobytes())
+        self.last_sub_frames = kept
+        # One frame, whose time is its sub-frames' (reading them back is not counted).
+        stats.frames = frames + 1  # _draw_frame counted each sub-frame in sub_frames, and as a frame
+        stats.draw_seconds[draws:] = [sum(stats.draw_seconds[draws:])]
+        if self.time_mirror_pass:
+            stats.mirror_seconds[mirrors:] = [sum(stats.mirror_seconds[mirrors:])]
+        return stats
+
+    def _read_rgba(self) -> np.ndarray:
+        width, height = self.scene.render.size
+        data = self.framebuffer.read(components=4, dtype="f4")
+        return np.frombuffer(data, dtype=np.float32).reshape(height, width, 4)
+
+    def sub_frames(self) -> list[SubFrame]:
+        """The last frame's sub-pixel frames: one per sample (render.samples), or, without
+        anti-aliasing, the frame itself at the pixel centres."""
+        if self.scene.render.samples == 1:
+            data = self.read_reflection_data() if self.reflection_data else None
+            return [SubFrame(self.camera, self.read_color_float(), data)]
+        return list(self.last_sub_frames)
 
     def _stale(self, stage: Pass) -> bool:
         """Does a baking node have anything to do this frame?"""
@@ -516,7 +585,11 @@ class Renderer:
             self.stats.draw_calls += self.diffuse.draw(drawn, view_projection)
         elif stage is Pass.GLASS_INTERIORS and self.mirror_pass is not None:
             before = self._interiors_made()
-            self.stats.draw_calls += self.mirror_pass.make_interiors(self.reflectors, self.camera)
+            # A glass interior depends on the eye's position and pixel size, not on a sub-pixel
+            # jitter: made from the frame's own camera, so that rounding in the jittered one's
+            # corner does not make it again for every sample.
+            unjittered = self._unjittered if self._unjittered is not None else self.camera
+            self.stats.draw_calls += self.mirror_pass.make_interiors(self.reflectors, unjittered)
             made = self._interiors_made() - before
             if not made:
                 return
@@ -599,7 +672,8 @@ class Renderer:
         if self.color_framebuffer is not self.framebuffer:
             self.color_framebuffer.release()
         self.framebuffer.release()
-        for item in (self._color, self._depth, *self._reflection_outputs):
+        self._color.release()
+        for item in (self._depth, *self._reflection_outputs):
             item.release()
         if self._sample_counts is not None:
             self._sample_counts.release()

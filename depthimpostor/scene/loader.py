@@ -27,7 +27,7 @@ from depthimpostor.scene.limits import check_scene
 from depthimpostor.textures import read_texture
 from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_file_bytes, read_variant, show
 from depthimpostor.scene.model import (
-    EXPOSURE, IMPOSTOR_RESOLUTION, TONE_MAPPING, ZERO, Animation, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial,
+    EXPOSURE, IMPOSTOR_RESOLUTION, SAMPLES, TONE_MAPPING, ZERO, Animation, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial,
     Environment, GlassMaterial, Light, Material, MeshShape, MirrorMaterial, PlaneShape, RenderSettings, Scene,
     SceneObject, Shape, SphereShape, Texture, TorusKnotShape, TorusShape,
 )
@@ -266,7 +266,8 @@ def _render(t: Table) -> RenderSettings:
                           max_bounces=t.opt("max_bounces", f.integer(f.Bounds(1, MAX_BOUNCES)), d.max_bounces),
                           ambient=t.opt("ambient", f.number(f.UNIT), d.ambient),
                           tone_mapping=t.opt("tone_mapping", TONE_MAPPING, d.tone_mapping),
-                          exposure=t.opt("exposure", EXPOSURE, d.exposure))
+                          exposure=t.opt("exposure", EXPOSURE, d.exposure),
+                          samples=t.opt("samples", SAMPLES, d.samples))
 
 
 def _camera(t: Table) -> Camera:
@@ -354,7 +355,7 @@ def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
         source=source,
         render=_render(top.section("render", ("size", "impostor_resolution", "ambient", "simplified_triangles",
                                               "shadow_resolution", "max_bounces", "tone_mapping",
-                                              "exposure"))),
+                                              "exposure", "samples"))),
         camera=_camera(top.section("camera", ("eye", "target", "up", "fov_y"))),
         environment=top.variant("environment", _ENVIRONMENTS, default=Environment(), default_type="gradient"),
         lights=tuple(read_variant(value, at, _LIGHTS) for value, at in top.array("lights")),

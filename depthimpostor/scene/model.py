@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from depthimpostor.colour import TONE_MAPPINGS
+from depthimpostor.constants import SAMPLE_OFFSETS
 from depthimpostor.meshes import Mesh
 from depthimpostor.scene.fields import (
     RESOLUTION, SIZE, TRIANGLE_TARGET, At, Bounds, Reader, Vec3, choice, number, word_or,
@@ -31,6 +32,9 @@ IMPOSTOR_RESOLUTION: Reader[int | str] = word_or(AUTO_RESOLUTION, RESOLUTION)
 #: past any useful scale of a frame (and 2^exposure stays a finite float).
 TONE_MAPPING = choice(TONE_MAPPINGS)
 EXPOSURE = number(Bounds(-20.0, 20.0))
+#: What `samples` may be, in the file and on the command line alike: the counts with a pattern.
+SAMPLES = Reader(f"one of: {', '.join(str(n) for n in SAMPLE_OFFSETS)} (samples per pixel)",
+                 lambda v: v if isinstance(v, int) and not isinstance(v, bool) and v in SAMPLE_OFFSETS else None)
 
 
 @dataclass(frozen=True)
@@ -50,6 +54,9 @@ class RenderSettings:
     # the frame stays linear; 8-bit output is 2^exposure times it, tone mapped, sRGB encoded.
     tone_mapping: str = "none"  # "none" (clamped), "aces" or "reinhard"
     exposure: float = 0.0  # stops
+    # Anti-aliasing: the frame is drawn once per sub-pixel position of SAMPLE_OFFSETS[samples] and
+    # the linear colours averaged (renderer.py; docs/colour.md). 1 is one ray per pixel centre.
+    samples: int = 1
 
     @property
     def auto_resolution(self) -> bool:
@@ -422,7 +429,7 @@ class Scene:
 
     def with_overrides(self, size: tuple[int, int] | None = None, impostor_resolution: int | str | None = None,
                        simplified_triangles: int | None = None, tone_mapping: str | None = None,
-                       exposure: float | None = None) -> Scene:
+                       exposure: float | None = None, samples: int | None = None) -> Scene:
         """This scene with render settings from the command line, checked as strictly as the file's."""
         at = At("command line", "")
         render = self.render
@@ -438,4 +445,6 @@ class Scene:
             render = dataclasses.replace(render, tone_mapping=at.key("--tone-mapping").read(tone_mapping, TONE_MAPPING))
         if exposure is not None:
             render = dataclasses.replace(render, exposure=at.key("--exposure").read(exposure, EXPOSURE))
+        if samples is not None:
+            render = dataclasses.replace(render, samples=at.key("--samples").read(samples, SAMPLES))
         return dataclasses.replace(self, render=render)
