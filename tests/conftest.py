@@ -75,6 +75,7 @@ def assert_finite(image: np.ndarray) -> None:
     assert not bad.any(), f"{int(bad.sum())} NaN or Inf values in the image"
 
 
-def scene_from_toml(text: str, source: str = "test scene") -> Scene:
-    """A scene written inline in a test, validated as a scene file would be."""
-    return parse_scene(tomllib.loads(text), source, Path("."))
+def scene_from_toml(text: str, source: str = "test scene", base_dir: Path = Path(".")) -> Scene:
+    """A scene written inline in a test, validated as a scene file would be (model and texture
+    paths resolved against `base_dir`)."""
+    return parse_scene(tomllib.loads(text), source, base_dir)

@@ -12,7 +12,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 import pytest
-from conftest import PROJECT_ROOT, SCENES, tomllib  # tomli on Python 3.10
+from conftest import PROJECT_ROOT, SCENES, scene_from_toml
 
 from depthimpostor import culling
 from depthimpostor.constants import (
@@ -27,7 +27,6 @@ from depthimpostor.geometry import scene_geometry
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, SceneObject, SphereShape, load_scene
-from depthimpostor.scene.loader import parse_scene
 
 HEAD = """
 [render]
@@ -58,15 +57,14 @@ def balls(count: int, z: float, radius: float = 0.1, first: int = 0) -> str:
 
 
 def scene(text: str) -> Scene:
-    return parse_scene(tomllib.loads(text), "limits.toml", Path("."))
+    return scene_from_toml(text, "limits.toml")
 
 
 def model_scene(tmp_path: Path) -> Scene:
     """A model file within the coordinate range, scaled past it."""
     (tmp_path / "far.obj").write_text("v 0 0 0\nv 1e9 0 0\nv 0 1e9 0\nf 1 2 3\n", encoding="utf-8")
-    return parse_scene(tomllib.loads(HEAD + WALL_MIRROR + '[[objects]]\nname = "model"\nshape = { type = "mesh", '
-                                    'path = "far.obj" }\nscale = 1e10\nposition = [0.0, 0.0, 2.0]\n'),
-                       "limits.toml", tmp_path)
+    return scene_from_toml(HEAD + WALL_MIRROR + '[[objects]]\nname = "model"\nshape = { type = "mesh", '
+                           'path = "far.obj" }\nscale = 1e10\nposition = [0.0, 0.0, 2.0]\n', "limits.toml", tmp_path)
 
 
 def too_many_lights() -> Scene:
