@@ -9,7 +9,7 @@ caller gives. Every error a user can cause is a `DepthImpostorError`.
 from __future__ import annotations
 
 from .api import render_image
-from .context import create_context
+from .gpu.context import create_context
 from .errors import DepthImpostorError
 from .renderer import Renderer
 from .scene import Scene, load_scene

@@ -16,8 +16,8 @@ import moderngl
 import numpy as np
 
 from .constants import Algorithm, Method
-from .context import Backend, create_context
-from .limits import limit_memory
+from .gpu.context import Backend, create_context
+from .gpu.limits import limit_memory
 from .colour import display_encode
 from .renderer import Renderer
 from .scene import Scene, load_scene

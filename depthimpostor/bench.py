@@ -32,13 +32,13 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
-from .compare import TruthFrame, compare
+from .oracles.compare import TruthFrame, compare
 from .constants import Algorithm, Method
-from .context import describe
+from .gpu.context import describe
 from .errors import GpuLimitError
-from .limits import check_fits, context_limits, planned_bytes
+from .gpu.limits import check_fits, context_limits, planned_bytes
 from .outputs import Outputs
-from .passes.baked_images import BakedImages
+from .methods.baked_images import BakedImages
 from .plan import STAND_INS, plan_render
 from .renderer import Renderer
 from .scene import Scene
@@ -91,7 +91,7 @@ class BenchRow:
     samples_per_ray_max: float
     mirror_pixels: int
     wrong_object_percent: float
-    wrong_surface_percent: float  # of the mirror pixels that show an object (compare.py)
+    wrong_surface_percent: float  # of the mirror pixels that show an object (oracles/compare.py)
     retraced_percent: float  # of the mirror pixels: the hybrid method's rays traced against the triangles
     color_rmse: float
     psnr_db: float

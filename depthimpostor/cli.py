@@ -16,12 +16,12 @@ from typing import TypeVar
 import moderngl
 
 from .constants import Algorithm, Method
-from .context import create_context, describe
+from .gpu.context import create_context, describe
 from .errors import DepthImpostorError, SceneError, SceneWarning
-from .compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
+from .oracles.compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
 from .colour import TONE_MAPPINGS
 from .outputs import Outputs, check_file, check_folder, is_float_image, write_float_image, write_image
-from .limits import check_fits, limit_memory, parse_memory
+from .gpu.limits import check_fits, limit_memory, parse_memory
 from .plan import RenderPlan, plan_render
 from .renderer import Renderer, RenderStats
 from .resources import default_scene_path

@@ -10,7 +10,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from .bindings import glsl_bindings
+from .gpu.bindings import glsl_bindings
 
 
 class Algorithm(IntEnum):
@@ -51,7 +51,7 @@ class Method(IntEnum):
 
 class Unseen(IntEnum):
     """Why a depth image's answer to a ray rests on what the image does not hold (the first reason
-    met along the ray; shaders/lib/depth_image.glsl and depthimpostor/reference.py define them
+    met along the ray; shaders/lib/depth_image.glsl and depthimpostor/oracles/reference.py define them
     with these names). A depth image holds, per sample, the visible surface and the back of its
     first solid run: the space in front of the surface is known empty, the run is known solid, and
     nothing is known behind the run or between samples across a silhouette."""
@@ -229,7 +229,7 @@ CLIP_TOLERANCE_PIXELS = 1e-4
 #: in the atlas and its size; `surface` is (the largest relative change in w per texel of
 #: distance that still joins two samples, 1/w_near, 1/w_near - 1/w_far); `pyramid` the (x, y)
 #: origin of the image's first coarse level in the depth pyramid's texture and its number of
-#: coarse levels (passes/pyramid.py; read by the hierarchical traversal alone).
+#: coarse levels (methods/pyramid.py; read by the hierarchical traversal alone).
 DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
     ("eye", "vec4"),
     ("a", "vec4"),

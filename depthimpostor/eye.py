@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from .context import gl_function
+from .gpu.context import gl_function
 from .ppc import PPC, Array
 from .scene.model import Camera
 

@@ -91,7 +91,7 @@ class ObjectGeometry:
 
 def triangle_offsets(objects: list[ObjectGeometry]) -> dict[int, int]:
     """Where each object's triangles start (by object index) in the list of all their triangles,
-    in this order: the list the ray-traced method's BVH is built from (passes/triangles.py), whose
+    in this order: the list the ray-traced method's BVH is built from (methods/triangles.py), whose
     places the hybrid method's depth images record."""
     offsets, start = {}, 0
     for item in objects:

@@ -3,7 +3,7 @@
 A spherical light of radius r seen from a point P is a disk of radius r facing P. Soft shadows
 send SOFT_SHADOW_RAYS rays from P to fixed points of that disk (a Vogel spiral: even coverage
 with no clumps for any count) in a frame built from the direction to the light alone, so that
-the renderer (lib/shadows.glsl) and the ray-traced truth (truth.py) test the very same rays and
+the renderer (lib/shadows.glsl) and the ray-traced truth (oracles/truth.py) test the very same rays and
 differ only in what they test them against: a depth image, or the real triangles.
 """
 

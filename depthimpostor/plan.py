@@ -15,32 +15,32 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from .bvh import node_count
+from .methods.bvh import node_count
 from .constants import (
     BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, Algorithm, Method,
 )
 from .culling import Reach
 from .geometry import ObjectGeometry
-from .passes.billboards import BillboardPass
-from .passes.cubemaps import CubeMapPass
+from .methods.billboards import BillboardPass
+from .methods.cubemaps import CubeMapPass
 from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
 from .passes.environment import ENVIRONMENT_PROGRAM, environment_map_bytes
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
-from .passes.hybrid import HybridPass
-from .passes.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
-from .passes.baked_images import BakedImages, ImagePlan, SecondLayer
-from .passes.impostors import ImpostorPass
-from .passes.meshes import GpuMeshes
-from .passes.textures import GpuTextures
+from .methods.hybrid import HybridPass
+from .methods.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
+from .methods.baked_images import BakedImages, ImagePlan, SecondLayer
+from .methods.impostors import ImpostorPass
+from .gpu.meshes import GpuMeshes
+from .gpu.textures import GpuTextures
 from .passes.mirrors import REFLECTION_OUTPUTS, REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
-from .passes.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
+from .methods.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
 from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
-from .passes.simplified import SimplifiedPass, simplified_mesh
-from .passes.triangles import TrianglePass
-from .passes.uniforms import environment_defines
+from .methods.simplified import SimplifiedPass, simplified_mesh
+from .methods.triangles import TrianglePass
+from .gpu.uniforms import environment_defines
 from .scene.limits import check_method, check_model_reach, check_scene
 from .scene.model import MeshShape, Scene
-from .shaders import ProgramKey, program_key
+from .gpu.shaders import ProgramKey, program_key
 from .graph import Pass, RenderNode, build_graph, format_graph
 from .world import World
 
@@ -310,7 +310,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
 
 
 def _bvh_bytes(triangles: int, named: bool) -> int:
-    """GPU memory of passes/triangles.py's BVH of `triangles`: node, triangle and (`named`, the
+    """GPU memory of methods/triangles.py's BVH of `triangles`: node, triangle and (`named`, the
     hybrid method's) place textures in rows of BVH_TEXTURE_WIDTH RGBA32F texels, and the
     uniform block of object records."""
     def rows(texels: int) -> int:
@@ -356,7 +356,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
             stand_in.keeps_back_colors, stand_in.keeps_beyond)
         memory[stand_in.image_noun + " records"] = len(reflectors) * records
         marches = issubclass(stand_in, ImpostorPass)
-        if marches and scene.render.max_bounces > 1 and len(reflectors) > 1:  # passes/bounces.py
+        if marches and scene.render.max_bounces > 1 and len(reflectors) > 1:  # methods/bounces.py
             levels = len(reflectors) * (scene.render.max_bounces - 1)
             interior = interior_bytes(side) + DEPTH_IMAGE_DTYPE.itemsize if bounce_glass else 0
             memory["bounce baking"] = ImpostorAtlas.bytes_for(1, side, True) + side * side * 8 + levels * records + interior

@@ -17,30 +17,30 @@ import numpy as np
 
 from .colour import display_encode
 from .constants import NO_OBJECT, SAMPLE_OFFSETS, Algorithm, Method
-from .context import bind_default_framebuffer
+from .gpu.context import bind_default_framebuffer
 from .culling import may_shadow
-from .embedding import FramePresenter, kept_state, keeps_gl_state
+from .gpu.embedding import FramePresenter, kept_state, keeps_gl_state
 from .eye import EyeCamera, Sphere, clear_depth, eye_depth, fitted_camera, make_depth_buffer, reversed_z
 from .geometry import ObjectGeometry, scene_geometry
 from .world import World
-from .limits import allocating, check_fits
+from .gpu.limits import allocating, check_fits
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
 from .passes.glass import GlassInterior
-from .passes.baked_images import BakedImages
-from .passes.impostors import ImpostorPass
-from .passes.meshes import GpuMeshes
-from .passes.textures import GpuTextures
+from .methods.baked_images import BakedImages
+from .methods.impostors import ImpostorPass
+from .gpu.meshes import GpuMeshes
+from .gpu.textures import GpuTextures
 from .passes.mirrors import REFLECTION_OUTPUTS, MirrorPass, ReflectedObjects
 from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
-from .passes.triangles import TrianglePass
-from .passes.uniforms import write_scene_uniforms
+from .methods.triangles import TrianglePass
+from .gpu.uniforms import write_scene_uniforms
 from .graph import BAKES, Pass
 from .plan import STAND_INS, RenderPlan, check_stand_in, plan_render
 from .ppc import PPC
 from .scene.model import Camera, Scene
-from .shaders import ProgramCache, ShaderLibrary
+from .gpu.shaders import ProgramCache, ShaderLibrary
 
 
 @dataclass
@@ -102,7 +102,7 @@ class ReflectionData:
 
 class Renderer:
     """A scene's frames, drawn with the GL context it is given. Every public method leaves the GL
-    state as it found it (embedding.py; docs/python_api.md): an application can share its context."""
+    state as it found it (gpu/embedding.py; docs/python_api.md): an application can share its context."""
 
     def __init__(
         self,

@@ -68,7 +68,7 @@ def read_texture(path: Path, at: At, scale: tuple[float, float], wrap: tuple[int
 
 def texel_rects(scene: Scene) -> np.ndarray:
     """(MAX_TEXTURES, 4) int32: where slot k's level 0 lies in the traced rays' texel stack
-    (passes/textures.py): (x, y, width, height), the images stacked top to bottom in slot order."""
+    (gpu/textures.py): (x, y, width, height), the images stacked top to bottom in slot order."""
     rects = np.zeros((MAX_TEXTURES, 4), np.int32)
     y = 0
     for slot, texture in enumerate(scene.textures[:MAX_TEXTURES]):

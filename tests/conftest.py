@@ -13,7 +13,7 @@ import pytest
 import trimesh
 from hypothesis import HealthCheck, settings
 
-from depthimpostor.context import create_context
+from depthimpostor.gpu.context import create_context
 from depthimpostor.scene import Scene
 from depthimpostor.scene.loader import parse_scene
 

@@ -11,11 +11,11 @@ from collections.abc import Callable
 import moderngl
 import numpy as np
 
-from depthimpostor import reference
+from depthimpostor.oracles import reference
 from depthimpostor.constants import BACKGROUND_DEPTH, Algorithm
-from depthimpostor.gpu import query_depth_images
+from depthimpostor.oracles.ray_query import query_depth_images
 from depthimpostor.ppc import PPC
-from depthimpostor.shaders import ProgramCache
+from depthimpostor.gpu.shaders import ProgramCache
 
 #: The eye looks down -Z from the origin; w is the distance along the axis (the image plane is at 1).
 EYE = np.zeros(3)

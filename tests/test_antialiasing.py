@@ -1,5 +1,5 @@
 """Anti-aliasing (`render.samples`, `--samples`): a frame drawn at jittered sub-pixel positions and
-averaged, the truth traced at the same positions (renderer.py, compare.py; docs/colour.md).
+averaged, the truth traced at the same positions (renderer.py, oracles/compare.py; docs/colour.md).
 
 The scene is black boxes against a white sky, one seen directly and one only in a planar mirror,
 so that one sample per pixel gives exactly 0 or 1 and N samples give multiples of 1/N: the
@@ -14,7 +14,7 @@ import pytest
 
 from conftest import SCENES, assert_finite, scene_from_toml
 from depthimpostor.cli import main
-from depthimpostor.compare import compare
+from depthimpostor.oracles.compare import compare
 from depthimpostor.constants import SAMPLE_OFFSETS, Method
 from depthimpostor.errors import SceneError
 from depthimpostor.graph import Pass

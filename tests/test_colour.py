@@ -15,11 +15,11 @@ from PIL import Image
 from conftest import SCENES
 from depthimpostor.cli import main
 from depthimpostor.colour import TONE_MAPPINGS, display_encode, encode_srgb, tone_map
-from depthimpostor.context import bind_default_framebuffer
+from depthimpostor.gpu.context import bind_default_framebuffer
 from depthimpostor.hdr import read_hdr
 from depthimpostor.passes.present import PresentPass
 from depthimpostor.scene.model import RenderSettings
-from depthimpostor.shaders import ProgramCache
+from depthimpostor.gpu.shaders import ProgramCache
 
 
 def srgb_decode(encoded: np.ndarray) -> np.ndarray:

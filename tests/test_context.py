@@ -18,7 +18,7 @@ import moderngl
 import pytest
 
 from conftest import PROJECT_ROOT
-from depthimpostor.context import REQUIRED_GL_VERSION, create_context, describe
+from depthimpostor.gpu.context import REQUIRED_GL_VERSION, create_context, describe
 from depthimpostor.errors import ContextError, DepthImpostorError
 
 MISSING_LIBRARY = "/nonexistent/libOSMesa.so.8"
@@ -86,7 +86,7 @@ def test_auto_names_every_backend_tried(monkeypatch: pytest.MonkeyPatch) -> None
 
 OSMESA_PROBE = """
 import json
-from depthimpostor.context import create_context, describe
+from depthimpostor.gpu.context import create_context, describe
 from depthimpostor.errors import ContextError
 try:
     ctx = create_context("osmesa")

@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 
 from conftest import SCENES, assert_finite
-from depthimpostor.compare import compare
+from depthimpostor.oracles.compare import compare
 from depthimpostor.constants import Method
 from depthimpostor.errors import SceneError
 from depthimpostor.hdr import read_hdr, write_hdr
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
 from depthimpostor.scene.model import Environment
-from depthimpostor.truth import environment, equirect_lookup
+from depthimpostor.oracles.truth import environment, equirect_lookup
 
 WIDTH, HEIGHT = 16, 8
 

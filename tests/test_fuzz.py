@@ -26,12 +26,12 @@ from hypothesis import given, strategies as st
 
 import synthetic
 from conftest import SCENES
-from depthimpostor import reference
+from depthimpostor.oracles import reference
 from depthimpostor.constants import BACKGROUND_DEPTH, Algorithm
-from depthimpostor.gpu import query_depth_images
+from depthimpostor.oracles.ray_query import query_depth_images
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
-from depthimpostor.shaders import ProgramCache
+from depthimpostor.gpu.shaders import ProgramCache
 
 SPECS_PER_BATCH = 32
 RAYS_PER_SPEC = 64

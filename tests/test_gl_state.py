@@ -1,4 +1,4 @@
-"""GL raster state is set in scopes (depthimpostor/gl_state.py): a scope sets the whole state and the
+"""GL raster state is set in scopes (depthimpostor/gpu/gl_state.py): a scope sets the whole state and the
 enclosing one comes back after it, and no module outside the state modules toggles a capability."""
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ from pathlib import Path
 
 import moderngl
 
-from depthimpostor.context import gl_function
-from depthimpostor.gl_state import BASE, NO_DEPTH_TEST, RasterState, raster_state
+from depthimpostor.gpu.context import gl_function
+from depthimpostor.gpu.gl_state import BASE, NO_DEPTH_TEST, RasterState, raster_state
 
 PACKAGE = Path(__file__).resolve().parent.parent / "depthimpostor"
 # The modules that own GL state: the scopes, and the renderer's boundary with a caller's context.
-STATE_MODULES = {"gl_state.py", "embedding.py"}
+STATE_MODULES = {"gpu/gl_state.py", "gpu/embedding.py"}  # relative to the package
 TOGGLE = re.compile(r"\.(enable|disable|enable_only)\(|\.(cull_face|front_face|blend_func)\s*=[^=]")
 
 GL_DEPTH_TEST, GL_CULL_FACE, GL_BLEND = 0x0B71, 0x0B44, 0x0BE2
@@ -24,7 +24,7 @@ GL_FRONT, GL_BACK, GL_CW, GL_CCW = 0x0404, 0x0405, 0x0900, 0x0901
 
 def test_no_module_toggles_gl_state_by_hand() -> None:
     offenders = [f"{path.relative_to(PACKAGE)}:{number}: {line.strip()}"
-                 for path in PACKAGE.rglob("*.py") if path.name not in STATE_MODULES
+                 for path in PACKAGE.rglob("*.py") if path.relative_to(PACKAGE).as_posix() not in STATE_MODULES
                  for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
                  if TOGGLE.search(line)]
     assert not offenders, offenders

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from conftest import SCENES, assert_finite, scene_from_toml
-from depthimpostor.compare import compare
+from depthimpostor.oracles.compare import compare
 from depthimpostor.constants import Method
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
-from depthimpostor.truth import SpecularTruth, facing, refract
+from depthimpostor.oracles.truth import SpecularTruth, facing, refract
 
 # A glass object over a plain floor (a checker floor seen through a lens is mostly aliasing:
 # edges magnified or shrunk many times, where any method differs from the truth by whole squares).

@@ -17,10 +17,10 @@ import moderngl
 import pytest
 
 from conftest import SCENES
-from depthimpostor import limits
+from depthimpostor.gpu import limits
 from depthimpostor.cli import main
 from depthimpostor.errors import GpuLimitError
-from depthimpostor.limits import GpuLimits, context_limits, parse_memory, use_limits
+from depthimpostor.gpu.limits import GpuLimits, context_limits, parse_memory, use_limits
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
 

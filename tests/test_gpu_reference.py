@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from conftest import SCENES
-from depthimpostor import reference
+from depthimpostor.oracles import reference
 from depthimpostor.constants import Algorithm
-from depthimpostor.gpu import RayQuery
-from depthimpostor.passes.atlas import DepthImage
+from depthimpostor.oracles.ray_query import RayQuery
+from depthimpostor.methods.atlas import DepthImage
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
 

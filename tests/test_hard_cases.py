@@ -12,7 +12,7 @@ import pytest
 
 import synthetic
 from depthimpostor.constants import CONTACT_DEPTH_TOLERANCE, MAX_SURFACE_SLOPE, Algorithm
-from depthimpostor.shaders import ProgramCache
+from depthimpostor.gpu.shaders import ProgramCache
 
 ALGORITHMS = pytest.mark.parametrize("algorithm", list(Algorithm), ids=lambda a: a.name.lower())
 

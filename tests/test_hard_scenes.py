@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from conftest import SCENES, assert_finite
-from depthimpostor.compare import compare, trace_truth
+from depthimpostor.oracles.compare import compare, trace_truth
 from depthimpostor.constants import NO_OBJECT
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene

@@ -18,12 +18,12 @@ import synthetic
 from conftest import SCENES
 from depthimpostor.constants import BACKGROUND_DEPTH, EMPTY_SPAN_MAX, EMPTY_SPAN_MIN, Algorithm
 from depthimpostor.errors import ContextError
-from depthimpostor.gpu import RayQuery, query_depth_images
-from depthimpostor.passes.atlas import ImpostorAtlas
-from depthimpostor.passes.pyramid import DepthPyramid, PyramidLayout, coarse_levels, level_size
+from depthimpostor.oracles.ray_query import RayQuery, query_depth_images
+from depthimpostor.methods.atlas import ImpostorAtlas
+from depthimpostor.methods.pyramid import DepthPyramid, PyramidLayout, coarse_levels, level_size
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
-from depthimpostor.shaders import ProgramCache
+from depthimpostor.gpu.shaders import ProgramCache
 
 
 @pytest.fixture(scope="module")
@@ -34,7 +34,7 @@ def programs(ctx: moderngl.Context) -> Iterator[ProgramCache]:
 
 
 def numpy_pyramid_level(layers: np.ndarray, level: int) -> np.ndarray:
-    """Level `level` of an image's pyramid from the definition (passes/pyramid.py): per texel c,
+    """Level `level` of an image's pyramid from the definition (methods/pyramid.py): per texel c,
     (min front, max back of the solid run) over the image texels [c 2^L - 1, (c + 1) 2^L] of each
     axis, background left out."""
     front, back = layers[..., 0].astype(np.float64), layers[..., 1].astype(np.float64)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import SCENES, assert_finite
 
-from depthimpostor.compare import compare
+from depthimpostor.oracles.compare import compare
 from depthimpostor.constants import Algorithm, Method
 from depthimpostor.errors import SceneError
 from depthimpostor.renderer import Renderer

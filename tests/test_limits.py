@@ -147,13 +147,13 @@ def test_hybrid_refuses_more_triangles_than_a_sample_can_name(monkeypatch: pytes
 #: walked above or is a limit of the GL itself (texture sizes, compared with the context: not a
 #: property of the scene). A new one needs a case in LIMITS, and the check before planning.
 RAISES = {
-    "passes/cubemaps.py": 1,  # object around a cube map's centre
-    "passes/atlas.py": 2,  # a frustum around an object; the atlas past GL_MAX_TEXTURE_SIZE (GL)
-    "passes/baked_images.py": 1,  # depth images per mirror
-    "passes/impostors.py": 1,  # images with bounces
+    "methods/cubemaps.py": 1,  # object around a cube map's centre
+    "methods/atlas.py": 2,  # a frustum around an object; the atlas past GL_MAX_TEXTURE_SIZE (GL)
+    "methods/baked_images.py": 1,  # depth images per mirror
+    "methods/impostors.py": 1,  # images with bounces
     "passes/shadows.py": 1,  # light among its casters
-    "passes/triangles.py": 1,  # BVH texture past GL_MAX_TEXTURE_SIZE (GL)
-    "passes/uniforms.py": 2,  # lights, analytic planes: the loader and the plan refuse them first
+    "methods/triangles.py": 1,  # BVH texture past GL_MAX_TEXTURE_SIZE (GL)
+    "gpu/uniforms.py": 2,  # lights, analytic planes: the loader and the plan refuse them first
     # lights, analytic planes, reach, bounces per method, traced objects, named triangles; textures
     # past MAX_TEXTURES and a texture on a shape without UVs (at load: tests/test_textures.py)
     "scene/limits.py": 8,

@@ -14,14 +14,14 @@ import trimesh
 from PIL import Image
 
 from conftest import SCENES, assert_finite
-from depthimpostor.bvh import LEAF_TRIANGLES, build_bvh
+from depthimpostor.methods.bvh import LEAF_TRIANGLES, build_bvh
 from depthimpostor.cli import main
-from depthimpostor.compare import compare
+from depthimpostor.oracles.compare import compare
 from depthimpostor.constants import NO_OBJECT, Method
 from depthimpostor.errors import SceneError
 from depthimpostor.meshes import sphere
-from depthimpostor.passes.baked_images import BakedImages
-from depthimpostor.passes.simplified import crease_shaded, simplified_mesh
+from depthimpostor.methods.baked_images import BakedImages
+from depthimpostor.methods.simplified import crease_shaded, simplified_mesh
 from depthimpostor.renderer import STAND_INS, Renderer
 from depthimpostor.scene import Scene, load_scene, parse_scene
 

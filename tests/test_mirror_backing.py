@@ -12,12 +12,12 @@ import moderngl
 import numpy as np
 
 from conftest import assert_finite
-from depthimpostor.compare import Comparison, compare
+from depthimpostor.oracles.compare import Comparison, compare
 from depthimpostor.constants import NO_OBJECT
 from depthimpostor.renderer import ReflectionData, Renderer
 from depthimpostor.scene.loader import parse_scene
 from depthimpostor.scene.model import Scene
-from depthimpostor.truth import MIRROR_BACKING_ALBEDO, TruthTracer, shade
+from depthimpostor.oracles.truth import MIRROR_BACKING_ALBEDO, TruthTracer, shade
 
 SIZE = (240, 160)
 FLOOR = {"name": "floor", "shape": {"type": "plane", "size": [12.0, 12.0]},

@@ -8,11 +8,11 @@ import moderngl
 import numpy as np
 import pytest
 
-from depthimpostor.context import bind_default_framebuffer
+from depthimpostor.gpu.context import bind_default_framebuffer
 from depthimpostor.font import CHARACTERS, SOLID, rasterize
 from depthimpostor.passes.overlay import PANEL_PADDING, OverlayPass, Panel, layout
 from depthimpostor.passes.present import PresentPass
-from depthimpostor.shaders import ProgramCache
+from depthimpostor.gpu.shaders import ProgramCache
 
 SIZE = (240, 120)
 

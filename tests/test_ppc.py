@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from conftest import assert_finite
-from depthimpostor.context import bind_default_framebuffer
+from depthimpostor.gpu.context import bind_default_framebuffer
 from depthimpostor.ppc import PPC, FrustumFitError
 
 # (eye, target, up, fov, width, height): square, wide, tall, oblique and tilted up-vector cameras.

@@ -18,7 +18,7 @@ from depthimpostor.constants import Algorithm, Method
 from depthimpostor.errors import GpuLimitError, ShaderError
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Animation, Camera, Scene, load_scene
-from depthimpostor.shaders import ShaderLibrary
+from depthimpostor.gpu.shaders import ShaderLibrary
 
 SIZE = (160, 90)
 

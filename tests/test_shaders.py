@@ -8,9 +8,9 @@ import moderngl
 import numpy as np
 import pytest
 
-from depthimpostor.context import bind_default_framebuffer
+from depthimpostor.gpu.context import bind_default_framebuffer
 from depthimpostor.errors import ShaderError
-from depthimpostor.shaders import ProgramCache, ShaderLibrary
+from depthimpostor.gpu.shaders import ProgramCache, ShaderLibrary
 
 VERTEX = """#version 330 core
 void main() { gl_Position = vec4(vec2(gl_VertexID & 1, gl_VertexID >> 1) * 4.0 - 1.0, 0.0, 1.0); }

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import assert_finite
-from depthimpostor.compare import Comparison, compare
+from depthimpostor.oracles.compare import Comparison, compare
 from depthimpostor.errors import SceneError
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene.loader import parse_scene

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from conftest import SCENES, assert_finite
-from depthimpostor.compare import (
+from depthimpostor.oracles.compare import (
     WRONG_SURFACE_COLOR_ERROR,
     Comparison,
     Figures,

@@ -12,7 +12,7 @@ import pytest
 from PIL import Image, ImageDraw
 
 from conftest import assert_finite
-from depthimpostor.compare import compare
+from depthimpostor.oracles.compare import compare
 from depthimpostor.constants import MAX_TEXTURES, Method, Wrap
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import DiffuseMaterial, Scene, load_scene

@@ -12,11 +12,11 @@ import pytest
 
 from conftest import SCENES, assert_finite
 from depthimpostor import cli
-from depthimpostor.compare import compare
+from depthimpostor.oracles.compare import compare
 from depthimpostor.constants import NO_OBJECT
 from depthimpostor.renderer import Renderer, camera_of
 from depthimpostor.scene import load_scene
-from depthimpostor.truth import TruthTracer
+from depthimpostor.oracles.truth import TruthTracer
 
 SIZE = (480, 270)
 

@@ -15,13 +15,13 @@ from conftest import SCENES
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
-from depthimpostor import reference
+from depthimpostor.oracles import reference
 from depthimpostor.constants import Algorithm, Method, Unseen
 from depthimpostor.geometry import ObjectGeometry
-from depthimpostor.gpu import query_depth_images
+from depthimpostor.oracles.ray_query import query_depth_images
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
-from depthimpostor.shaders import ProgramCache
+from depthimpostor.gpu.shaders import ProgramCache
 
 
 @pytest.fixture(scope="module")

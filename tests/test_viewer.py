@@ -217,7 +217,7 @@ MOUSE_AND_RESIZE = """
 import json, sys, time
 import glfw
 import numpy as np
-from depthimpostor.context import create_window
+from depthimpostor.gpu.context import create_window
 from depthimpostor.scene import load_scene
 from depthimpostor.viewer.app import Viewer, ViewerOptions
 
@@ -316,8 +316,8 @@ def test_every_key_in_every_project_scene_keeps_the_session(display: str, tmp_pa
 OVER_THE_LIMIT = """
 import dataclasses, json, sys
 import glfw
-from depthimpostor.context import create_window
-from depthimpostor.limits import context_limits, use_limits
+from depthimpostor.gpu.context import create_window
+from depthimpostor.gpu.limits import context_limits, use_limits
 from depthimpostor.scene import load_scene
 from depthimpostor.viewer.app import Viewer, ViewerOptions
 

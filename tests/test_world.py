@@ -7,7 +7,7 @@ import moderngl
 import pytest
 
 import depthimpostor.culling as culling
-import depthimpostor.passes.baked_images as baked_images
+import depthimpostor.methods.baked_images as baked_images
 from conftest import SCENES
 from depthimpostor.constants import Algorithm, Method
 from depthimpostor.renderer import Renderer
@@ -55,7 +55,7 @@ def test_the_stand_in_bakes_the_plans_images_without_planning_them_again(
         planned.append(1)
         return original(*args, **kwargs)
 
-    monkeypatch.setattr("depthimpostor.passes.impostors.per_object_plan", counted)
+    monkeypatch.setattr("depthimpostor.methods.impostors.per_object_plan", counted)
     scene = load_scene(LECTURE).with_overrides(size=(64, 36), impostor_resolution=16)
     with Renderer(ctx, scene) as renderer:
         assert len(planned) == 1

@@ -17,7 +17,7 @@ import time
 import moderngl
 import numpy as np
 
-from depthimpostor.context import create_context, describe
+from depthimpostor.gpu.context import create_context, describe
 
 SIZE = (960, 540)
 STEP = "a = sin(a * 1.01 + a.yzx) * 0.9 + cos(a.zxy);"

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from depthimpostor.constants import Algorithm, Method
-from depthimpostor.context import create_context
+from depthimpostor.gpu.context import create_context
 from depthimpostor.errors import SceneError
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene

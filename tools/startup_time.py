@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from depthimpostor.constants import Algorithm
-from depthimpostor.context import create_context
+from depthimpostor.gpu.context import create_context
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
 

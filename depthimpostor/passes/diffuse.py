@@ -11,9 +11,9 @@ import numpy as np
 
 from ..geometry import ObjectGeometry
 from ..scene.model import Scene
-from ..shaders import ProgramCache
-from .meshes import GpuMeshes
-from .uniforms import shading_defines, write, write_material
+from ..gpu.shaders import ProgramCache
+from ..gpu.meshes import GpuMeshes
+from ..gpu.uniforms import shading_defines, write, write_material
 
 
 DIFFUSE_PROGRAM = ("mesh.vert", "diffuse.frag")

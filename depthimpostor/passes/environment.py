@@ -6,12 +6,12 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ..bindings import TextureUnit
-from ..gl_state import NO_DEPTH_TEST, raster_state
+from ..gpu.bindings import TextureUnit
+from ..gpu.gl_state import NO_DEPTH_TEST, raster_state
 from ..ppc import PPC
 from ..scene.model import Environment, Scene
-from ..shaders import ProgramCache
-from .uniforms import environment_defines, write
+from ..gpu.shaders import ProgramCache
+from ..gpu.uniforms import environment_defines, write
 
 ENVIRONMENT_PROGRAM = ("fullscreen.vert", "environment.frag")
 

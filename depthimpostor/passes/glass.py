@@ -24,16 +24,16 @@ import math
 import moderngl
 import numpy as np
 
-from ..gl_state import raster_state
-from ..bindings import TextureUnit, UniformBlock
+from ..gpu.gl_state import raster_state
+from ..gpu.bindings import TextureUnit, UniformBlock
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE
 from ..eye import eye_depth
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
-from ..shaders import ProgramCache
-from .atlas import BACK_FACES, FRONT_FACES
-from .meshes import GpuMeshes
-from .uniforms import bind_texture, bind_uniform_block, write
+from ..gpu.shaders import ProgramCache
+from ..methods.atlas import BACK_FACES, FRONT_FACES
+from ..gpu.meshes import GpuMeshes
+from ..gpu.uniforms import bind_texture, bind_uniform_block, write
 
 INTERIOR_PROGRAM = ("mesh.vert", "glass_interior.frag")
 #: Past the other passes' units (0 to 5) and uniform-block bindings (0 to 2).

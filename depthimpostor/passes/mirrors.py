@@ -8,17 +8,17 @@ from typing import Protocol
 
 import moderngl
 
-from ..gl_state import RasterState, Winding, raster_state
+from ..gpu.gl_state import RasterState, Winding, raster_state
 from ..constants import Algorithm, Method
 from ..geometry import ObjectGeometry
 from ..ppc import PPC
 from ..scene.model import GlassMaterial, MirrorMaterial, Scene
-from ..shaders import ProgramCache
-from ..truth import MIRROR_BACKING_ALBEDO
+from ..gpu.shaders import ProgramCache
+from ..oracles.truth import MIRROR_BACKING_ALBEDO
 from .glass import GlassInterior, interior_camera, pixel_angle
-from .atlas import BAKE_CULLS_FRONT_FACES
-from .meshes import GpuMeshes
-from .uniforms import environment_defines, shading_defines, write
+from ..methods.atlas import BAKE_CULLS_FRONT_FACES
+from ..gpu.meshes import GpuMeshes
+from ..gpu.uniforms import environment_defines, shading_defines, write
 
 
 class ReflectedObjects(Protocol):

@@ -12,11 +12,11 @@ from typing import Literal
 import moderngl
 import numpy as np
 
-from ..gl_state import RasterState, raster_state
-from ..bindings import TextureUnit
+from ..gpu.gl_state import RasterState, raster_state
+from ..gpu.bindings import TextureUnit
 from ..font import SOLID, GlyphAtlas, rasterize
-from ..shaders import ProgramCache
-from .uniforms import write
+from ..gpu.shaders import ProgramCache
+from ..gpu.uniforms import write
 
 Anchor = Literal["top-left", "top-right"]
 

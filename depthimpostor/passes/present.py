@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import moderngl
 
-from ..bindings import TextureUnit
+from ..gpu.bindings import TextureUnit
 from ..constants import ToneMapping
-from ..gl_state import NO_DEPTH_TEST, raster_state
+from ..gpu.gl_state import NO_DEPTH_TEST, raster_state
 from ..scene.model import RenderSettings
-from ..shaders import ProgramCache
-from .uniforms import write
+from ..gpu.shaders import ProgramCache
+from ..gpu.uniforms import write
 
 
 

@@ -10,12 +10,12 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ..gl_state import RasterState, raster_state
-from ..bindings import UniformBlock
+from ..gpu.gl_state import RasterState, raster_state
+from ..gpu.bindings import UniformBlock
 from ..ppc import PPC
-from ..shaders import ProgramCache
-from .baked_images import BakedImages
-from .uniforms import write, write_matrix
+from ..gpu.shaders import ProgramCache
+from ..methods.baked_images import BakedImages
+from ..gpu.uniforms import write, write_matrix
 
 
 class SamplesPass:

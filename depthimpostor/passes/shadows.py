@@ -12,17 +12,17 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ..gl_state import raster_state
-from ..bindings import TextureUnit, UniformBlock
+from ..gpu.gl_state import raster_state
+from ..gpu.bindings import TextureUnit, UniformBlock
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_LIGHTS, NO_OBJECT
-from ..context import bind_default_framebuffer
+from ..gpu.context import bind_default_framebuffer
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
 from ..scene.model import Scene
-from ..shaders import ProgramCache
-from .atlas import BACK_FACE_PROGRAM, BACK_FACES, atlas_grid, plural
-from .meshes import GpuMeshes
+from ..gpu.shaders import ProgramCache
+from ..methods.atlas import BACK_FACE_PROGRAM, BACK_FACES, atlas_grid, plural
+from ..gpu.meshes import GpuMeshes
 
 
 #: A shadow map's single float attachment takes the window depth at location 0.
@@ -136,7 +136,7 @@ class ShadowMaps:
         return len(self.casters)
 
     def use(self) -> None:
-        """Bind the maps where every shading program looks for them (passes/uniforms.py)."""
+        """Bind the maps where every shading program looks for them (gpu/uniforms.py)."""
         self.layers.use(TextureUnit.SHADOW_MAPS)
         self.uniform_buffer.bind_to_uniform_block(UniformBlock.SHADOW_MAPS)
 

@@ -361,7 +361,7 @@ def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
         lights=tuple(read_variant(value, at, _LIGHTS) for value, at in top.array("lights")),
         objects=_objects(top),
     )
-    check_scene(scene)  # the limits of the scene as a whole (limits.py)
+    check_scene(scene)  # the limits of the scene as a whole (gpu/limits.py)
     return scene
 
 

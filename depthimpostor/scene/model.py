@@ -404,7 +404,7 @@ class Scene:
     @functools.cached_property
     def textures(self) -> tuple[Texture, ...]:
         """The distinct image textures of the objects' materials (by identity), in object order:
-        texture slot k is the k-th (passes/textures.py binds it on MATERIAL_TEXTURE_0 + k).
+        texture slot k is the k-th (gpu/textures.py binds it on MATERIAL_TEXTURE_0 + k).
         Computed once: the fields are frozen."""
         seen: dict[int, Texture] = {}
         for obj in self.objects:

@@ -27,15 +27,15 @@ import glfw
 import numpy as np
 
 from ..constants import Algorithm, Method
-from ..context import Window, bind_default_framebuffer, create_window, describe
+from ..gpu.context import Window, bind_default_framebuffer, create_window, describe
 from ..errors import DepthImpostorError, OutputError, SceneError, ShaderError
-from ..limits import limit_memory
+from ..gpu.limits import limit_memory
 from ..outputs import Outputs, write_image
 from ..passes.overlay import OverlayPass, Panel
 from ..passes.present import PresentPass
 from ..renderer import Renderer
 from ..scene.model import Scene
-from ..shaders import ProgramCache, ShaderLibrary
+from ..gpu.shaders import ProgramCache, ShaderLibrary
 from .keys import ACTIONS_BY_KEY, FLY_KEYS, KEY_CODES, TURN_STEP_DEGREES, Action, KeyPress, help_lines, key_name
 from .navigation import Navigation
 

@@ -25,7 +25,7 @@ from ..resolution import MIN_AUTO_RESOLUTION
 from .atlas import DepthImage, mirror_centre
 from ..culling import ReachTable, reaches
 from .baked_images import BakedImages, ImagePlan, SecondLayer, per_object_plan
-from .uniforms import write
+from ..gpu.uniforms import write
 
 #: The faces in the order lib/cube_map.glsl's cube_face() numbers them: +x, -x, +y, -y, +z, -z,
 #: each with an up vector not parallel to it. The lookup projects through each face's own

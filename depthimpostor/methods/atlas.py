@@ -18,17 +18,17 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from ..gl_state import Face, RasterState, other_face
-from ..bindings import TextureUnit, UniformBlock
-from ..context import bind_default_framebuffer
+from ..gpu.gl_state import Face, RasterState, other_face
+from ..gpu.bindings import TextureUnit, UniformBlock
+from ..gpu.context import bind_default_framebuffer
 from ..constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, NO_OBJECT
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
-from ..reference import DepthImageData
+from ..oracles.reference import DepthImageData
 from ..scene.model import Scene
 from .pyramid import PyramidLayout
-from .uniforms import bind_texture, bind_uniform_block
+from ..gpu.uniforms import bind_texture, bind_uniform_block
 
 
 

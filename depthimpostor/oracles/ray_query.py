@@ -16,16 +16,16 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from .gl_state import NO_DEPTH_TEST, raster_state
-from .bindings import TextureUnit, UniformBlock
-from .constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm, Method
-from .context import bind_default_framebuffer
-from .passes.atlas import ImpostorAtlas, bind_impostors
-from .passes.mirrors import reflection_defines
-from .passes.pyramid import DepthPyramid
-from .passes.uniforms import write
+from ..gpu.gl_state import NO_DEPTH_TEST, raster_state
+from ..gpu.bindings import TextureUnit, UniformBlock
+from ..constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm, Method
+from ..gpu.context import bind_default_framebuffer
+from ..methods.atlas import ImpostorAtlas, bind_impostors
+from ..passes.mirrors import reflection_defines
+from ..methods.pyramid import DepthPyramid
+from ..gpu.uniforms import write
 from .reference import DepthImageData, RayHits
-from .shaders import ProgramCache
+from ..gpu.shaders import ProgramCache
 
 #: Rays per row of the query framebuffer.
 _ROW = 1024

@@ -32,12 +32,12 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
-from .constants import NO_OBJECT
-from .font import load_font
-from .outputs import Outputs
-from .colour import display_encode, quantize
-from .ppc import PPC
-from .renderer import ReflectionData, Renderer, SubFrame
+from ..constants import NO_OBJECT
+from ..font import load_font
+from ..outputs import Outputs
+from ..colour import display_encode, quantize
+from ..ppc import PPC
+from ..renderer import ReflectionData, Renderer, SubFrame
 from .truth import SpecularTruth, TruthTracer
 
 WORST_PIXELS = 8

@@ -11,8 +11,8 @@ surface but not what lies behind it, and a ray passing behind a silhouette must 
 to it by a false "rubber sheet" or fall through the object's hidden side (a hole): see
 docs/numerical_robustness.md.
 
-The atlas and the records are in passes/atlas.py; what the cube-map and billboard methods share
-with this one (planning, the per-mirror uniform buffers, the bake loop) in passes/baked_images.py.
+The atlas and the records are in methods/atlas.py; what the cube-map and billboard methods share
+with this one (planning, the per-mirror uniform buffers, the bake loop) in methods/baked_images.py.
 """
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ from ..geometry import ObjectGeometry
 from ..culling import ReachTable, reachable_targets, reaches
 from ..resolution import scene_view
 from ..scene.model import Scene
-from ..shaders import ProgramCache
-from .meshes import GpuMeshes
+from ..gpu.shaders import ProgramCache
+from ..gpu.meshes import GpuMeshes
 from .pyramid import DepthPyramid
 
 

@@ -16,7 +16,7 @@ from typing import Any, Literal
 
 import moderngl
 
-from .errors import ContextError
+from ..errors import ContextError
 
 Backend = Literal["auto", "egl", "osmesa"]
 

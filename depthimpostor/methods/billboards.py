@@ -19,7 +19,7 @@ import numpy as np
 from ..constants import MAX_DEPTH_IMAGES_PER_MIRROR
 from ..geometry import ObjectGeometry
 from .baked_images import BakedImages, SecondLayer
-from .uniforms import write
+from ..gpu.uniforms import write
 
 
 class BillboardPass(BakedImages):

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import moderngl
 import numpy as np
 
-from ..bindings import TextureUnit, UniformBlock
+from .bindings import TextureUnit, UniformBlock
 from ..constants import MAX_ANALYTIC_PLANES, MAX_LIGHTS, MAX_TEXTURES, LightKind, MaterialKind, ShadowKind, Wrap
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
@@ -105,7 +105,7 @@ def write_material(program: moderngl.Program, name: str, material: Material, sce
 
 
 def write_textures(program: moderngl.Program, scene: Scene) -> None:
-    """Where the scene's texture slots are bound (passes/textures.py binds them there), and their
+    """Where the scene's texture slots are bound (gpu/textures.py binds them there), and their
     wrap modes, for the bilinear sampling of traced rays."""
     wraps = np.full((MAX_TEXTURES, 2), int(Wrap.REPEAT), np.int32)
     for slot, texture in enumerate(scene.textures):

@@ -25,10 +25,10 @@ from dataclasses import dataclass
 
 import moderngl
 
-from .errors import GpuLimitError
-from .passes.atlas import atlas_grid
-from .plan import RenderPlan
-from .scene.model import Scene
+from ..errors import GpuLimitError
+from ..methods.atlas import atlas_grid
+from ..plan import RenderPlan
+from ..scene.model import Scene
 
 MIB = 2**20
 

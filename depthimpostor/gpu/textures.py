@@ -16,9 +16,9 @@ import ctypes
 import moderngl
 import numpy as np
 
-from ..bindings import TextureUnit
+from .bindings import TextureUnit
 from ..constants import MAX_TEXTURES, Wrap
-from ..context import gl_function
+from .context import gl_function
 from ..errors import GpuLimitError
 from ..scene.model import Scene, Texture
 from ..textures import texel_rects

@@ -31,10 +31,10 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from ..bindings import ImageUnit, StorageBuffer, TextureUnit
+from ..gpu.bindings import ImageUnit, StorageBuffer, TextureUnit
 from ..errors import ContextError
-from ..shaders import ProgramCache
-from .uniforms import bind_texture, write
+from ..gpu.shaders import ProgramCache
+from ..gpu.uniforms import bind_texture, write
 
 PYRAMID_PROGRAM = "depth_pyramid.comp"
 #: Compute shaders and image load/store arrived with GL 4.3.

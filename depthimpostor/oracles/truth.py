@@ -21,12 +21,12 @@ import numpy as np
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
-from .constants import MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
-from .geometry import ObjectGeometry
-from .lights import light_sample_points
-from .meshes import plane_uvs
-from .scene.model import CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MirrorMaterial, Scene
-from .textures import texture_bilinear
+from ..constants import MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
+from ..geometry import ObjectGeometry
+from ..lights import light_sample_points
+from ..meshes import plane_uvs
+from ..scene.model import CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MirrorMaterial, Scene
+from ..textures import texture_bilinear
 
 Array = np.ndarray
 

@@ -15,19 +15,19 @@ from enum import IntEnum, unique
 
 @unique
 class TextureUnit(IntEnum):
-    IMPOSTOR_COLOR = 0  # the baked images' colours (passes/impostors.py)
+    IMPOSTOR_COLOR = 0  # the baked images' colours (methods/impostors.py)
     IMPOSTOR_DEPTH = 1  # their depth layers
-    PYRAMID = 2  # the hierarchical traversal's min/max depth pyramid (passes/pyramid.py)
+    PYRAMID = 2  # the hierarchical traversal's min/max depth pyramid (methods/pyramid.py)
     IMPOSTOR_BACK_COLOR = 3  # the back layer's colours
     IMPOSTOR_BEYOND = 4  # where a second solid run begins (the hybrid method's)
     SHADOW_MAPS = 5  # every light's shadow map (passes/shadows.py)
     GLASS_FRONT = 6  # a glass object's interior image: front faces (passes/glass.py)
     GLASS_BACK = 7  # and back faces
-    BVH_NODES = 8  # the ray-traced methods' BVH (passes/triangles.py)
+    BVH_NODES = 8  # the ray-traced methods' BVH (methods/triangles.py)
     BVH_TRIANGLES = 9
     BVH_PLACES = 10  # the hybrid method's: each listed triangle's place in the BVH's order
     TRIANGLE_IDS = 11  # the hybrid method's: the triangle each depth-image sample shows
-    RAY_ORIGINS = 12  # the GPU ray query's rays (gpu.py)
+    RAY_ORIGINS = 12  # the GPU ray query's rays (oracles/ray_query.py)
     RAY_DIRECTIONS = 13
     FRAME = 14  # the viewer's frame, copied into the window (passes/present.py)
     GLYPHS = 15  # the overlay's font (passes/overlay.py)
@@ -37,7 +37,7 @@ class TextureUnit(IntEnum):
     # shader's most is 14, with MATERIAL_TEXELS), and unit numbers run to
     # GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS (>= 48).
     ENVIRONMENT_MAP = 16
-    # The scene's image textures (passes/textures.py), slot k on MATERIAL_TEXTURE_0 + k, read by
+    # The scene's image textures (gpu/textures.py), slot k on MATERIAL_TEXTURE_0 + k, read by
     # the diffuse pass alone (constants.MAX_TEXTURES).
     MATERIAL_TEXTURE_0 = 17
     MATERIAL_TEXTURE_1 = 18
@@ -50,15 +50,15 @@ class TextureUnit(IntEnum):
 
 @unique
 class UniformBlock(IntEnum):
-    DEPTH_IMAGES = 0  # one reflector's image records (passes/impostors.py)
-    TRIANGLE_OBJECTS = 1  # the ray-traced objects' materials and transforms (passes/triangles.py)
+    DEPTH_IMAGES = 0  # one reflector's image records (methods/impostors.py)
+    TRIANGLE_OBJECTS = 1  # the ray-traced objects' materials and transforms (methods/triangles.py)
     SHADOW_MAPS = 2  # the lights' shadow-map records (passes/shadows.py)
     GLASS_INTERIOR = 3  # a glass object's interior-image record (passes/glass.py)
 
 
 @unique
 class StorageBuffer(IntEnum):
-    PYRAMID_TILES = 0  # the pyramid build's tile table (passes/pyramid.py, depth_pyramid.comp)
+    PYRAMID_TILES = 0  # the pyramid build's tile table (methods/pyramid.py, depth_pyramid.comp)
 
 
 @unique

@@ -19,8 +19,8 @@ from typing import Any, TypeVar, cast
 import moderngl
 
 from .context import bind_default_framebuffer
-from .passes.present import PresentPass
-from .scene.model import RenderSettings
+from ..passes.present import PresentPass
+from ..scene.model import RenderSettings
 from .shaders import ProgramCache
 
 Method = TypeVar("Method", bound=Callable[..., Any])

@@ -15,11 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .constants import (
+from ..constants import (
     BACKGROUND_DEPTH, CLIP_TOLERANCE_PIXELS, CONTACT_DEPTH_TOLERANCE, MIN_LINES_SINE_SQUARED, NO_OBJECT,
     SILHOUETTE_BAND_TEXELS, STEEP_JOIN_SHARE, Algorithm, Unseen,
 )
-from .ppc import PPC
+from ..ppc import PPC
 
 Array = NDArray[np.float64]
 

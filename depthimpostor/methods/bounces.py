@@ -18,15 +18,15 @@ which GL leaves undefined even for disjoint regions.
 
 from __future__ import annotations
 
-from ..gl_state import raster_state
-from ..bindings import UniformBlock
+from ..gpu.gl_state import raster_state
+from ..gpu.bindings import UniformBlock
 from ..constants import BACKGROUND_DEPTH
 from ..scene.model import Scene
-from .glass import GlassInterior
+from ..passes.glass import GlassInterior
 from .atlas import DepthImage, ImpostorAtlas, color_mask, mirror_centre
 from .baked_images import BakedImages
-from .mirrors import REFLECTORS, bounce_defines, reflector_program, reflector_tint, write_glass
-from .uniforms import write
+from ..passes.mirrors import REFLECTORS, bounce_defines, reflector_program, reflector_tint, write_glass
+from ..gpu.uniforms import write
 
 
 class BounceBaker:

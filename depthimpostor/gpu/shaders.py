@@ -23,10 +23,10 @@ from pathlib import Path
 
 import moderngl
 
-from .constants import depth_image_struct_glsl, glsl_constants, triangle_object_struct_glsl
-from .errors import ShaderError
-from .lights import soft_shadow_disk_glsl
-from .resources import shaders_dir
+from ..constants import depth_image_struct_glsl, glsl_constants, triangle_object_struct_glsl
+from ..errors import ShaderError
+from ..lights import soft_shadow_disk_glsl
+from ..resources import shaders_dir
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 #: Some drivers (Mesa among them) report source-string 0 whatever `#line L N` said, so the file

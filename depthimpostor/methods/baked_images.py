@@ -1,5 +1,5 @@
 """The images baked from a reflector's centre, as one pass: the part the depth-image, cube-map and
-billboard methods share (passes/impostors.py, passes/cubemaps.py, passes/billboards.py): the plan
+billboard methods share (methods/impostors.py, methods/cubemaps.py, methods/billboards.py): the plan
 of which images a reflector gets, the atlas, the per-reflector uniform buffers and the bake loop.
 Each method plans its own images and keeps its own second layer.
 """
@@ -12,8 +12,8 @@ from typing import ClassVar, NamedTuple
 
 import moderngl
 
-from ..gl_state import raster_state
-from ..bindings import TextureUnit, UniformBlock
+from ..gpu.gl_state import raster_state
+from ..gpu.bindings import TextureUnit, UniformBlock
 from ..constants import BACKGROUND_DEPTH, MAX_DEPTH_IMAGES_PER_MIRROR
 from ..errors import SceneError
 from ..geometry import ObjectGeometry, triangle_offsets
@@ -22,10 +22,10 @@ from ..ppc import PPC
 from ..resolution import MIN_AUTO_RESOLUTION, auto_resolution, scene_view
 from ..scene.limits import objects_note
 from ..scene.model import Scene
-from ..shaders import ProgramCache
-from .diffuse import DiffusePass
-from .meshes import GpuMeshes
-from .uniforms import bind_texture, write
+from ..gpu.shaders import ProgramCache
+from ..passes.diffuse import DiffusePass
+from ..gpu.meshes import GpuMeshes
+from ..gpu.uniforms import bind_texture, write
 from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural
 
 

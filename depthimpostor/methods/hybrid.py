@@ -12,17 +12,17 @@ from __future__ import annotations
 
 import moderngl
 
-from ..bindings import TextureUnit
+from ..gpu.bindings import TextureUnit
 from ..geometry import ObjectGeometry
 from ..scene.model import Scene
-from ..shaders import ProgramCache
+from ..gpu.shaders import ProgramCache
 from .baked_images import ImagePlan
 from .impostors import ImpostorPass
-from .meshes import GpuMeshes
+from ..gpu.meshes import GpuMeshes
 from .triangles import TrianglePass
-from .uniforms import bind_texture
+from ..gpu.uniforms import bind_texture
 
-#: The atlas's triangle ids, after the BVH's textures (passes/triangles.py).
+#: The atlas's triangle ids, after the BVH's textures (methods/triangles.py).
 
 
 class HybridPass(ImpostorPass):

@@ -1,7 +1,7 @@
 """The ray-traced method's data: every reflected object's world-space triangles in one BVH.
 
 Nothing is baked: the mirror shader traverses the BVH per reflected ray (shaders/lib/triangles.glsl).
-The hierarchy is built once on the CPU (depthimpostor/bvh.py) and uploaded as two float textures
+The hierarchy is built once on the CPU (depthimpostor/methods/bvh.py) and uploaded as two float textures
 and a uniform buffer of per-object materials and transforms.
 """
 
@@ -12,8 +12,8 @@ import math
 import moderngl
 import numpy as np
 
-from ..bindings import TextureUnit, UniformBlock
-from ..bvh import build_bvh
+from ..gpu.bindings import TextureUnit, UniformBlock
+from .bvh import build_bvh
 from ..constants import (
     BVH_TEXTURE_WIDTH,
     BVH_TRIANGLE_TEXELS,
@@ -25,7 +25,7 @@ from ..geometry import ObjectGeometry
 from ..meshes import Mesh
 from ..scene.model import Scene
 from .atlas import plural
-from .uniforms import bind_texture, bind_uniform_block, material_fields, texture_fields
+from ..gpu.uniforms import bind_texture, bind_uniform_block, material_fields, texture_fields
 
 
 
