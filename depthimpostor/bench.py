@@ -38,14 +38,14 @@ from .gpu.context import describe
 from .errors import GpuLimitError
 from .gpu.limits import check_fits, context_limits, planned_bytes
 from .outputs import Outputs
-from .methods.baked_images import BakedImages
-from .plan import STAND_INS, plan_render
+from .methods.registry import METHODS
+from .plan import plan_render
 from .renderer import Renderer
 from .scene import Scene
 
 #: Methods whose cost and accuracy depend on the image resolution; the triangle methods get one
 #: row per scene, measured with the first resolution's group.
-RESOLUTION_METHODS = frozenset(method for method in Method if issubclass(STAND_INS[method], BakedImages))
+RESOLUTION_METHODS = frozenset(method for method, spec in METHODS.items() if spec.bakes_images)
 
 
 @dataclass(frozen=True)
@@ -57,7 +57,7 @@ class Technique:
 
     @property
     def algorithm_name(self) -> str:
-        return self.algorithm.name.lower() if self.method.marches_depth_images else "-"
+        return self.algorithm.name.lower() if METHODS[self.method].marches_depth_images else "-"
 
 
 @dataclass(frozen=True)
@@ -207,7 +207,7 @@ def techniques(settings: BenchSettings) -> list[Technique]:
     return [
         Technique(method, algorithm)
         for method in settings.methods
-        for algorithm in (settings.algorithms if method.marches_depth_images else (Algorithm.OPTIMIZED,))
+        for algorithm in (settings.algorithms if METHODS[method].marches_depth_images else (Algorithm.OPTIMIZED,))
     ]
 
 

@@ -22,6 +22,7 @@ from .oracles.compare import Comparison, Figures, TruthFrame, compare, format_ta
 from .colour import TONE_MAPPINGS
 from .outputs import Outputs, check_file, check_folder, is_float_image, write_float_image, write_image
 from .gpu.limits import check_fits, limit_memory, parse_memory
+from .methods.registry import METHODS
 from .plan import RenderPlan, plan_render
 from .renderer import Renderer, RenderStats
 from .resources import default_scene_path
@@ -116,7 +117,7 @@ def _stand_in(renderer: Renderer) -> str:
     stand_in = renderer.stand_in
     if stand_in is None:
         return "no mirror"
-    algorithm = f"{renderer.algorithm.name.lower()} algorithm, " if renderer.method.marches_depth_images else ""
+    algorithm = f"{renderer.algorithm.name.lower()} algorithm, " if METHODS[renderer.method].marches_depth_images else ""
     bake = f", bake {1000 * sum(renderer.stats.bake_seconds):.1f} ms" if renderer.baked_images is not None else ""
     return f"{renderer.method.option}: {algorithm}{_kept(renderer)}{bake}"
 

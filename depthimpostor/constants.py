@@ -35,11 +35,6 @@ class Method(IntEnum):
     HYBRID = 6  # depth images, and the real triangles for the rays they cannot answer (Unseen)
 
     @property
-    def marches_depth_images(self) -> bool:
-        """Does it intersect depth images (and so take an --algorithm)?"""
-        return self in (Method.DEPTH, Method.HYBRID)
-
-    @property
     def option(self) -> str:
         """The name on the command line: `cubemap-parallax`."""
         return self.name.lower().replace("_", "-")

@@ -21,8 +21,6 @@ from .constants import (
 )
 from .culling import Reach
 from .geometry import ObjectGeometry
-from .methods.billboards import BillboardPass
-from .methods.cubemaps import CubeMapPass
 from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
 from .passes.environment import ENVIRONMENT_PROGRAM, environment_map_bytes
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
@@ -33,6 +31,7 @@ from .methods.impostors import ImpostorPass
 from .gpu.meshes import GpuMeshes
 from .gpu.textures import GpuTextures
 from .passes.mirrors import REFLECTION_OUTPUTS, REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
+from .methods.registry import METHODS
 from .methods.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
 from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
 from .methods.simplified import SimplifiedPass, simplified_mesh
@@ -43,19 +42,6 @@ from .scene.model import MeshShape, Scene
 from .gpu.shaders import ProgramKey, program_key
 from .graph import Pass, RenderNode, build_graph, format_graph
 from .world import World
-
-#: Each method's stand-in for the reflected objects. Both cube-map methods look up the same cube
-#: map: switching between them keeps it (only the mirror shader's variant changes).
-STAND_INS: dict[Method, type[BakedImages | TrianglePass]] = {
-    Method.DEPTH: ImpostorPass,
-    Method.CUBEMAP: CubeMapPass,
-    Method.CUBEMAP_PARALLAX: CubeMapPass,
-    Method.BILLBOARD: BillboardPass,
-    Method.SIMPLIFIED: SimplifiedPass,
-    Method.RAYTRACE: TrianglePass,
-    Method.HYBRID: HybridPass,
-}
-
 
 #: When each pass runs: the passes that bake run again only for what moved.
 WHEN: dict[Pass, str] = {
@@ -166,7 +152,7 @@ class RenderPlan:
 
     def format(self) -> str:
         lines = [f"plan of {self.scene} ({self.method.option}"
-                 + (f", {self.algorithm.name.lower()} algorithm" if self.method.marches_depth_images else "") + ")"]
+                 + (f", {self.algorithm.name.lower()} algorithm" if METHODS[self.method].marches_depth_images else "") + ")"]
         lines.append(f"passes ({len(self.passes)}):")
         lines += [f"  {p.stage.value:<28} {p.when}\n  {'':<28} why: {p.reason}" for p in self.passes]
         lines.append(f"images ({len(self.images)}):")
@@ -193,7 +179,7 @@ def check_stand_in(scene: Scene, method: Method, reflectors: list[ObjectGeometry
                    reflected: list[ObjectGeometry]) -> None:
     """The limits of `method`'s stand-in for `reflected` in `reflectors` (scene/limits.py): the
     plan checks them, and the renderer again before it switches to another method."""
-    check_method(scene, method, len(reflectors), len(reflected), sum(len(g.local_mesh.indices) for g in reflected))
+    check_method(scene, METHODS[method], len(reflectors), len(reflected), sum(len(g.local_mesh.indices) for g in reflected))
 
 
 def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorithm = Algorithm.OPTIMIZED,
@@ -233,7 +219,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     image_plans: dict[int, list[ImagePlan]] = {}
     skipped: list[SkippedImage] = []
     shown_in_bounces: set[bool] = set()  # is_glass of the reflectors bounce images show
-    stand_in = STAND_INS[method]
+    stand_in = METHODS[method].stand_in
     if reflectors:
         shown = reflected + (reflectors if scene.render.max_bounces > 1 else [])
         for reflector, row in zip(reflectors, world.reaches(reflectors, shown), strict=True):
@@ -275,7 +261,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                         f"a {'glass' if shown_glass else 'mirror'} drawn into another reflector's depth image")
             if True in shown_in_bounces:
                 variant(INTERIOR_PROGRAM, None, "glass seen in a mirror: its interior from the mirror's centre")
-        if method.marches_depth_images and algorithm == Algorithm.HIERARCHICAL and images:
+        if METHODS[method].marches_depth_images and algorithm == Algorithm.HIERARCHICAL and images:
             passes.append(PlannedPass(Pass.PYRAMIDS, "the hierarchical algorithm skips spans by min/max depth"))
             variant((PYRAMID_PROGRAM,), None, "the hierarchical algorithm's min/max pyramid")
 
@@ -292,7 +278,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     if reflectors:
         kinds = [f"mirrors ({_names(mirrors)})"] * bool(mirrors) + [f"glass ({_names(glass)})"] * bool(glass)
         passes.append(PlannedPass(Pass.REFLECTORS, " and ".join(kinds)))
-        defines = reflection_defines(method, algorithm)
+        defines = reflection_defines(METHODS[method].defines(algorithm))
         if mirrors:
             variant(REFLECTOR_PROGRAM, reflector_defines(scene, defines, False), f"mirrors, {method.option} method")
         if glass:
@@ -303,7 +289,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     outputs = (("baked images", "BVH") if stand_in is HybridPass
                else ("baked images",) if issubclass(stand_in, BakedImages) else ("BVH",))
     graph = build_graph([(p.stage, p.reason) for p in ordered], outputs,
-                        method.marches_depth_images and algorithm == Algorithm.HIERARCHICAL and bool(images))
+                        METHODS[method].marches_depth_images and algorithm == Algorithm.HIERARCHICAL and bool(images))
     return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
                       tuple(PlannedVariant(k, r) for k, r in variants.items()), memory, image_plans, graph,
                       scene.render.samples)
@@ -346,7 +332,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
         memory["glass interiors"] = len(glass) * (interior_bytes(max(scene.render.size)) + DEPTH_IMAGE_DTYPE.itemsize)
     reflectors = [g for g in geometry if g.object.is_specular]
     reflected = [g for g in geometry if not g.object.is_specular and not g.is_analytic_plane]
-    stand_in = STAND_INS[method]
+    stand_in = METHODS[method].stand_in
     if not reflectors:
         return memory
     if issubclass(stand_in, BakedImages):

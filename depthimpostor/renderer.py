@@ -37,7 +37,8 @@ from .passes.shadows import ShadowMaps
 from .methods.triangles import TrianglePass
 from .gpu.uniforms import write_scene_uniforms
 from .graph import BAKES, Pass
-from .plan import STAND_INS, RenderPlan, check_stand_in, plan_render
+from .methods.registry import METHODS
+from .plan import RenderPlan, check_stand_in, plan_render
 from .ppc import PPC
 from .scene.model import Camera, Scene
 from .gpu.shaders import ProgramCache, ShaderLibrary
@@ -213,7 +214,7 @@ class Renderer:
     def _make_stand_in(self, method: Method, scene: Scene, plan: RenderPlan) -> None:
         """The method's stand-in for the reflected objects; the old one (if any) is released only
         once the new one exists, so that a failure leaves the renderer as it was."""
-        kind = STAND_INS[method]
+        kind = METHODS[method].stand_in
         check_stand_in(scene, method, self.reflectors, self.reflected_objects)
         stand_in: ReflectedObjects
         if issubclass(kind, BakedImages):
@@ -257,7 +258,7 @@ class Renderer:
         if self.stand_in is None:
             raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
         return MirrorPass(
-            self.programs, self.scene, self.meshes, self.stand_in, self.method, self.algorithm,
+            self.programs, self.scene, self.meshes, self.stand_in, METHODS[self.method].defines(self.algorithm),
             self.reflection_data, self.count_samples, self.glass_interiors,
         )
 
@@ -371,7 +372,7 @@ class Renderer:
         mirrors has none either way. A method this context cannot hold raises GpuLimitError and
         leaves the renderer as it was."""
         plan = self._checked_plan(self.scene, method, self.algorithm)
-        if self.reflectors and STAND_INS[method] is not STAND_INS[self.method]:
+        if self.reflectors and METHODS[method].stand_in is not METHODS[self.method].stand_in:
             with allocating(self.ctx, "--impostor-res"):
                 self._make_stand_in(method, self.scene, plan)
         self.method = method

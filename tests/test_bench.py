@@ -14,6 +14,7 @@ from conftest import SCENES
 from depthimpostor.bench import COLUMNS, RESOLUTION_METHODS
 from depthimpostor.cli import main
 from depthimpostor.constants import Method
+from depthimpostor.methods.registry import METHODS
 
 
 def test_bench_writes_every_file_with_finite_figures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -34,7 +35,7 @@ def test_bench_writes_every_file_with_finite_figures(tmp_path: Path, capsys: pyt
     # Two resolutions for the methods that bake images (depth images with both default
     # algorithms), one row for each of the others.
     def algorithms(method: Method) -> tuple[str, ...]:
-        return ("optimized", "hierarchical") if method.marches_depth_images else ("-",)
+        return ("optimized", "hierarchical") if METHODS[method].marches_depth_images else ("-",)
 
     expected = {(m.option, a, r) for m in RESOLUTION_METHODS for a in algorithms(m) for r in ("16", "32")}
     expected |= {(m.option, "-", "0") for m in Method if m not in RESOLUTION_METHODS}

@@ -5,6 +5,7 @@ ray-traced triangles, which must agree with Embree's truth to within float noise
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import moderngl
@@ -20,16 +21,16 @@ from depthimpostor.oracles.compare import compare
 from depthimpostor.constants import NO_OBJECT, Method
 from depthimpostor.errors import SceneError
 from depthimpostor.meshes import sphere
-from depthimpostor.methods.baked_images import BakedImages
 from depthimpostor.methods.simplified import crease_shaded, simplified_mesh
-from depthimpostor.renderer import STAND_INS, Renderer
+from depthimpostor.methods.registry import METHODS
+from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene, parse_scene
 
 # The hard scenes too: surrounds.toml, which the methods that bake from the mirror's centre must
 # refuse (no image taken from there can hold an object around it), is an ordinary scene to a ray
 # tracer.
 SCENE_FILES = sorted(SCENES.glob("*.toml")) + sorted((SCENES / "hard").glob("*.toml"))
-BAKING = [method for method in Method if issubclass(STAND_INS[method], BakedImages)]
+BAKING = [method for method in Method if METHODS[method].bakes_images]
 
 
 def test_bvh_holds_every_triangle_once_inside_nested_boxes() -> None:
@@ -91,7 +92,7 @@ def test_every_method_renders_every_scene_finite(ctx: moderngl.Context, path: Pa
         renderer.render()
         image = renderer.read_color_float()
         # Only the method's own stand-in exists, and only its mirror variant was compiled.
-        assert type(renderer.stand_in) is STAND_INS[method]
+        assert type(renderer.stand_in) is METHODS[method].stand_in
         mirror_variants = {dict(defines)["METHOD"] for _, fragment, defines in renderer.programs.variants
                            if fragment == "mirror.frag"}
         assert mirror_variants == {str(int(method))}
@@ -343,3 +344,19 @@ def test_a_mirror_with_nothing_to_reflect_renders_with_every_method(ctx: moderng
         assert_finite(frames[method])
     for method in (Method.RAYTRACE, Method.SIMPLIFIED, Method.HYBRID):
         assert np.abs(frames[method] - frames[Method.DEPTH]).max() < 1e-5, method.name
+
+
+def test_registry_has_every_method_and_its_chunks_are_the_shaders() -> None:
+    """methods/registry.py is the one table of methods: every `Method` has a row, and a row's GLSL
+    chunks are the files lib/reflected_scene.glsl includes under that method's `#if` branch."""
+    assert set(METHODS) == set(Method)
+    source = (Path(__file__).resolve().parent.parent / "shaders" / "lib" / "reflected_scene.glsl").read_text()
+    dispatch = source[source.index("#if METHOD == METHOD_DEPTH\n"):source.index("#endif", source.index("#if METHOD == METHOD_DEPTH\n"))]
+    branches = re.split(r"^#(?:if|elif|else)\b(.*)$", dispatch, flags=re.M)[1:]
+    included: dict[Method, tuple[str, ...]] = {}
+    for condition, body in zip(branches[::2], branches[1::2], strict=True):
+        chunks = tuple(re.findall(r'#include "([^"]+)"', body))
+        named = [m for m in Method if f"METHOD_{m.name}" in condition]
+        for method in named or [m for m in Method if m not in included]:  # the #else branch: the rest
+            included[method] = chunks
+    assert {method: spec.glsl for method, spec in METHODS.items()} == included

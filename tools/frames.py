@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from depthimpostor.constants import Algorithm, Method
+from depthimpostor.methods.registry import METHODS
 from depthimpostor.gpu.context import create_context
 from depthimpostor.errors import SceneError
 from depthimpostor.renderer import Renderer
@@ -39,7 +40,7 @@ def configurations() -> Iterator[tuple[str, Scene | SceneError, Method, Algorith
         except SceneError as error:  # a model file that is not here (the bunny without ../shared)
             scene = error
         for method in Method:
-            algorithms = list(Algorithm) if method.marches_depth_images else [Algorithm.OPTIMIZED]
+            algorithms = list(Algorithm) if METHODS[method].marches_depth_images else [Algorithm.OPTIMIZED]
             for algorithm in algorithms:
                 yield name, scene, method, algorithm
 

@@ -23,6 +23,7 @@ from ..gpu.context import bind_default_framebuffer
 from ..methods.atlas import ImpostorAtlas, bind_impostors
 from ..passes.mirrors import reflection_defines
 from ..methods.pyramid import DepthPyramid
+from ..methods.registry import METHODS
 from ..gpu.uniforms import write
 from .reference import DepthImageData, RayHits
 from ..gpu.shaders import ProgramCache
@@ -60,7 +61,7 @@ class RayQuery:
         self.atlas = atlas
         self.image_count = len(images)
         # TRACK_UNSEEN: the query reports what each answer rests on that the images do not hold.
-        defines = {**reflection_defines(Method.DEPTH, algorithm), "TRACK_UNSEEN": 1}
+        defines = {**reflection_defines(METHODS[Method.DEPTH].defines(algorithm)), "TRACK_UNSEEN": 1}
         self.program = programs.get("fullscreen.vert", "ray_query.frag", defines)
         records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, dtype=DEPTH_IMAGE_DTYPE)
         for i, image in enumerate(images):

@@ -47,14 +47,11 @@ REFLECTION_OUTPUTS = 4
 
 
 def reflection_defines(
-    method: Method, algorithm: Algorithm, write_reflection_data: bool = False, count_samples: bool = False
+    method_defines: dict[str, int], write_reflection_data: bool = False, count_samples: bool = False
 ) -> dict[str, int]:
-    """The mirror shader's variant: the method, and for depth images the intersection algorithm
-    (the other methods have none, so that no two identical programs are compiled). The counting
-    variant (the benchmark's) writes each ray's samples to the output after the others."""
-    defines = {"METHOD": int(method)}
-    if method.marches_depth_images:
-        defines["ALGORITHM"] = int(algorithm)
+    """The mirror shader's variant: the method's own (MethodSpec.defines), and the outputs. The
+    counting variant (the benchmark's) writes each ray's samples to the output after the others."""
+    defines = dict(method_defines)
     if write_reflection_data:
         defines["WRITE_REFLECTION_DATA"] = 1
     if count_samples:
@@ -73,7 +70,7 @@ def reflector_defines(scene: Scene, defines: dict[str, int], glass: bool) -> dic
 def bounce_defines() -> dict[str, int]:
     """The variant drawing a reflector into another's depth image (render.max_bounces > 1): the
     optimized march, since a bake's images are the same whatever the frame's algorithm."""
-    return {**reflection_defines(Method.DEPTH, Algorithm.OPTIMIZED), "WRITE_DEPTH_IMAGE": 1}
+    return {"METHOD": int(Method.DEPTH), "ALGORITHM": int(Algorithm.OPTIMIZED), "WRITE_DEPTH_IMAGE": 1}
 
 
 def reflector_program(programs: ProgramCache, scene: Scene, defines: dict[str, int], glass: bool) -> moderngl.Program:
@@ -124,13 +121,12 @@ class MirrorPass:
         scene: Scene,
         meshes: GpuMeshes,
         reflected: ReflectedObjects,
-        method: Method,
-        algorithm: Algorithm,
+        method_defines: dict[str, int],
         write_reflection_data: bool = False,
         count_samples: bool = False,
         interiors: dict[int, GlassInterior] | None = None,
     ) -> None:
-        defines = reflection_defines(method, algorithm, write_reflection_data, count_samples)
+        defines = reflection_defines(method_defines, write_reflection_data, count_samples)
         self.programs = {
             glass: reflector_program(programs, scene, defines, glass) if present else None
             for glass, present in ((False, bool(scene.mirrors)), (True, bool(scene.glass)))

@@ -23,17 +23,15 @@ from __future__ import annotations
 
 import math
 import re
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from depthimpostor.constants import (
     MAX_ANALYTIC_PLANES,
     MAX_COORDINATE,
-    MAX_DEPTH_IMAGES_PER_MIRROR,
     MAX_LIGHTS,
-    MAX_NAMED_TRIANGLES,
     MAX_TEXTURES,
-    Method,
 )
 from depthimpostor.errors import SceneError
 from depthimpostor.meshes import Mesh
@@ -48,6 +46,9 @@ from depthimpostor.scene.model import (
     TorusKnotShape,
     TorusShape,
 )
+
+if TYPE_CHECKING:  # the registry imports the GL side, which a scene file's loader does not need
+    from depthimpostor.methods.registry import MethodSpec
 
 
 def shape_reach(shape: Shape) -> float | None:
@@ -142,16 +143,16 @@ def objects_note(scene: Scene) -> str:
     return ""
 
 
-def check_method(scene: Scene, method: Method, reflectors: int, reflected: int, reflected_triangles: int) -> None:
-    """The limits that depend on the method: `reflectors` mirrors and glass, `reflected` objects
-    they may show, of `reflected_triangles` triangles in all."""
-    if scene.render.max_bounces > 1 and method != Method.DEPTH and reflectors > 1:
+def check_method(scene: Scene, method: MethodSpec, reflectors: int, reflected: int, reflected_triangles: int) -> None:
+    """The limits that depend on the method (methods/registry.py): `reflectors` mirrors and glass,
+    `reflected` objects they may show, of `reflected_triangles` triangles in all."""
+    if scene.render.max_bounces > 1 and not method.bounces and reflectors > 1:
         raise SceneError(scene.source, "render.max_bounces",
                          f"expected 1 with --method {method.option}: mirrors and glass in one another are baked "
                          f"by the depth method alone, got {scene.render.max_bounces}")
-    if method in (Method.RAYTRACE, Method.SIMPLIFIED, Method.HYBRID) and reflectors and reflected > MAX_DEPTH_IMAGES_PER_MIRROR:
-        raise SceneError(scene.source, "objects", f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} reflected objects "
+    if method.reflected_limit is not None and reflectors and reflected > method.reflected_limit:
+        raise SceneError(scene.source, "objects", f"expected at most {method.reflected_limit} reflected objects "
                          f"with --method {method.option}, got {reflected}{objects_note(scene)}")
-    if method == Method.HYBRID and reflectors and reflected_triangles > MAX_NAMED_TRIANGLES:
-        raise SceneError(scene.source, "objects", f"expected at most {MAX_NAMED_TRIANGLES} reflected triangles "
-                         f"with --method hybrid, got {reflected_triangles}")
+    if method.triangle_limit is not None and reflectors and reflected_triangles > method.triangle_limit:
+        raise SceneError(scene.source, "objects", f"expected at most {method.triangle_limit} reflected triangles "
+                         f"with --method {method.option}, got {reflected_triangles}")

@@ -27,6 +27,7 @@ import glfw
 import numpy as np
 
 from ..constants import Algorithm, Method
+from ..methods.registry import METHODS
 from ..gpu.context import Window, bind_default_framebuffer, create_window, describe
 from ..errors import DepthImpostorError, OutputError, SceneError, ShaderError
 from ..gpu.limits import limit_memory
@@ -54,15 +55,7 @@ MAX_FLY_SECONDS = 0.1
 MESSAGE_SECONDS = 4.0
 #: Depth-image resolutions the resolution keys step through.
 RESOLUTION_STEPS = tuple(2**k for k in range(3, 13))  # 8 .. 4096
-METHOD_LABELS = {
-    Method.DEPTH: "depth-image impostors",
-    Method.CUBEMAP: "cube map (direction alone)",
-    Method.CUBEMAP_PARALLAX: "cube map, parallax-corrected",
-    Method.BILLBOARD: "billboards",
-    Method.SIMPLIFIED: "simplified triangles",
-    Method.RAYTRACE: "ray-traced triangles",
-    Method.HYBRID: "depth images, uncertain rays ray-traced",
-}
+METHOD_LABELS = {method: spec.label for method, spec in METHODS.items()}
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,77 @@
+"""Every `--method`, in one table: what stands in for the reflected objects, what the mirror shader
+includes for it, and what it can and cannot do. The plan, the renderer, the benchmark, the viewer
+and the scene's limits read a method's facts here instead of branching on its name.
+
+Adding a method: its stand-in (a `BakedImages` subclass when it bakes images from the reflector's
+centre, or a `TrianglePass` subclass when it traces triangles) in a module of this package, a value
+of `constants.Method` (the GLSL sees it as METHOD_<NAME>), its chunk under shaders/lib/ defining
+`nearest_object_hit` for `#if METHOD == METHOD_<NAME>` in lib/reflected_scene.glsl, and a row below
+(tests/test_methods.py checks that every row's chunks are the ones that branch includes).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..constants import MAX_DEPTH_IMAGES_PER_MIRROR, MAX_NAMED_TRIANGLES, Algorithm, Method
+from .baked_images import BakedImages
+from .billboards import BillboardPass
+from .cubemaps import CubeMapPass
+from .hybrid import HybridPass
+from .impostors import ImpostorPass
+from .simplified import SimplifiedPass
+from .triangles import TrianglePass
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    method: Method
+    #: What it makes for the reflectors to read. Two methods with the same stand-in share it: a
+    #: switch between them keeps it (the cube-map lookups) and changes the mirror variant alone.
+    stand_in: type[BakedImages | TrianglePass]
+    label: str  # what the viewer calls it
+    glsl: tuple[str, ...]  # the chunks lib/reflected_scene.glsl includes for it, under shaders/lib/
+    #: Does it march depth images, and so take an `--algorithm`?
+    marches_depth_images: bool = False
+    #: Can it show mirrors and glass in one another (render.max_bounces > 1)? The bounce images are
+    #: depth images, marched by the mirror shader: the depth method's alone.
+    bounces: bool = False
+    #: At most this many reflected objects per reflector (the shader's object table), when it has a
+    #: table of its own rather than one image per object.
+    reflected_limit: int | None = None
+    #: At most this many reflected triangles (the hybrid method names each in a texture row).
+    triangle_limit: int | None = None
+
+    @property
+    def bakes_images(self) -> bool:
+        """Does it bake images (and so take an impostor resolution)?"""
+        return issubclass(self.stand_in, BakedImages)
+
+    def defines(self, algorithm: Algorithm) -> dict[str, int]:
+        """Its mirror-shader variant: the method, and the algorithm where it marches depth images
+        (the others have none, so that no two identical programs are compiled)."""
+        return {"METHOD": int(self.method), **({"ALGORITHM": int(algorithm)} if self.marches_depth_images else {})}
+
+    @property
+    def option(self) -> str:
+        return self.method.option
+
+
+METHODS: dict[Method, MethodSpec] = {spec.method: spec for spec in (
+    MethodSpec(Method.DEPTH, ImpostorPass, "depth-image impostors", ("depth_image.glsl",),
+               marches_depth_images=True, bounces=True),
+    MethodSpec(Method.CUBEMAP, CubeMapPass, "cube map (direction alone)", ("cube_map.glsl",)),
+    MethodSpec(Method.CUBEMAP_PARALLAX, CubeMapPass, "cube map, parallax-corrected", ("cube_map.glsl",)),
+    MethodSpec(Method.BILLBOARD, BillboardPass, "billboards", ("billboard.glsl",)),
+    MethodSpec(Method.SIMPLIFIED, SimplifiedPass, "simplified triangles", ("triangles.glsl",),
+               reflected_limit=MAX_DEPTH_IMAGES_PER_MIRROR),
+    MethodSpec(Method.RAYTRACE, TrianglePass, "ray-traced triangles", ("triangles.glsl",),
+               reflected_limit=MAX_DEPTH_IMAGES_PER_MIRROR),
+    MethodSpec(Method.HYBRID, HybridPass, "depth images, uncertain rays ray-traced",
+               ("depth_image.glsl", "triangles.glsl"), marches_depth_images=True,
+               reflected_limit=MAX_DEPTH_IMAGES_PER_MIRROR, triangle_limit=MAX_NAMED_TRIANGLES),
+)}
+
+
+def method_spec(method: Method) -> MethodSpec:
+    return METHODS[method]
