@@ -146,7 +146,7 @@ def _time_group(ctx: moderngl.Context, renderers: list[Renderer], settings: Benc
     gl_times: list[list[float]] = [[] for _ in renderers]
     for renderer in renderers:
         renderer.render()  # the first bake: llvmpipe compiles shaders on first use
-        for _ in range(settings.bakes if renderer.baked_images is not None else 0):
+        for _ in range(settings.bakes if renderer.graph.baked_images is not None else 0):
             renderer.bake_again()
             renderer.render()
     first_timed = [len(renderer.stats.draw_seconds) + settings.warmup for renderer in renderers]
@@ -184,7 +184,7 @@ def _measure(
         comparison = compare(renderer, truth)
         figures = comparison.figures
         samples = renderer.read_sample_counts()[comparison.mirror_mask]
-        stand_in = renderer.stand_in
+        stand_in = renderer.graph.stand_in
         measured: dict[str, float | int | str] = {
             "stand_in": stand_in.describe() if stand_in is not None else "no mirror",
             "memory_mib": stand_in.bytes / 2**20 if stand_in is not None else 0.0,

@@ -24,7 +24,8 @@ from .outputs import Outputs, check_file, check_folder, is_float_image, write_fl
 from .gpu.limits import check_fits, limit_memory, parse_memory
 from .methods.registry import METHODS
 from .plan import RenderPlan, plan_render
-from .renderer import Renderer, RenderStats
+from .render_graph import RenderStats
+from .renderer import Renderer
 from .resources import default_scene_path
 from .scene import Scene, load_scene
 from .scene.fields import SIZE, Reader
@@ -114,11 +115,11 @@ def _load(args: argparse.Namespace) -> Scene:
 
 def _stand_in(renderer: Renderer) -> str:
     """What the reflected objects were found through, and what it cost to prepare."""
-    stand_in = renderer.stand_in
+    stand_in = renderer.graph.stand_in
     if stand_in is None:
         return "no mirror"
     algorithm = f"{renderer.algorithm.name.lower()} algorithm, " if METHODS[renderer.method].marches_depth_images else ""
-    bake = f", bake {1000 * sum(renderer.stats.bake_seconds):.1f} ms" if renderer.baked_images is not None else ""
+    bake = f", bake {1000 * sum(renderer.stats.bake_seconds):.1f} ms" if renderer.graph.baked_images is not None else ""
     return f"{renderer.method.option}: {algorithm}{_kept(renderer)}{bake}"
 
 
@@ -197,7 +198,7 @@ def _context(args: argparse.Namespace) -> moderngl.Context:
 
 def _kept(renderer: Renderer) -> str:
     """What the method kept to draw the frame, and its memory."""
-    stand_in = renderer.stand_in
+    stand_in = renderer.graph.stand_in
     return f"{stand_in.describe()}, {stand_in.bytes / 2**20:.2f} MiB" if stand_in is not None else "no mirror"
 
 

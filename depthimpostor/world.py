@@ -9,14 +9,17 @@ which neither object moves.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from functools import cached_property
 
 import numpy as np
 
 from .culling import Reach, reaches
+from .eye import fitted_camera
 from .geometry import ObjectGeometry, scene_geometry
-from .scene.model import Scene
+from .ppc import PPC
+from .scene.model import Camera, Scene
 
 Sphere = tuple[np.ndarray, float]
 
@@ -37,6 +40,9 @@ class World:
         self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
         casters = set(scene.shadow_casters)
         self.shadow_casters = [g for g in geometry if g.object in casters]
+        lights = scene.lights_at(time)
+        # The scene with its lights where they are at `time` (the one the passes shade with).
+        self.lit_scene = scene if lights == tuple(scene.lights) else dataclasses.replace(scene, lights=lights)
         self._reach: dict[tuple[int, int], Reach] = {}  # (reflector index, target index)
         self.reach_pairs_computed = 0  # pairs culling.reaches worked out for this world (tests count them)
 
@@ -44,6 +50,11 @@ class World:
     def bounds(self) -> list[Sphere]:
         """Every object's bounding sphere (the eye camera's near plane is fitted to them)."""
         return [g.bounding_sphere for g in self.geometry]
+
+    def camera(self, view: Camera | None = None, size: tuple[int, int] | None = None, reversed_: bool = False) -> PPC:
+        """The eye camera of `view` (the scene's by default) at `size`, its near and far planes
+        fitted to this world's bounds (eye.py; `reversed_`: the reversed-Z projection)."""
+        return fitted_camera(view or self.scene.camera, size or self.scene.render.size, self.bounds, reversed_)
 
     def reaches(self, reflectors: Sequence[ObjectGeometry], targets: Sequence[ObjectGeometry]) -> list[list[Reach]]:
         """culling.reaches of this world's objects, each pair worked out once."""
@@ -80,3 +91,8 @@ class World:
         """The objects (by index) that are somewhere else than in `earlier`."""
         return {g.index for g, before in zip(self.geometry, earlier.geometry, strict=True)
                 if g.object.moves and g.time != before.time}
+
+    def moved_lights(self, earlier: World) -> set[int]:
+        """The lights (by index) that are somewhere else than in `earlier`."""
+        return {i for i, (light, before) in enumerate(zip(self.lit_scene.lights, earlier.lit_scene.lights, strict=True))
+                if light != before}

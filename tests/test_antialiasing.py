@@ -171,6 +171,6 @@ def test_glass_interiors_are_made_once_a_frame(ctx: moderngl.Context) -> None:
         renderer.render()
         renderer.render()
         assert_finite(renderer.read_color_float())
-        glass = len(renderer.glass)
+        glass = len(renderer.world.glass)
         assert glass and renderer.stats.interiors_made == glass
         assert renderer.stats.passes[Pass.REFLECTORS.value] == 16

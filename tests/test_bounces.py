@@ -29,8 +29,8 @@ def test_mirrors_reflect_each_other_as_the_truth_does(ctx: moderngl.Context, bou
         assert_finite(renderer.read_color_float())
         data = renderer.read_reflection_data()
         comparison = compare(renderer)
-        mirror_ids = {g.index for g in renderer.mirrors}
-        images = renderer.impostors.depth_images if renderer.impostors is not None else []
+        mirror_ids = {g.index for g in renderer.world.mirrors}
+        images = renderer.graph.impostors.depth_images if renderer.graph.impostors is not None else []
     # Per mirror: the box, and the other mirror once per bounce from 2 up.
     assert len(images) == 2 * (1 + (bounces - 1))
     seen_mirror = np.isin(data.object_id[data.mirror_mask], list(mirror_ids)).mean()
@@ -49,9 +49,9 @@ def test_one_bounce_leaves_mirrors_out_of_mirrors(ctx: moderngl.Context) -> None
         renderer.render()
         data = renderer.read_reflection_data()
         figures = compare(renderer).figures
-        assert renderer.impostors is not None and len(renderer.impostors.depth_images) == 2
-        assert renderer.impostors.bounces is None
-        assert not np.isin(data.object_id, [g.index for g in renderer.mirrors]).any()
+        assert renderer.graph.impostors is not None and len(renderer.graph.impostors.depth_images) == 2
+        assert renderer.graph.impostors.bounces is None
+        assert not np.isin(data.object_id, [g.index for g in renderer.world.mirrors]).any()
     assert figures.wrong_object_share < 0.01
 
 

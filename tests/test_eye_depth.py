@@ -50,7 +50,7 @@ def frame_and_far_pixels(ctx: moderngl.Context, scene: Scene, far: set[int]) -> 
         camera = renderer.camera
         rows, columns = np.mgrid[0:SIZE[1], 0:SIZE[0]]
         direct = np.zeros_like(reflected)
-        for g in renderer.geometry:
+        for g in renderer.world.geometry:
             if g.index in far:
                 centre, radius = g.bounding_sphere
                 u, v, w = camera.camera_coordinates(centre)

@@ -60,8 +60,8 @@ def images(ctx: moderngl.Context) -> list[reference.DepthImageData]:
     scene = load_scene(SCENES / "default.toml").with_overrides(size=(16, 9), impostor_resolution=64)
     with Renderer(ctx, scene) as renderer:
         renderer.render()
-        assert renderer.impostors is not None
-        baked = [renderer.impostors.atlas.read(image) for image in renderer.impostors.depth_images[:3]]
+        assert renderer.graph.impostors is not None
+        baked = [renderer.graph.impostors.atlas.read(image) for image in renderer.graph.impostors.depth_images[:3]]
     return made + baked
 
 

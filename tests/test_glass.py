@@ -82,10 +82,10 @@ def first_exit_reflects_in_full(renderer: Renderer) -> np.ndarray:
     angle?" for each glass pixel."""
     mask, _, incoming = glass_view(renderer)
     data = renderer.read_reflection_data()
-    glass = renderer.glass[0]
+    glass = renderer.world.glass[0]
     ior = glass.object.material.ior  # type: ignore[union-attr]
-    truth = SpecularTruth(renderer.scene, renderer.reflected_objects, renderer.reflectors, renderer.analytic_planes,
-                          renderer.shadow_casters)
+    truth = SpecularTruth(renderer.scene, renderer.world.reflected_objects, renderer.world.reflectors, renderer.world.analytic_planes,
+                          renderer.world.shadow_casters)
     inside = refract(incoming[mask], data.normal[mask], 1.0 / ior)
     hits = truth.interiors[glass.index].intersect(data.origin[mask] + inside * 1e-4, inside)
     leaving = refract(inside, facing(hits.normal, inside), ior)
@@ -144,7 +144,7 @@ def test_eye_inside_glass_renders_through_a_thin_sheet(ctx: moderngl.Context) ->
     with Renderer(ctx, dataclasses.replace(scene, camera=camera)) as renderer:
         renderer.render()
         assert_finite(renderer.read_color_float())
-        (interior,) = renderer.glass_interiors.values()
+        (interior,) = renderer.graph.glass_interiors.values()
         assert interior.camera is None
 
 
@@ -172,8 +172,8 @@ def test_glass_counts_as_a_bounce(ctx: moderngl.Context) -> None:
             renderer.render()
             assert_finite(renderer.read_color_float())
             data = renderer.read_reflection_data()
-            glass = [g.index for g in renderer.glass]
-            mirrors = [g.index for g in renderer.mirrors]
+            glass = [g.index for g in renderer.world.glass]
+            mirrors = [g.index for g in renderer.world.mirrors]
             on_mirrors = data.mirror_mask & np.isin(data.mirror_id, mirrors)
             seen[bounces] = float(np.isin(data.object_id[on_mirrors], glass).mean())
             figures = compare(renderer).figures
@@ -188,16 +188,16 @@ def test_glass_code_only_where_there_is_glass(ctx: moderngl.Context) -> None:
     depth images baked once."""
     with Renderer(ctx, load_scene(SCENES / "default.toml")) as renderer:
         renderer.render()
-        assert renderer.glass_interiors == {}
+        assert renderer.graph.glass_interiors == {}
         assert not any("GLASS" in dict(defines) for _, _, defines in renderer.programs.variants)
     with Renderer(ctx, glass_scene()) as renderer:
         for _ in range(3):
             renderer.render()
-        (interior,) = renderer.glass_interiors.values()
+        (interior,) = renderer.graph.glass_interiors.values()
         assert interior.bakes == 1 and renderer.stats.interiors_made == 1
         view = renderer.scene.camera
         renderer.look_at(dataclasses.replace(view, eye=(view.eye[0] + 0.3, *view.eye[1:])))
         renderer.render()
         renderer.render()
         assert interior.bakes == 2
-        assert renderer.stats.depth_images_baked == len(renderer.reflected_objects)
+        assert renderer.stats.depth_images_baked == len(renderer.world.reflected_objects)

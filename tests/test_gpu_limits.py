@@ -138,7 +138,7 @@ def test_renderer_keeps_its_resolution_when_the_next_does_not_fit(small_ctx: mod
         with pytest.raises(GpuLimitError, match="lower --impostor-res"):
             renderer.set_impostor_resolution(1024)  # 5 images: a 3072 x 2048 atlas
         assert renderer.scene.render.impostor_resolution == 512
-        assert renderer.baked_images is not None and renderer.baked_images.atlas.resolution == 512
+        assert renderer.graph.baked_images is not None and renderer.graph.baked_images.atlas.resolution == 512
         renderer.render()
         with pytest.raises(GpuLimitError, match="lower --size"):
             renderer.resize((4096, 64))

@@ -30,8 +30,8 @@ def baked(ctx: moderngl.Context) -> Iterator[Renderer]:
 
 
 def image_data(renderer: Renderer, image: DepthImage) -> reference.DepthImageData:
-    assert renderer.impostors is not None
-    return renderer.impostors.atlas.read(image)
+    assert renderer.graph.impostors is not None
+    return renderer.graph.impostors.atlas.read(image)
 
 
 def random_rays(image: DepthImage, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -53,10 +53,10 @@ def away_from_decision_boundaries(hits: reference.RayHits) -> np.ndarray:
 
 @pytest.mark.parametrize("algorithm", list(Algorithm), ids=lambda a: a.name.lower())
 def test_gpu_query_agrees_with_numpy_reference(ctx: moderngl.Context, baked: Renderer, algorithm: Algorithm) -> None:
-    assert baked.impostors is not None
-    for seed, image in enumerate(baked.impostors.depth_images):
+    assert baked.graph.impostors is not None
+    for seed, image in enumerate(baked.graph.impostors.depth_images):
         origins, directions = random_rays(image, seed)
-        query = RayQuery(ctx, baked.programs, baked.impostors.atlas, [image], algorithm)
+        query = RayQuery(ctx, baked.programs, baked.graph.impostors.atlas, [image], algorithm)
         gpu = query.run(origins, directions)
         query.release()
         data = image_data(baked, image)
@@ -80,8 +80,8 @@ def test_gpu_query_agrees_with_numpy_reference(ctx: moderngl.Context, baked: Ren
 def test_basic_and_optimized_find_the_same_hits(baked: Renderer) -> None:
     """The 3-D segment between unprojected samples projects to the 2-D segment in OpenGL depth
     (depth is affine along a line's projection), so both algorithms find the same point."""
-    assert baked.impostors is not None
-    image = baked.impostors.depth_images[1]
+    assert baked.graph.impostors is not None
+    image = baked.graph.impostors.depth_images[1]
     origins, directions = random_rays(image, 7)
     data = image_data(baked, image)
     basic = reference.intersect_basic(data, origins, directions)
@@ -94,12 +94,12 @@ def test_basic_and_optimized_find_the_same_hits(baked: Renderer) -> None:
 
 def test_nearest_hit_over_several_depth_images(ctx: moderngl.Context, baked: Renderer) -> None:
     """A mirror's rays see the nearest of its objects: the GPU and the reference agree on which."""
-    assert baked.impostors is not None
-    images = baked.impostors.images_by_mirror[baked.mirrors[0].index]
+    assert baked.graph.impostors is not None
+    images = baked.graph.impostors.images_by_mirror[baked.world.mirrors[0].index]
     rng = np.random.default_rng(11)
-    origins = baked.mirrors[0].bounding_sphere[0] + rng.normal(size=(RAYS, 3)) * 0.5
+    origins = baked.world.mirrors[0].bounding_sphere[0] + rng.normal(size=(RAYS, 3)) * 0.5
     directions = rng.normal(size=(RAYS, 3))
-    query = RayQuery(ctx, baked.programs, baked.impostors.atlas, images)
+    query = RayQuery(ctx, baked.programs, baked.graph.impostors.atlas, images)
     gpu = query.run(origins, directions)
     query.release()
     expected = reference.nearest_depth_image_hit([image_data(baked, i) for i in images], origins, directions)
@@ -112,13 +112,13 @@ def test_nearest_hit_over_several_depth_images(ctx: moderngl.Context, baked: Ren
 
 
 def test_rays_that_miss_every_frustum_read_no_samples(ctx: moderngl.Context, baked: Renderer) -> None:
-    assert baked.impostors is not None
-    image = baked.impostors.depth_images[0]
+    assert baked.graph.impostors is not None
+    image = baked.graph.impostors.depth_images[0]
     centre, _ = image.target.bounding_sphere
     away = image.camera.C - centre  # straight away from the object
     origins = np.repeat(image.camera.C[None, :], 64, axis=0)
     directions = np.repeat(away[None, :], 64, axis=0)
-    query = RayQuery(ctx, baked.programs, baked.impostors.atlas, [image])
+    query = RayQuery(ctx, baked.programs, baked.graph.impostors.atlas, [image])
     gpu = query.run(origins, directions)
     query.release()
     assert not gpu.hit.any()

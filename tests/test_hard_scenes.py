@@ -65,12 +65,12 @@ def test_mirror_with_cancelling_normals_stays_finite(ctx: moderngl.Context) -> N
     safe_normalize falls back to facing the viewer, so the ray goes back the way it came."""
     scene = load_scene(HARD / "top_down.toml").with_overrides(size=(160, 90))
     renderer = Renderer(ctx, scene, reflection_data=True)
-    mirror = renderer.mirrors[0]
+    mirror = renderer.world.mirrors[0]
     mesh = mirror.local_mesh
     normals = np.array(mesh.normals, np.float32)
     normals[1::2] *= -1.0  # alternate vertices point down: every triangle has opposite normals
     vertices = np.hstack([np.asarray(mesh.positions, np.float32), normals]).astype(np.float32)
-    renderer.meshes._buffers[mirror.index] = (
+    renderer.graph.meshes._buffers[mirror.index] = (
         ctx.buffer(vertices.tobytes()), ctx.buffer(np.asarray(mesh.indices, np.uint32).tobytes())
     )
     with renderer:

@@ -133,9 +133,9 @@ def baked(ctx: moderngl.Context) -> Iterator[Renderer]:
 def test_hierarchical_and_linear_agree_on_random_rays(ctx: moderngl.Context, baked: Renderer) -> None:
     """200,000 rays from around each mirror toward each object: about half hit, many start behind
     the eye or outside the frustum, many graze the object's silhouette."""
-    assert baked.impostors is not None
+    assert baked.graph.impostors is not None
     rng = np.random.default_rng(5)
-    images = baked.impostors.depth_images
+    images = baked.graph.impostors.depth_images
     for image in images:
         centre, radius = image.target.bounding_sphere
         count = 200_000 // len(images)
@@ -143,7 +143,7 @@ def test_hierarchical_and_linear_agree_on_random_rays(ctx: moderngl.Context, bak
         directions = centre + rng.normal(size=(count, 3)) * radius * 0.6 - origins
         answers = {}
         for algorithm in (Algorithm.OPTIMIZED, Algorithm.HIERARCHICAL):
-            query = RayQuery(ctx, baked.programs, baked.impostors.atlas, [image], algorithm)
+            query = RayQuery(ctx, baked.programs, baked.graph.impostors.atlas, [image], algorithm)
             answers[algorithm] = query.run(origins, directions)
             query.release()
         assert 0.2 < answers[Algorithm.OPTIMIZED].hit.mean() < 0.8
@@ -152,14 +152,14 @@ def test_hierarchical_and_linear_agree_on_random_rays(ctx: moderngl.Context, bak
 
 def test_hierarchical_and_linear_agree_over_several_images(ctx: moderngl.Context, baked: Renderer) -> None:
     """The nearest hit over all of a mirror's depth images, from the pyramids of all of them."""
-    assert baked.impostors is not None
-    images = baked.impostors.images_by_mirror[baked.mirrors[0].index]
+    assert baked.graph.impostors is not None
+    images = baked.graph.impostors.images_by_mirror[baked.world.mirrors[0].index]
     rng = np.random.default_rng(13)
-    origins = baked.mirrors[0].bounding_sphere[0] + rng.normal(size=(60_000, 3)) * 0.5
+    origins = baked.world.mirrors[0].bounding_sphere[0] + rng.normal(size=(60_000, 3)) * 0.5
     directions = rng.normal(size=(60_000, 3))
     answers = {}
     for algorithm in (Algorithm.OPTIMIZED, Algorithm.HIERARCHICAL):
-        query = RayQuery(ctx, baked.programs, baked.impostors.atlas, images, algorithm)
+        query = RayQuery(ctx, baked.programs, baked.graph.impostors.atlas, images, algorithm)
         answers[algorithm] = query.run(origins, directions)
         query.release()
     assert answers[Algorithm.OPTIMIZED].hit.sum() > 3000

@@ -92,7 +92,7 @@ def test_tint_shows_the_retraced_rays(ctx) -> None:
     with Renderer(ctx, scene, reflection_data=True, method=Method.HYBRID) as renderer:
         renderer.render()
         plain, data = renderer.read_color_float(), renderer.read_reflection_data()
-        renderer.tint_retraced = True
+        renderer.graph.tint_retraced = True
         renderer.render()
         tinted = renderer.read_color_float()
     changed = np.abs(tinted - plain).max(axis=2) > 1e-6

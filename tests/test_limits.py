@@ -24,6 +24,7 @@ from depthimpostor.constants import (
 from depthimpostor.culling import Reach, reach, reaches
 from depthimpostor.errors import SceneError
 from depthimpostor.geometry import scene_geometry
+from depthimpostor.methods.registry import METHODS
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, SceneObject, SphereShape, load_scene
@@ -134,7 +135,7 @@ def test_plan_refuses_what_render_refuses(ctx: moderngl.Context, tmp_path: Path,
 def test_hybrid_refuses_more_triangles_than_a_sample_can_name(monkeypatch: pytest.MonkeyPatch,
                                                               ctx: moderngl.Context) -> None:
     """2^24 triangles are too many to build here: the limit is lowered below the scene's."""
-    monkeypatch.setattr("depthimpostor.scene.limits.MAX_NAMED_TRIANGLES", 100)
+    monkeypatch.setitem(METHODS, Method.HYBRID, dataclasses.replace(METHODS[Method.HYBRID], triangle_limit=100))
     refused = scene(HEAD + WALL_MIRROR + balls(1, 2.0))
     with pytest.raises(SceneError, match="expected at most 100 reflected triangles with --method hybrid") as planned:
         plan_render(refused, Method.HYBRID)

@@ -92,7 +92,7 @@ def test_every_method_renders_every_scene_finite(ctx: moderngl.Context, path: Pa
         renderer.render()
         image = renderer.read_color_float()
         # Only the method's own stand-in exists, and only its mirror variant was compiled.
-        assert type(renderer.stand_in) is METHODS[method].stand_in
+        assert type(renderer.graph.stand_in) is METHODS[method].stand_in
         mirror_variants = {dict(defines)["METHOD"] for _, fragment, defines in renderer.programs.variants
                            if fragment == "mirror.frag"}
         assert mirror_variants == {str(int(method))}
@@ -124,11 +124,11 @@ def test_method_switch_keeps_only_the_methods_resources(ctx: moderngl.Context) -
         renderer.render()
         depth = renderer.read_color_float()
         renderer.set_method(Method.RAYTRACE)
-        assert renderer.impostors is None and renderer.triangles is not None
+        assert renderer.graph.impostors is None and renderer.graph.triangles is not None
         renderer.render()
         traced = renderer.read_color_float()
         renderer.set_method(Method.DEPTH)
-        assert renderer.triangles is None and renderer.impostors is not None
+        assert renderer.graph.triangles is None and renderer.graph.impostors is not None
         renderer.render()
         np.testing.assert_allclose(renderer.read_color_float(), depth, atol=1e-6)
         assert renderer.stats.depth_images_baked == 10
@@ -229,10 +229,10 @@ def test_both_cube_map_lookups_share_one_bake(ctx: moderngl.Context) -> None:
     with Renderer(ctx, scene, method=Method.CUBEMAP) as renderer:
         renderer.render()
         plain = renderer.read_color_float()
-        cube_map = renderer.stand_in
+        cube_map = renderer.graph.stand_in
         renderer.set_method(Method.CUBEMAP_PARALLAX)
         renderer.render()
-        assert renderer.stand_in is cube_map and renderer.stats.depth_images_baked == 6
+        assert renderer.graph.stand_in is cube_map and renderer.stats.depth_images_baked == 6
         assert np.abs(renderer.read_color_float() - plain).max() > 0.1
 
 
@@ -287,9 +287,9 @@ def test_simplified_traces_fewer_triangles_with_the_same_traversal(ctx: moderngl
     with Renderer(ctx, scene, reflection_data=True, method=Method.SIMPLIFIED) as renderer:
         renderer.render()
         figures = compare(renderer).figures
-        triangles = renderer.triangles
+        triangles = renderer.graph.triangles
         assert triangles is not None
-        assert triangles.triangle_count <= scene.render.simplified_triangles * len(renderer.reflected_objects)
+        assert triangles.triangle_count <= scene.render.simplified_triangles * len(renderer.world.reflected_objects)
     assert figures.wrong_object_share < 0.01 and figures.geometric_error_median < 0.01
     # With a target above every object's count nothing is simplified: the ray-traced frame, exactly.
     everything = scene.with_overrides(simplified_triangles=10**6)

@@ -14,7 +14,8 @@ import numpy as np
 from conftest import assert_finite
 from depthimpostor.oracles.compare import Comparison, compare
 from depthimpostor.constants import NO_OBJECT
-from depthimpostor.renderer import ReflectionData, Renderer
+from depthimpostor.renderer import Renderer
+from depthimpostor.targets import ReflectionData
 from depthimpostor.scene.loader import parse_scene
 from depthimpostor.scene.model import Scene
 from depthimpostor.oracles.truth import MIRROR_BACKING_ALBEDO, TruthTracer, shade
@@ -77,7 +78,7 @@ def test_a_mirror_seen_from_behind_shows_its_backing(ctx: moderngl.Context) -> N
         render = renderer.read_color_float()
         data = renderer.read_reflection_data()
         samples = renderer.read_sample_counts()
-        camera, mirror = renderer.camera, renderer.mirrors[0]
+        camera, mirror = renderer.camera, renderer.world.mirrors[0]
     assert_finite(render)
     assert not data.mirror_mask.any(), "a mirror's back is no mirror pixel"
     assert (data.object_id == NO_OBJECT).all() and (data.mirror_id == NO_OBJECT).all()
@@ -100,7 +101,7 @@ def test_a_mirror_seen_from_behind_shows_its_backing(ctx: moderngl.Context) -> N
 def test_a_mirror_seen_from_the_front_still_reflects(ctx: moderngl.Context) -> None:
     with Renderer(ctx, make_scene([FLOOR, MIRROR, BOX], IN_FRONT), reflection_data=True) as renderer:
         comparison, data = render_and_compare(renderer)
-        box = next(g.index for g in renderer.reflected_objects if g.object.name == "box")
+        box = next(g.index for g in renderer.world.reflected_objects if g.object.name == "box")
     figures = comparison.figures
     assert figures.mirror_pixels > 0.1 * SIZE[0] * SIZE[1]
     assert (data.object_id[data.mirror_mask] == box).sum() > 200, "the box is seen in the mirror"
@@ -117,8 +118,8 @@ def test_a_mirror_shows_another_mirrors_back_as_its_backing(ctx: moderngl.Contex
     scene = make_scene([FLOOR, MIRROR, small, BOX], (-1.5, 1.5, 4.5), bounces=2)
     with Renderer(ctx, scene, reflection_data=True) as renderer:
         comparison, data = render_and_compare(renderer)
-        ids = {g.object.name: g.index for g in renderer.mirrors}
-        assert renderer.impostors is not None and renderer.impostors.bounces is not None
+        ids = {g.object.name: g.index for g in renderer.world.mirrors}
+        assert renderer.graph.impostors is not None and renderer.graph.impostors.bounces is not None
     figures = comparison.figures
     assert figures.wrong_object_share < 0.01, f"{100 * figures.wrong_object_share:.2f} % wrong object"
     assert figures.color_rmse < 0.07, f"colour RMSE {figures.color_rmse:.4f}"

@@ -326,8 +326,8 @@ def test_auto_resolution_follows_the_pixels(ctx: moderngl.Context) -> None:
         with Renderer(ctx, scene) as renderer:
             renderer.render()
             assert_finite(renderer.read_color_float())
-            assert renderer.baked_images is not None
-            return [image.camera.width for image in renderer.baked_images.depth_images]
+            assert renderer.graph.baked_images is not None
+            return [image.camera.width for image in renderer.graph.baked_images.depth_images]
 
     for side in sides("default.toml", (480, 270)) + sides("planar_mirror.toml", (480, 270)):
         assert MIN_AUTO_RESOLUTION <= side <= MAX_AUTO_RESOLUTION and math.log2(side).is_integer()

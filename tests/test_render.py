@@ -90,8 +90,8 @@ def test_scene_without_mirrors_allocates_no_impostor(ctx: moderngl.Context, tmp_
     scene = parse_scene(data, "test", tmp_path)
     with Renderer(ctx, scene) as renderer:
         renderer.render()
-        assert renderer.impostors is None
-        assert renderer.mirror_pass is None
+        assert renderer.graph.impostors is None
+        assert renderer.graph.mirror_pass is None
         assert renderer.stats.depth_images_baked == 0
         compiled = {fragment for _, fragment, _ in renderer.programs.variants}
         assert compiled == {"environment.frag", "diffuse.frag"}
@@ -102,20 +102,20 @@ def test_scene_without_mirrors_allocates_no_impostor(ctx: moderngl.Context, tmp_
 def test_depth_images_are_baked_once_and_not_for_camera_moves(ctx: moderngl.Context) -> None:
     scene = load_scene(SCENES / "grid_3x3.toml").with_overrides(size=(96, 54), impostor_resolution=32)
     with Renderer(ctx, scene) as renderer:
-        assert renderer.impostors is not None
-        count = len(renderer.impostors.depth_images)
+        assert renderer.graph.impostors is not None
+        count = len(renderer.graph.impostors.depth_images)
         assert count == 8 * 1  # eight mirrors around one object; the floor is analytic
         for _ in range(3):
             renderer.render()
         renderer.set_camera(PPC.look_at([3.0, 2.0, 3.0], [0.0, 0.5, 0.0], [0.0, 1.0, 0.0], 50.0, 96, 54))
         renderer.render()
         assert renderer.stats.depth_images_baked == count
-        assert renderer.impostors.bakes == count
+        assert renderer.graph.impostors.bakes == count
         assert renderer.stats.frames == 4
 
 
 def test_lecture_scene_has_72_depth_images(ctx: moderngl.Context) -> None:
     scene = load_scene(SCENES / "lecture_8x9.toml").with_overrides(size=(96, 54), impostor_resolution=16)
     with Renderer(ctx, scene) as renderer:
-        assert renderer.impostors is not None
-        assert len(renderer.impostors.depth_images) == 72
+        assert renderer.graph.impostors is not None
+        assert len(renderer.graph.impostors.depth_images) == 72

@@ -69,8 +69,8 @@ def test_algorithm_switch_changes_the_variant_not_the_depth_images(ctx: moderngl
         for algorithm in (Algorithm.OPTIMIZED, Algorithm.BASIC, Algorithm.HIERARCHICAL, Algorithm.OPTIMIZED):
             renderer.set_algorithm(algorithm)
             renderer.render()
-            assert renderer.impostors is not None
-            assert (renderer.impostors.pyramid is not None) == (algorithm == Algorithm.HIERARCHICAL)
+            assert renderer.graph.impostors is not None
+            assert (renderer.graph.impostors.pyramid is not None) == (algorithm == Algorithm.HIERARCHICAL)
             if algorithm == Algorithm.OPTIMIZED and not frames:
                 assert renderer.programs.compute_variants == []  # no pyramid build compiled before it is needed
             frames[algorithm] = renderer.read_color_float()
@@ -90,7 +90,7 @@ def test_resolution_change_re_bakes_every_depth_image_once(ctx: moderngl.Context
         for _ in range(2):
             renderer.render()
         assert renderer.stats.depth_images_baked == 5 + 5
-        assert renderer.impostors is not None and renderer.impostors.atlas.resolution == 128
+        assert renderer.graph.impostors is not None and renderer.graph.impostors.atlas.resolution == 128
         frame = renderer.read_color_float()
     assert_same_frame(frame, fresh_frame(ctx, scene.with_overrides(impostor_resolution=128)))
 

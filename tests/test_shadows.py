@@ -117,13 +117,13 @@ def test_shadow_maps_are_baked_once_and_only_where_something_casts(ctx: moderngl
             renderer.render()
         renderer.look_at(dataclasses.replace(scene.camera, eye=(1.0, 3.0, 4.0)))
         renderer.render()
-        assert renderer.shadow_maps is not None and len(renderer.shadow_maps.cameras) == 1
+        assert renderer.graph.shadow_maps is not None and len(renderer.graph.shadow_maps.cameras) == 1
         assert renderer.stats.shadow_maps_baked == 1, "the camera moved, the lights did not: nothing to re-bake"
         assert any("SHADOWS" in dict(defines) for (*_, defines) in renderer.programs.variants)
     for lights, objects in (([light("none")], [FLOOR, BOX]), ([light("hard")], [FLOOR])):
         with Renderer(ctx, make_scene(lights, objects)) as renderer:
             renderer.render()
-            assert renderer.shadow_maps is None
+            assert renderer.graph.shadow_maps is None
             assert not any("SHADOWS" in dict(defines) for (*_, defines) in renderer.programs.variants)
 
 

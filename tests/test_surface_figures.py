@@ -25,7 +25,8 @@ from depthimpostor.oracles.compare import (
     markdown_table,
 )
 from depthimpostor.constants import NO_OBJECT, Method
-from depthimpostor.renderer import ReflectionData, Renderer
+from depthimpostor.renderer import Renderer
+from depthimpostor.targets import ReflectionData
 from depthimpostor.scene import load_scene
 from depthimpostor.scene.model import RenderSettings
 
@@ -63,8 +64,8 @@ def _synthetic() -> tuple[Renderer, TruthFrame]:
                        np.where(mask, truth_object, NO_OBJECT), position)
     # compare() reads no GL when it is given a truth that fits: this stands in for the renderer.
     stand_in = SimpleNamespace(
-        read_reflection_data=lambda: data, read_color_float=lambda: render_color, glass=[],
-        reflected_objects=[SimpleNamespace(index=OBJECT, bounding_sphere=(np.zeros(3), 1.0))],
+        read_reflection_data=lambda: data, read_color_float=lambda: render_color,
+        world=SimpleNamespace(glass=[], reflected_objects=[SimpleNamespace(index=OBJECT, bounding_sphere=(np.zeros(3), 1.0))]),
         scene=SimpleNamespace(render=RenderSettings()),  # the display settings of the report's images
     )
     return cast(Renderer, stand_in), truth
@@ -113,7 +114,7 @@ def _checker(ctx: moderngl.Context, method: Method, truth: TruthFrame | None = N
         assert_finite(renderer.read_color_float())
         comparison = compare(renderer, truth)
         data = renderer.read_reflection_data()
-        reflected = [g.index for g in renderer.reflected_objects]
+        reflected = [g.index for g in renderer.world.reflected_objects]
     truth_object = comparison.truth_frame.object_id
     objects = data.mirror_mask & np.isin(truth_object, reflected)
     assert int(objects.sum()) == comparison.figures.object_pixels

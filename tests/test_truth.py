@@ -14,7 +14,8 @@ from conftest import SCENES, assert_finite
 from depthimpostor import cli
 from depthimpostor.oracles.compare import compare
 from depthimpostor.constants import NO_OBJECT
-from depthimpostor.renderer import Renderer, camera_of
+from depthimpostor.renderer import Renderer
+from depthimpostor.world import World
 from depthimpostor.scene import load_scene
 from depthimpostor.oracles.truth import TruthTracer
 
@@ -30,11 +31,11 @@ def test_truth_shades_like_the_rasterizer(ctx: moderngl.Context) -> None:
     with Renderer(ctx, scene) as renderer:
         renderer.render()
         raster = np.clip(renderer.read_color_float(), 0, 1)
-        camera = camera_of(scene)
+        camera = World(scene).camera()
         v, u = np.mgrid[0 : scene.render.size[1], 0 : scene.render.size[0]] + 0.5
         directions = camera.ray_direction(u.ravel(), v.ravel())
         origins = np.broadcast_to(camera.C, directions.shape)
-        tracer = TruthTracer(scene, renderer.reflected_objects, renderer.analytic_planes)
+        tracer = TruthTracer(scene, renderer.world.reflected_objects, renderer.world.analytic_planes)
         traced = tracer.trace(origins, directions)
     truth = np.clip(traced.color, 0, 1).reshape(raster.shape)
     differs = np.abs(truth - raster).max(axis=2) > 2 / 255
@@ -112,7 +113,7 @@ def test_reflection_outputs_name_objects_and_mirrors(ctx: moderngl.Context) -> N
     with Renderer(ctx, scene, reflection_data=True) as renderer:
         renderer.render()
         data = renderer.read_reflection_data()
-    mirror_index = renderer.mirrors[0].index
+    mirror_index = renderer.world.mirrors[0].index
     assert set(np.unique(data.mirror_id[data.mirror_mask])) == {mirror_index}
     assert (data.object_id[~data.mirror_mask] == NO_OBJECT).all()
     seen = set(np.unique(data.object_id[data.mirror_mask]))

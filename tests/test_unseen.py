@@ -146,10 +146,10 @@ def baked(ctx: moderngl.Context) -> list[tuple[reference.DepthImageData, ObjectG
         scene = load_scene(SCENES / name).with_overrides(size=(32, 18), impostor_resolution=128)
         with Renderer(ctx, scene, method=Method.HYBRID) as renderer:
             renderer.render()
-            assert renderer.impostors is not None
-            for image in renderer.impostors.depth_images:
+            assert renderer.graph.impostors is not None
+            for image in renderer.graph.impostors.depth_images:
                 origins, directions = _rays_at(image.target, image.mirror, rng)
-                found.append((renderer.impostors.atlas.read(image), image.target, origins, directions))
+                found.append((renderer.graph.impostors.atlas.read(image), image.target, origins, directions))
     return found
 
 

@@ -330,7 +330,7 @@ viewer.draw_frame()
 viewer.on_key(glfw.KEY_RIGHT_BRACKET, glfw.PRESS, 0)
 viewer.draw_frame()
 out = {"message": viewer.message[0], "overlay": list(viewer.panels()[0].lines),
-       "resolution": viewer.renderer.baked_images.atlas.resolution, "gl_error": viewer.ctx.error}
+       "resolution": viewer.renderer.graph.baked_images.atlas.resolution, "gl_error": viewer.ctx.error}
 viewer.release()
 window.release()
 print(json.dumps(out))

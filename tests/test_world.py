@@ -38,7 +38,7 @@ def test_each_pair_is_culled_once_and_settings_cull_nothing_again(ctx: moderngl.
     scene = load_scene(LECTURE).with_overrides(size=(64, 36), impostor_resolution=16)
     with Renderer(ctx, scene) as renderer:
         pairs = sum(rows * columns for rows, columns in culling_calls)
-        assert pairs == len(renderer.reflectors) * len(renderer.reflected_objects) == 72
+        assert pairs == len(renderer.world.reflectors) * len(renderer.world.reflected_objects) == 72
         made = len(culling_calls)
         renderer.set_algorithm(Algorithm.HIERARCHICAL)
         renderer.set_method(Method.CUBEMAP)
@@ -61,7 +61,7 @@ def test_the_stand_in_bakes_the_plans_images_without_planning_them_again(
         assert len(planned) == 1
         # The very cameras the plan fitted: the stand-in fitted none of its own.
         planned_cameras = {id(image.camera) for plans in renderer.plan.image_plans.values() for image in plans}
-        baked = renderer.impostors.depth_images  # type: ignore[union-attr]
+        baked = renderer.graph.impostors.depth_images  # type: ignore[union-attr]
         assert len(baked) == 72 and all(id(image.camera) in planned_cameras for image in baked)
 
 

@@ -37,7 +37,9 @@ from ..font import load_font
 from ..outputs import Outputs
 from ..colour import display_encode, quantize
 from ..ppc import PPC
-from ..renderer import ReflectionData, Renderer, SubFrame
+from ..renderer import Renderer
+from ..supersampling import SubFrame
+from ..targets import ReflectionData
 from .truth import SpecularTruth, TruthTracer
 
 WORST_PIXELS = 8
@@ -130,13 +132,13 @@ def trace_direct(renderer: Renderer, mirror_mask: np.ndarray, camera: PPC | None
     directions = camera.ray_direction(columns.ravel(), rows.ravel())
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
     origins = np.broadcast_to(camera.C, directions.shape)
-    casters = renderer.shadow_casters
+    casters = renderer.world.shadow_casters
     # Every object but the analytic planes: the casters, and the reflectors that cast no shadow
     # (planar mirrors), whose backs are seen directly.
     caster_ids = {g.index for g in casters}
-    seen = [*casters, *(g for g in renderer.reflectors if g.index not in caster_ids)]
-    hits = TruthTracer(renderer.scene, seen, renderer.analytic_planes, casters).trace(origins, directions)
-    reflectors = [g.index for g in renderer.reflectors]
+    seen = [*casters, *(g for g in renderer.world.reflectors if g.index not in caster_ids)]
+    hits = TruthTracer(renderer.scene, seen, renderer.world.analytic_planes, casters).trace(origins, directions)
+    reflectors = [g.index for g in renderer.world.reflectors]
     reflecting = np.isin(hits.object_id, reflectors) & ~hits.backing
     seen_mirror = reflecting.reshape(mirror_mask.shape) | mirror_mask
     return np.where(seen_mirror[..., None], np.nan, hits.color.reshape(mirror_mask.shape + (3,)))
@@ -148,8 +150,8 @@ def trace_truth(renderer: Renderer, data: ReflectionData, camera: PPC | None = N
     shadows, for the pixels seen directly)."""
     camera = renderer.camera if camera is None else camera
     mask = data.mirror_mask
-    specular = SpecularTruth(renderer.scene, renderer.reflected_objects, renderer.reflectors, renderer.analytic_planes,
-                             renderer.shadow_casters)
+    specular = SpecularTruth(renderer.scene, renderer.world.reflected_objects, renderer.world.reflectors, renderer.world.analytic_planes,
+                             renderer.world.shadow_casters)
     origins = data.origin[mask]
     incoming = origins - camera.C
     incoming /= np.maximum(np.linalg.norm(incoming, axis=1, keepdims=True), 1e-300)
@@ -213,7 +215,7 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
     truth_image = np.mean([image for image, _ in images], axis=0)
     mask = np.logical_or.reduce([_reflection(f).mirror_mask for f in frames])
     direct = np.logical_or.reduce([d for _, d in images]) & ~mask
-    glass_ids = [g.index for g in renderer.glass]
+    glass_ids = [g.index for g in renderer.world.glass]
     glass = np.logical_or.reduce([f.mirror_mask & np.isin(f.mirror_id, glass_ids) for f in map(_reflection, frames)])
     direct_pixels = int(direct.sum())
     direct_rmse = float(np.sqrt(((render - truth_image)[direct] ** 2).mean())) if direct_pixels else 0.0
@@ -227,7 +229,7 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
     glass_pixels = int(glass.sum())
     glass_rmse = float(np.sqrt(((render - truth_image)[glass] ** 2).mean())) if glass_pixels else 0.0
 
-    radius = {g.index: g.bounding_sphere[1] for g in renderer.reflected_objects}
+    radius = {g.index: g.bounding_sphere[1] for g in renderer.world.reflected_objects}
     measured = first_mask & (data.object_id == truth_object) & np.isin(truth_object, list(radius))
     geometric = np.full(mask.shape, np.nan)
     if measured.any():

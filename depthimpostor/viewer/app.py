@@ -115,11 +115,11 @@ def _reason(error: DepthImpostorError) -> str:
 
 
 def _scene_radius(renderer: Renderer) -> float:
-    if not renderer.bounds:
+    if not renderer.world.bounds:
         return 1.0
-    centres = np.array([centre for centre, _ in renderer.bounds])
+    centres = np.array([centre for centre, _ in renderer.world.bounds])
     middle = centres.mean(axis=0)
-    return max(float(np.linalg.norm(centre - middle)) + radius for centre, radius in renderer.bounds)
+    return max(float(np.linalg.norm(centre - middle)) + radius for centre, radius in renderer.world.bounds)
 
 
 @dataclass
@@ -285,14 +285,14 @@ class Viewer:
         elif action in (Action.RESOLUTION_UP, Action.RESOLUTION_DOWN):
             return self._change_resolution(action == Action.RESOLUTION_UP)
         elif action == Action.TOGGLE_SAMPLES:
-            if renderer.sampled is None:
-                return "no samples to show: " + ("no mirror" if renderer.stand_in is None else
+            if renderer.graph.sampled is None:
+                return "no samples to show: " + ("no mirror" if renderer.graph.stand_in is None else
                                                  f"{METHOD_LABELS[renderer.method]} keep no depth")
-            renderer.set_show_samples(not renderer.show_samples)
-            return "showing the baked images' samples" if renderer.show_samples else "showing objects"
+            renderer.set_show_samples(not renderer.graph.show_samples)
+            return "showing the baked images' samples" if renderer.graph.show_samples else "showing objects"
         elif action == Action.TOGGLE_RETRACED:
-            renderer.tint_retraced = not renderer.tint_retraced
-            shown = "tinted magenta" if renderer.tint_retraced else "not tinted"
+            renderer.graph.tint_retraced = not renderer.graph.tint_retraced
+            shown = "tinted magenta" if renderer.graph.tint_retraced else "not tinted"
             if renderer.method != Method.HYBRID:
                 return f"re-traced rays {shown} (only the hybrid method re-traces: M selects it)"
             return f"re-traced rays {shown}"
@@ -333,7 +333,7 @@ class Viewer:
 
     def _change_resolution(self, up: bool) -> str:
         setting = self.renderer.scene.render.impostor_resolution
-        baked_before = self.renderer.baked_images
+        baked_before = self.renderer.graph.baked_images
         # From "auto", the keys step from the largest image's side.
         current = setting if isinstance(setting, int) else baked_before.atlas.resolution if baked_before else 256
         resolution = next_resolution(current, up)
@@ -343,7 +343,7 @@ class Viewer:
             self.renderer.set_impostor_resolution(resolution)
         except DepthImpostorError as error:
             return f"baked images stay at {current}x{current}: {_reason(error)}"
-        baked = self.renderer.baked_images
+        baked = self.renderer.graph.baked_images
         if baked is None:
             return f"image resolution {resolution}x{resolution}, for the methods that bake images"
         return f"{baked.image_noun}s {current}x{current} -> {resolution}x{resolution} (re-baking {len(baked.depth_images)})"
@@ -389,16 +389,16 @@ class Viewer:
             + (f", {renderer.algorithm.name.lower()}" if renderer.method == Method.DEPTH else ""),
             f"{width}x{height} | {frame_ms:.1f} ms (median of {len(draws)}) | {fps:.1f} fps",
         ]
-        if renderer.stand_in is not None:
-            line = f"{renderer.stand_in.describe()} | {renderer.stand_in.bytes / 2**20:.1f} MiB"
-            if renderer.baked_images is not None:
+        if renderer.graph.stand_in is not None:
+            line = f"{renderer.graph.stand_in.describe()} | {renderer.graph.stand_in.bytes / 2**20:.1f} MiB"
+            if renderer.graph.baked_images is not None:
                 bake_ms = 1000.0 * renderer.stats.bake_seconds[-1] if renderer.stats.bake_seconds else 0.0
                 line += f" | bake {bake_ms:.0f} ms"
             lines.append(line)
         else:
             lines.append("nothing to reflect (no mirror)")
         mode = "fly" if self.navigation.flying else "orbit"
-        lines.append(f"{mode}{' | samples view' if renderer.show_samples else ''} | H: help")
+        lines.append(f"{mode}{' | samples view' if renderer.graph.show_samples else ''} | H: help")
         if self.message and time.perf_counter() - self.message[1] < MESSAGE_SECONDS:
             lines.append(self.message[0])
         panels = [Panel(tuple(lines))]
@@ -420,7 +420,7 @@ class Viewer:
             else:
                 self.log.screenshots.append(str(path))
                 self.say(f"screenshot {path}")
-        self.ctx.copy_framebuffer(self.linear_texture, renderer.color_framebuffer)
+        self.ctx.copy_framebuffer(self.linear_texture, renderer.targets.color_framebuffer)
         self.frame_framebuffer.use()
         self.display.draw(self.linear_texture, display=renderer.scene.render)
         self.overlay.draw(self.panels(), self.frame_size)

@@ -1,0 +1,350 @@
+"""The plan's render graph, made executable: the GL side of each node of `plan.graph` (graph.py),
+built from the plan and the world, run node by node each frame (the bakes only for what is stale),
+kept up to date as the world moves, and changed, not rebuilt, when a setting changes.
+
+A setting change (renderer.py's setters) makes a new plan; `apply` compares it with the one the
+graph was built from and rebuilds only the nodes whose part of the plan differs: another method's
+stand-in, another impostor resolution's images, the mirror variant of another algorithm. A new
+stand-in is made before the old one is released, so that a failure leaves the graph as it was.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from .constants import Algorithm
+from .culling import may_shadow
+from .eye import clear_depth, eye_depth
+from .gpu.context import bind_default_framebuffer
+from .gpu.meshes import GpuMeshes
+from .gpu.shaders import ProgramCache
+from .gpu.textures import GpuTextures
+from .graph import BAKES, Pass
+from .methods.baked_images import BakedImages
+from .methods.impostors import ImpostorPass
+from .methods.registry import METHODS
+from .methods.triangles import TrianglePass
+from .passes.diffuse import DiffusePass
+from .passes.environment import EnvironmentPass
+from .passes.glass import GlassInterior
+from .passes.mirrors import MirrorPass, ReflectedObjects
+from .passes.samples import SamplesPass
+from .passes.shadows import ShadowMaps
+from .plan import RenderPlan, check_stand_in
+from .ppc import PPC
+from .targets import FrameTargets
+from .world import World
+
+
+@dataclass
+class RenderStats:
+    """Counters of the work done (tests read them; `render --stats` prints them)."""
+
+    frames: int = 0
+    depth_images_baked: int = 0  # every baked image: depth images, cube-map faces, billboards
+    shadow_maps_baked: int = 0
+    interiors_made: int = 0  # glass interior images
+    draw_calls: int = 0
+    passes: Counter[str] = field(default_factory=Counter)  # frames each pass ran in, by Pass value
+    images_baked: Counter[str] = field(default_factory=Counter)  # bakes of each image, by its label
+    bake_seconds: list[float] = field(default_factory=list)  # one entry per bake (shadow maps and stand-in)
+    draw_seconds: list[float] = field(default_factory=list)  # one entry per frame
+    # The mirror pass's share of each frame, when the renderer was asked to time it.
+    mirror_seconds: list[float] = field(default_factory=list)
+    # Frames drawn at a sub-pixel position (render.samples per frame; 1 per frame without
+    # anti-aliasing). A frame's draw time is the sum of its sub-frames'.
+    sub_frames: int = 0
+
+
+@dataclass(frozen=True)
+class GraphOptions:
+    """What the renderer was made to output besides the colour (fixed for its lifetime)."""
+
+    reflection_data: bool = False  # float outputs of each mirror pixel's ray and hit
+    count_samples: bool = False  # an output of the samples each reflected ray read (bench)
+    time_mirror_pass: bool = False  # the mirror pass timed apart, after a ctx.finish() (bench)
+
+
+class RenderGraph:
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache, world: World, plan: RenderPlan,
+                 options: GraphOptions, stats: RenderStats) -> None:
+        self.ctx, self.programs, self.options, self.stats = ctx, programs, options, stats
+        self.world, self.plan = world, plan
+        self.meshes = GpuMeshes(ctx)
+        self.textures = GpuTextures(ctx)  # the scene's image textures, bound for every frame
+        self.show_samples = False
+        self.tint_retraced = False  # the hybrid method's re-traced rays tinted (the viewer's T)
+        self.build()
+
+    def build(self) -> None:
+        """Every node's GL side, from the plan, with the programs of the cache."""
+        ctx, scene, world = self.ctx, self.world.scene, self.world
+        self.environment = EnvironmentPass(ctx, self.programs, scene)
+        # Made (and baked) before anything that shades: depth images show the shadows too.
+        self.shadow_maps = (ShadowMaps(ctx, self.programs, world.lit_scene, self.meshes, world.shadow_casters)
+                            if self.plan.runs(Pass.SHADOW_MAPS) else None)
+        self.diffuse = (DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
+                        if self.plan.runs(Pass.DIFFUSE) else None)
+        self.stand_in: ReflectedObjects | None = None
+        self.mirror_pass: MirrorPass | None = None
+        self.samples: SamplesPass | None = None
+        # An interior image per glass object, as large as the frame's larger side (passes/glass.py).
+        self.glass_interiors = {item.index: GlassInterior(ctx, self.programs, self.meshes, max(scene.render.size))
+                                for item in world.glass}
+        if world.reflectors:
+            self._make_stand_in(self.plan)
+            self.mirror_pass = self._mirror_pass()
+            if self.show_samples and self.sampled is not None:
+                self.samples = SamplesPass(ctx, self.programs)
+        self._baked = False
+
+    # ------------------------------------------------------------------ what the nodes hold
+    @property
+    def impostors(self) -> ImpostorPass | None:
+        """The depth images, when the method is `depth`."""
+        return self.stand_in if isinstance(self.stand_in, ImpostorPass) else None
+
+    @property
+    def baked_images(self) -> BakedImages | None:
+        """The atlas of images the method bakes (depth images, cube-map faces, billboards)."""
+        return self.stand_in if isinstance(self.stand_in, BakedImages) else None
+
+    @property
+    def sampled(self) -> BakedImages | None:
+        """Baked images with a depth per sample, which the sample view can draw."""
+        baked = self.baked_images
+        return baked if baked is not None and baked.atlas.depth is not None else None
+
+    @property
+    def triangles(self) -> TrianglePass | None:
+        """The triangles traced, when the method is `simplified` or `raytrace`."""
+        return self.stand_in if isinstance(self.stand_in, TrianglePass) else None
+
+    def _make_stand_in(self, plan: RenderPlan) -> None:
+        """The method's stand-in for the reflected objects; the old one (if any) is released only
+        once the new one exists, so that a failure leaves the graph as it was."""
+        world, scene = self.world, self.world.scene
+        kind = METHODS[plan.method].stand_in
+        check_stand_in(scene, plan.method, world.reflectors, world.reflected_objects)
+        stand_in: ReflectedObjects
+        if issubclass(kind, BakedImages):
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, world.reflectors, world.reflected_objects,
+                            plan.image_plans)
+        else:
+            stand_in = kind(self.ctx, scene, world.reflected_objects)
+        if self.stand_in is not None:
+            self.stand_in.release()
+        self.stand_in = stand_in
+        self._baked = False
+        self._keep_pyramids(plan)
+
+    def _keep_pyramids(self, plan: RenderPlan) -> None:
+        """Depth pyramids exist exactly while the hierarchical algorithm intersects depth images."""
+        if self.impostors is not None:
+            self.impostors.use_pyramid(plan.algorithm == Algorithm.HIERARCHICAL)
+
+    def _mirror_pass(self) -> MirrorPass:
+        if self.stand_in is None:
+            raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
+        return MirrorPass(self.programs, self.world.scene, self.meshes, self.stand_in,
+                          METHODS[self.plan.method].defines(self.plan.algorithm), self.options.reflection_data,
+                          self.options.count_samples, self.glass_interiors)
+
+    # ------------------------------------------------------------------ changes
+    def apply(self, plan: RenderPlan, world: World) -> None:
+        """Draw by `plan` (another method, algorithm or impostor resolution) in `world` (the same
+        objects, perhaps other render settings): the nodes whose part of the plan changed are
+        rebuilt, the others kept."""
+        before = self.plan
+        same_stand_in = METHODS[plan.method].stand_in is METHODS[before.method].stand_in
+        new_images = plan.image_plans is not before.image_plans and (
+            plan.images != before.images or world.scene.render.impostor_resolution
+            != self.world.scene.render.impostor_resolution)
+        self.world = world
+        if world.reflectors and (not same_stand_in or (new_images and self.baked_images is not None)):
+            self.plan = plan
+            self._make_stand_in(plan)
+        self.plan = plan
+        self._keep_pyramids(plan)
+        if self.mirror_pass is not None:
+            self.mirror_pass = self._mirror_pass()
+        if self.sampled is None:
+            self.show_samples = False
+        if self.samples is not None and not self.show_samples:
+            self.samples.release()
+            self.samples = None
+
+    def follow(self, earlier: World, world: World) -> None:
+        """The world moved from `earlier` to `world`: mark stale only what depends on what moved
+        (a shadow map when its light or a caster moved; an image when its reflector or object
+        moved, when a light moved, or when a caster moved whose shadow may fall on its object)."""
+        self.world = world
+        moved, moved_lights = world.moved(earlier), world.moved_lights(earlier)
+        moved_casters = [g for g in world.shadow_casters if g.index in moved]
+        shadowed = set(world.lit_scene.shadowed_lights)
+        if self.shadow_maps is not None:
+            self.shadow_maps.move(world.lit_scene, world.shadow_casters,
+                                  (moved_lights | (shadowed if moved_casters else set())) & shadowed)
+        if self.stand_in is None or not (moved or moved_lights):
+            return
+        baked = self.baked_images
+        if baked is None:  # the triangle methods' BVH: built again around the moved objects
+            if any(g.index in moved for g in world.reflected_objects):
+                self._make_stand_in(self.plan)
+                self.mirror_pass = self._mirror_pass()
+            return
+        lights, before = world.lit_scene.lights, {g.index: g for g in earlier.geometry}
+        relit = {g.index for g in world.reflected_objects} if moved_lights else set()
+        shadows = {
+            receiver.index for receiver in world.reflected_objects for light in shadowed
+            for caster in moved_casters if receiver is not caster
+            for sphere in (before[caster.index].bounding_sphere, caster.bounding_sphere)
+            if may_shadow(np.asarray(lights[light].position, float), lights[light].radius, sphere,
+                          receiver.bounding_sphere)
+        }
+        baked.move({g.index: g for g in world.geometry}, moved, relit | shadows)
+
+    def set_show_samples(self, show: bool) -> None:
+        self.show_samples = show
+        if show and self.samples is None and self.sampled is not None:
+            self.samples = SamplesPass(self.ctx, self.programs)
+
+    def bake_again(self) -> None:
+        self._baked = False
+        if self.baked_images is not None:
+            self.baked_images.bake_again()
+
+    # ------------------------------------------------------------------ a frame
+    def draw(self, camera: PPC, unjittered: PPC, targets: FrameTargets) -> None:
+        """One frame through `camera`, node by node (`unjittered`: the frame's own camera, where
+        `camera` is one of its sub-pixel positions). The bakes run only for what is stale, and are
+        timed apart from the eye's passes. Times are wall-clock around `ctx.finish()`: GPU time
+        queries under-report on software rasterizers, and a finish makes the time include all the
+        work the frame queued."""
+        stats, graph = self.stats, self.plan.graph
+        self.environment.use()  # an equirect sky's image: bakes see it too
+        self.textures.use(self.world.scene)  # the image textures: baked images show them too
+        if self.shadow_maps is not None:  # bound for every pass that shades, bakes included
+            self.shadow_maps.use()
+        bakes = [node.stage for node in graph if node.stage in BAKES and self._stale(node.stage)]
+        if bakes:
+            self.ctx.finish()
+            start = time.perf_counter()
+            for stage in bakes:
+                self._run_bake(stage)
+            self.ctx.finish()
+            stats.bake_seconds.append(time.perf_counter() - start)
+
+        self.ctx.finish()
+        start = time.perf_counter()
+        targets.framebuffer.use()
+        targets.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=clear_depth(self.ctx))
+        targets.color_framebuffer.use()
+        mirror_start: float | None = None  # when the mirror pass began, where it is timed apart
+        with eye_depth(self.ctx):
+            for node in graph:
+                if node.stage in BAKES:
+                    continue
+                if node.stage in (Pass.GLASS_INTERIORS, Pass.REFLECTORS) and self.options.time_mirror_pass \
+                        and mirror_start is None:
+                    self.ctx.finish()
+                    mirror_start = time.perf_counter()
+                self._run_eye_pass(node.stage, camera, unjittered, targets)
+        self.ctx.finish()
+        end = time.perf_counter()
+        stats.draw_seconds.append(end - start)
+        if self.options.time_mirror_pass:
+            stats.mirror_seconds.append(end - mirror_start if mirror_start is not None else 0.0)
+        stats.frames += 1
+        stats.sub_frames += 1
+
+    def _stale(self, stage: Pass) -> bool:
+        """Does a baking node have anything to do this frame?"""
+        if stage is Pass.SHADOW_MAPS:
+            return self.shadow_maps is not None and bool(self.shadow_maps.stale)
+        if stage is Pass.STAND_IN:
+            return self.stand_in is not None and self._stand_in_stale()
+        # Bounce images and pyramids follow the stand-in's images: stale when any of them is.
+        return self.impostors is not None and self._stand_in_stale()
+
+    def _stand_in_stale(self) -> bool:
+        baked = self.baked_images
+        return baked.needs_bake if baked is not None else not self._baked
+
+    def _run_bake(self, stage: Pass) -> None:
+        impostors, stats = self.impostors, self.stats
+        if stage is Pass.SHADOW_MAPS and self.shadow_maps is not None:
+            before = self.shadow_maps.bakes
+            stats.draw_calls += self.shadow_maps.bake()
+            stats.shadow_maps_baked += self.shadow_maps.bakes - before
+        elif stage is Pass.STAND_IN and self.stand_in is not None:  # the images show shadows: maps first
+            # The method's stale images but those of reflectors in reflectors (the bounce node's),
+            # or its triangles uploaded.
+            baked = self.baked_images
+            before_counts = baked.bake_counts.copy() if baked is not None else Counter()
+            stats.draw_calls += self.stand_in.bake()
+            if baked is not None:
+                self._count_images(baked.bake_counts - before_counts)
+            self._baked = True
+        elif stage is Pass.BOUNCES and impostors is not None:
+            bounces_before, before_counts = impostors.bounce_bakes, impostors.bake_counts.copy()
+            stats.draw_calls += impostors.bake_bounces()
+            self._count_images(impostors.bake_counts - before_counts)
+            if impostors.bounce_bakes == bounces_before:
+                return
+        elif stage is Pass.PYRAMIDS and impostors is not None and impostors.pyramid is not None:
+            impostors.build_pyramids()
+        else:
+            return
+        stats.passes[stage.value] += 1
+
+    def _count_images(self, new: Counter[str]) -> None:
+        self.stats.images_baked += new
+        self.stats.depth_images_baked += sum(new.values())
+
+    def _run_eye_pass(self, stage: Pass, camera: PPC, unjittered: PPC, targets: FrameTargets) -> None:
+        """The environment, the diffuse objects (or the samples), glass interiors, the reflectors."""
+        stats, world = self.stats, self.world
+        if stage is Pass.ENVIRONMENT:
+            self.environment.draw(camera)
+        elif stage is Pass.DIFFUSE and self.diffuse is not None:
+            sampled, drawn = self.sampled, world.diffuse_objects
+            if self.show_samples and self.samples is not None and sampled is not None:
+                drawn = [g for g in world.diffuse_objects if g.is_analytic_plane]
+                stats.draw_calls += self.samples.draw(sampled, camera)
+            stats.draw_calls += self.diffuse.draw(drawn, camera.view_projection)
+        elif stage is Pass.GLASS_INTERIORS and self.mirror_pass is not None:
+            before = self._interiors_made()
+            # A glass interior depends on the eye's position and pixel size, not on a sub-pixel
+            # jitter: made from the frame's own camera, so that rounding in the jittered one's
+            # corner does not make it again for every sample.
+            stats.draw_calls += self.mirror_pass.make_interiors(world.reflectors, unjittered)
+            made = self._interiors_made() - before
+            if not made:
+                return
+            stats.interiors_made += made
+        elif stage is Pass.REFLECTORS and self.mirror_pass is not None:
+            stats.draw_calls += self.mirror_pass.draw(world.reflectors, camera, targets.framebuffer,
+                                                      self.tint_retraced)
+        else:
+            return
+        stats.passes[stage.value] += 1
+
+    def _interiors_made(self) -> int:
+        return sum(interior.bakes for interior in self.glass_interiors.values())
+
+    def release_passes(self) -> None:
+        bind_default_framebuffer(self.ctx)
+        for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps, *self.glass_interiors.values()):
+            if owner is not None:
+                owner.release()
+
+    def release(self) -> None:
+        self.release_passes()
+        self.meshes.release()
+        self.textures.release()
