@@ -404,6 +404,25 @@ class Renderer:
             self.mirror_pass = self._mirror_pass()
 
     @keeps_gl_state
+    def set_scene(self, scene: Scene) -> None:
+        """Draw an edited version of the scene (the viewer's panel: materials, lights, bounces):
+        the same objects, made again through the paths of a new renderer (world, plan, passes) at
+        the renderer's time and camera; everything is baked again at the next frame. A scene this
+        context cannot hold raises (SceneError, GpuLimitError) and leaves the renderer as it was."""
+        world = World(scene, time=self.time)
+        plan = plan_render(scene, self.method, self.algorithm, reflection_data=self.reflection_data,
+                           count_samples=self.count_samples, world=world)
+        check_fits(self.ctx, scene, plan)
+        self._release_passes()
+        self.scene = scene
+        self.plan = plan
+        self._use_world(world)
+        self._relight()
+        self.look_at(self.view)
+        with allocating(self.ctx, "--impostor-res"):
+            self._build_passes()
+
+    @keeps_gl_state
     def set_show_samples(self, show: bool) -> None:
         """Show each reflected object as the samples of the baked images (the lecture's sample
         visualization) instead of its triangles; the samples' program is made on first use."""
