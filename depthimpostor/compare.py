@@ -236,7 +236,8 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None, frames: list[Su
     in. The object and geometric figures are those of the first sub-frame alone: an average of
     object ids or hit points means nothing."""
     if frames is None:
-        frames = renderer.sub_frames()
+        frames = (renderer.sub_frames() if renderer.scene.render.samples > 1
+                  else [SubFrame(None, renderer.read_color_float(), renderer.read_reflection_data())])
     truths = _truths(renderer, frames, truth, progress)
     data = _reflection(frames[0])
     renders = [np.clip(frame.color, 0.0, 1.0) for frame in frames]
