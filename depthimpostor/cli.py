@@ -341,6 +341,7 @@ def _view(args: argparse.Namespace) -> int:
         report=args.report,
         shaders=args.shaders,
         max_memory=args.max_memory,
+        panel=not args.no_panel,
     )
     return run_viewer(options)
 
@@ -470,6 +471,7 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("--window-screenshot", type=Path, help="save the last frame as the window shows it")
     view.add_argument("--report", type=Path, help="write a JSON report of the session (frames, bakes, keys, GL errors)")
     view.add_argument("--shaders", type=Path, help="read the GLSL from this folder (edit a copy, reload with R)")
+    view.add_argument("--no-panel", action="store_true", help="start with the panel of controls hidden (F2 shows it)")
     view.set_defaults(run=_view)
     return parser
 

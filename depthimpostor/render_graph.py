@@ -209,6 +209,12 @@ class RenderGraph:
         }
         baked.move({g.index: g for g in world.geometry}, moved, relit | shadows)
 
+    def rebuild(self, plan: RenderPlan, world: World) -> None:
+        """Every node made again for another scene (the same context, meshes and textures)."""
+        self.release_passes()
+        self.plan, self.world = plan, world
+        self.build()
+
     def set_show_samples(self, show: bool) -> None:
         self.show_samples = show
         if show and self.samples is None and self.sampled is not None:

@@ -1,8 +1,6 @@
-"""The renderer: a scene in, frames out. A thin facade over the data path of docs/architecture.md:
-scene -> world at time t (world.py) -> plan (plan.py) -> render graph (render_graph.py) -> frame
-(targets.py). Each setter re-plans and lets the graph apply the difference; the plan checks every
-limit first, so that a refused setting leaves the renderer as it was.
-"""
+"""The renderer: a thin facade over docs/architecture.md's data path, scene -> world at time t
+(world.py) -> plan (plan.py) -> render graph (render_graph.py) -> frame (targets.py). Each setter
+re-plans (the plan checks every limit first) and lets the graph apply the difference."""
 
 from __future__ import annotations
 
@@ -51,10 +49,10 @@ class Renderer:
             self.targets = FrameTargets(ctx, scene.render.size, reflection_data, count_samples)
             self.graph = RenderGraph(ctx, self.programs, self.world, self.plan, self.options, self.stats)
 
-    def _checked_plan(self, scene: Scene, method: Method, algorithm: Algorithm) -> RenderPlan:
+    def _checked_plan(self, scene: Scene, method: Method, algorithm: Algorithm, world: World | None = None) -> RenderPlan:
         """The plan of these settings, once this context is known to hold it (GpuLimitError if not)."""
         plan = plan_render(scene, method, algorithm, reflection_data=self.options.reflection_data,
-                           count_samples=self.options.count_samples, world=self.world.with_settings(scene))
+                           count_samples=self.options.count_samples, world=world or self.world.with_settings(scene))
         check_fits(self.ctx, scene, plan)
         return plan
 
@@ -86,20 +84,18 @@ class Renderer:
         self.time = seconds
 
     @keeps_gl_state
-    def _apply(self, scene: Scene, method: Method, algorithm: Algorithm, context: str) -> None:
-        """Draw with other settings: re-plan, and let the graph rebuild what the new plan changes.
-        A setting this context cannot hold raises GpuLimitError and leaves the renderer as it was."""
-        plan = self._checked_plan(scene, method, algorithm)
+    def _apply(self, scene: Scene, method: Method, algorithm: Algorithm, context: str, edited: bool = False) -> None:
+        """Draw with other settings (or, `edited`, another version of the scene's objects): re-plan,
+        and let the graph rebuild what the new plan changes (all of it for an edited scene). A
+        setting this context cannot hold raises GpuLimitError and leaves the renderer as it was."""
+        world = World(scene, time=self.time) if edited else self.world.with_settings(scene)
+        plan = self._checked_plan(scene, method, algorithm, world)
         with allocating(self.ctx, context):
-            if scene.render.size != self.scene.render.size:
-                self.targets.release()
-                self.targets = FrameTargets(self.ctx, scene.render.size, self.options.reflection_data,
-                                            self.options.count_samples)
-            self.world = self.world.with_settings(scene)
-            self.graph.apply(plan, self.world)
-        relit, self.scene = scene is not self.scene, scene
+            self.targets = self.targets.resized(scene.render.size)
+            (self.graph.rebuild if edited else self.graph.apply)(plan, world)
+        relit, self.scene, self.world = scene is not self.scene, scene, world
         self.method, self.algorithm, self.plan = method, algorithm, plan
-        if relit:  # render settings the scene's uniforms may read (the environment's, the display's)
+        if relit:  # the lights, planes and render settings the scene's uniforms read
             self._relight()
             self.look_at(self.view)
 
@@ -121,6 +117,11 @@ class Renderer:
         """Re-plan and re-bake the baked images at another resolution (a size, or "auto")."""
         scene = self.scene.with_overrides(impostor_resolution=resolution)
         self._apply(scene, self.method, self.algorithm, "--impostor-res")
+
+    def set_scene(self, scene: Scene) -> None:
+        """An edited scene (the viewer's panel: materials, lights, bounces), drawn anew at the
+        renderer's time and camera. One this context cannot hold raises and changes nothing."""
+        self._apply(scene, self.method, self.algorithm, "--impostor-res", edited=True)
 
     @keeps_gl_state
     def set_show_samples(self, show: bool) -> None:

@@ -65,6 +65,13 @@ class FrameTargets:
             self._presenter.release()
             self._presenter = None
 
+    def resized(self, size: tuple[int, int]) -> FrameTargets:
+        """These targets, or (released) new ones of another size."""
+        if size == self.size:
+            return self
+        self.release()
+        return FrameTargets(self.ctx, size, bool(self.reflection_outputs), self.sample_counts is not None)
+
     def _read(self, components: int, attachment: int = 0) -> np.ndarray:
         width, height = self.size
         data = self.framebuffer.read(components=components, attachment=attachment, dtype="f4")

@@ -24,7 +24,9 @@ import pytest
 from PIL import Image
 
 from conftest import PROJECT_ROOT, SCENES
-from depthimpostor.constants import NO_OBJECT
+from depthimpostor.colour import quantize
+from depthimpostor.compare import compare, heat_map
+from depthimpostor.constants import NO_OBJECT, Method
 from depthimpostor.passes.overlay import PANEL_PADDING
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
@@ -121,7 +123,7 @@ def new_bakes(report: dict[str, Any], frame: int) -> int:
 def test_window_shows_the_scene_and_re_bakes_only_for_resolution(
     ctx: moderngl.Context, display: str, tmp_path: Path
 ) -> None:
-    report = view_session(display, tmp_path, "wait right*4 ] up*2 down*2 left*4 p", 15)
+    report = view_session(display, tmp_path, "wait right*4 ] up*2 down*2 left*4 p", 15, "--no-panel")
     assert report["frames"] == 15
 
     # Orbiting re-bakes nothing; the resolution key re-bakes the five depth images, once.
@@ -277,7 +279,7 @@ def test_mouse_drags_and_window_resizes(display: str, tmp_path: Path) -> None:
 #: Every binding of the viewer, each pressed at least once: the methods in turn (M), with the
 #: samples view (V) and the re-traced tint (T) toggled in several of them, the algorithms (Tab),
 #: the resolution up and down, a shader reload, help, screenshots, every move, and Escape last.
-EVERY_KEY = ("wait tab tab tab m v t m v m v t m v m m v t m v t m ] [ [ ] v r h f1 p f12 right left up down "
+EVERY_KEY = ("wait tab tab tab m v t m v m v t m v m m v t m v t m ] [ [ ] v r h f1 f2 f2 p f12 right left up down "
              "page_up page_down f w a s d q e shift+w f home wait escape")
 
 #: Where the depth method cannot start: no depth-image frustum fits an object that surrounds the
@@ -358,3 +360,121 @@ def test_view_takes_a_memory_budget(display: str, tmp_path: Path) -> None:
     done = run_view([str(DEFAULT_SCENE), "--size", "160x90", "--frames", "1", "--max-memory", "64M"], tmp_path,
                     display)
     assert done.returncode == 0, done.stderr
+
+
+#: The panel test's window: tall enough for the panel's views and graphs.
+PANEL_SIZE = (640, 400)
+PANEL = """
+import json, sys
+from pathlib import Path
+import glfw
+import numpy as np
+from depthimpostor.context import create_window
+from depthimpostor.scene import load_scene
+from depthimpostor.viewer.app import Viewer, ViewerOptions
+
+scene = load_scene(sys.argv[1]).with_overrides(size=(640, 400))
+window = create_window("test", scene.render.size)
+viewer = Viewer(window, ViewerOptions(scene, window_screenshot=Path("unused.png")))
+panel = viewer.panel
+out = {}
+
+def click(label):
+    # The real widget path: the window's mouse, through the viewer's glfw handlers, into ImGui.
+    x0, y0, x1, y1 = panel.rects[label]
+    viewer.on_cursor((x0 + x1) / 2, (y0 + y1) / 2)
+    viewer.draw_frame()
+    viewer.on_button(glfw.MOUSE_BUTTON_LEFT, glfw.PRESS)
+    viewer.draw_frame()
+    viewer.on_button(glfw.MOUSE_BUTTON_LEFT, glfw.RELEASE)
+    viewer.draw_frame()
+    viewer.draw_frame()  # a popup's first frame only measures it: its items are placed in the next
+
+viewer.draw_frame()
+viewer.draw_frame()
+np.save("frame_depth.npy", viewer.renderer.read_color())
+# The error view, traced in the background: frames go on while it traces.
+click("trace the truth now")
+frames_while_tracing = 0
+while not panel.truth.done:
+    viewer.draw_frame()
+    frames_while_tracing += 1
+viewer.draw_frame()
+out["frames_while_tracing"] = frames_while_tracing
+np.save("error_view.npy", panel.view_image())
+np.save("error_window.npy", viewer.window_pixels)
+out["error_rect"] = panel.rects["view/frame"]
+click("view/frame")
+out["view_after"] = panel.view.value
+click("method")
+click("method/cubemap")
+out["method"] = viewer.renderer.method.option
+np.save("frame_cubemap.npy", viewer.renderer.read_color())
+click("resolution")
+click("resolution/32")
+out["resolution"] = viewer.renderer.scene.render.impostor_resolution
+np.save("frame_cubemap_32.npy", viewer.renderer.read_color())
+np.save("window.npy", viewer.window_pixels)
+out["rects"] = {k: panel.rects[k] for k in ("method", "resolution")}
+out["baked"] = viewer.renderer.stats.depth_images_baked
+out["gl_error"] = viewer.ctx.error
+viewer.release()
+window.release()
+print(json.dumps(out))
+"""
+
+
+def test_the_panel_changes_method_and_resolution_and_shows_the_error_against_the_truth(
+    ctx: moderngl.Context, display: str, tmp_path: Path
+) -> None:
+    """Clicks on the panel's widgets (mouse events through the viewer's glfw handlers into ImGui)
+    change the method and the resolution, and the frame is then the one `render` makes with them;
+    the error view, traced in the background, is `compare`'s difference image."""
+    env = {**os.environ, "DISPLAY": display, "PYTHONPATH": str(PROJECT_ROOT)}
+    done = subprocess.run([sys.executable, "-c", PANEL, str(DEFAULT_SCENE)], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["gl_error"] == "GL_NO_ERROR"
+    assert result["method"] == "cubemap" and result["resolution"] == 32
+    scene = load_scene(DEFAULT_SCENE).with_overrides(size=PANEL_SIZE)
+
+    def frame_of(name: str) -> np.ndarray:
+        frame = np.load(tmp_path / f"{name}.npy").astype(np.int16)
+        assert frame.shape == (PANEL_SIZE[1], PANEL_SIZE[0], 3)
+        return frame
+
+    def close(a: np.ndarray, b: np.ndarray) -> float:
+        return float((np.abs(a.astype(np.int16) - b.astype(np.int16)).max(axis=2) <= 2).mean())
+
+    with Renderer(ctx, scene, method=Method.CUBEMAP) as renderer:
+        renderer.render()
+        cubemap = renderer.read_color().astype(np.int16)
+        renderer.set_impostor_resolution(32)
+        renderer.render()
+        cubemap_32 = renderer.read_color().astype(np.int16)
+    # Each change shows: the frame is what `render` makes with the new setting, and differs from before.
+    assert close(frame_of("frame_cubemap"), cubemap) > 0.999
+    assert close(frame_of("frame_cubemap_32"), cubemap_32) > 0.999
+    # (The mirror is a small part of the frame: the cube map's lookup changes 1.2 % of the frame's
+    # pixels, its faces at 32x32 0.26 %.)
+    assert close(frame_of("frame_depth"), cubemap) < 0.995
+    assert close(cubemap, cubemap_32) < 0.999
+    # The window shows the panel (over the frame's right part), the frame elsewhere.
+    window = np.load(tmp_path / "window.npy")
+    x0, _, x1, _ = result["rects"]["method"]
+    assert close(window[130:, : int(x0) - 20], cubemap_32[130:, : int(x0) - 20]) > 0.99
+    assert close(window[:, int(x0) : int(x1)], cubemap_32[:, int(x0) : int(x1)]) < 0.5
+
+    # The error view is compare's difference image of the same frame.
+    with Renderer(ctx, scene, reflection_data=True) as renderer:
+        renderer.render()
+        expected = quantize(heat_map(compare(renderer)))
+    view = np.load(tmp_path / "error_view.npy")
+    assert view.shape == expected.shape and np.isfinite(view).all()
+    assert close(view, expected) > 0.999
+    assert (expected.max(axis=2) > 0).mean() > 0.01, "the difference image is not empty"
+    error_window = np.load(tmp_path / "error_window.npy")
+    left = int(result["error_rect"][0]) - 20
+    assert close(error_window[130:, :left], expected[130:, :left]) > 0.99, "the window shows the error view"
+    assert result["view_after"] == "frame"

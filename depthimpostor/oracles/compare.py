@@ -26,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -50,6 +51,13 @@ COLOUR_SPACE = ("linear: the frame's float colour, each channel clamped to [0, 1
 #: this in its largest channel: 8-bit rounding and shading from interpolated normals stay far below
 #: it, a checker square of the wrong colour (or a side coloured like another) far above.
 WRONG_SURFACE_COLOR_ERROR = 0.1
+#: Mirror pixels traced at a time when someone watches the progress (the viewer's error view): small
+#: enough that the bar moves a few times a second on two cores, large enough that Embree's per-call
+#: cost stays negligible.
+PROGRESS_CHUNK = 8192
+
+#: Told the share of a trace done so far, in [0, 1].
+Progress = Callable[[float], None]
 
 
 @dataclass(frozen=True)
@@ -144,10 +152,11 @@ def trace_direct(renderer: Renderer, mirror_mask: np.ndarray, camera: PPC | None
     return np.where(seen_mirror[..., None], np.nan, hits.color.reshape(mirror_mask.shape + (3,)))
 
 
-def trace_truth(renderer: Renderer, data: ReflectionData, camera: PPC | None = None) -> TruthFrame:
+def trace_truth(renderer: Renderer, data: ReflectionData, camera: PPC | None = None,
+                progress: Progress | None = None) -> TruthFrame:
     """The truth for the mirror and glass pixels of the renderer's last frame (or of one of its
     sub-frames, seen through `camera`), whose reflection outputs are `data` (and, in scenes with
-    shadows, for the pixels seen directly)."""
+    shadows, for the pixels seen directly). `progress` is told the share traced, chunk by chunk."""
     camera = renderer.camera if camera is None else camera
     mask = data.mirror_mask
     specular = SpecularTruth(renderer.scene, renderer.world.reflected_objects, renderer.world.reflectors, renderer.world.analytic_planes,
@@ -155,26 +164,45 @@ def trace_truth(renderer: Renderer, data: ReflectionData, camera: PPC | None = N
     origins = data.origin[mask]
     incoming = origins - camera.C
     incoming /= np.maximum(np.linalg.norm(incoming, axis=1, keepdims=True), 1e-300)
-    surface, hits = specular.surface_color(data.mirror_id[mask], origins, data.normal[mask], incoming,
-                                           data.direction[mask], renderer.scene.render.max_bounces)
     color = np.zeros(mask.shape + (3,))
-    color[mask] = np.clip(surface, 0.0, 1.0)
     object_id = np.full(mask.shape, NO_OBJECT, np.int64)
-    object_id[mask] = hits.object_id
     position = np.zeros(mask.shape + (3,))
-    position[mask] = hits.position
+    # In chunks when the progress is watched (every ray is traced on its own: the chunks change nothing).
+    chunk = PROGRESS_CHUNK if progress is not None else max(len(origins), 1)
+    columns = [data.mirror_id[mask], origins, data.normal[mask], incoming, data.direction[mask]]
+    surfaces, object_ids, positions = [], [], []
+    for start in range(0, len(origins), chunk):
+        ids, positions_in, normals, incoming_in, reflected = (c[start:start + chunk] for c in columns)
+        surface, hits = specular.surface_color(ids, positions_in, normals, incoming_in, reflected,
+                                               renderer.scene.render.max_bounces)
+        surfaces.append(surface)
+        object_ids.append(hits.object_id)
+        positions.append(hits.position)
+        if progress is not None:
+            progress(min(start + chunk, len(origins)) / (len(origins) + (chunk if renderer.scene.has_shadows else 0)))
+    if surfaces:
+        color[mask] = np.clip(np.concatenate(surfaces), 0.0, 1.0)
+        object_id[mask] = np.concatenate(object_ids)
+        position[mask] = np.concatenate(positions)
     direct = trace_direct(renderer, mask, camera) if renderer.scene.has_shadows else None
+    if progress is not None:
+        progress(1.0)
     return TruthFrame(mask, data.direction, color, object_id, position, direct)
 
 
-def _truths(renderer: Renderer, frames: list[SubFrame], truth: TruthFrame | None) -> list[TruthFrame]:
+def _truths(renderer: Renderer, frames: list[SubFrame], truth: TruthFrame | None,
+            progress: Progress | None = None) -> list[TruthFrame]:
     """The truth of each sub-frame: `truth`'s (an earlier comparison's) where it was traced for
     the same rays, else traced now at each sub-frame's own sub-pixel positions."""
     given = (truth.sub_frames or (truth,)) if truth is not None else ()
     data = [_reflection(frame) for frame in frames]
     if len(given) == len(frames) and all(t.fits(d) for t, d in zip(given, data, strict=True)):
         return list(given)
-    return [trace_truth(renderer, d, frame.camera) for frame, d in zip(frames, data, strict=True)]
+
+    def part(k: int) -> Progress | None:  # the k-th sub-frame's share of the whole
+        return None if progress is None else (lambda done: progress((k + done) / len(frames)))
+
+    return [trace_truth(renderer, d, frame.camera, part(k)) for k, (frame, d) in enumerate(zip(frames, data, strict=True))]
 
 
 def _reflection(frame: SubFrame) -> ReflectionData:
@@ -195,9 +223,13 @@ def _truth_image(render: np.ndarray, data: ReflectionData, truth: TruthFrame) ->
     return truth_image, direct
 
 
-def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
+def compare(renderer: Renderer, truth: TruthFrame | None = None, frames: list[SubFrame] | None = None,
+            progress: Progress | None = None) -> Comparison:
     """Compare the renderer's last frame (made with reflection_data=True) with the truth: traced
     now, or `truth` (an earlier comparison's `truth_frame`) when it was traced for the same rays.
+    `frames` are the frame's `renderer.sub_frames()`, read beforehand: given them, nothing here
+    touches the GL, and the comparison can run in another thread than the context's (the viewer's
+    error view, whose `progress` is told the share of the truth traced).
 
     An anti-aliased frame (render.samples > 1) is compared sub-frame by sub-frame at the same
     sub-pixel positions: the truth is traced for each sub-frame's rays, each side's colours are
@@ -205,9 +237,10 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None) -> Comparison:
     pixels' colour error) are measured on the averages, over the pixels any sub-frame saw a mirror
     in. The object and geometric figures are those of the first sub-frame alone: an average of
     object ids or hit points means nothing."""
-    frames = (renderer.sub_frames() if renderer.scene.render.samples > 1
-              else [SubFrame(None, renderer.read_color_float(), renderer.read_reflection_data())])
-    truths = _truths(renderer, frames, truth)
+    if frames is None:
+        frames = (renderer.sub_frames() if renderer.scene.render.samples > 1
+                  else [SubFrame(None, renderer.read_color_float(), renderer.read_reflection_data())])
+    truths = _truths(renderer, frames, truth, progress)
     data = _reflection(frames[0])
     renders = [np.clip(frame.color, 0.0, 1.0) for frame in frames]
     images = [_truth_image(r, _reflection(f), t) for r, f, t in zip(renders, frames, truths, strict=True)]

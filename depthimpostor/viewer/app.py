@@ -39,6 +39,7 @@ from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache, ShaderLibrary
 from .keys import ACTIONS_BY_KEY, FLY_KEYS, KEY_CODES, TURN_STEP_DEGREES, Action, KeyPress, help_lines, key_name
 from .navigation import Navigation
+from .panel import ControlPanel
 
 #: Frames the overlay's median frame time and fps are taken over.
 TIMING_WINDOW = 60
@@ -71,6 +72,7 @@ class ViewerOptions:
     shaders: Path | None = None
     screenshot_dir: Path = Path(".")
     max_memory: int | None = None  # bytes the frame and its images may take (--max-memory)
+    panel: bool = True  # the panel of controls shown at the start (F2 toggles it; --no-panel)
 
 
 def next_resolution(current: int, up: bool) -> int:
@@ -138,12 +140,14 @@ class Viewer:
         self.ctx = window.ctx
         self.options = options
         self.frame_size: tuple[int, int] = glfw.get_framebuffer_size(window.handle)
-        library = ShaderLibrary(options.shaders) if options.shaders else None
+        self.library = ShaderLibrary(options.shaders) if options.shaders else None
         scene = options.scene.with_overrides(size=self.frame_size)
         limit_memory(self.ctx, options.max_memory)
-        self.renderer = Renderer(self.ctx, scene, options.algorithm, shaders=library, method=options.method)
+        # The mirror pass timed apart (a finish before it) for the panel's graph of the frame by pass.
+        self.renderer = Renderer(self.ctx, scene, options.algorithm, shaders=self.library, method=options.method,
+                                 time_mirror_pass=True)
         # The viewer's own programs (overlay, present): the renderer's are its to replace.
-        self.programs = ProgramCache(self.ctx, library)
+        self.programs = ProgramCache(self.ctx, self.library)
         self.font_pixels = round(FONT_SIZE * max(glfw.get_window_content_scale(window.handle)))
         self._make_viewer_passes()
         self._make_frame_target()
@@ -157,6 +161,9 @@ class Viewer:
         self.screenshot_requested = False
         self.message: tuple[str, float] | None = None
         self.frame_intervals: deque[float] = deque(maxlen=TIMING_WINDOW)
+        self.window_pixels: np.ndarray | None = None  # the last frame as the window showed it (--window-screenshot)
+        self._last_frame = time.perf_counter()
+        self.panel = ControlPanel(self, visible=options.panel)
         self._install_callbacks()
 
     # ------------------------------------------------------------------ GL objects
@@ -171,14 +178,21 @@ class Viewer:
         self.linear_texture = self.ctx.texture(self.frame_size, 4, dtype="f4")
         self.frame_texture = self.ctx.texture(self.frame_size, 4)
         self.frame_framebuffer = self.ctx.framebuffer([self.frame_texture])
+        # The window's pixels, panel included, copied here to be read (--window-screenshot): GL reads
+        # a window's framebuffer only through its back buffer, which moderngl's read does not name.
+        self.window_texture = self.ctx.texture(self.frame_size, 3)
+        self.window_copy = self.ctx.framebuffer([self.window_texture])
 
     def _release_frame_target(self) -> None:
         bind_default_framebuffer(self.ctx)
         self.frame_framebuffer.release()
         self.frame_texture.release()
+        self.window_copy.release()
+        self.window_texture.release()
         self.linear_texture.release()
 
     def release(self) -> None:
+        self.panel.release()
         self._release_frame_target()
         self.overlay.release()
         self.display.release()
@@ -192,7 +206,7 @@ class Viewer:
         glfw.set_key_callback(handle, lambda _w, key, _scancode, action, mods: self.on_key(key, action, mods))
         glfw.set_cursor_pos_callback(handle, lambda _w, x, y: self.on_cursor(x, y))
         glfw.set_mouse_button_callback(handle, lambda _w, button, action, _mods: self.on_button(button, action))
-        glfw.set_scroll_callback(handle, lambda _w, _dx, dy: self.navigation.zoom(dy))
+        glfw.set_scroll_callback(handle, lambda _w, dx, dy: self.on_scroll(dx, dy))
         glfw.set_framebuffer_size_callback(handle, lambda _w, width, height: self.on_resize((width, height)))
 
     def on_key(self, key: int, action: int, mods: int) -> None:
@@ -216,12 +230,19 @@ class Viewer:
             self.say(message)
 
     def on_button(self, button: int, action: int) -> None:
-        if action == glfw.PRESS:
+        self.panel.on_button(button, action == glfw.PRESS)
+        if action == glfw.PRESS and not self.panel.wants_mouse:  # a click on the panel is the panel's
             self.buttons.add(button)
-        else:
+        elif action != glfw.PRESS:
             self.buttons.discard(button)
 
+    def on_scroll(self, dx: float, dy: float) -> None:
+        self.panel.on_scroll(dx, dy)
+        if not self.panel.wants_mouse:
+            self.navigation.zoom(dy)
+
     def on_cursor(self, x: float, y: float) -> None:
+        self.panel.on_cursor(x, y)
         previous, self.cursor = self.cursor, (x, y)
         if previous is None:
             return
@@ -302,6 +323,8 @@ class Viewer:
             self.screenshot_requested = True  # taken from the next frame
         elif action == Action.TOGGLE_HELP:
             self.show_help = not self.show_help
+        elif action == Action.TOGGLE_PANEL:
+            self.panel.visible = not self.panel.visible
         elif action == Action.QUIT:
             glfw.set_window_should_close(self.window.handle, True)
         return None
@@ -408,6 +431,11 @@ class Viewer:
 
     def draw_frame(self) -> None:
         renderer = self.renderer
+        now = time.perf_counter()
+        seconds, self._last_frame = now - self._last_frame, now
+        # The panel's widgets act first: the frame shows what they changed.
+        self.panel.build(glfw.get_window_size(self.window.handle), self.frame_size, seconds)
+        self.panel.advance(seconds)
         renderer.look_at(self.navigation.view())
         renderer.render()
         if self.screenshot_requested:
@@ -420,15 +448,26 @@ class Viewer:
             else:
                 self.log.screenshots.append(str(path))
                 self.say(f"screenshot {path}")
-        self.ctx.copy_framebuffer(self.linear_texture, renderer.targets.color_framebuffer)
+        view = self.panel.view_image()
+        if view is not None:  # a diagnostic view in place of the frame: a chart, written as it is
+            self.frame_texture.write(np.ascontiguousarray(np.dstack([view, np.full(view.shape[:2], 255, np.uint8)])))
+        else:
+            self.ctx.copy_framebuffer(self.linear_texture, renderer.targets.color_framebuffer)
         self.frame_framebuffer.use()
-        self.display.draw(self.linear_texture, display=renderer.scene.render)
+        if view is None:
+            self.display.draw(self.linear_texture, display=renderer.scene.render)
         self.overlay.draw(self.panels(), self.frame_size)
         self.ctx.screen.use()
         # The window's framebuffer was measured when the context was made; after a resize the
         # viewport must be set to its current size.
         self.ctx.viewport = (0, 0, *self.frame_size)
         self.present.draw(self.frame_texture)
+        self.panel.draw()
+        if self.options.window_screenshot is not None:  # copied before the swap leaves the back buffer undefined
+            self.ctx.copy_framebuffer(self.window_copy, self.ctx.screen)
+            width, height = self.frame_size
+            pixels = np.frombuffer(self.window_copy.read(components=3), np.uint8).reshape(height, width, 3)
+            self.window_pixels = pixels[::-1].copy()
         error = self.ctx.error
         if error != "GL_NO_ERROR":
             self.log.gl_errors.append({"frame": self.frames, "error": error})
@@ -486,10 +525,8 @@ class Viewer:
         with Outputs() as out:
             if self.options.screenshot is not None and self.frames:
                 out.image(self.options.screenshot, renderer.read_color())
-            if self.options.window_screenshot is not None and self.frames:
-                width, height = self.frame_size
-                pixels = np.frombuffer(self.frame_framebuffer.read(components=3), np.uint8).reshape(height, width, 3)
-                out.image(self.options.window_screenshot, pixels)
+            if self.options.window_screenshot is not None and self.window_pixels is not None:
+                out.image(self.options.window_screenshot, self.window_pixels)
             if self.options.report is not None:
                 out.text(self.options.report, json.dumps(summary, indent=2))
         median = f"{summary['frame_ms_median']:.1f} ms" if draws else "-"

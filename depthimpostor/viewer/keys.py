@@ -34,6 +34,7 @@ class Action(Enum):
     RELOAD_SHADERS = auto()
     SCREENSHOT = auto()
     TOGGLE_HELP = auto()
+    TOGGLE_PANEL = auto()
     QUIT = auto()
 
 
@@ -66,6 +67,7 @@ BINDINGS: tuple[Binding, ...] = (
     Binding(Action.RELOAD_SHADERS, ("r",), "reload the shaders (a broken one is reported, the last good kept)"),
     Binding(Action.SCREENSHOT, ("f12", "p"), "save a numbered screenshot, without the overlay"),
     Binding(Action.TOGGLE_HELP, ("h", "f1"), "show or hide this help"),
+    Binding(Action.TOGGLE_PANEL, ("f2",), "show or hide the panel of controls and views"),
     Binding(Action.QUIT, ("escape",), "quit"),
 )
 
