@@ -24,18 +24,14 @@ from .geometry import ObjectGeometry
 from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
 from .passes.environment import ENVIRONMENT_PROGRAM, environment_map_bytes
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
-from .methods.hybrid import HybridPass
 from .methods.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
 from .methods.baked_images import BakedImages, ImagePlan, SecondLayer
-from .methods.impostors import ImpostorPass
 from .gpu.meshes import GpuMeshes
 from .gpu.textures import GpuTextures
 from .passes.mirrors import REFLECTION_OUTPUTS, REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
 from .methods.registry import METHODS
 from .methods.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
 from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
-from .methods.simplified import SimplifiedPass, simplified_mesh
-from .methods.triangles import TrianglePass
 from .gpu.uniforms import environment_defines
 from .scene.limits import check_method, check_model_reach, check_scene
 from .scene.model import MeshShape, Scene
@@ -238,7 +234,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                     if level:
                         shown_in_bounces.add(targets[0].object.is_glass)
         noun = stand_in.image_noun if issubclass(stand_in, BakedImages) else "BVH of triangles"
-        also = ", and a BVH of their triangles for the rays those cannot answer" if stand_in is HybridPass else ""
+        also = ", and a BVH of their triangles for the rays those cannot answer" if METHODS[method].names_triangles else ""
         passes.append(PlannedPass(Pass.STAND_IN, f"{_names(reflectors)} may reflect "
                                   f"{plural(len(reflected), 'object')}, seen through {noun}s{also}"))
         if issubclass(stand_in, BakedImages) and images:
@@ -286,9 +282,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     memory = plan_memory(scene, method, algorithm, geometry, images, True in shown_in_bounces, reflection_data,
                          count_samples)
     ordered = tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage)))
-    outputs = (("baked images", "BVH") if stand_in is HybridPass
-               else ("baked images",) if issubclass(stand_in, BakedImages) else ("BVH",))
-    graph = build_graph([(p.stage, p.reason) for p in ordered], outputs,
+    graph = build_graph([(p.stage, p.reason) for p in ordered], METHODS[method].outputs,
                         METHODS[method].marches_depth_images and algorithm == Algorithm.HIERARCHICAL and bool(images))
     return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
                       tuple(PlannedVariant(k, r) for k, r in variants.items()), memory, image_plans, graph,
@@ -341,19 +335,15 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
             len(images), side, stand_in.second_layer != SecondLayer.NONE, stand_in.keeps_triangle_ids,
             stand_in.keeps_back_colors, stand_in.keeps_beyond)
         memory[stand_in.image_noun + " records"] = len(reflectors) * records
-        marches = issubclass(stand_in, ImpostorPass)
+        marches = METHODS[method].marches_depth_images
         if marches and scene.render.max_bounces > 1 and len(reflectors) > 1:  # methods/bounces.py
             levels = len(reflectors) * (scene.render.max_bounces - 1)
             interior = interior_bytes(side) + DEPTH_IMAGE_DTYPE.itemsize if bounce_glass else 0
             memory["bounce baking"] = ImpostorAtlas.bytes_for(1, side, True) + side * side * 8 + levels * records + interior
         if marches and algorithm == Algorithm.HIERARCHICAL:
             memory["depth pyramids"] = pyramid_bytes(PyramidLayout.of_grid(*atlas_grid(len(images)), side), len(images))
-    if issubclass(stand_in, (TrianglePass, HybridPass)):
-        if stand_in is SimplifiedPass:  # the decimated triangles: what the simplifier keeps is only known by running it
-            target = scene.render.simplified_triangles
-            triangles = sum(len(simplified_mesh(g.world_mesh, target).indices) for g in reflected)
-        else:
-            triangles = sum(len(g.local_mesh.indices) for g in reflected)
-        memory["BVH"] = _bvh_bytes(triangles, named=stand_in is HybridPass)
+    traced = METHODS[method].traces
+    if traced is not None:
+        memory["BVH"] = _bvh_bytes(traced.traced_triangles(scene, reflected), named=METHODS[method].names_triangles)
     return memory
 

@@ -41,6 +41,9 @@ class MethodSpec:
     reflected_limit: int | None = None
     #: At most this many reflected triangles (the hybrid method names each in a texture row).
     triangle_limit: int | None = None
+    #: The triangles it traces through a BVH, when it does (TrianglePass or a subclass: which
+    #: triangles, and so how much memory, is its `triangle_count`).
+    traces: type[TrianglePass] | None = None
 
     @property
     def bakes_images(self) -> bool:
@@ -51,6 +54,16 @@ class MethodSpec:
         """Its mirror-shader variant: the method, and the algorithm where it marches depth images
         (the others have none, so that no two identical programs are compiled)."""
         return {"METHOD": int(self.method), **({"ALGORITHM": int(algorithm)} if self.marches_depth_images else {})}
+
+    @property
+    def names_triangles(self) -> bool:
+        """Do its depth images name the triangle each sample shows (the hybrid's exact surfaces)?"""
+        return self.bakes_images and self.traces is not None
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        """What its stand-in node writes for the reflectors to read (graph.py's resource names)."""
+        return ("baked images",) * self.bakes_images + ("BVH",) * (self.traces is not None)
 
     @property
     def option(self) -> str:
@@ -64,12 +77,12 @@ METHODS: dict[Method, MethodSpec] = {spec.method: spec for spec in (
     MethodSpec(Method.CUBEMAP_PARALLAX, CubeMapPass, "cube map, parallax-corrected", ("cube_map.glsl",)),
     MethodSpec(Method.BILLBOARD, BillboardPass, "billboards", ("billboard.glsl",)),
     MethodSpec(Method.SIMPLIFIED, SimplifiedPass, "simplified triangles", ("triangles.glsl",),
-               reflected_limit=MAX_DEPTH_IMAGES_PER_MIRROR),
+               reflected_limit=MAX_DEPTH_IMAGES_PER_MIRROR, traces=SimplifiedPass),
     MethodSpec(Method.RAYTRACE, TrianglePass, "ray-traced triangles", ("triangles.glsl",),
-               reflected_limit=MAX_DEPTH_IMAGES_PER_MIRROR),
+               reflected_limit=MAX_DEPTH_IMAGES_PER_MIRROR, traces=TrianglePass),
     MethodSpec(Method.HYBRID, HybridPass, "depth images, uncertain rays ray-traced",
                ("depth_image.glsl", "triangles.glsl"), marches_depth_images=True,
-               reflected_limit=MAX_DEPTH_IMAGES_PER_MIRROR, triangle_limit=MAX_NAMED_TRIANGLES),
+               reflected_limit=MAX_DEPTH_IMAGES_PER_MIRROR, triangle_limit=MAX_NAMED_TRIANGLES, traces=TrianglePass),
 )}
 
 

@@ -94,6 +94,11 @@ def crease_shaded(positions: np.ndarray, faces: np.ndarray) -> Mesh:
 class SimplifiedPass(TrianglePass):
     noun = "simplified triangle"
 
+    @classmethod
+    def traced_triangles(cls, scene: Scene, reflected: list[ObjectGeometry]) -> int:
+        """What the simplifier keeps is only known by running it."""
+        return sum(len(simplified_mesh(g.world_mesh, scene.render.simplified_triangles).indices) for g in reflected)
+
     def __init__(self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry]) -> None:
         target = scene.render.simplified_triangles
         self.original_triangle_count = sum(len(item.world_mesh.indices) for item in reflected)

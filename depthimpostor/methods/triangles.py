@@ -77,6 +77,11 @@ class TrianglePass:
 
     noun = "triangle"
 
+    @classmethod
+    def traced_triangles(cls, scene: Scene, reflected: list[ObjectGeometry]) -> int:
+        """How many triangles the BVH of `reflected` holds (the plan's memory count)."""
+        return sum(len(g.local_mesh.indices) for g in reflected)
+
     def __init__(
         self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry], world_meshes: list[Mesh] | None = None,
         places: bool = False,

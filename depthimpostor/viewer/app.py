@@ -314,7 +314,7 @@ class Viewer:
         elif action == Action.TOGGLE_RETRACED:
             renderer.graph.tint_retraced = not renderer.graph.tint_retraced
             shown = "tinted magenta" if renderer.graph.tint_retraced else "not tinted"
-            if renderer.method != Method.HYBRID:
+            if not METHODS[renderer.method].names_triangles:  # no other method re-traces rays
                 return f"re-traced rays {shown} (only the hybrid method re-traces: M selects it)"
             return f"re-traced rays {shown}"
         elif action == Action.RELOAD_SHADERS:
