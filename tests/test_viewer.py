@@ -25,7 +25,7 @@ from PIL import Image
 
 from conftest import PROJECT_ROOT, SCENES
 from depthimpostor.colour import quantize
-from depthimpostor.compare import compare, heat_map
+from depthimpostor.oracles.compare import compare, heat_map
 from depthimpostor.constants import NO_OBJECT, Method
 from depthimpostor.passes.overlay import PANEL_PADDING
 from depthimpostor.renderer import Renderer
@@ -369,7 +369,7 @@ import json, sys
 from pathlib import Path
 import glfw
 import numpy as np
-from depthimpostor.context import create_window
+from depthimpostor.gpu.context import create_window
 from depthimpostor.scene import load_scene
 from depthimpostor.viewer.app import Viewer, ViewerOptions
 
