@@ -28,7 +28,17 @@ from .methods.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atl
 from .methods.baked_images import BakedImages, ImagePlan, SecondLayer
 from .gpu.meshes import GpuMeshes
 from .gpu.textures import GpuTextures
-from .passes.mirrors import REFLECTION_OUTPUTS, REFLECTOR_PROGRAM, bounce_defines, reflection_defines, reflector_defines
+from .passes.mirrors import (
+    DEFERRED,
+    DEFERRED_REFLECTOR_PROGRAM,
+    REFLECTION_OUTPUTS,
+    REFLECTOR_PROGRAM,
+    SURFACE_PROGRAM,
+    bounce_defines,
+    reflection_defines,
+    reflector_defines,
+)
+from .targets import Surfaces
 from .methods.registry import METHODS
 from .methods.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
 from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
@@ -274,11 +284,14 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     if reflectors:
         kinds = [f"mirrors ({_names(mirrors)})"] * bool(mirrors) + [f"glass ({_names(glass)})"] * bool(glass)
         passes.append(PlannedPass(Pass.REFLECTORS, " and ".join(kinds)))
-        defines = reflection_defines(METHODS[method].defines(algorithm))
+        variant(SURFACE_PROGRAM, None, "the reflectors' surfaces, for the deferred mirror shader")
+        defines = {**reflection_defines(METHODS[method].defines(algorithm)), **DEFERRED}
         if mirrors:
-            variant(REFLECTOR_PROGRAM, reflector_defines(scene, defines, False), f"mirrors, {method.option} method")
+            variant(DEFERRED_REFLECTOR_PROGRAM, reflector_defines(scene, defines, False),
+                    f"mirrors, {method.option} method, deferred")
         if glass:
-            variant(REFLECTOR_PROGRAM, reflector_defines(scene, defines, True), f"glass (GLASS), {method.option} method")
+            variant(DEFERRED_REFLECTOR_PROGRAM, reflector_defines(scene, defines, True),
+                    f"glass (GLASS), {method.option} method, deferred")
     memory = plan_memory(scene, method, algorithm, geometry, images, True in shown_in_bounces, reflection_data,
                          count_samples)
     ordered = tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage)))
@@ -316,6 +329,8 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
         memory["reflection outputs"] = width * height * 16 * REFLECTION_OUTPUTS
     if count_samples:
         memory["sample counts"] = width * height * 4
+    if any(g.object.is_specular for g in geometry):
+        memory["reflector surfaces"] = Surfaces.bytes_for((width, height))
     if scene.environment.is_map:
         memory["environment map"] = environment_map_bytes(scene.environment)
     if scene.has_shadows:

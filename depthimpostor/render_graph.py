@@ -151,9 +151,12 @@ class RenderGraph:
     def _mirror_pass(self) -> MirrorPass:
         if self.stand_in is None:
             raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
-        return MirrorPass(self.programs, self.world.scene, self.meshes, self.stand_in,
+        made = MirrorPass(self.programs, self.world.scene, self.meshes, self.stand_in,
                           METHODS[self.plan.method].defines(self.plan.algorithm), self.options.reflection_data,
                           self.options.count_samples, self.glass_interiors)
+        if self.mirror_pass is not None:
+            self.mirror_pass.release()
+        return made
 
     # ------------------------------------------------------------------ changes
     def apply(self, plan: RenderPlan, world: World) -> None:
@@ -335,7 +338,9 @@ class RenderGraph:
                 return
             stats.interiors_made += made
         elif stage is Pass.REFLECTORS and self.mirror_pass is not None:
-            stats.draw_calls += self.mirror_pass.draw(world.reflectors, camera, targets.framebuffer,
+            if targets.surfaces is None:
+                raise RuntimeError("a frame with reflectors has their surface targets")
+            stats.draw_calls += self.mirror_pass.draw(world.reflectors, camera, targets.framebuffer, targets.surfaces,
                                                       self.tint_retraced)
         else:
             return
@@ -346,7 +351,8 @@ class RenderGraph:
 
     def release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
-        for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps, *self.glass_interiors.values()):
+        for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps, self.mirror_pass,
+                      *self.glass_interiors.values()):
             if owner is not None:
                 owner.release()
 

@@ -46,7 +46,7 @@ class Renderer:
         self._relight()
         self.look_at(scene.camera)
         with kept_state(ctx), allocating(ctx, "--size or --impostor-res"):
-            self.targets = FrameTargets(ctx, scene.render.size, reflection_data, count_samples)
+            self.targets = FrameTargets(ctx, scene.render.size, reflection_data, count_samples, bool(self.world.reflectors))
             self.graph = RenderGraph(ctx, self.programs, self.world, self.plan, self.options, self.stats)
 
     def _checked_plan(self, scene: Scene, method: Method, algorithm: Algorithm, world: World | None = None) -> RenderPlan:

@@ -11,6 +11,7 @@ import numpy as np
 
 from .constants import NO_OBJECT
 from .eye import make_depth_buffer
+from .gpu.bindings import TextureUnit
 from .gpu.context import bind_default_framebuffer
 from .gpu.embedding import FramePresenter
 from .gpu.shaders import ProgramCache
@@ -32,8 +33,38 @@ class ReflectionData:
     retraced: np.ndarray  # (h, w) bool: the hybrid method traced this pixel's ray against the real triangles
 
 
+class Surfaces:
+    """The visible reflector pixels' world position, normal and reflector (reflector_surface.frag),
+    for the deferred mirror shader (passes/mirrors.py). Float32: the varyings, exactly."""
+
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int], depth: moderngl.Renderbuffer | moderngl.Texture) -> None:
+        self.position = ctx.texture(size, 4, dtype="f4")
+        self.normal = ctx.texture(size, 4, dtype="f4")
+        for texture in (self.position, self.normal):
+            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.framebuffer = ctx.framebuffer([self.position, self.normal], depth)  # the frame's depth test
+        self._colours = ctx.framebuffer([self.position, self.normal])  # cleared without the frame's depth
+
+    @staticmethod
+    def bytes_for(size: tuple[int, int]) -> int:
+        return size[0] * size[1] * 16 * 2
+
+    def clear(self) -> None:
+        self._colours.clear(0.0, 0.0, 0.0, 0.0)
+
+    def use(self) -> None:
+        self.position.use(TextureUnit.SURFACE_POSITION)
+        self.normal.use(TextureUnit.SURFACE_NORMAL)
+
+    def release(self) -> None:
+        for item in (self._colours, self.framebuffer, self.position, self.normal):
+            item.release()
+
+
 class FrameTargets:
-    def __init__(self, ctx: moderngl.Context, size: tuple[int, int], reflection_data: bool, count_samples: bool) -> None:
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int], reflection_data: bool, count_samples: bool,
+                 reflectors: bool) -> None:
+        """`reflectors`: the frame draws reflectors, and so has their surfaces."""
         self.ctx, self.size = ctx, size
         # Float colour so that a NaN or Inf from a shader survives to be caught by a test,
         # instead of being clamped into a plausible-looking 8-bit pixel. A texture, not a
@@ -50,6 +81,7 @@ class FrameTargets:
         # so a mirror fragment that passes the depth test is the visible one and its extra
         # outputs stay consistent with the colour.
         self.color_framebuffer = ctx.framebuffer([self.color], self.depth) if extra else self.framebuffer
+        self.surfaces = Surfaces(ctx, size, self.depth) if reflectors else None
         self._presenter: FramePresenter | None = None  # made when a frame is first put in a caller's framebuffer
 
     def present(self, programs: ProgramCache, target: moderngl.Framebuffer,
@@ -70,7 +102,8 @@ class FrameTargets:
         if size == self.size:
             return self
         self.release()
-        return FrameTargets(self.ctx, size, bool(self.reflection_outputs), self.sample_counts is not None)
+        return FrameTargets(self.ctx, size, bool(self.reflection_outputs), self.sample_counts is not None,
+                            self.surfaces is not None)
 
     def _read(self, components: int, attachment: int = 0) -> np.ndarray:
         width, height = self.size
@@ -106,6 +139,8 @@ class FrameTargets:
     def release(self) -> None:
         self.release_presenter()
         bind_default_framebuffer(self.ctx)
+        if self.surfaces is not None:
+            self.surfaces.release()
         if self.color_framebuffer is not self.framebuffer:
             self.color_framebuffer.release()
         self.framebuffer.release()

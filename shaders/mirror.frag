@@ -13,9 +13,20 @@
 uniform vec3 u_eye;
 uniform vec3 u_tint;  // a mirror's, or the light a glass transmits
 
+#ifdef DEFERRED
+// The reflector's surface, from the deferred pass's first half (reflector_surface.frag), drawn
+// over the reflector's screen rectangle (screen_rect.vert).
+uniform sampler2D u_surface_position;  // (world position, reflector's object id + 1; 0: none)
+uniform sampler2D u_surface_normal;    // (interpolated world normal, 1 on a front face)
+vec3 v_world_position;
+vec3 v_world_normal;
+bool front_facing;
+#else
 in vec3 v_world_position;
 in vec3 v_local_position;
 in vec3 v_world_normal;
+#define front_facing gl_FrontFacing
+#endif
 
 uniform int u_mirror_id;
 #if METHOD == METHOD_HYBRID
@@ -67,6 +78,16 @@ void write_backing(vec3 normal) {
 #endif
 
 void main() {
+#ifdef DEFERRED
+    ivec2 pixel = ivec2(gl_FragCoord.xy);
+    vec4 surface = texelFetch(u_surface_position, pixel, 0);
+    // Another reflector's pixel, or none: this pass leaves it as it is.
+    if (int(surface.w) != u_mirror_id + 1) discard;
+    vec4 surface_normal = texelFetch(u_surface_normal, pixel, 0);
+    v_world_position = surface.xyz;
+    v_world_normal = surface_normal.xyz;
+    front_facing = surface_normal.w > 0.5;
+#endif
     vec3 view = safe_normalize(v_world_position - u_eye, vec3(0.0, 0.0, -1.0));
     vec3 normal = safe_normalize(v_world_normal, -view);
     // The interpolated normal can face away from the eye near a curved reflector's silhouette
@@ -75,7 +96,7 @@ void main() {
 #ifndef GLASS
     // GL's front faces are the outward ones: the passes draw mirrors with front_face set for
     // their flipped projections (passes/mirrors.py, outward_faces_front).
-    if (!gl_FrontFacing) {
+    if (!front_facing) {
         write_backing(normal);
         return;
     }

@@ -77,7 +77,8 @@ def test_algorithm_switch_changes_the_variant_not_the_depth_images(ctx: moderngl
         assert renderer.programs.compute_variants == [("depth_pyramid.comp", ())]
         assert renderer.stats.depth_images_baked == 5
         mirror_variants = {d for _, fragment, d in renderer.programs.variants if fragment == "mirror.frag"}
-        assert mirror_variants == {(("ALGORITHM", str(int(a))), ("METHOD", str(int(Method.DEPTH)))) for a in Algorithm}
+        assert mirror_variants == {(("ALGORITHM", str(int(a))), ("DEFERRED", "1"), ("METHOD", str(int(Method.DEPTH))))
+                                   for a in Algorithm}
     assert_same_frame(frames[Algorithm.BASIC], fresh_frame(ctx, scene, Algorithm.BASIC))
     # The hierarchical traversal finds the optimized march's hits, bit for bit.
     assert np.array_equal(frames[Algorithm.HIERARCHICAL], frames[Algorithm.OPTIMIZED])
@@ -146,7 +147,8 @@ def test_sample_view_shows_the_depth_images_instead_of_the_objects(ctx: moderngl
         renderer.render()
         samples = renderer.read_color_float()
         # One points draw per depth image replaces the four reflected objects' meshes.
-        assert renderer.stats.draw_calls - draws == 5 + 1 + 1  # samples, the floor, the mirror
+        # Samples, the floor, the mirror (its surface, then its screen rectangle).
+        assert renderer.stats.draw_calls - draws == 5 + 1 + 2
         renderer.set_show_samples(False)
         renderer.render()
         assert_same_frame(renderer.read_color_float(), objects)

@@ -46,6 +46,10 @@ class TextureUnit(IntEnum):
     # Every one's level 0 as 8-bit integers, stacked in one texture, for traced rays: the mirror
     # shader samples this one unit for them all (material_texture.glsl).
     MATERIAL_TEXELS = 21
+    # The frame's reflector surfaces (targets.py), read by the deferred mirror shader: with them
+    # it samples at most 16 textures, GL 3.3's least GL_MAX_TEXTURE_IMAGE_UNITS.
+    SURFACE_POSITION = 22
+    SURFACE_NORMAL = 23
 
 
 @unique

@@ -7,8 +7,10 @@ from __future__ import annotations
 from typing import Protocol
 
 import moderngl
+import numpy as np
 
-from ..gpu.gl_state import RasterState, Winding, raster_state
+from ..gpu.bindings import TextureUnit
+from ..gpu.gl_state import NO_DEPTH_TEST, RasterState, Winding, raster_state
 from ..constants import Algorithm, Method
 from ..geometry import ObjectGeometry
 from ..ppc import PPC
@@ -19,6 +21,17 @@ from .glass import GlassInterior, interior_camera, pixel_angle
 from ..methods.atlas import BAKE_CULLS_FRONT_FACES
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import environment_defines, shading_defines, write
+
+
+class Surfaces(Protocol):
+    """The frame's reflector surfaces (targets.py): float position and normal targets sharing the
+    frame's depth, cleared before the reflectors are drawn into them."""
+
+    framebuffer: moderngl.Framebuffer
+
+    def clear(self) -> None: ...
+
+    def use(self) -> None: ...
 
 
 class ReflectedObjects(Protocol):
@@ -60,6 +73,12 @@ def reflection_defines(
 
 
 REFLECTOR_PROGRAM = ("mesh.vert", "mirror.frag")
+#: The frame's reflectors, deferred: their surfaces rasterized first (SURFACE_PROGRAM), then the
+#: mirror shader run over each reflector's screen rectangle on those (DEFERRED_REFLECTOR_PROGRAM
+#: with DEFERRED). The bounce bakes draw reflectors into depth images forward (REFLECTOR_PROGRAM).
+SURFACE_PROGRAM = ("mesh.vert", "reflector_surface.frag")
+DEFERRED_REFLECTOR_PROGRAM = ("screen_rect.vert", "mirror.frag")
+DEFERRED = {"DEFERRED": 1}
 
 
 def reflector_defines(scene: Scene, defines: dict[str, int], glass: bool) -> dict[str, int]:
@@ -73,10 +92,11 @@ def bounce_defines() -> dict[str, int]:
     return {"METHOD": int(Method.DEPTH), "ALGORITHM": int(Algorithm.OPTIMIZED), "WRITE_DEPTH_IMAGE": 1}
 
 
-def reflector_program(programs: ProgramCache, scene: Scene, defines: dict[str, int], glass: bool) -> moderngl.Program:
+def reflector_program(programs: ProgramCache, scene: Scene, defines: dict[str, int], glass: bool,
+                      stages: tuple[str, str] = REFLECTOR_PROGRAM) -> moderngl.Program:
     """The mirror shader's variant for mirrors or (GLASS) for glass (the cache writes the scene's
-    lights and analytic planes into it): shared by the frame's pass and the bounce bakes."""
-    program = programs.get(*REFLECTOR_PROGRAM, reflector_defines(scene, defines, glass))
+    lights and analytic planes into it): the bounce bakes', or (DEFERRED_REFLECTOR_PROGRAM) the frame's."""
+    program = programs.get(*stages, reflector_defines(scene, defines, glass))
     write(program, "u_backing_albedo", MIRROR_BACKING_ALBEDO)
     return program
 
@@ -110,10 +130,32 @@ def write_glass(program: moderngl.Program, item: ObjectGeometry) -> None:
     write(program, "u_ior", material.ior)
 
 
+def screen_rectangle(item: ObjectGeometry, camera: PPC) -> tuple[float, float, float, float]:
+    """Normalized device coordinates (x0, y0, x1, y1) holding every pixel of `item` that `camera`
+    sees, from its bounding sphere's box: a projective map keeps the box's projection inside the
+    hull of its projected corners, as long as they are all in front of the eye (else the viewport,
+    whole)."""
+    centre, radius = item.bounding_sphere
+    corners = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], np.float64)
+    corners[:, :3] = centre + radius * corners[:, :3]
+    clip = corners @ np.asarray(camera.view_projection, np.float64).T
+    if not np.all(clip[:, 3] > 1e-6 * max(radius, 1e-30)):
+        return (-1.0, -1.0, 1.0, 1.0)
+    ndc = clip[:, :2] / clip[:, 3:4]
+    # Half a pixel beyond, for the rounding of the rasterizer's pixel centres.
+    margin = np.array([1.0 / camera.width, 1.0 / camera.height])
+    low = np.clip(ndc.min(axis=0) - margin, -1.0, 1.0)
+    high = np.clip(ndc.max(axis=0) + margin, -1.0, 1.0)
+    return (float(low[0]), float(low[1]), float(high[0]), float(high[1]))
+
+
 class MirrorPass:
-    """Draws the mirrors and the glass objects (the reflectors) over the frame. Glass has its own
-    program (the GLASS variant), made only when the scene has glass, and an interior image per
-    glass object, made again only when the eye or the glass has moved since it was made."""
+    """Draws the mirrors and the glass objects (the reflectors) over the frame, deferred: each
+    reflector's surface is rasterized into the frame's surface targets (position, normal and id,
+    reflector_surface.frag) with a trivial shader, and the mirror shader then runs once per pixel
+    over the reflector's screen rectangle, reading them. Glass has its own program (the GLASS
+    variant), made only when the scene has glass, and an interior image per glass object, made
+    again only when the eye or the glass has moved since it was made."""
 
     def __init__(
         self,
@@ -126,11 +168,18 @@ class MirrorPass:
         count_samples: bool = False,
         interiors: dict[int, GlassInterior] | None = None,
     ) -> None:
-        defines = reflection_defines(method_defines, write_reflection_data, count_samples)
+        defines = {**reflection_defines(method_defines, write_reflection_data, count_samples), **DEFERRED}
         self.programs = {
-            glass: reflector_program(programs, scene, defines, glass) if present else None
+            glass: reflector_program(programs, scene, defines, glass, DEFERRED_REFLECTOR_PROGRAM) if present else None
             for glass, present in ((False, bool(scene.mirrors)), (True, bool(scene.glass)))
         }
+        self.surface_program = programs.get(*SURFACE_PROGRAM)
+        for program in self.programs.values():
+            if program is not None:
+                write(program, "u_surface_position", TextureUnit.SURFACE_POSITION)
+                write(program, "u_surface_normal", TextureUnit.SURFACE_NORMAL)
+        self.rectangles = {program: program.ctx.vertex_array(program, [])
+                           for program in self.programs.values() if program is not None}
         self.interiors = interiors or {}
         if len(self.interiors) != len(scene.glass):
             raise ValueError("a scene with glass needs a GlassInterior per glass object")
@@ -152,10 +201,18 @@ class MirrorPass:
         return draws
 
     def draw(self, reflectors: list[ObjectGeometry], camera: PPC, framebuffer: moderngl.Framebuffer,
-             tint_retraced: bool = False) -> int:
-        """Draw the reflectors into `framebuffer` as `camera` sees them; returns the draw calls.
-        `tint_retraced` tints the pixels whose ray the hybrid method traced (other methods have none)."""
-        draws = 0
+             surfaces: Surfaces, tint_retraced: bool = False) -> int:
+        """Draw the reflectors into `framebuffer` as `camera` sees them, through the frame's
+        `surfaces`; returns the draw calls. `tint_retraced` tints the pixels whose ray the hybrid
+        method traced (other methods have none)."""
+        surfaces.clear()
+        surfaces.framebuffer.use()
+        with raster_state(self.surface_program.ctx, REFLECTORS):
+            for item in reflectors:
+                write(self.surface_program, "u_mirror_id", item.index)
+                self.meshes.draw(self.surface_program, item, camera.view_projection)
+        surfaces.use()
+        draws = len(reflectors)
         for item in reflectors:
             glass = item.object.is_glass
             program = self.programs[glass]
@@ -172,7 +229,14 @@ class MirrorPass:
             write(program, "u_tint", reflector_tint(item))
             write(program, "u_mirror_id", item.index)
             write(program, "u_tint_retraced", tint_retraced)
-            with raster_state(program.ctx, REFLECTORS):
-                self.meshes.draw(program, item, camera.view_projection)
+            write(program, "u_rect", screen_rectangle(item, camera))
+            # Every pixel of the rectangle is this reflector's or left alone (discarded): the
+            # surfaces' depth test has already chosen the visible one.
+            with raster_state(program.ctx, NO_DEPTH_TEST):
+                self.rectangles[program].render(moderngl.TRIANGLE_STRIP, vertices=4)
             draws += 1
         return draws
+
+    def release(self) -> None:
+        for vertex_array in self.rectangles.values():
+            vertex_array.release()
