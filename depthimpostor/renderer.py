@@ -35,6 +35,7 @@ from .passes.mirrors import REFLECTION_OUTPUTS, MirrorPass, ReflectedObjects
 from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
 from .methods.triangles import TrianglePass
+from .gpu.scene_blocks import SceneBlocks
 from .gpu.uniforms import write_scene_uniforms
 from .graph import BAKES, Pass
 from .plan import STAND_INS, RenderPlan, check_stand_in, plan_render
@@ -134,7 +135,9 @@ class Renderer:
         self.stats = RenderStats()
         self.last_sub_frames: list[SubFrame] = []  # the last supersampled frame's (render.samples > 1)
         self._unjittered: PPC | None = None  # the frame's camera while its sub-frames are drawn
-        self.programs = ProgramCache(ctx, shaders)
+        # Where each program finds what every frame binds (texture units, block bindings, the
+        # texture table): nothing a later `with_overrides`, which changes render settings alone, alters.
+        self.programs = ProgramCache(ctx, shaders, lambda program: write_scene_uniforms(program, scene))
         # The eye's depth convention (eye.py): reversed-Z where GL has clip control.
         self.reversed_z = reversed_z(ctx) is not None
         self.time = 0.0  # seconds into the scene's animation
@@ -142,12 +145,13 @@ class Renderer:
         self._use_world(World(scene, scene_geometry(scene.objects)))
         self.plan: RenderPlan = plan_render(scene, method, algorithm, reflection_data=reflection_data,
                                             count_samples=count_samples, world=self.world)
-        self._relight()
         self.view = scene.camera
         self.camera = fitted_camera(self.view, scene.render.size, self.bounds, self.reversed_z)
         check_fits(ctx, scene, self.plan)  # before any GL object is made
         self.meshes = GpuMeshes(ctx)
         self.textures = GpuTextures(ctx)  # the scene's image textures, bound for every frame
+        self.scene_blocks = SceneBlocks(ctx)  # the lights and analytic planes, bound for every frame
+        self._relight()
         self._presenter: FramePresenter | None = None  # made when a frame is first put in a caller's framebuffer
         with kept_state(ctx), allocating(ctx, "--size or --impostor-res"):
             self._make_targets(scene.render.size)
@@ -326,14 +330,12 @@ class Renderer:
         baked.move({g.index: g for g in geometry}, moved, relit | shadows)
 
     def _relight(self) -> None:
-        """`lit_scene`: the scene with its lights where they are at `time`. It and the analytic
-        planes go to the program cache, which writes them into every program it holds or makes:
-        the one place lights and planes are written, so that no program made after a move (a new
-        setting, a reload) can have them where they were."""
+        """`lit_scene`: the scene with its lights where they are at `time`. Its lights and the
+        analytic planes go into the uniform buffers every program reads (gpu/scene_blocks.py), so
+        that no program made after a move (a new setting, a reload) can have them where they were."""
         lights = self.scene.lights_at(self.time)
         self.lit_scene = self.scene if lights == tuple(self.scene.lights) else dataclasses.replace(self.scene, lights=lights)
-        lit_scene, planes = self.lit_scene, self.analytic_planes
-        self.programs.set_scene_uniforms(lambda program: write_scene_uniforms(program, lit_scene, planes))
+        self.scene_blocks.write(self.lit_scene, self.analytic_planes)
 
     @keeps_gl_state
     def resize(self, size: tuple[int, int]) -> None:
@@ -466,6 +468,7 @@ class Renderer:
         graph = self.plan.graph
         self.environment.use()  # an equirect sky's image: bakes see it too
         self.textures.use(self.scene)  # the image textures: baked images show them too
+        self.scene_blocks.bind()  # the lights and planes: bakes shade with them too
         if self.shadow_maps is not None:  # bound for every pass that shades, bakes included
             self.shadow_maps.use()
         bakes = [node.stage for node in graph if node.stage in BAKES and self._stale(node.stage)]
@@ -692,6 +695,7 @@ class Renderer:
         self._release_passes()
         self.meshes.release()
         self.textures.release()
+        self.scene_blocks.release()
         self.programs.release()
         self._release_targets()
 
