@@ -81,6 +81,9 @@ class SceneBlocks:
     """The Lights and AnalyticPlanes blocks' buffers. `write` them when the lights or planes
     move; `bind` them once a frame."""
 
+    #: GPU memory of the two buffers (the plan's figure: plan.plan_memory).
+    BYTES = LIGHTING.dtype.itemsize + PLANES.dtype.itemsize
+
     def __init__(self, ctx: moderngl.Context) -> None:
         self.lights = ctx.buffer(reserve=LIGHTING.dtype.itemsize)
         self.planes = ctx.buffer(reserve=PLANES.dtype.itemsize)
