@@ -4,6 +4,7 @@ GL reads each field where numpy put it, and no program holds its own copy of a l
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from pathlib import Path
 
@@ -11,7 +12,7 @@ import moderngl
 import numpy as np
 import pytest
 
-from conftest import SCENES
+from conftest import SCENES, assert_finite
 from depthimpostor.constants import LIGHTING, MAX_ANALYTIC_PLANES, MAX_LIGHTS, PLANES
 from depthimpostor.gpu.bindings import UniformBlock
 from depthimpostor.gpu.context import bind_default_framebuffer
@@ -20,7 +21,7 @@ from depthimpostor.gpu.std140 import Struct
 from depthimpostor.gpu.uniforms import bind_uniform_block
 from depthimpostor.renderer import Renderer
 from depthimpostor.resources import shaders_dir
-from depthimpostor.scene import load_scene
+from depthimpostor.scene import Animation, load_scene
 
 
 def test_std140_offsets_follow_the_rules() -> None:
@@ -145,3 +146,24 @@ def test_no_program_holds_a_light_or_a_plane(ctx: moderngl.Context) -> None:
                 if block in names:
                     assert program[block].binding == binding
         assert sum("Lights" in names for names in members) >= 2  # the bake and the eye's passes
+
+
+def test_a_moved_light_reaches_every_program_through_the_block(ctx: moderngl.Context) -> None:
+    """set_time writes the moved light into the block: the frame is that of a scene whose light
+    stands where the turning one has got to (the floor, an analytic plane in the mirror shader, and
+    the baked images all lit by it), and not the frame before the move."""
+    scene = load_scene(SCENES / "default.toml").with_overrides(size=(96, 54), impostor_resolution=32)
+    turning = dataclasses.replace(scene.lights[0], animation=Animation("rotate", (1.0, 0.0, 0.0), 20.0))
+    with Renderer(ctx, dataclasses.replace(scene, lights=[turning])) as renderer:
+        renderer.render()
+        before = renderer.read_color_float()
+        renderer.set_time(1.0)
+        renderer.render()
+        frame = renderer.read_color_float()
+    standing = dataclasses.replace(turning.at(1.0), animation=None)
+    with Renderer(ctx, dataclasses.replace(scene, lights=[standing])) as fresh:
+        fresh.render()
+        expected = fresh.read_color_float()
+    assert_finite(frame)
+    assert np.abs(frame - before).max() > 0.05
+    np.testing.assert_allclose(frame, expected, atol=1e-5)
