@@ -1,16 +1,16 @@
 """Values shared by Python and GLSL, defined once here and injected into every shader.
 
-`glsl_constants()` turns them into `#define` lines; `depth_image_struct_glsl()` declares the
-std140 record that Python packs with `DEPTH_IMAGE_DTYPE`. No GLSL file spells out any of these.
+`glsl_constants()` turns them into `#define` lines; the std140 structs (`DEPTH_IMAGE`,
+`LIGHTING`, ...: gpu/std140.py) are declared in GLSL (gpu/shaders.py's generated files) and packed
+in Python (their `.dtype`) from one description. No GLSL file spells out any of these.
 """
 
 from __future__ import annotations
 
 from enum import IntEnum
 
-import numpy as np
-
 from .gpu.bindings import glsl_bindings
+from .gpu.std140 import Struct
 
 
 class Algorithm(IntEnum):
@@ -258,27 +258,66 @@ BVH_TEXTURE_WIDTH = 1024
 BVH_TRIANGLE_TEXELS = 8
 
 
-def _std140_dtype(fields: tuple[tuple[str, str], ...]) -> np.dtype:
-    """The numpy layout of a struct of vec4, ivec4 and mat4 members (no padding under std140)."""
-    shapes = {"vec4": ("<f4", (4,)), "ivec4": ("<i4", (4,)), "mat4": ("<f4", (4, 4))}
-    return np.dtype([(name, *shapes[glsl_type]) for name, glsl_type in fields])
+DEPTH_IMAGE = Struct("DepthImage", DEPTH_IMAGE_FIELDS)
+TRIANGLE_OBJECT = Struct("TriangleObject", TRIANGLE_OBJECT_FIELDS)
+DEPTH_IMAGE_DTYPE = DEPTH_IMAGE.dtype
+TRIANGLE_OBJECT_DTYPE = TRIANGLE_OBJECT.dtype
 
+#: A surface's material as lib/shading.glsl's material_albedo reads it: MATERIAL_DIFFUSE or
+#: MATERIAL_CHECKER, the two colours (a diffuse material's is color_a), the checker's cell size,
+#: a diffuse material's texture slot (or -1) and that texture's UV multipliers.
+MATERIAL = Struct("Material", (
+    ("kind", "int"),
+    ("color_a", "vec3"),
+    ("color_b", "vec3"),
+    ("scale", "float"),
+    ("texture", "int"),
+    ("uv_scale", "vec2"),
+))
 
-DEPTH_IMAGE_DTYPE = _std140_dtype(DEPTH_IMAGE_FIELDS)
-TRIANGLE_OBJECT_DTYPE = _std140_dtype(TRIANGLE_OBJECT_FIELDS)
+#: One light of the Lights block: LIGHT_DIRECTIONAL or LIGHT_POINT, SHADOW_NONE, SHADOW_HARD or
+#: SHADOW_SOFT, the soft shadows' disk radius, the unit travel direction (directional) or the
+#: position (point), and colour * intensity.
+LIGHT = Struct("Light", (
+    ("kind", "int"),
+    ("shadows", "int"),
+    ("radius", "float"),
+    ("vector", "vec3"),
+    ("radiance", "vec3"),
+))
 
+#: Everything that lights the scene, in the one uniform block every shading program reads
+#: (lib/lighting.glsl's Lights, gpu/scene_blocks.py): the ambient term, the lights, and the
+#: environment's values (the gradient's colours, or an equirect map's intensity and its rotation
+#: about +Y as (cos, sin); the map's image is a texture).
+LIGHTING = Struct("Lighting", (
+    ("ambient", "float"),
+    ("light_count", "int"),
+    ("env_rotation", "vec2"),
+    ("env_zenith", "vec3"),
+    ("env_intensity", "float"),
+    ("env_horizon", "vec3"),
+    ("env_ground", "vec3"),
+    ("lights", LIGHT, MAX_LIGHTS),
+))
 
-def _struct_glsl(name: str, fields: tuple[tuple[str, str], ...]) -> str:
-    members = "\n".join(f"    {glsl_type} {field};" for field, glsl_type in fields)
-    return f"struct {name} {{\n{members}\n}};\n"
+#: An analytic plane (a floor or wall that is not a mirror), the rectangle |x| <= half_size.x,
+#: |z| <= half_size.y of its local y = 0 plane: its world-to-local transform, material, unit
+#: world-space normal and object id.
+ANALYTIC_PLANE = Struct("AnalyticPlane", (
+    ("world_to_local", "mat4"),
+    ("material", MATERIAL),
+    ("normal", "vec3"),
+    ("object_id", "int"),
+    ("half_size", "vec2"),
+))
 
-
-def depth_image_struct_glsl() -> str:
-    return _struct_glsl("DepthImage", DEPTH_IMAGE_FIELDS)
-
-
-def triangle_object_struct_glsl() -> str:
-    return _struct_glsl("TriangleObject", TRIANGLE_OBJECT_FIELDS)
+#: The analytic planes every reflected ray is intersected with (lib/reflected_scene.glsl's
+#: AnalyticPlanes block, gpu/scene_blocks.py).
+PLANES = Struct("Planes", (
+    ("count", "int"),
+    ("planes", ANALYTIC_PLANE, MAX_ANALYTIC_PLANES),
+))
 
 
 def glsl_constants() -> dict[str, str]:

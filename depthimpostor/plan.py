@@ -27,6 +27,7 @@ from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .methods.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
 from .methods.baked_images import BakedImages, ImagePlan, SecondLayer
 from .gpu.meshes import GpuMeshes
+from .gpu.scene_blocks import SceneBlocks
 from .gpu.textures import GpuTextures
 from .passes.mirrors import (
     DEFERRED,
@@ -322,7 +323,8 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     width, height = scene.render.size
     records = MAX_DEPTH_IMAGES_PER_MIRROR * DEPTH_IMAGE_DTYPE.itemsize  # one mirror's uniform block
     memory = {"frame colour and depth": width * height * (16 + 4),
-              "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry])}
+              "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry]),
+              "lights and planes": SceneBlocks.BYTES}
     if scene.textures:
         memory["textures"] = GpuTextures.bytes_for(scene)
     if reflection_data:

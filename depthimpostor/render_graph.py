@@ -22,6 +22,7 @@ from .culling import may_shadow
 from .eye import clear_depth, eye_depth
 from .gpu.context import bind_default_framebuffer
 from .gpu.meshes import GpuMeshes
+from .gpu.scene_blocks import SceneBlocks
 from .gpu.shaders import ProgramCache
 from .gpu.textures import GpuTextures
 from .graph import BAKES, Pass
@@ -77,6 +78,7 @@ class RenderGraph:
         self.world, self.plan = world, plan
         self.meshes = GpuMeshes(ctx)
         self.textures = GpuTextures(ctx)  # the scene's image textures, bound for every frame
+        self.scene_blocks = SceneBlocks(ctx)  # the lights and analytic planes, bound for every frame
         self.show_samples = False
         self.tint_retraced = False  # the hybrid method's re-traced rays tinted (the viewer's T)
         self.build()
@@ -84,6 +86,7 @@ class RenderGraph:
     def build(self) -> None:
         """Every node's GL side, from the plan, with the programs of the cache."""
         ctx, scene, world = self.ctx, self.world.scene, self.world
+        self.scene_blocks.write(world.lit_scene, world.analytic_planes)
         self.environment = EnvironmentPass(ctx, self.programs, scene)
         # Made (and baked) before anything that shades: depth images show the shadows too.
         self.shadow_maps = (ShadowMaps(ctx, self.programs, world.lit_scene, self.meshes, world.shadow_casters)
@@ -188,6 +191,7 @@ class RenderGraph:
         moved, when a light moved, or when a caster moved whose shadow may fall on its object)."""
         self.world = world
         moved, moved_lights = world.moved(earlier), world.moved_lights(earlier)
+        self.scene_blocks.write(world.lit_scene, world.analytic_planes)
         moved_casters = [g for g in world.shadow_casters if g.index in moved]
         shadowed = set(world.lit_scene.shadowed_lights)
         if self.shadow_maps is not None:
@@ -238,6 +242,7 @@ class RenderGraph:
         stats, graph = self.stats, self.plan.graph
         self.environment.use()  # an equirect sky's image: bakes see it too
         self.textures.use(self.world.scene)  # the image textures: baked images show them too
+        self.scene_blocks.bind()  # the lights and planes: bakes shade with them too
         if self.shadow_maps is not None:  # bound for every pass that shades, bakes included
             self.shadow_maps.use()
         bakes = [node.stage for node in graph if node.stage in BAKES and self._stale(node.stage)]
@@ -360,3 +365,4 @@ class RenderGraph:
         self.release_passes()
         self.meshes.release()
         self.textures.release()
+        self.scene_blocks.release()

@@ -37,13 +37,14 @@ class Renderer:
         self.options = GraphOptions(reflection_data, count_samples, time_mirror_pass)
         self.stats = RenderStats()
         self.last_sub_frames: list[SubFrame] = []  # the last supersampled frame's (render.samples > 1)
-        self.programs = ProgramCache(ctx, shaders)
+        # Where each program finds what every frame binds (texture units, block bindings, the
+        # texture table): nothing a later `with_overrides`, which changes render settings alone, alters.
+        self.programs = ProgramCache(ctx, shaders, lambda program: write_scene_uniforms(program, scene))
         self.reversed_z = reversed_z(ctx) is not None  # the eye's depth convention (eye.py)
         self.time = 0.0  # seconds into the scene's animation
         # First: the plan refuses what cannot be rendered before anything is made or fitted.
         self.world = World(scene)
         self.plan = self._checked_plan(scene, method, algorithm)
-        self._relight()
         self.look_at(scene.camera)
         with kept_state(ctx), allocating(ctx, "--size or --impostor-res"):
             self.targets = FrameTargets(ctx, scene.render.size, reflection_data, count_samples, bool(self.world.reflectors))
@@ -55,12 +56,6 @@ class Renderer:
                            count_samples=self.options.count_samples, world=world or self.world.with_settings(scene))
         check_fits(self.ctx, scene, plan)
         return plan
-
-    def _relight(self) -> None:
-        """The world's lights and planes, written by the program cache into every program it holds
-        or makes: no program made after a move (a setting, a reload) has them where they were."""
-        lit_scene, planes = self.world.lit_scene, self.world.analytic_planes
-        self.programs.set_scene_uniforms(lambda program: write_scene_uniforms(program, lit_scene, planes))
 
     # ------------------------------------------------------------------ settings
     def look_at(self, view: Camera) -> None:
@@ -78,7 +73,6 @@ class Renderer:
         depends on what moved is baked again at the next frame (RenderGraph.follow)."""
         if seconds != self.time and self.scene.animated:
             earlier, self.world = self.world, self.world.at(seconds)
-            self._relight()
             self.look_at(self.view)  # the near and far planes follow the scene's bounds
             self.graph.follow(earlier, self.world)
         self.time = seconds
@@ -93,11 +87,8 @@ class Renderer:
         with allocating(self.ctx, context):
             self.targets = self.targets.resized(scene.render.size)
             (self.graph.rebuild if edited else self.graph.apply)(plan, world)
-        relit, self.scene, self.world = scene is not self.scene, scene, world
-        self.method, self.algorithm, self.plan = method, algorithm, plan
-        if relit:  # the lights, planes and render settings the scene's uniforms read
-            self._relight()
-            self.look_at(self.view)
+        self.scene, self.world, self.method, self.algorithm, self.plan = scene, world, method, algorithm, plan
+        self.look_at(self.view)
 
     def resize(self, size: tuple[int, int]) -> None:
         """Render frames of another size; depth images do not depend on it."""

@@ -154,7 +154,7 @@ RAISES = {
     "methods/impostors.py": 1,  # images with bounces
     "passes/shadows.py": 1,  # light among its casters
     "methods/triangles.py": 1,  # BVH texture past GL_MAX_TEXTURE_SIZE (GL)
-    "gpu/uniforms.py": 2,  # lights, analytic planes: the loader and the plan refuse them first
+    "gpu/scene_blocks.py": 2,  # lights, analytic planes: the loader and the plan refuse them first
     # lights, analytic planes, reach, bounces per method, traced objects, named triangles; textures
     # past MAX_TEXTURES and a texture on a shape without UVs (at load: tests/test_textures.py)
     "scene/limits.py": 8,

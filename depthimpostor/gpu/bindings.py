@@ -58,6 +58,8 @@ class UniformBlock(IntEnum):
     TRIANGLE_OBJECTS = 1  # the ray-traced objects' materials and transforms (methods/triangles.py)
     SHADOW_MAPS = 2  # the lights' shadow-map records (passes/shadows.py)
     GLASS_INTERIOR = 3  # a glass object's interior-image record (passes/glass.py)
+    LIGHTS = 4  # ambient, lights and environment values, read by every program that shades (gpu/scene_blocks.py)
+    ANALYTIC_PLANES = 5  # the floors and walls every reflected ray is intersected with (gpu/scene_blocks.py)
 
 
 @unique

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import moderngl
 
-from ..constants import depth_image_struct_glsl, glsl_constants, triangle_object_struct_glsl
+from ..constants import ANALYTIC_PLANE, DEPTH_IMAGE, LIGHT, LIGHTING, MATERIAL, PLANES, TRIANGLE_OBJECT, glsl_constants
 from ..errors import ShaderError
 from ..lights import soft_shadow_disk_glsl
 from ..resources import shaders_dir
@@ -48,8 +48,12 @@ def _include_guard(name: str) -> str:
 
 def _generated_sources() -> dict[str, str]:
     return {
-        "generated/depth_image.glsl": depth_image_struct_glsl(),
-        "generated/triangle_object.glsl": triangle_object_struct_glsl(),
+        "generated/depth_image.glsl": DEPTH_IMAGE.glsl(),
+        "generated/triangle_object.glsl": TRIANGLE_OBJECT.glsl(),
+        "generated/material.glsl": MATERIAL.glsl(),
+        # Each after the structs it holds: the preprocessor includes a generated file once.
+        "generated/lighting.glsl": LIGHT.glsl() + LIGHTING.glsl(),
+        "generated/planes.glsl": '#include "material.glsl"\n' + ANALYTIC_PLANE.glsl() + PLANES.glsl(),
         "generated/soft_shadow_disk.glsl": soft_shadow_disk_glsl(),
     }
 
@@ -145,8 +149,8 @@ def _format_compile_error(
     return "\n".join(report)
 
 
-#: Writes what every program reads of the scene as it is now (lights, analytic planes) into one
-#: program; a uniform the program lacks is skipped.
+#: Writes into one program where it finds what is bound for every frame (texture units, uniform
+#: block bindings: gpu/uniforms.write_scene_uniforms); a uniform the program lacks is skipped.
 SceneUniforms = Callable[[moderngl.Program], None]
 
 #: A program's stages (vertex and fragment file, or a compute file alone) and its defines.
@@ -162,9 +166,10 @@ class ProgramCache:
     """Compiles each program (vertex + fragment, or compute) once per (files, defines) per
     context and owns them.
 
-    The scene's uniforms (`set_scene_uniforms`) are written here and nowhere else: into each
-    program as it is made, and into every program made so far when they change. A pass that makes
-    its program later (a new setting, a reload) therefore never sees older lights than the rest.
+    `scene_uniforms` is written into each program as it is made (a reload's too). It holds no
+    value that changes as the scene moves: the lights and analytic planes are uniform blocks, one
+    buffer each that every program reads (gpu/scene_blocks.py), so that a program made after they
+    moved (a new setting, a reload) cannot see them where they were.
     """
 
     def __init__(self, ctx: moderngl.Context, library: ShaderLibrary | None = None,
@@ -173,12 +178,6 @@ class ProgramCache:
         self.library = library or ShaderLibrary()
         self._programs: dict[ProgramKey, moderngl.Program | moderngl.ComputeShader] = {}
         self._scene_uniforms = scene_uniforms
-
-    def set_scene_uniforms(self, scene_uniforms: SceneUniforms) -> None:
-        """Write the scene as it is now into every program made so far and every one made later."""
-        self._scene_uniforms = scene_uniforms
-        for program in self.programs():
-            scene_uniforms(program)
 
     def get(self, vertex: str, fragment: str, defines: Defines | None = None) -> moderngl.Program:
         program = self._get((vertex, fragment), defines)

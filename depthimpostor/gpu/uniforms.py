@@ -1,4 +1,5 @@
-"""Writing scene-wide values (lights, environment, materials, planes) into any program that uses them.
+"""Writing uniforms: materials and texture tables, and where each program finds the textures and
+uniform blocks bound for every frame (the lights and analytic planes are blocks: gpu/scene_blocks.py).
 
 A uniform the compiler removed (unused in that variant) is simply absent from the program, so
 each write checks membership first instead of catching errors.
@@ -6,22 +7,15 @@ each write checks membership first instead of catching errors.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import moderngl
 import numpy as np
 
 from .bindings import TextureUnit, UniformBlock
-from ..constants import MAX_ANALYTIC_PLANES, MAX_LIGHTS, MAX_TEXTURES, LightKind, MaterialKind, ShadowKind, Wrap
-from ..errors import SceneError
-from ..geometry import ObjectGeometry
-from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, PlaneShape, Scene
+from ..constants import MAX_TEXTURES, MaterialKind, Wrap
+from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, Scene
 from ..textures import SRGB_TABLE, texel_rects
-
-
-#: Where every shading program finds the shadow maps (lib/shadows.glsl; passes/shadows.py binds
-#: them there once per frame). The unit is past those of every method's stand-in (0 to 4).
 
 
 def shading_defines(scene: Scene) -> dict[str, int]:
@@ -117,82 +111,15 @@ def write_textures(program: moderngl.Program, scene: Scene) -> None:
     write(program, "u_srgb_to_linear", SRGB_TABLE)
 
 
-def write_lighting(program: moderngl.Program, scene: Scene) -> None:
-    """Ambient, lights and environment: everything the shading and environment chunks read."""
-    if len(scene.lights) > MAX_LIGHTS:
-        raise SceneError(scene.source, "lights", f"expected at most {MAX_LIGHTS} lights, got {len(scene.lights)}")
-    kinds = np.zeros(MAX_LIGHTS, dtype=np.int32)
-    vectors = np.zeros((MAX_LIGHTS, 3))
-    radiance = np.zeros((MAX_LIGHTS, 3))
-    shadows = np.zeros(MAX_LIGHTS, dtype=np.int32)
-    radii = np.zeros(MAX_LIGHTS)
-    for i, light in enumerate(scene.lights):
-        if light.type == "directional":
-            kinds[i] = LightKind.DIRECTIONAL
-            vectors[i] = np.asarray(light.direction) / np.linalg.norm(light.direction)
-        else:
-            kinds[i] = LightKind.POINT
-            vectors[i] = light.position
-        radiance[i] = np.asarray(light.color) * light.intensity
-        shadows[i] = ShadowKind[light.shadows.upper()]
-        radii[i] = light.radius
-    write(program, "u_ambient", float(scene.render.ambient))
-    write(program, "u_light_count", len(scene.lights))
-    write(program, "u_light_kind", kinds)
-    write(program, "u_light_vector", vectors)
-    write(program, "u_light_radiance", radiance)
-    write(program, "u_light_shadows", shadows)
-    write(program, "u_light_radius", radii)
-    write(program, "u_shadow_depth", TextureUnit.SHADOW_MAPS)
-    bind_uniform_block(program, "ShadowMaps", UniformBlock.SHADOW_MAPS)
-    write_environment(program, scene)
-
-
-def write_environment(program: moderngl.Program, scene: Scene) -> None:
-    """lib/environment.glsl's uniforms: the gradient's colours, or the map's unit and settings."""
-    env = scene.environment
-    write(program, "u_env_zenith", tuple(env.zenith))
-    write(program, "u_env_horizon", tuple(env.horizon))
-    write(program, "u_env_ground", tuple(env.ground))
-    write(program, "u_env_map", TextureUnit.ENVIRONMENT_MAP)
-    write(program, "u_env_intensity", float(env.intensity))
-    radians = math.radians(env.rotation)
-    write(program, "u_env_rotation", (math.cos(radians), math.sin(radians)))
-
-
-def write_scene_uniforms(program: moderngl.Program, scene: Scene, planes: Sequence[ObjectGeometry]) -> None:
-    """Everything a program reads of the scene as it is now: the lights and environment, and (in
-    the programs that trace them: the mirror shader's variants) the analytic planes. The renderer
-    hands this to its ProgramCache, which alone calls it."""
-    write_lighting(program, scene)
+def write_scene_uniforms(program: moderngl.Program, scene: Scene) -> None:
+    """Where a program finds what the renderer binds for every frame: the scene's texture slots
+    (and their wraps and texel rectangles), the shadow maps and the environment map on their units,
+    and the Lights, AnalyticPlanes and ShadowMaps blocks on their bindings. None of it changes when
+    the lights or objects move (those are in the blocks' buffers: gpu/scene_blocks.py), so the
+    program cache writes it once, into each program as it is made."""
     write_textures(program, scene)
-    if "u_plane_count" in program:
-        write_analytic_planes(program, scene, planes)
-
-
-def write_analytic_planes(program: moderngl.Program, scene: Scene, planes: Sequence[ObjectGeometry]) -> None:
-    if len(planes) > MAX_ANALYTIC_PLANES:
-        raise SceneError(
-            scene.source, "objects", f"expected at most {MAX_ANALYTIC_PLANES} non-mirror planes, got {len(planes)}"
-        )
-    world_to_local = np.zeros((MAX_ANALYTIC_PLANES, 4, 4))
-    half_sizes = np.zeros((MAX_ANALYTIC_PLANES, 2))
-    normals = np.zeros((MAX_ANALYTIC_PLANES, 3))
-    object_ids = np.zeros(MAX_ANALYTIC_PLANES, dtype=np.int32)
-    for i, plane in enumerate(planes):
-        shape = plane.object.shape
-        if not isinstance(shape, PlaneShape):
-            raise TypeError(f"object {plane.index} is a {type(shape).__name__}, not an analytic plane")
-        width, depth = shape.size
-        normal = plane.normal_matrix @ np.array([0.0, 1.0, 0.0])
-        world_to_local[i] = np.linalg.inv(plane.model_matrix).T  # column-major for GL
-        half_sizes[i] = (width / 2.0, depth / 2.0)
-        normals[i] = normal / np.linalg.norm(normal)
-        object_ids[i] = plane.index
-        write_material(program, f"u_plane_material[{i}]", plane.object.material, scene)
-    # Arrays of plain types are single uniforms named without an index; write them whole.
-    write(program, "u_plane_count", len(planes))
-    write(program, "u_plane_world_to_local", world_to_local)
-    write(program, "u_plane_half_size", half_sizes)
-    write(program, "u_plane_normal", normals)
-    write(program, "u_plane_object_id", object_ids)
+    write(program, "u_shadow_depth", TextureUnit.SHADOW_MAPS)
+    write(program, "u_env_map", TextureUnit.ENVIRONMENT_MAP)
+    bind_uniform_block(program, "Lights", UniformBlock.LIGHTS)
+    bind_uniform_block(program, "AnalyticPlanes", UniformBlock.ANALYTIC_PLANES)
+    bind_uniform_block(program, "ShadowMaps", UniformBlock.SHADOW_MAPS)

@@ -1,11 +1,11 @@
 // What a ray sees when it hits nothing: a vertical gradient (a constant environment is the
 // gradient with three equal colours), or (ENVIRONMENT_MAP) an equirectangular HDR image.
 // Mirrored by depthimpostor.truth (`environment`, `equirect_lookup`) for the ray tracer, which
-// reads the same texels with the same filter.
+// reads the same texels with the same filter. The values are the Lights block's; the map is a texture.
+#include "lighting.glsl"
+
 #ifdef ENVIRONMENT_MAP
 uniform sampler2D u_env_map;  // RGB32F, row 0 at the zenith; read texel by texel, never filtered by GL
-uniform float u_env_intensity;
-uniform vec2 u_env_rotation;  // (cos, sin) of environment.rotation: the sky turned about +Y
 
 const float ENV_PI = 3.14159265358979;
 
@@ -15,8 +15,9 @@ const float ENV_PI = 3.14159265358979;
 // rather than by the sampler: GPUs weight a hardware-filtered texel with 8 fractional bits,
 // which the float64 truth could not reproduce; columns wrap around, rows stop at the poles.
 vec3 environment(vec3 direction) {
-    vec3 d = vec3(u_env_rotation.x * direction.x - u_env_rotation.y * direction.z, direction.y,
-                  u_env_rotation.y * direction.x + u_env_rotation.x * direction.z);
+    vec2 rotation = u_lighting.env_rotation;  // (cos, sin): the sky turned about +Y
+    vec3 d = vec3(rotation.x * direction.x - rotation.y * direction.z, direction.y,
+                  rotation.y * direction.x + rotation.x * direction.z);
     float horizontal = length(d.xz);
     // atan(0, 0) is undefined: straight up or down every longitude is the same direction.
     float longitude = horizontal > 0.0 ? atan(d.x, -d.z) : 0.0;
@@ -32,15 +33,12 @@ vec3 environment(vec3 direction) {
     int y1 = clamp(int(base.y) + 1, 0, size.y - 1);
     vec3 top = mix(texelFetch(u_env_map, ivec2(x0, y0), 0).rgb, texelFetch(u_env_map, ivec2(x1, y0), 0).rgb, f.x);
     vec3 bottom = mix(texelFetch(u_env_map, ivec2(x0, y1), 0).rgb, texelFetch(u_env_map, ivec2(x1, y1), 0).rgb, f.x);
-    return u_env_intensity * mix(top, bottom, f.y);
+    return u_lighting.env_intensity * mix(top, bottom, f.y);
 }
 #else
-uniform vec3 u_env_zenith;
-uniform vec3 u_env_horizon;
-uniform vec3 u_env_ground;
-
 vec3 environment(vec3 direction) {
     float y = clamp(safe_normalize(direction, vec3(0.0, 1.0, 0.0)).y, -1.0, 1.0);
-    return y >= 0.0 ? mix(u_env_horizon, u_env_zenith, y) : mix(u_env_horizon, u_env_ground, -y);
+    return y >= 0.0 ? mix(u_lighting.env_horizon, u_lighting.env_zenith, y)
+                    : mix(u_lighting.env_horizon, u_lighting.env_ground, -y);
 }
 #endif

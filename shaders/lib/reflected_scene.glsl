@@ -26,12 +26,7 @@
 #include "triangles.glsl"
 #endif
 
-uniform int u_plane_count;
-uniform mat4 u_plane_world_to_local[MAX_ANALYTIC_PLANES];
-uniform vec2 u_plane_half_size[MAX_ANALYTIC_PLANES];
-uniform vec3 u_plane_normal[MAX_ANALYTIC_PLANES];  // world space, unit
-uniform Material u_plane_material[MAX_ANALYTIC_PLANES];
-uniform int u_plane_object_id[MAX_ANALYTIC_PLANES];
+#include "analytic_planes.glsl"
 
 #if METHOD == METHOD_DEPTH || METHOD == METHOD_HYBRID
 // The first of this mirror's depth images after image `i` whose frustum the ray enters
@@ -94,19 +89,19 @@ RayHit nearest_object_hit(vec3 origin, vec3 direction) {
 // keeps the world ray's parameter t because the transform is affine.
 RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
     RayHit best = no_hit(0);
-    for (int i = 0; i < u_plane_count; ++i) {
-        vec3 o = (u_plane_world_to_local[i] * vec4(origin, 1.0)).xyz;
-        vec3 d = (u_plane_world_to_local[i] * vec4(direction, 0.0)).xyz;
+    for (int i = 0; i < u_planes.count; ++i) {
+        AnalyticPlane plane = u_planes.planes[i];
+        vec3 o = (plane.world_to_local * vec4(origin, 1.0)).xyz;
+        vec3 d = (plane.world_to_local * vec4(direction, 0.0)).xyz;
         // A ray parallel to the plane never meets it; dividing would give +-Inf or NaN.
         if (abs(d.y) < 1e-12) continue;
         float t = -o.y / d.y;
         vec3 p = o + d * t;
         // t > 0: the ray starts on the mirror, never behind it.
-        if (t > 0.0 && all(lessThanEqual(abs(p.xz), u_plane_half_size[i])) && (!best.hit || t < best.t)) {
+        if (t > 0.0 && all(lessThanEqual(abs(p.xz), plane.half_size)) && (!best.hit || t < best.t)) {
             // The plane's UVs as meshes.plane_uvs lays them out: the image over the whole rectangle.
-            vec2 uv = p.xz / (2.0 * u_plane_half_size[i]) + 0.5;
-            best = unlit_hit(t, p.xz, material_albedo(u_plane_material[i], p, uv), u_plane_normal[i],
-                             float(u_plane_object_id[i]), 0);
+            vec2 uv = p.xz / (2.0 * plane.half_size) + 0.5;
+            best = unlit_hit(t, p.xz, material_albedo(plane.material, p, uv), plane.normal, float(plane.object_id), 0);
         }
     }
     return best;

@@ -2,11 +2,8 @@
 // Diffuse shading does not depend on the viewer, so a depth image baked from a mirror's centre
 // holds exactly the colours a reflected ray should see. Shadows (the SHADOWS variant, for scenes
 // with a light that casts them) do not depend on the viewer either.
-uniform float u_ambient;
-uniform int u_light_count;
-uniform int u_light_kind[MAX_LIGHTS];
-uniform vec3 u_light_vector[MAX_LIGHTS];    // directional: unit travel direction; point: position
-uniform vec3 u_light_radiance[MAX_LIGHTS];  // color * intensity
+#include "lighting.glsl"
+#include "../generated/material.glsl"
 
 #ifdef SHADOWS
 #include "shadows.glsl"
@@ -15,15 +12,6 @@ uniform vec3 u_light_radiance[MAX_LIGHTS];  // color * intensity
 #ifdef TEXTURE_COUNT
 #include "material_texture.glsl"
 #endif
-
-struct Material {
-    int kind;       // MATERIAL_DIFFUSE or MATERIAL_CHECKER
-    vec3 color_a;
-    vec3 color_b;
-    float scale;
-    int texture;    // a diffuse material's texture slot, or -1
-    vec2 uv_scale;  // its UV multipliers (Texture.scale)
-};
 
 // The checker is laid out in the object's local XZ plane (the plane shape's own plane): a 3-D
 // checker would flicker on a plane at y = 0, where floor(y / scale) jumps between -1 and 0. A
@@ -44,17 +32,18 @@ vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
 }
 
 vec3 shade(vec3 albedo, vec3 position, vec3 normal) {
-    vec3 irradiance = vec3(u_ambient);
-    for (int i = 0; i < u_light_count; ++i) {
-        vec3 to_light = u_light_kind[i] == LIGHT_DIRECTIONAL
-            ? -u_light_vector[i]
-            : safe_normalize(u_light_vector[i] - position, normal);
+    vec3 irradiance = vec3(u_lighting.ambient);
+    for (int i = 0; i < u_lighting.light_count; ++i) {
+        Light light = u_lighting.lights[i];
+        vec3 to_light = light.kind == LIGHT_DIRECTIONAL
+            ? -light.vector
+            : safe_normalize(light.vector - position, normal);
         float cosine = max(0.0, dot(normal, to_light));
 #ifdef SHADOWS
         // A surface facing away from the light gets none of it: no shadow ray needed.
         if (cosine > 0.0) cosine *= light_visibility(i, position, normal);
 #endif
-        irradiance += u_light_radiance[i] * cosine;
+        irradiance += light.radiance * cosine;
     }
     return albedo * irradiance;
 }

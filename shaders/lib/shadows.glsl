@@ -4,14 +4,13 @@
 // to the point, away from the image's eye as the image's own rays do, so that it meets a caster
 // through its visible surface (or inside its solid run) and the march's rules hold unchanged.
 #include "depth_image.glsl"
+#include "lighting.glsl"
 #include "../generated/soft_shadow_disk.glsl"
 
 layout(std140) uniform ShadowMaps {
     DepthImage u_shadow_maps[MAX_LIGHTS];  // light i's shadow map (unused for lights without shadows)
 };
 uniform sampler2D u_shadow_depth;  // every shadow map's layers (RG32F), one tile each
-uniform int u_light_shadows[MAX_LIGHTS];  // SHADOW_NONE, SHADOW_HARD or SHADOW_SOFT
-uniform float u_light_radius[MAX_LIGHTS];
 
 // Does a caster lie between the light point `from` and the point `to`? t <= 1 bounds the march
 // to the segment: what lies behind the point casts nothing on it.
@@ -32,7 +31,7 @@ void orthonormal_basis(vec3 n, out vec3 first, out vec3 second) {
 
 // The share of light `light` that reaches `position` (surface normal `normal`, facing the light).
 float light_visibility(int light, vec3 position, vec3 normal) {
-    int kind = u_light_shadows[light];
+    int kind = u_lighting.lights[light].shadows;
     if (kind == SHADOW_NONE) return 1.0;
     DepthImage map = u_shadow_maps[light];
     // One texel's width at the point's distance from the light (w), for the normal offset.
@@ -45,7 +44,7 @@ float light_visibility(int light, vec3 position, vec3 normal) {
     orthonormal_basis(safe_normalize(centre - origin, vec3(0.0, 1.0, 0.0)), first, second);
     int reaching = 0;
     for (int k = 0; k < SOFT_SHADOW_RAYS; ++k) {
-        vec2 disk = SOFT_SHADOW_DISK[k] * u_light_radius[light];
+        vec2 disk = SOFT_SHADOW_DISK[k] * u_lighting.lights[light].radius;
         if (!segment_blocked(map, centre + first * disk.x + second * disk.y, origin)) reaching += 1;
     }
     return float(reaching) / float(SOFT_SHADOW_RAYS);

@@ -1,0 +1,102 @@
+"""The scene's lights and analytic planes, each in one std140 uniform buffer that every program
+reads: written when they move, bound once a frame (before the bakes: baked images are shaded
+too).
+
+Before, each program held its own copy as plain uniforms, written program by program whenever a
+light moved; a program made later had to be remembered and written too. A uniform block has
+one copy: a program only needs its block bindings (gpu/uniforms.py), set once when it is made.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import moderngl
+import numpy as np
+
+from .bindings import UniformBlock
+from .uniforms import material_fields, texture_fields
+from ..constants import LIGHTING, MAX_ANALYTIC_PLANES, MAX_LIGHTS, PLANES, LightKind, ShadowKind
+from ..errors import SceneError
+from ..geometry import ObjectGeometry
+from ..scene.model import PlaneShape, Scene
+
+
+def lighting_record(scene: Scene) -> np.ndarray:
+    """lib/lighting.glsl's Lights block of `scene` as it is (its lights where they are now), a
+    0-d array of constants.LIGHTING."""
+    if len(scene.lights) > MAX_LIGHTS:
+        raise SceneError(scene.source, "lights", f"expected at most {MAX_LIGHTS} lights, got {len(scene.lights)}")
+    record = np.zeros((), LIGHTING.dtype)
+    record["ambient"] = scene.render.ambient
+    record["light_count"] = len(scene.lights)
+    env = scene.environment
+    radians = math.radians(env.rotation)
+    record["env_rotation"] = (math.cos(radians), math.sin(radians))
+    record["env_zenith"], record["env_horizon"], record["env_ground"] = env.zenith, env.horizon, env.ground
+    record["env_intensity"] = env.intensity
+    lights = record["lights"]
+    for i, light in enumerate(scene.lights):
+        if light.type == "directional":
+            lights["kind"][i] = LightKind.DIRECTIONAL
+            lights["vector"][i] = np.asarray(light.direction) / np.linalg.norm(light.direction)
+        else:
+            lights["kind"][i] = LightKind.POINT
+            lights["vector"][i] = light.position
+        lights["radiance"][i] = np.asarray(light.color) * light.intensity
+        lights["shadows"][i] = ShadowKind[light.shadows.upper()]
+        lights["radius"][i] = light.radius
+    return record
+
+
+def planes_record(scene: Scene, planes: Sequence[ObjectGeometry]) -> np.ndarray:
+    """lib/reflected_scene.glsl's AnalyticPlanes block: the planes that are not mirrors (floors,
+    walls) where they are now, a 0-d array of constants.PLANES."""
+    if len(planes) > MAX_ANALYTIC_PLANES:
+        raise SceneError(
+            scene.source, "objects", f"expected at most {MAX_ANALYTIC_PLANES} non-mirror planes, got {len(planes)}"
+        )
+    record = np.zeros((), PLANES.dtype)
+    record["count"] = len(planes)
+    entries = record["planes"]
+    for i, plane in enumerate(planes):
+        shape = plane.object.shape
+        if not isinstance(shape, PlaneShape):
+            raise TypeError(f"object {plane.index} is a {type(shape).__name__}, not an analytic plane")
+        normal = plane.normal_matrix @ np.array([0.0, 1.0, 0.0])
+        # std140's mat4 is column-major: a numpy row holds a column.
+        entries["world_to_local"][i] = np.linalg.inv(plane.model_matrix).T
+        entries["half_size"][i] = (shape.size[0] / 2.0, shape.size[1] / 2.0)
+        entries["normal"][i] = normal / np.linalg.norm(normal)
+        entries["object_id"][i] = plane.index
+        material = entries["material"]
+        kind, material["color_a"][i], material["color_b"][i], material["scale"][i] = material_fields(plane.object.material)
+        material["kind"][i] = kind
+        material["texture"][i], material["uv_scale"][i] = texture_fields(scene, plane.object.material)
+    return record
+
+
+class SceneBlocks:
+    """The Lights and AnalyticPlanes blocks' buffers. `write` them when the lights or planes
+    move; `bind` them once a frame."""
+
+    #: GPU memory of the two buffers (the plan's figure: plan.plan_memory).
+    BYTES = LIGHTING.dtype.itemsize + PLANES.dtype.itemsize
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.lights = ctx.buffer(reserve=LIGHTING.dtype.itemsize)
+        self.planes = ctx.buffer(reserve=PLANES.dtype.itemsize)
+
+    def write(self, scene: Scene, planes: Sequence[ObjectGeometry]) -> None:
+        """`scene`'s lights (where they are now) and the analytic planes `planes`."""
+        self.lights.write(lighting_record(scene).tobytes())
+        self.planes.write(planes_record(scene, planes).tobytes())
+
+    def bind(self) -> None:
+        self.lights.bind_to_uniform_block(UniformBlock.LIGHTS)
+        self.planes.bind_to_uniform_block(UniformBlock.ANALYTIC_PLANES)
+
+    def release(self) -> None:
+        self.lights.release()
+        self.planes.release()
