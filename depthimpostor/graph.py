@@ -7,9 +7,11 @@ runs is what the plan says. This is not a scheduler: about eight nodes in a fixe
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
+
+from .gpu.shaders import ProgramKey
 
 
 class Pass(Enum):
@@ -38,14 +40,18 @@ class RenderNode:
     reads: tuple[str, ...]
     writes: tuple[str, ...]
     why: str  # the plan's reason
+    programs: tuple[ProgramKey, ...] = ()  # the plan's shader variants this node runs
 
     def format(self) -> str:
         reads = ", ".join(self.reads) or "nothing"
-        return f"{self.stage.value}: reads {reads}; writes {', '.join(self.writes)}"
+        compiles = f"; {len(self.programs)} program{'s' * (len(self.programs) != 1)}" if self.programs else ""
+        return f"{self.stage.value}: reads {reads}; writes {', '.join(self.writes)}{compiles}"
 
 
-def build_graph(stages: Sequence[tuple[Pass, str]], stand_in: tuple[str, ...], reads_pyramids: bool) -> tuple[RenderNode, ...]:
-    """The planned passes (`stages`: each with the plan's reason) as nodes. `stand_in`: what the
+def build_graph(stages: Sequence[tuple[Pass, str]], programs: Mapping[Pass, tuple[ProgramKey, ...]],
+                stand_in: tuple[str, ...], reads_pyramids: bool) -> tuple[RenderNode, ...]:
+    """The planned passes (`stages`: each with the plan's reason) as nodes, each with its
+    `programs` (the plan's shader variants, by the pass that runs them). `stand_in`: what the
     method's stand-in makes for the reflectors to read ("baked images", "BVH"); `reads_pyramids`:
     the reflectors' variant marches with the hierarchical traversal. GraphError where a pass
     would read what nothing wrote."""
@@ -66,7 +72,7 @@ def build_graph(stages: Sequence[tuple[Pass, str]], stand_in: tuple[str, ...], r
         Pass.REFLECTORS: (("frame colour", "frame depth", *stand_in, *pyramids, *bounces, *interiors, *shadows),
                           ("frame colour", "frame depth")),
     }
-    nodes = tuple(RenderNode(stage, *io[stage], why) for stage, why in stages)
+    nodes = tuple(RenderNode(stage, *io[stage], why, programs.get(stage, ())) for stage, why in stages)
     check_graph(nodes)
     return nodes
 

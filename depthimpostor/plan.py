@@ -209,15 +209,16 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     reflected = [g for g in diffuse if not g.is_analytic_plane]
     check_stand_in(scene, method, reflectors, reflected)
     passes: list[PlannedPass] = []
-    variants: dict[ProgramKey, str] = {}
+    variants: dict[ProgramKey, tuple[str, Pass]] = {}
 
-    def variant(stages: tuple[str, ...], defines: dict[str, int] | None, reason: str) -> None:
-        variants.setdefault(program_key(stages, defines), reason)
+    def variant(stage: Pass, stages: tuple[str, ...], defines: dict[str, int] | None, reason: str) -> None:
+        """A program the `stage` node compiles (and `reason`, what it is for)."""
+        variants.setdefault(program_key(stages, defines), (reason, stage))
 
     if scene.has_shadows:
         lights = [f"lights[{i}] ({scene.lights[i].shadows})" for i in scene.shadowed_lights]
         passes.append(PlannedPass(Pass.SHADOW_MAPS, f"{', '.join(lights)} cast shadows"))
-        variant(SHADOW_MAP_PROGRAM, SHADOW_MAP_DEFINES, "shadow maps: the casters' depth from each shadowed light")
+        variant(Pass.SHADOW_MAPS, SHADOW_MAP_PROGRAM, SHADOW_MAP_DEFINES, "shadow maps: the casters' depth from each shadowed light")
         casters = set(scene.shadow_casters)
         for light in scene.shadowed_lights:  # refuses a light among its casters, as the shadow pass would
             fit_shadow_camera(scene, light, [g for g in geometry if g.object in casters], scene.render.shadow_resolution)
@@ -251,55 +252,56 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         if issubclass(stand_in, BakedImages) and images:
             ids = stand_in.keeps_triangle_ids
             with_ids = ", with the triangle each sample shows" if ids else ""
-            variant(DIFFUSE_PROGRAM, diffuse_defines(scene, stand_in.second_layer != SecondLayer.NONE, ids),
+            variant(Pass.STAND_IN, DIFFUSE_PROGRAM, diffuse_defines(scene, stand_in.second_layer != SecondLayer.NONE, ids),
                     f"{stand_in.image_noun}s: the reflected objects shaded into them{with_ids}")
             if stand_in.keeps_back_colors:
-                variant(DIFFUSE_PROGRAM, diffuse_defines(scene, True, ids, back_layer=True),
+                variant(Pass.STAND_IN, DIFFUSE_PROGRAM, diffuse_defines(scene, True, ids, back_layer=True),
                         f"depth images: the back layer's colour and depth (a ray may come in through it){with_ids}")
             if stand_in.keeps_beyond:
-                variant(BEYOND_PROGRAM, None, "depth images: where a second solid run begins (the space before it "
+                variant(Pass.STAND_IN, BEYOND_PROGRAM, None, "depth images: where a second solid run begins (the space before it "
                         "is seen empty)")
         if shown_in_bounces:
             passes.append(PlannedPass(Pass.BOUNCES, f"render.max_bounces = {scene.render.max_bounces}: reflectors "
                                       "show each other's reflections"))
-            variant(BACK_FACE_PROGRAM, None, "a reflector drawn into another's depth image: its back-face layer")
+            variant(Pass.BOUNCES, BACK_FACE_PROGRAM, None, "a reflector drawn into another's depth image: its back-face layer")
             for shown_glass in sorted(shown_in_bounces):
-                variant(REFLECTOR_PROGRAM, reflector_defines(scene, bounce_defines(), shown_glass),
+                variant(Pass.BOUNCES, REFLECTOR_PROGRAM, reflector_defines(scene, bounce_defines(), shown_glass),
                         f"a {'glass' if shown_glass else 'mirror'} drawn into another reflector's depth image")
             if True in shown_in_bounces:
-                variant(INTERIOR_PROGRAM, None, "glass seen in a mirror: its interior from the mirror's centre")
+                variant(Pass.BOUNCES, INTERIOR_PROGRAM, None, "glass seen in a mirror: its interior from the mirror's centre")
         if METHODS[method].marches_depth_images and algorithm == Algorithm.HIERARCHICAL and images:
             passes.append(PlannedPass(Pass.PYRAMIDS, "the hierarchical algorithm skips spans by min/max depth"))
-            variant((PYRAMID_PROGRAM,), None, "the hierarchical algorithm's min/max pyramid")
+            variant(Pass.PYRAMIDS, (PYRAMID_PROGRAM,), None, "the hierarchical algorithm's min/max pyramid")
 
     passes.append(PlannedPass(Pass.ENVIRONMENT, f"the {scene.environment.type} sky behind everything"))
-    variant(ENVIRONMENT_PROGRAM, environment_defines(scene),
+    variant(Pass.ENVIRONMENT, ENVIRONMENT_PROGRAM, environment_defines(scene),
             "the sky" + (" (ENVIRONMENT_MAP: an equirect image)" if scene.environment.is_map else ""))
     if diffuse:
         passes.append(PlannedPass(Pass.DIFFUSE, f"{plural(len(diffuse), 'object')} with diffuse materials"))
-        variant(DIFFUSE_PROGRAM, diffuse_defines(scene, False),
+        variant(Pass.DIFFUSE, DIFFUSE_PROGRAM, diffuse_defines(scene, False),
                 "diffuse objects in the frame" + (" (SHADOWS: a light casts shadows)" if scene.has_shadows else ""))
     if glass:
         passes.append(PlannedPass(Pass.GLASS_INTERIORS, f"glass ({_names(glass)}): where refracted rays leave"))
-        variant(INTERIOR_PROGRAM, None, "glass: its front and back faces from the eye")
+        variant(Pass.GLASS_INTERIORS, INTERIOR_PROGRAM, None, "glass: its front and back faces from the eye")
     if reflectors:
         kinds = [f"mirrors ({_names(mirrors)})"] * bool(mirrors) + [f"glass ({_names(glass)})"] * bool(glass)
         passes.append(PlannedPass(Pass.REFLECTORS, " and ".join(kinds)))
-        variant(SURFACE_PROGRAM, None, "the reflectors' surfaces, for the deferred mirror shader")
-        defines = {**reflection_defines(METHODS[method].defines(algorithm)), **DEFERRED}
+        variant(Pass.REFLECTORS, SURFACE_PROGRAM, None, "the reflectors' surfaces, for the deferred mirror shader")
+        defines = {**reflection_defines(METHODS[method].defines(algorithm), reflection_data, count_samples), **DEFERRED}
         if mirrors:
-            variant(DEFERRED_REFLECTOR_PROGRAM, reflector_defines(scene, defines, False),
+            variant(Pass.REFLECTORS, DEFERRED_REFLECTOR_PROGRAM, reflector_defines(scene, defines, False),
                     f"mirrors, {method.option} method, deferred")
         if glass:
-            variant(DEFERRED_REFLECTOR_PROGRAM, reflector_defines(scene, defines, True),
+            variant(Pass.REFLECTORS, DEFERRED_REFLECTOR_PROGRAM, reflector_defines(scene, defines, True),
                     f"glass (GLASS), {method.option} method, deferred")
     memory = plan_memory(scene, method, algorithm, geometry, images, True in shown_in_bounces, reflection_data,
                          count_samples)
     ordered = tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage)))
-    graph = build_graph([(p.stage, p.reason) for p in ordered], METHODS[method].outputs,
+    programs = {stage: tuple(key for key, (_, of) in variants.items() if of is stage) for stage in Pass}
+    graph = build_graph([(p.stage, p.reason) for p in ordered], programs, METHODS[method].outputs,
                         METHODS[method].marches_depth_images and algorithm == Algorithm.HIERARCHICAL and bool(images))
     return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
-                      tuple(PlannedVariant(k, r) for k, r in variants.items()), memory, image_plans, graph,
+                      tuple(PlannedVariant(k, r) for k, (r, _) in variants.items()), memory, image_plans, graph,
                       scene.render.samples)
 
 

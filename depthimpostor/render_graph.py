@@ -83,9 +83,16 @@ class RenderGraph:
         self.tint_retraced = False  # the hybrid method's re-traced rays tinted (the viewer's T)
         self.build()
 
+    def _compile(self) -> None:
+        """The plan's programs, node by node: the passes then find them in the cache."""
+        for node in self.plan.graph:
+            for key in node.programs:
+                self.programs.compile(key)
+
     def build(self) -> None:
         """Every node's GL side, from the plan, with the programs of the cache."""
         ctx, scene, world = self.ctx, self.world.scene, self.world
+        self._compile()
         self.scene_blocks.write(world.lit_scene, world.analytic_planes)
         self.environment = EnvironmentPass(ctx, self.programs, scene)
         # Made (and baked) before anything that shades: depth images show the shadows too.
@@ -172,10 +179,10 @@ class RenderGraph:
             plan.images != before.images or world.scene.render.impostor_resolution
             != self.world.scene.render.impostor_resolution)
         self.world = world
-        if world.reflectors and (not same_stand_in or (new_images and self.baked_images is not None)):
-            self.plan = plan
-            self._make_stand_in(plan)
         self.plan = plan
+        self._compile()
+        if world.reflectors and (not same_stand_in or (new_images and self.baked_images is not None)):
+            self._make_stand_in(plan)
         self._keep_pyramids(plan)
         if self.mirror_pass is not None:
             self.mirror_pass = self._mirror_pass()

@@ -32,7 +32,7 @@ def test_the_reflectors_read_what_their_variant_samples() -> None:
     traced = {node.stage: node for node in plan_render(load_scene(SCENES / "default.toml"), Method.RAYTRACE).graph}
     assert "BVH" in traced[Pass.REFLECTORS].reads and "baked images" not in traced[Pass.REFLECTORS].reads
     with pytest.raises(GraphError):  # pyramids read, none planned
-        build_graph([(Pass.STAND_IN, ""), (Pass.REFLECTORS, "")], ("baked images",), reads_pyramids=True)
+        build_graph([(Pass.STAND_IN, ""), (Pass.REFLECTORS, "")], {}, ("baked images",), reads_pyramids=True)
 
 
 @pytest.mark.parametrize(("name", "method", "algorithm"), [
@@ -53,3 +53,18 @@ def test_the_renderer_runs_the_plans_graph(ctx: moderngl.Context, name: str, met
         again = renderer.stats.passes - first
         assert set(again) == {Pass.ENVIRONMENT.value, Pass.REFLECTORS.value} | (
             {Pass.DIFFUSE.value} if renderer.plan.runs(Pass.DIFFUSE) else set())
+
+
+def test_the_nodes_hold_the_plans_programs_and_the_renderer_compiles_them(ctx: moderngl.Context) -> None:
+    """Each planned shader variant belongs to the node that runs it, and a renderer compiles the
+    nodes' programs before the passes ask for them: after its first frame it holds those and no other."""
+    scene = load_scene(SCENES / "glass_and_mirrors.toml").with_overrides(size=(64, 36), impostor_resolution=16)
+    plan = plan_render(scene, Method.DEPTH, Algorithm.HIERARCHICAL)
+    by_node = [key for node in plan.graph for key in node.programs]
+    assert sorted(by_node) == sorted(plan.program_keys) and len(by_node) == len(set(by_node))
+    assert all(key[0][-1] in ("reflector_surface.frag", "mirror.frag") for node in plan.graph
+               if node.stage is Pass.REFLECTORS for key in node.programs)
+    with Renderer(ctx, scene, Algorithm.HIERARCHICAL) as renderer:
+        assert renderer.programs.keys == plan.program_keys  # compiled at construction, before a frame
+        renderer.render()
+        assert renderer.programs.keys == plan.program_keys

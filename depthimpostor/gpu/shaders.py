@@ -179,6 +179,10 @@ class ProgramCache:
         self._programs: dict[ProgramKey, moderngl.Program | moderngl.ComputeShader] = {}
         self._scene_uniforms = scene_uniforms
 
+    def compile(self, key: ProgramKey) -> None:
+        """Make the program a plan names by its key (render_graph.py compiles a plan's programs first)."""
+        self._get(key[0], dict(key[1]))
+
     def get(self, vertex: str, fragment: str, defines: Defines | None = None) -> moderngl.Program:
         program = self._get((vertex, fragment), defines)
         assert isinstance(program, moderngl.Program)
