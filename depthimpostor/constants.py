@@ -20,6 +20,27 @@ class Algorithm(IntEnum):
     BASIC = 0  # unproject every step and intersect 3-D segments
     OPTIMIZED = 1  # intersect 2-D segments in OpenGL depth, no unprojection
     HIERARCHICAL = 2  # the optimized march's steps, spans that cannot hit skipped by a min/max pyramid
+    AUTO = 3  # per image, the one of the two above that bench measured faster at its size (image_algorithm)
+
+    @property
+    def builds_pyramids(self) -> bool:
+        """May an image be traversed hierarchically, and so need its depth pyramid?"""
+        return self in (Algorithm.HIERARCHICAL, Algorithm.AUTO)
+
+
+#: `--algorithm auto` traverses an image hierarchically from this larger side up, linearly (the
+#: optimized march) below it. Where the pyramid's logarithmic steps pay for their set-up and their
+#: extra texel reads (`depthimpostor bench ... --algorithms optimized,hierarchical --resolutions
+#: 256,512,1024`; results/llvmpipe/auto_algorithm.md): the hierarchical frame is 0.74-0.84 of the
+#: optimized one at 1024^2 on the default and bunny scenes, 1.07-1.20 at 256^2.
+HIERARCHICAL_MIN_SIDE = 512
+
+
+def image_algorithm(algorithm: Algorithm, width: int, height: int) -> Algorithm:
+    """The traversal an image of `width` x `height` is marched with under `algorithm`."""
+    if algorithm != Algorithm.AUTO:
+        return algorithm
+    return Algorithm.HIERARCHICAL if max(width, height) >= HIERARCHICAL_MIN_SIDE else Algorithm.OPTIMIZED
 
 
 class Method(IntEnum):

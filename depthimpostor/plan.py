@@ -17,7 +17,8 @@ from typing import Any
 
 from .methods.bvh import node_count
 from .constants import (
-    BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, Algorithm, Method,
+    BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, HIERARCHICAL_MIN_SIDE, Algorithm, Method,
+    image_algorithm,
 )
 from .culling import Reach
 from .geometry import ObjectGeometry
@@ -137,6 +138,15 @@ class RenderPlan:
     def program_keys(self) -> set[ProgramKey]:
         return {variant.key for variant in self.variants}
 
+    @property
+    def builds_pyramids(self) -> bool:
+        """Are depth pyramids kept (the hierarchical algorithm, or `auto` with an image it traverses so)?"""
+        return self.algorithm == Algorithm.HIERARCHICAL or self.runs(Pass.PYRAMIDS)
+
+    def traversal(self, image: PlannedImage) -> Algorithm:
+        """How the reflectors' shader marches `image` (`auto` picks by its size)."""
+        return image_algorithm(self.algorithm, image.width, image.height)
+
     def counts(self) -> dict[str, int]:
         return {"passes": len(self.passes), "images": len(self.images), "skipped": len(self.skipped),
                 "variants": len(self.variants)}
@@ -148,8 +158,9 @@ class RenderPlan:
             "algorithm": self.algorithm.name.lower(),
             "counts": self.counts(),
             "passes": [{"name": p.stage.value, "when": p.when, "why": p.reason} for p in self.passes],
-            "images": [{"image": i.label, "level": i.level, "width": i.width,
-                        "height": i.height, "why": i.reason} for i in self.images],
+            "images": [{"image": i.label, "level": i.level, "width": i.width, "height": i.height, "why": i.reason,
+                        **({"traversal": self.traversal(i).name.lower()} if self.algorithm == Algorithm.AUTO else {})}
+                       for i in self.images],
             "skipped": [{"reflector": s.reflector, "object": s.target, "why": s.reason} for s in self.skipped],
             "variants": [{"stages": list(v.key[0]), "defines": dict(v.key[1]), "why": v.reason} for v in self.variants],
             "graph": [{"pass": n.stage.value, "reads": list(n.reads), "writes": list(n.writes)} for n in self.graph],
@@ -164,7 +175,8 @@ class RenderPlan:
         lines += [f"  {p.stage.value:<28} {p.when}\n  {'':<28} why: {p.reason}" for p in self.passes]
         lines.append(f"images ({len(self.images)}):")
         for image in self.images:
-            lines.append(f"  {image.label}: {image.width}x{image.height} ({image.reason})")
+            picked = f", {self.traversal(image).name.lower()} (auto)" if self.algorithm == Algorithm.AUTO else ""
+            lines.append(f"  {image.label}: {image.width}x{image.height}{picked} ({image.reason})")
         if self.skipped:
             lines.append(f"skipped ({len(self.skipped)}):")
             lines += [f"  {s.reflector} -> {s.target}: {s.reason}" for s in self.skipped]
@@ -187,6 +199,12 @@ def check_stand_in(scene: Scene, method: Method, reflectors: list[ObjectGeometry
     """The limits of `method`'s stand-in for `reflected` in `reflectors` (scene/limits.py): the
     plan checks them, and the renderer again before it switches to another method."""
     check_method(scene, METHODS[method], len(reflectors), len(reflected), sum(len(g.local_mesh.indices) for g in reflected))
+
+
+def _builds_pyramids(method: Method, algorithm: Algorithm, images: Sequence[PlannedImage]) -> bool:
+    """Does a frame march some of `images` hierarchically (and so need their pyramids)?"""
+    return METHODS[method].marches_depth_images and any(
+        image_algorithm(algorithm, image.width, image.height) == Algorithm.HIERARCHICAL for image in images)
 
 
 def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorithm = Algorithm.OPTIMIZED,
@@ -269,8 +287,9 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                         f"a {'glass' if shown_glass else 'mirror'} drawn into another reflector's depth image")
             if True in shown_in_bounces:
                 variant(Pass.BOUNCES, INTERIOR_PROGRAM, None, "glass seen in a mirror: its interior from the mirror's centre")
-        if METHODS[method].marches_depth_images and algorithm == Algorithm.HIERARCHICAL and images:
-            passes.append(PlannedPass(Pass.PYRAMIDS, "the hierarchical algorithm skips spans by min/max depth"))
+        if _builds_pyramids(method, algorithm, images):
+            auto = f" (auto: the images of sides >= {HIERARCHICAL_MIN_SIDE})" if algorithm == Algorithm.AUTO else ""
+            passes.append(PlannedPass(Pass.PYRAMIDS, f"the hierarchical algorithm skips spans by min/max depth{auto}"))
             variant(Pass.PYRAMIDS, (PYRAMID_PROGRAM,), None, "the hierarchical algorithm's min/max pyramid")
 
     passes.append(PlannedPass(Pass.ENVIRONMENT, f"the {scene.environment.type} sky behind everything"))
@@ -299,7 +318,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     ordered = tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage)))
     programs = {stage: tuple(key for key, (_, of) in variants.items() if of is stage) for stage in Pass}
     graph = build_graph([(p.stage, p.reason) for p in ordered], programs, METHODS[method].outputs,
-                        METHODS[method].marches_depth_images and algorithm == Algorithm.HIERARCHICAL and bool(images))
+                        _builds_pyramids(method, algorithm, images))
     return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
                       tuple(PlannedVariant(k, r) for k, (r, _) in variants.items()), memory, image_plans, graph,
                       scene.render.samples)
@@ -359,7 +378,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
             levels = len(reflectors) * (scene.render.max_bounces - 1)
             interior = interior_bytes(side) + DEPTH_IMAGE_DTYPE.itemsize if bounce_glass else 0
             memory["bounce baking"] = ImpostorAtlas.bytes_for(1, side, True) + side * side * 8 + levels * records + interior
-        if marches and algorithm == Algorithm.HIERARCHICAL:
+        if _builds_pyramids(method, algorithm, images):
             memory["depth pyramids"] = pyramid_bytes(PyramidLayout.of_grid(*atlas_grid(len(images)), side), len(images))
     traced = METHODS[method].traces
     if traced is not None:

@@ -28,7 +28,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .constants import DEPTH_IMAGE_DTYPE, MAX_SURFACE_SLOPE
+from .constants import DEPTH_IMAGE_DTYPE, MAX_SURFACE_SLOPE, Algorithm, image_algorithm
 
 Array = NDArray[np.float64]
 
@@ -293,5 +293,6 @@ class PPC:
         # (max relative depth step, 1/w_near, 1/w_near - 1/w_far): 1/w = y - OpenGL depth * z.
         inverse_near, inverse_far = 1.0 / self.w_near, 1.0 / self.w_far
         record["surface"] = (self.max_relative_depth_step, inverse_near, inverse_near - inverse_far, 0.0)
-        record["pyramid"] = (*pyramid, 0)
+        # w: `--algorithm auto` traverses this image hierarchically (constants.image_algorithm).
+        record["pyramid"] = (*pyramid, int(image_algorithm(Algorithm.AUTO, self.width, self.height) == Algorithm.HIERARCHICAL))
         return record

@@ -17,7 +17,6 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from .constants import Algorithm
 from .culling import may_shadow
 from .eye import clear_depth, eye_depth
 from .gpu.context import bind_default_framebuffer
@@ -154,9 +153,9 @@ class RenderGraph:
         self._keep_pyramids(plan)
 
     def _keep_pyramids(self, plan: RenderPlan) -> None:
-        """Depth pyramids exist exactly while the hierarchical algorithm intersects depth images."""
+        """Depth pyramids exist exactly while the plan builds them."""
         if self.impostors is not None:
-            self.impostors.use_pyramid(plan.algorithm == Algorithm.HIERARCHICAL)
+            self.impostors.use_pyramid(plan.builds_pyramids)
 
     def _mirror_pass(self) -> MirrorPass:
         if self.stand_in is None:

@@ -14,8 +14,11 @@ import numpy as np
 import pytest
 
 from conftest import PROJECT_ROOT, SCENES, assert_finite
+from depthimpostor import constants
 from depthimpostor.constants import Algorithm, Method
 from depthimpostor.errors import GpuLimitError, ShaderError
+from depthimpostor.graph import Pass
+from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Animation, Camera, Scene, load_scene
 from depthimpostor.gpu.shaders import ShaderLibrary
@@ -66,10 +69,12 @@ def test_algorithm_switch_changes_the_variant_not_the_depth_images(ctx: moderngl
     their pyramids (built from the images already baked) and they go when it goes."""
     frames = {}
     with Renderer(ctx, scene) as renderer:
-        for algorithm in (Algorithm.OPTIMIZED, Algorithm.BASIC, Algorithm.HIERARCHICAL, Algorithm.OPTIMIZED):
+        for algorithm in (Algorithm.OPTIMIZED, Algorithm.BASIC, Algorithm.HIERARCHICAL, Algorithm.AUTO,
+                          Algorithm.OPTIMIZED):
             renderer.set_algorithm(algorithm)
             renderer.render()
             assert renderer.graph.impostors is not None
+            # `auto` keeps none here: its 64^2 images are all marched linearly.
             assert (renderer.graph.impostors.pyramid is not None) == (algorithm == Algorithm.HIERARCHICAL)
             if algorithm == Algorithm.OPTIMIZED and not frames:
                 assert renderer.programs.compute_variants == []  # no pyramid build compiled before it is needed
@@ -191,3 +196,27 @@ def test_a_setting_changed_after_the_lights_moved_keeps_them_where_they_are(
         expected = fresh.read_color_float()
     assert_finite(frame)
     np.testing.assert_allclose(frame, expected, atol=1e-5)
+
+
+def test_auto_picks_each_images_traversal_by_its_size_and_finds_the_same_hits(
+        ctx: moderngl.Context, scene: Scene, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`--algorithm auto`: images from HIERARCHICAL_MIN_SIDE up are traversed hierarchically (and get
+    pyramids), the others marched linearly, in one frame; both find the optimized march's hits. The
+    threshold is lowered here so that auto resolution's sizes fall on both sides of it."""
+    auto_sizes = scene.with_overrides(size=(320, 180), impostor_resolution="auto")
+    sides = sorted({max(i.width, i.height) for i in plan_render(auto_sizes, Method.DEPTH, Algorithm.AUTO).images})
+    assert len(sides) > 1, sides
+    monkeypatch.setattr(constants, "HIERARCHICAL_MIN_SIDE", sides[-1])
+    plan = plan_render(auto_sizes, Method.DEPTH, Algorithm.AUTO)
+    picked = {plan.traversal(image) for image in plan.images}
+    assert picked == {Algorithm.OPTIMIZED, Algorithm.HIERARCHICAL}
+    assert plan.runs(Pass.PYRAMIDS) and plan.builds_pyramids
+    assert {i["traversal"] for i in plan.to_json()["images"]} == {"optimized", "hierarchical"}
+    assert "hierarchical (auto)" in plan.format() and "optimized (auto)" in plan.format()
+    with Renderer(ctx, auto_sizes, Algorithm.AUTO) as renderer:
+        renderer.render()
+        assert renderer.graph.impostors is not None and renderer.graph.impostors.pyramid is not None
+        auto = renderer.read_color_float()
+    assert_same_frame(auto, fresh_frame(ctx, auto_sizes, Algorithm.OPTIMIZED))
+    monkeypatch.setattr(constants, "HIERARCHICAL_MIN_SIDE", sides[-1] + 1)  # none that large: no pyramid
+    assert not plan_render(auto_sizes, Method.DEPTH, Algorithm.AUTO).builds_pyramids

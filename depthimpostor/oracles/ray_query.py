@@ -69,7 +69,7 @@ class RayQuery:
         self.uniform_buffer = ctx.buffer(records.tobytes())
         self.vertex_array = ctx.vertex_array(self.program, [])
         self.pyramid: DepthPyramid | None = None
-        if algorithm == Algorithm.HIERARCHICAL:
+        if algorithm.builds_pyramids:
             tiles = [(0, 0, 0, 0)] * atlas.slot_count  # an empty tile: a slot left out has no pyramid
             for image in images:
                 tiles[atlas.slot_of(image.tile)] = image.tile

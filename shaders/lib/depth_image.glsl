@@ -326,7 +326,7 @@ RayHit intersect_optimized(sampler2D layers, bool back_colors, DepthImage image,
     return march_linear(layers, back_colors, image, ray, steps, 0, ray.sa, texel0, z0, 1, early);
 }
 
-#if ALGORITHM == ALGORITHM_HIERARCHICAL
+#if ALGORITHM == ALGORITHM_HIERARCHICAL || ALGORITHM == ALGORITHM_AUTO
 // The min/max depth pyramid (passes/pyramid.py): mip m holds level m + 1 of every image, each
 // texel (nearest surface, farthest back of a solid run) over its block grown by one texel.
 uniform sampler2D u_impostor_pyramid;
@@ -539,6 +539,12 @@ RayHit intersect_depth_image(DepthImage image, vec3 origin, vec3 direction) {
     return intersect_basic(image, origin, direction);
 #elif ALGORITHM == ALGORITHM_HIERARCHICAL
     return intersect_hierarchical(image, origin, direction);
+#elif ALGORITHM == ALGORITHM_AUTO
+    // Each image's own traversal, chosen by its size (constants.image_algorithm: pyramid.w). A
+    // software rasterizer runs both calls' straight-line set-up for a group of pixels, but each
+    // one's loop only as long as a pixel of the group takes it.
+    if (image.pyramid.w != 0) return intersect_hierarchical(image, origin, direction);
+    return intersect_optimized(u_impostor_depth, true, image, origin, direction, UNBOUNDED_RAY);
 #else
     return intersect_optimized(u_impostor_depth, true, image, origin, direction, UNBOUNDED_RAY);
 #endif
