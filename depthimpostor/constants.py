@@ -29,11 +29,11 @@ class Algorithm(IntEnum):
 
 
 #: `--algorithm auto` traverses an image hierarchically from this larger side up, linearly (the
-#: optimized march) below it. Where the pyramid's logarithmic steps pay for their set-up and their
-#: extra texel reads (`depthimpostor bench ... --algorithms optimized,hierarchical --resolutions
-#: 256,512,1024`; results/llvmpipe/auto_algorithm.md): the hierarchical frame is 0.74-0.84 of the
-#: optimized one at 1024^2 on the default and bunny scenes, 1.07-1.20 at 256^2.
-HIERARCHICAL_MIN_SIDE = 512
+#: optimized march) below it: where the pyramid's logarithmic steps pay for their set-up and extra
+#: texel reads. results/llvmpipe/auto_algorithm.md (`depthimpostor bench scenes/default.toml
+#: scenes/lecture_8x9.toml --methods depth --algorithms optimized,hierarchical --resolutions
+#: 256,512,1024`): the hierarchical mirror pass wins at 1024^2 on both scenes and loses at 512^2.
+HIERARCHICAL_MIN_SIDE = 1024
 
 
 def image_algorithm(algorithm: Algorithm, width: int, height: int) -> Algorithm:
