@@ -37,7 +37,7 @@ from ..renderer import Renderer
 from ..scene.model import Scene
 from ..shaders import ProgramCache, ShaderLibrary
 from .keys import ACTIONS_BY_KEY, FLY_KEYS, KEY_CODES, TURN_STEP_DEGREES, Action, KeyPress, help_lines, key_name
-from .navigation import Navigation
+from .navigation import Navigation, scene_radius
 
 #: Frames the overlay's median frame time and fps are taken over.
 TIMING_WINDOW = 60
@@ -121,14 +121,6 @@ def _reason(error: DepthImpostorError) -> str:
     return f"{error.path}: {error.detail}" if isinstance(error, SceneError) and error.path else str(error)
 
 
-def _scene_radius(renderer: Renderer) -> float:
-    if not renderer.bounds:
-        return 1.0
-    centres = np.array([centre for centre, _ in renderer.bounds])
-    middle = centres.mean(axis=0)
-    return max(float(np.linalg.norm(centre - middle)) + radius for centre, radius in renderer.bounds)
-
-
 @dataclass
 class SessionLog:
     """What happened, for `--report` and the closing summary."""
@@ -154,7 +146,7 @@ class Viewer:
         self.font_pixels = round(FONT_SIZE * max(glfw.get_window_content_scale(window.handle)))
         self._make_viewer_passes()
         self._make_frame_target()
-        self.navigation = Navigation(scene.camera, _scene_radius(self.renderer))
+        self.navigation = Navigation(scene.camera, scene_radius(self.renderer.bounds))
         self.log = SessionLog()
         self.frames = 0
         self.held: set[int] = set()
