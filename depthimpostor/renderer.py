@@ -385,8 +385,9 @@ class Renderer:
                 self.samples = None
 
     @keeps_gl_state
-    def set_impostor_resolution(self, resolution: int) -> None:
-        """Re-plan and re-bake the baked images (all of them share the resolution, so all change).
+    def set_impostor_resolution(self, resolution: int | str) -> None:
+        """Re-plan and re-bake the baked images (all of them share the resolution, so all change);
+        `resolution` is checked as the scene file's `impostor_resolution` is (an integer, or "auto").
 
         The new atlas is made before the old one goes: a resolution this GL cannot hold raises
         GpuLimitError (checked before anything is made) and leaves the renderer as it was.
