@@ -131,3 +131,30 @@ def test_malformed_numbers_are_argparse_errors(option: str, value: str, tmp_path
     assert code == 2 and stdout == "" and "Traceback" not in stderr
     assert stderr.splitlines()[-1].startswith(f"depthimpostor render: error: argument {option}: expected a ")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_failure_while_drawing_leaves_no_file(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """The third frame fails: one line, exit 2, and neither the video nor its temporary file."""
+    from depthimpostor.errors import GpuLimitError
+    from depthimpostor.renderer import Renderer
+
+    drawn = Renderer.render
+    frames = iter(range(100))
+
+    def render(self: Renderer, *args: object, **kwargs: object) -> object:
+        if next(frames) == 2:
+            raise GpuLimitError("out of memory on the third frame (a test)")
+        return drawn(self, *args, **kwargs)
+
+    monkeypatch.setattr(Renderer, "render", render)
+    for suffix in (".mp4", ".gif"):
+        frames = iter(range(100))
+        out = tmp_path / f"never{suffix}"
+        code, stdout, stderr = run_in_process(["render", "--video", str(out), "--duration", "0.6", "--fps", "10",
+                                               "--size", "64x48"], capsys)
+        # The progress bar stays where it stopped (2 of 6 frames), the error on a line of its own.
+        bar, error = stderr.rstrip("\n").rsplit("\n", 1)
+        assert "2/6" in bar and "Traceback" not in bar
+        assert_one_line_error(code, stdout, error, "out of memory on the third frame")
+        assert list(tmp_path.iterdir()) == []
