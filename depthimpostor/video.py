@@ -17,6 +17,7 @@ is written atomically (outputs.py): a failure leaves no half video.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
@@ -144,9 +145,17 @@ def _write_mp4(name: Path, frames: Iterable[np.ndarray], fps: float) -> None:
     # multiples of 16); the size was checked to be even (check_video_settings).
     writer = imageio.get_writer(name, format="FFMPEG", mode="I", fps=fps, codec="libx264", quality=MP4_QUALITY,
                                 pixelformat="yuv420p", macro_block_size=1, ffmpeg_log_level="error")
-    with writer:  # (not `with ... as`: __enter__'s hints name a base class without append_data)
+    try:
         for frame in frames:
             writer.append_data(frame)
+    except BaseException:
+        # imageio's writer leaves ffmpeg running when its block fails (a frame that could not be
+        # drawn); ffmpeg must be done with the temporary file before Outputs removes it, or it
+        # could open (and so make again) the file afterwards, as it did under load.
+        with contextlib.suppress(Exception):
+            writer.close()
+        raise
+    writer.close()
 
 
 def write_video(path: Path, frames: Iterable[np.ndarray], fps: float) -> Path:

@@ -71,6 +71,7 @@ def view(ctx: moderngl.Context) -> Iterator[SceneView]:
     widget.request_draw = lambda: setattr(widget, "requested", widget.requested + 1)
     yield widget
     widget.close()
+    widget.close()  # harmless
 
 
 def changed(before: np.ndarray, after: np.ndarray) -> float:

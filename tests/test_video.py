@@ -4,6 +4,9 @@ geometry; bad arguments refused in one line (exit 2) before any file is made."""
 
 from __future__ import annotations
 
+import contextlib
+import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import imageio.v3 as iio
@@ -158,3 +161,28 @@ def test_a_failure_while_drawing_leaves_no_file(tmp_path: Path, capsys: pytest.C
         assert "2/6" in bar and "Traceback" not in bar
         assert_one_line_error(code, stdout, error, "out of memory on the third frame")
         assert list(tmp_path.iterdir()) == []
+
+
+def test_ffmpeg_is_done_when_a_frame_fails(tmp_path: Path) -> None:
+    """The error reaches the caller only once ffmpeg has exited: otherwise it could open the
+    temporary file after Outputs removed it, and leave a stray file (seen under load)."""
+    from depthimpostor.video import write_video
+
+    def frames() -> Iterator[np.ndarray]:
+        for i in range(2):
+            yield np.full((SIZE[1], SIZE[0], 3), 40 * i, np.uint8)
+        raise RuntimeError("a frame that could not be drawn")
+
+    def ffmpeg_children() -> list[str]:
+        children = Path(f"/proc/{os.getpid()}/task/{os.getpid()}/children").read_text().split()
+        names = []
+        for child in children:
+            with contextlib.suppress(FileNotFoundError):  # gone between the two reads
+                names.append(Path(f"/proc/{child}/comm").read_text().strip())
+        return [name for name in names if "ffmpeg" in name]
+
+    with pytest.raises(RuntimeError, match="could not be drawn") as failed:
+        write_video(tmp_path / "never.mp4", frames(), 10.0)
+    assert failed.traceback  # the failure, and whatever it holds, still alive here
+    assert ffmpeg_children() == []
+    assert list(tmp_path.iterdir()) == []

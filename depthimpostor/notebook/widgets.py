@@ -37,6 +37,7 @@ class SceneView(RemoteFrameBuffer):  # type: ignore[misc]  # jupyter_rfb ships n
         super().__init__(css_width=f"{width}px", css_height=f"{height}px", **kwargs)
         self.renderer = renderer
         self.own_context = own_context
+        self.closed = False
         self.navigation = Navigation(renderer.view, scene_radius(renderer.bounds))
         self._pointer: tuple[float, float] | None = None
         self.frames = 0
@@ -91,6 +92,9 @@ class SceneView(RemoteFrameBuffer):  # type: ignore[misc]  # jupyter_rfb ships n
 
     def close(self) -> None:
         super().close()
+        if self.closed:  # closing twice frees nothing twice
+            return
+        self.closed = True
         self.renderer.release()
         if self.own_context:
             self.renderer.ctx.release()
