@@ -124,7 +124,12 @@ def _stand_in(renderer: Renderer) -> str:
 
 
 def _render(args: argparse.Namespace) -> int:
-    output = check_file(Path(args.output), "-o", float_image=True)
+    if args.video is not None:
+        return _render_video(args)
+    for option, value in (("--duration", args.duration), ("--camera-path", args.camera_path)):
+        if value is not None:
+            raise SceneError("command line", option, "expected only with --video")
+    output = check_file(Path(args.output or DEFAULT_RENDER), "-o", float_image=True)
     linear = is_float_image(output)  # .exr, .hdr: the frame's linear float colour, for post-processing
     scene = _load(args)
     ctx = _context(args)
@@ -133,7 +138,7 @@ def _render(args: argparse.Namespace) -> int:
     method = Method.from_option(args.method)
     try:
         with Renderer(ctx, scene, algorithm, method=method) as renderer:
-            for frame in range(args.frames + 1):  # the first frame bakes the depth images and warms up
+            for frame in range((args.frames or DEFAULT_FRAMES) + 1):  # the first frame bakes and warms up
                 renderer.set_time(args.time + frame / args.fps)
                 stats = renderer.render()
             image = renderer.read_color_float() if linear else renderer.read_color()
@@ -147,6 +152,37 @@ def _render(args: argparse.Namespace) -> int:
         f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)}), {stand_in}, "
         f"{scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}"
     )
+    if args.stats:
+        print(format_stats(stats, plan, args.time, args.fps))
+    return 0
+
+
+def _render_video(args: argparse.Namespace) -> int:
+    """`render --video`: every frame of --duration at --fps into a video, with a progress bar."""
+    from .video import CameraPath, VideoSettings, check_video_file, check_video_settings, render_video
+
+    for option, given in (("-o", args.output is not None), ("--frames", args.frames is not None)):
+        if given:
+            raise SceneError("command line", option, "expected no value with --video (the video's frames are "
+                             "--duration x --fps from --time)")
+    output = check_video_file(Path(args.video))
+    if args.duration is None:
+        raise SceneError("command line", "--duration", "expected with --video: the video's length in seconds")
+    scene = _load(args)
+    path = CameraPath(args.camera_path) if args.camera_path else CameraPath.default_for(scene)
+    settings = VideoSettings(args.duration, args.fps, path, args.time)
+    check_video_settings(settings, scene.render.size, output)
+    ctx = _context(args)
+    renderer_name = describe(ctx)
+    try:
+        with Renderer(ctx, scene, Algorithm[args.algorithm.upper()], method=Method.from_option(args.method)) as renderer:
+            print(render_video(renderer, output, settings), flush=True)
+            stats, stand_in, plan = renderer.stats, _stand_in(renderer), renderer.plan
+    finally:
+        ctx.release()
+    print(f"{settings.frames} frames, {settings.duration:g} s at {settings.fps:g} frames/s, camera {path.value}, "
+          f"frame {1000 * statistics.median(stats.draw_seconds):.1f} ms (median), {stand_in}, "
+          f"{scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}")
     if args.stats:
         print(format_stats(stats, plan, args.time, args.fps))
     return 0
@@ -392,6 +428,9 @@ def _backend_argument(command: argparse.ArgumentParser) -> None:
                          help="headless GL backend (default: auto, EGL then OSMesa)")
 
 
+#: `render`'s image when no -o is given, and the frames it times after the first.
+DEFAULT_RENDER, DEFAULT_FRAMES = "render.png", 3
+
 #: `compare --method all`: every method, side by side.
 ALL_METHODS = "all"
 
@@ -411,15 +450,26 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
     render = commands.add_parser("render", help="render a scene headless to a PNG")
     _scene_arguments(render)
-    render.add_argument("-o", "--output", default="render.png",
-                        help="output image (default: render.png): 8-bit sRGB through the display transform, or the "
-                             "linear float frame for .exr (32-bit float) and .hdr (Radiance RGBE)")
+    render.add_argument("-o", "--output",
+                        help=f"output image (default: {DEFAULT_RENDER}): 8-bit sRGB through the display transform, or "
+                             "the linear float frame for .exr (32-bit float) and .hdr (Radiance RGBE)")
     _method_arguments(render)
-    render.add_argument("--frames", type=_positive, default=3, help="frames timed after the first (default 3)")
+    render.add_argument("--frames", type=_positive,
+                        help=f"frames timed after the first (default {DEFAULT_FRAMES})")
     render.add_argument("--time", type=_finite, default=0.0,
                         help="scene time of the first frame, in seconds, for animated scenes (default 0)")
     render.add_argument("--fps", type=_positive_float, default=30.0,
-                        help="frames per second of scene time between frames (default 30); the PNG is the last frame")
+                        help="frames per second of scene time between frames (default 30); the PNG is the last "
+                             "frame; with --video, the video's frame rate")
+    render.add_argument("--video", type=Path,
+                        help="write a video instead of an image: .mp4 (H.264) or .gif, --duration seconds at --fps "
+                             "from --time, with a progress bar (docs/notebooks_and_videos.md)")
+    render.add_argument("--duration", type=_positive_float,
+                        help="--video: its length in seconds of scene time (frames: duration x fps, rounded)")
+    render.add_argument("--camera-path", choices=["orbit", "fixed"],
+                        help="--video: orbit (one turn of the scene camera about the world up axis through its "
+                             "target, over the video) or fixed (the scene camera); default: fixed for a scene "
+                             "that animates, orbit for a still one")
     render.add_argument("--stats", action="store_true",
                         help="print the work done (passes run, images baked, draw calls) beside the plan")
     render.set_defaults(run=_render)

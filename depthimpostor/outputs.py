@@ -124,20 +124,28 @@ class Outputs:
         """Write through `writer` (given a binary file) to a temporary file for `path`; returns
         `path`. An `exclusive` file never replaces one: its commit raises FileExistsError if
         `path` exists. A symbolic link's target is what gets replaced, as open() would write it."""
+        def write(name: Path) -> None:
+            with name.open("wb") as file:
+                writer(file)
+        return self.write_named(path, write, exclusive)
+
+    def write_named(self, path: Path, write: Callable[[Path], None], exclusive: bool = False,
+                    suffix: str = ".tmp") -> Path:
+        """Like `write`, for a writer that opens the file itself by its name (ffmpeg): `write` is
+        given the temporary file's name, which ends in `suffix` (ffmpeg reads the format there)."""
         path = Path(path)
         target = path.resolve() if path.is_symlink() else path
         try:
             if _stream(target):  # a device or a pipe: nothing to replace, written straight in
-                with target.open("wb") as file:
-                    writer(file)
+                write(target)
                 return path
             target.parent.mkdir(parents=True, exist_ok=True)
-            handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+            handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=suffix, dir=target.parent)
+            os.close(handle)
             self._pending.append((Path(name), target, exclusive))
-            with os.fdopen(handle, "wb") as file:
-                writer(file)
-                file.flush()
-                os.fsync(file.fileno())
+            write(Path(name))
+            with open(name, "rb") as written:  # on the disk before it is moved into place
+                os.fsync(written.fileno())
         except OSError as error:  # a full disk, a file-size limit, an I/O error
             raise OutputError(f"cannot write {path}: {error.strerror or error}") from None
         return path

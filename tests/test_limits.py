@@ -158,6 +158,8 @@ RAISES = {
     # lights, analytic planes, reach, bounces per method, traced objects, named triangles; textures
     # past MAX_TEXTURES and a texture on a shape without UVs (at load: tests/test_textures.py)
     "scene/limits.py": 8,
+    # render --video's arguments, refused before any work as cli.py's are: walked in tests/test_video.py
+    "video.py": 3,
 }
 
 

@@ -38,7 +38,7 @@ from ..renderer import Renderer
 from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache, ShaderLibrary
 from .keys import ACTIONS_BY_KEY, FLY_KEYS, KEY_CODES, TURN_STEP_DEGREES, Action, KeyPress, help_lines, key_name
-from .navigation import Navigation
+from .navigation import Navigation, scene_radius
 from .panel import ControlPanel
 
 #: Frames the overlay's median frame time and fps are taken over.
@@ -116,14 +116,6 @@ def _reason(error: DepthImpostorError) -> str:
     return f"{error.path}: {error.detail}" if isinstance(error, SceneError) and error.path else str(error)
 
 
-def _scene_radius(renderer: Renderer) -> float:
-    if not renderer.world.bounds:
-        return 1.0
-    centres = np.array([centre for centre, _ in renderer.world.bounds])
-    middle = centres.mean(axis=0)
-    return max(float(np.linalg.norm(centre - middle)) + radius for centre, radius in renderer.world.bounds)
-
-
 @dataclass
 class SessionLog:
     """What happened, for `--report` and the closing summary."""
@@ -151,7 +143,7 @@ class Viewer:
         self.font_pixels = round(FONT_SIZE * max(glfw.get_window_content_scale(window.handle)))
         self._make_viewer_passes()
         self._make_frame_target()
-        self.navigation = Navigation(scene.camera, _scene_radius(self.renderer))
+        self.navigation = Navigation(scene.camera, scene_radius(self.renderer.world.bounds))
         self.log = SessionLog()
         self.frames = 0
         self.held: set[int] = set()

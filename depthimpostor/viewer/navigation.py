@@ -9,6 +9,7 @@ down, where "right" and therefore the next turn would be undefined.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,6 +24,16 @@ ZOOM_STEP = 0.85
 #: Fly speed in scene radii per second (Shift: FAST_FACTOR times that).
 FLY_RADII_PER_SECOND = 0.5
 FAST_FACTOR = 4.0
+
+
+def scene_radius(bounds: Sequence[tuple[np.ndarray, float]]) -> float:
+    """The radius about the middle of the objects' bounding spheres that holds them all (1 for none):
+    the scale of zoom limits and fly speed (`Navigation.scene_radius`)."""
+    if not bounds:
+        return 1.0
+    centres = np.array([centre for centre, _ in bounds])
+    middle = centres.mean(axis=0)
+    return max(float(np.linalg.norm(centre - middle)) + radius for centre, radius in bounds)
 
 
 def _unit(vector: np.ndarray) -> np.ndarray:
