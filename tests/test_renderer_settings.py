@@ -220,3 +220,24 @@ def test_auto_picks_each_images_traversal_by_its_size_and_finds_the_same_hits(
     assert_same_frame(auto, fresh_frame(ctx, auto_sizes, Algorithm.OPTIMIZED))
     monkeypatch.setattr(constants, "HIERARCHICAL_MIN_SIDE", sides[-1] + 1)  # none that large: no pyramid
     assert not plan_render(auto_sizes, Method.DEPTH, Algorithm.AUTO).builds_pyramids
+
+
+def test_a_setting_change_rebuilds_only_the_nodes_whose_plan_changed(ctx: moderngl.Context, scene: Scene) -> None:
+    """RenderGraph.apply: the two cube-map lookups share their stand-in, a setting that plans the
+    same images keeps them baked, and every other node (the sky, the diffuse pass) stays."""
+    with Renderer(ctx, scene, method=Method.CUBEMAP) as renderer:
+        renderer.render()
+        graph = renderer.graph
+        kept = (graph.stand_in, graph.environment, graph.diffuse)
+        baked = renderer.stats.depth_images_baked
+        renderer.set_method(Method.CUBEMAP_PARALLAX)
+        renderer.set_impostor_resolution(scene.render.impostor_resolution)  # the same images
+        renderer.render()
+        assert (graph.stand_in, graph.environment, graph.diffuse) == kept
+        assert renderer.stats.depth_images_baked == baked  # nothing baked again
+        renderer.set_impostor_resolution(32)  # other images: a new stand-in, the old one released
+        renderer.render()
+        assert graph.stand_in is not kept[0] and (graph.environment, graph.diffuse) == kept[1:]
+        assert renderer.stats.depth_images_baked > baked
+        renderer.set_method(Method.RAYTRACE)
+        assert type(graph.stand_in).__name__ == "TrianglePass" and graph.environment is kept[1]
