@@ -29,6 +29,7 @@ from .passes.environment import EnvironmentPass
 from .passes.glass import GlassInterior
 from .methods.baked_images import BakedImages
 from .methods.impostors import ImpostorPass
+from .gpu.batches import batches_supported
 from .gpu.meshes import GpuMeshes
 from .gpu.textures import GpuTextures
 from .passes.mirrors import REFLECTION_OUTPUTS, MirrorPass, ReflectedObjects
@@ -139,7 +140,7 @@ class Renderer:
         self.reversed_z = reversed_z(ctx) is not None
         self.time = 0.0  # seconds into the scene's animation
         # First: the plan refuses what cannot be rendered before anything is made or fitted.
-        self._use_world(World(scene, scene_geometry(scene.objects)))
+        self._use_world(World(scene))
         self.plan: RenderPlan = plan_render(scene, method, algorithm, reflection_data=reflection_data,
                                             count_samples=count_samples, world=self.world)
         self._relight()
@@ -150,6 +151,7 @@ class Renderer:
         self.textures = GpuTextures(ctx)  # the scene's image textures, bound for every frame
         self._presenter: FramePresenter | None = None  # made when a frame is first put in a caller's framebuffer
         with kept_state(ctx), allocating(ctx, "--size or --impostor-res"):
+            self.meshes.load([g.local_mesh for g in self.geometry])
             self._make_targets(scene.render.size)
             self._build_passes()
 
@@ -194,8 +196,8 @@ class Renderer:
             ShadowMaps(ctx, self.programs, self.lit_scene, self.meshes, self.shadow_casters)
             if self.plan.runs(Pass.SHADOW_MAPS) else None
         )
-        self.diffuse = (DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
-                        if self.plan.runs(Pass.DIFFUSE) else None)
+        self.diffuse = (DiffusePass(self.programs, scene, self.meshes, write_depth_image=False,
+                                    batched=batches_supported(ctx)) if self.plan.runs(Pass.DIFFUSE) else None)
         self.stand_in: ReflectedObjects | None = None
         self.mirror_pass: MirrorPass | None = None
         self.samples: SamplesPass | None = None
@@ -683,7 +685,8 @@ class Renderer:
         if self._presenter is not None:  # made again, with the programs of the time, when next needed
             self._presenter.release()
             self._presenter = None
-        for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps, *self.glass_interiors.values()):
+        for owner in (self.stand_in, self.environment, self.diffuse, self.samples, self.shadow_maps,
+                      *self.glass_interiors.values()):
             if owner is not None:
                 owner.release()
 
