@@ -141,10 +141,10 @@ def _render(args: argparse.Namespace) -> int:
         ctx.release()
     timed = stats.draw_seconds[1:]
     print(write_float_image(output, image) if linear else write_image(output, image))
-    print(
-        f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)}), {stand_in}, "
-        f"{scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}"
-    )
+    # The first frame is a cold one (caches, lazily made programs and buffers): a time only with --frames.
+    timing = (f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)})" if timed
+              else f"first frame {1000 * stats.draw_seconds[0]:.1f} ms (cold; --frames N times N more)")
+    print(f"{timing}, {stand_in}, {scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}")
     if args.stats:
         print(format_stats(stats, plan, args.time, args.fps))
     return 0
@@ -412,7 +412,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="output image (default: render.png): 8-bit sRGB through the display transform, or the "
                              "linear float frame for .exr (32-bit float) and .hdr (Radiance RGBE)")
     _method_arguments(render)
-    render.add_argument("--frames", type=_positive, default=3, help="frames timed after the first (default 3)")
+    render.add_argument("--frames", type=_non_negative, default=0,
+                        help="frames drawn and timed after the first (default 0: one frame, the picture)")
     render.add_argument("--time", type=_finite, default=0.0,
                         help="scene time of the first frame, in seconds, for animated scenes (default 0)")
     render.add_argument("--fps", type=_positive_float, default=30.0,
