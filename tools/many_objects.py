@@ -34,7 +34,7 @@ def scene_text(kind: str, count: int) -> str:
     lines = [without_mirror(default_scene_path().read_text()).rstrip(), ""]
     for i in range(side):
         for j in range(count // side):
-            x, z = -3.0 + 6.0 * i / (side - 1), -3.0 + 5.0 * j / (side - 1)
+            x, z = -3.0 + 6.0 * i / max(side - 1, 1), -3.0 + 5.0 * j / max(side - 1, 1)
             color = PALETTE[(i + j) % len(PALETTE)]
             lines += ["[[objects]]", f'name = "{kind}_{i}_{j}"', f"shape = {shape}",
                       f'material = {{ type = "diffuse", color = [{color[0]}, {color[1]}, {color[2]}] }}',

@@ -17,7 +17,7 @@ import moderngl
 import numpy as np
 
 from ..geometry import ObjectGeometry
-from ..scene.model import Scene
+from ..scene.model import BoxShape, CylinderShape, Scene, SphereShape, TorusKnotShape, TorusShape
 from .meshes import VERTEX_ATTRIBUTES, GpuMeshes, MeshArena, attribute_format
 from .uniforms import material_fields, texture_fields
 
@@ -32,6 +32,19 @@ INSTANCE_DTYPE = np.dtype([("model", "<f4", (3, 4)), ("normal_matrix", "<f4", (3
                            ("color_b", "<f4", 3), ("uv_scale", "<f4", 2), ("ids", "<i4", 4)])
 COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first", "<u4"), ("base_vertex", "<i4"),
                           ("base_instance", "<u4")])
+
+
+#: Shapes whose untextured meshes are closed and watertight (meshes.py): seen from outside, every
+#: pixel a back face covers is covered by a nearer front face, so culling back faces changes no pixel.
+CLOSED_SHAPES = (SphereShape, BoxShape, CylinderShape, TorusShape, TorusKnotShape)
+
+
+def is_closed(item: ObjectGeometry) -> bool:
+    """Is `item` a closed solid whose back faces can be culled? Not if its model matrix mirrors
+    (the GPU draws its triangles wound the other way) nor with a texture (the round shapes'
+    textured meshes have a seam whose two columns of vertices are rounded apart)."""
+    return (isinstance(item.object.shape, CLOSED_SHAPES) and getattr(item.object.material, "texture", None) is None
+            and float(np.linalg.det(item.model_matrix[:3, :3])) > 0.0)
 
 
 def batches_supported(ctx: moderngl.Context) -> bool:
@@ -77,10 +90,14 @@ class ObjectBatch:
         self.arena: MeshArena = meshes.arena(self.items[0].local_mesh)
         if any(item.local_mesh not in self.arena.ranges for item in self.items):
             raise ValueError("a batch's meshes must be loaded together (GpuMeshes.load)")
-        # Objects grouped by mesh, each group in object order; groups in order of first appearance.
-        groups: dict[int, list[ObjectGeometry]] = {}
-        for item in self.items:
-            groups.setdefault(id(item.local_mesh), []).append(item)
+        # Objects grouped by mesh, each group in object order, groups in order of first appearance;
+        # the closed solids' groups last (from `first_closed` on: drawn with back faces culled).
+        # Depth ties go to what is drawn first: the open surfaces (floors, on which solids stand)
+        # are drawn first, as they are in a scene's usual order.
+        groups: dict[tuple[bool, int], list[ObjectGeometry]] = {}
+        for item in sorted(self.items, key=is_closed):
+            groups.setdefault((is_closed(item), id(item.local_mesh)), []).append(item)
+        self.first_closed = sum(not closed for closed, _ in groups)
         ordered = [item for group in groups.values() for item in group]
         commands = np.zeros(len(groups), COMMAND_DTYPE)
         start = 0
@@ -94,8 +111,12 @@ class ObjectBatch:
         self.commands = ctx.buffer(commands.tobytes())
         self._vertex_arrays: dict[int, moderngl.VertexArray] = {}
 
-    def draw(self, program: moderngl.Program) -> int:
-        """Draw the batch with `program` (mesh.vert's INSTANCED variant); returns the draw calls."""
+    def draw(self, program: moderngl.Program, first: int = 0, count: int | None = None) -> int:
+        """Draw the batch's commands `first` to `first + count` (all by default) with `program`
+        (mesh.vert's INSTANCED variant); returns the draw calls."""
+        count = self.draw_count - first if count is None else count
+        if count == 0:
+            return 0
         if program.glo not in self._vertex_arrays:
             vertex_format, vertex_names = attribute_format(program, [(name, f"{n}f") for name, n in VERTEX_ATTRIBUTES])
             instance_format, instance_names = attribute_format(program, INSTANCE_ATTRIBUTES, "/i")
@@ -103,7 +124,7 @@ class ObjectBatch:
                 program, [(self.arena.vertices, vertex_format, *vertex_names),
                           (self.instances, instance_format, *instance_names)],
                 index_buffer=self.arena.indices, index_element_size=4)
-        self._vertex_arrays[program.glo].render_indirect(self.commands, moderngl.TRIANGLES, count=self.draw_count)
+        self._vertex_arrays[program.glo].render_indirect(self.commands, moderngl.TRIANGLES, count=count, first=first)
         return 1
 
     def forget_vertex_arrays(self) -> None:

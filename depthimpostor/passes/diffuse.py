@@ -16,6 +16,8 @@ import numpy as np
 from ..geometry import ObjectGeometry
 from ..scene.model import Scene
 from ..gpu.batches import ObjectBatch
+from ..gpu.gl_state import raster_state
+from ..methods.atlas import FRONT_FACES
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import shading_defines, write, write_material, write_matrix
@@ -69,7 +71,11 @@ class DiffusePass:
             still = [item for item in items if not item.object.moves]
             if still:
                 write_matrix(self.instanced, "u_view_projection", view_projection)
-                calls += self._batch_of(still).draw(self.instanced)
+                batch = self._batch_of(still)
+                calls += batch.draw(self.instanced, 0, batch.first_closed)
+                # Closed solids seen from outside: their back faces hidden, so culled (half the triangles).
+                with raster_state(self.programs.ctx, FRONT_FACES):
+                    calls += batch.draw(self.instanced, batch.first_closed)
             items = [item for item in items if item.object.moves]
         for item in items:
             program = self.program
