@@ -32,11 +32,13 @@ class MeshArena:
     def __init__(self, ctx: moderngl.Context, meshes: Sequence[Mesh]) -> None:
         self.meshes = list({id(mesh): mesh for mesh in meshes}.values())
         self.ranges: dict[Mesh, tuple[int, int]] = {}  # (first index, index count)
+        self.first_vertex: dict[Mesh, int] = {}  # where each mesh's vertices start
         vertex_start = index_start = 0
         indices = []
         for mesh in self.meshes:
             count = 3 * len(mesh.indices)
             self.ranges[mesh] = (index_start, count)
+            self.first_vertex[mesh] = vertex_start
             indices.append(mesh.indices.astype(np.uint32).ravel() + np.uint32(vertex_start))
             vertex_start += len(mesh.positions)
             index_start += count
