@@ -60,11 +60,19 @@ def enclosing_sphere(item: ObjectGeometry) -> tuple[np.ndarray, float]:
     The radius grows by 1e-6 of the sphere's reach from the origin: the world mesh's float32
     vertices are rounded by up to 2^-24 of their coordinates from the float64 images this sphere holds.
     """
-    centre, radius = item.local_mesh.bounding_sphere()
-    linear, offset = item.model_matrix[:3, :3], item.model_matrix[:3, 3]
-    world = linear @ centre + offset
-    world_radius = radius * float(np.linalg.norm(linear, 2))
-    return world, world_radius + 1e-6 * (float(np.linalg.norm(world)) + world_radius)
+    centres, radii = enclosing_spheres([item])
+    return centres[0], float(radii[0])
+
+
+def enclosing_spheres(items: Sequence[ObjectGeometry]) -> tuple[np.ndarray, np.ndarray]:
+    """enclosing_sphere of every item, in arrays ((N, 3) centres, (N,) radii): ten thousand
+    objects' in one pass of numpy."""
+    models = np.stack([item.model_matrix for item in items]).reshape(-1, 4, 4)
+    local = [item.local_mesh.bounding_sphere() for item in items]
+    linear = models[:, :3, :3]
+    centres = (linear @ np.reshape([centre for centre, _ in local], (-1, 3, 1)))[..., 0] + models[:, :3, 3]
+    radii = np.array([radius for _, radius in local]) * np.linalg.norm(linear, 2, axis=(1, 2))
+    return centres, radii + 1e-6 * (np.linalg.norm(centres, axis=1) + radii)
 
 
 def swept_sphere(item: ObjectGeometry) -> tuple[np.ndarray, float]:

@@ -27,6 +27,7 @@ from .passes.environment import ENVIRONMENT_PROGRAM, environment_map_bytes
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .methods.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
 from .methods.baked_images import BakedImages, ImagePlan, SecondLayer
+from .gpu.batches import batch_bytes
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
 from .gpu.textures import GpuTextures
@@ -297,8 +298,12 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             "the sky" + (" (ENVIRONMENT_MAP: an equirect image)" if scene.environment.is_map else ""))
     if diffuse:
         passes.append(PlannedPass(Pass.DIFFUSE, f"{plural(len(diffuse), 'object')} with diffuse materials"))
-        variant(Pass.DIFFUSE, DIFFUSE_PROGRAM, diffuse_defines(scene, False),
-                "diffuse objects in the frame" + (" (SHADOWS: a light casts shadows)" if scene.has_shadows else ""))
+        shadows = " (SHADOWS: a light casts shadows)" if scene.has_shadows else ""
+        if any(not g.object.moves for g in diffuse):
+            variant(Pass.DIFFUSE, DIFFUSE_PROGRAM, diffuse_defines(scene, False, instanced=True),
+                    "diffuse objects in the frame, those that do not move in one batch (INSTANCED)" + shadows)
+        if any(g.object.moves for g in diffuse):
+            variant(Pass.DIFFUSE, DIFFUSE_PROGRAM, diffuse_defines(scene, False), "diffuse objects that move, one by one" + shadows)
     if glass:
         passes.append(PlannedPass(Pass.GLASS_INTERIORS, f"glass ({_names(glass)}): where refracted rays leave"))
         variant(Pass.GLASS_INTERIORS, INTERIOR_PROGRAM, None, "glass: its front and back faces from the eye")
@@ -346,6 +351,11 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     memory = {"frame colour and depth": width * height * (16 + 4),
               "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry]),
               "lights and planes": SceneBlocks.BYTES}
+    # The diffuse pass's batch of the objects that do not move (gpu/batches.py; a context without
+    # OpenGL 4.3 draws them one by one, and makes none).
+    still = [g for g in geometry if not g.object.is_specular and not g.object.moves]
+    if still:
+        memory["object batch"] = batch_bytes(still)
     if scene.textures:
         memory["textures"] = GpuTextures.bytes_for(scene)
     if reflection_data:

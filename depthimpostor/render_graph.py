@@ -20,6 +20,7 @@ import numpy as np
 from .culling import may_shadow
 from .eye import clear_depth, eye_depth
 from .gpu.context import bind_default_framebuffer
+from .gpu.batches import batches_supported
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
 from .gpu.shaders import ProgramCache
@@ -76,6 +77,7 @@ class RenderGraph:
         self.ctx, self.programs, self.options, self.stats = ctx, programs, options, stats
         self.world, self.plan = world, plan
         self.meshes = GpuMeshes(ctx)
+        self.meshes.load([g.local_mesh for g in world.geometry])  # the world's meshes in one arena
         self.textures = GpuTextures(ctx)  # the scene's image textures, bound for every frame
         self.scene_blocks = SceneBlocks(ctx)  # the lights and analytic planes, bound for every frame
         self.show_samples = False
@@ -97,8 +99,8 @@ class RenderGraph:
         # Made (and baked) before anything that shades: depth images show the shadows too.
         self.shadow_maps = (ShadowMaps(ctx, self.programs, world.lit_scene, self.meshes, world.shadow_casters)
                             if self.plan.runs(Pass.SHADOW_MAPS) else None)
-        self.diffuse = (DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
-                        if self.plan.runs(Pass.DIFFUSE) else None)
+        self.diffuse = (DiffusePass(self.programs, scene, self.meshes, write_depth_image=False,
+                                    batched=batches_supported(ctx)) if self.plan.runs(Pass.DIFFUSE) else None)
         self.stand_in: ReflectedObjects | None = None
         self.mirror_pass: MirrorPass | None = None
         self.samples: SamplesPass | None = None
@@ -226,6 +228,7 @@ class RenderGraph:
         """Every node made again for another scene (the same context, meshes and textures)."""
         self.release_passes()
         self.plan, self.world = plan, world
+        self.meshes.load([g.local_mesh for g in world.geometry])
         self.build()
 
     def set_show_samples(self, show: bool) -> None:
@@ -362,7 +365,7 @@ class RenderGraph:
 
     def release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
-        for owner in (self.stand_in, self.environment, self.samples, self.shadow_maps, self.mirror_pass,
+        for owner in (self.stand_in, self.environment, self.diffuse, self.samples, self.shadow_maps, self.mirror_pass,
                       *self.glass_interiors.values()):
             if owner is not None:
                 owner.release()

@@ -18,6 +18,7 @@ import numpy as np
 from .culling import Reach, reaches
 from .eye import fitted_camera
 from .geometry import ObjectGeometry, scene_geometry
+from .lod import detail_levels
 from .ppc import PPC
 from .scene.model import Camera, Scene
 
@@ -29,8 +30,20 @@ class World:
         """`scene`'s objects at `time` seconds into its animation (`geometry`: already made at that time)."""
         self.scene = scene
         self.time = time
-        self.geometry = geometry if geometry is not None else [g.at(time) for g in scene_geometry(scene.objects)]
-        geometry = self.geometry
+        lights = scene.lights_at(time)
+        # The scene with its lights where they are at `time` (the one the passes shade with).
+        self.lit_scene = scene if lights == tuple(scene.lights) else dataclasses.replace(scene, lights=lights)
+        self._reach: dict[tuple[int, int], Reach] = {}  # (reflector index, target index)
+        self.reach_pairs_computed = 0  # pairs culling.reaches worked out for this world (tests count them)
+        if geometry is None:
+            self._sort([g.at(time) for g in scene_geometry(scene.objects)])
+            geometry = self._detailed()
+        self._sort(geometry)
+
+    def _sort(self, geometry: list[ObjectGeometry]) -> None:
+        """Sort `geometry` into what each pass draws."""
+        self.geometry = geometry
+        scene = self.scene
         self.mirrors = [g for g in geometry if g.object.is_mirror]
         self.glass = [g for g in geometry if g.object.is_glass]
         # Mirrors and glass: drawn by the mirror pass, each with depth images of the others.
@@ -40,11 +53,24 @@ class World:
         self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
         casters = set(scene.shadow_casters)
         self.shadow_casters = [g for g in geometry if g.object in casters]
-        lights = scene.lights_at(time)
-        # The scene with its lights where they are at `time` (the one the passes shade with).
-        self.lit_scene = scene if lights == tuple(scene.lights) else dataclasses.replace(scene, lights=lights)
-        self._reach: dict[tuple[int, int], Reach] = {}  # (reflector index, target index)
-        self.reach_pairs_computed = 0  # pairs culling.reaches worked out for this world (tests count them)
+        self.__dict__.pop("bounds", None)
+
+    def _detailed(self) -> list[ObjectGeometry]:
+        """This world's (full) geometry with each object at its level of detail (lod.py): what a
+        reflector can show, reflectors, moving objects and shadow casters keep their full meshes
+        (and their geometry, so that what was worked out about them stays true)."""
+        keep = {g.index for g in self.reflectors} | {g.index for g in self.geometry if g.object.moves}
+        if self.scene.has_shadows:
+            keep |= {g.index for g in self.shadow_casters}
+        for reflector in self.reflectors:
+            keep |= {g.index for g in self.reachable(reflector, self.reflected_objects)}
+        levels = detail_levels(self.scene, self.geometry, keep)
+        if not levels:
+            return self.geometry
+        # What a reflector can reach was worked out with the full meshes: kept for unchanged objects.
+        self._reach = {pair: why for pair, why in self._reach.items() if pair[1] not in levels}
+        detailed = scene_geometry(self.scene.objects, levels)
+        return [detailed[g.index].at(self.time) if g.index in levels else g for g in self.geometry]
 
     @cached_property
     def bounds(self) -> list[Sphere]:

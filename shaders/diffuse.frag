@@ -6,7 +6,19 @@
 #define RASTERIZED_TEXTURES 1  // trilinear, mipmapped textures (lib/material_texture.glsl)
 #include "lib/shading.glsl"
 
+#ifdef INSTANCED
+// The object's material and ids, from its instance attributes (mesh.vert).
+flat in vec4 v_color_a;
+flat in vec3 v_color_b;
+flat in vec2 v_uv_scale;
+flat in ivec4 v_ids;
+#define OBJECT_ID v_ids.z
+#define TRIANGLE_OFFSET v_ids.w
+#else
 uniform Material u_material;
+#define OBJECT_ID u_object_id
+#define TRIANGLE_OFFSET u_triangle_offset
+#endif
 
 in vec3 v_world_position;
 in vec3 v_local_position;
@@ -16,7 +28,9 @@ in vec2 v_uv;
 layout(location = 0) out vec4 out_color;
 #if WRITE_DEPTH_IMAGE
 layout(location = 1) out vec2 out_depth_and_object;
+#ifndef INSTANCED
 uniform int u_object_id;
+#endif
 #endif
 #ifdef WRITE_TRIANGLE_ID
 // The hybrid method's depth images: the triangle seen, as its place in the list the BVH is built
@@ -24,22 +38,29 @@ uniform int u_object_id;
 // holds every integer below 2^24 exactly; TrianglePass refuses more triangles. Both channels
 // hold it: the visible surface's pass keeps R, the back layer's (BACK_LAYER) G.
 layout(location = 2) out vec2 out_triangle;
+#ifndef INSTANCED
 uniform int u_triangle_offset;
+#endif
 #endif
 
 void main() {
     vec3 normal = safe_normalize(v_world_normal, vec3(0.0, 1.0, 0.0));
-    out_color = vec4(shade(material_albedo(u_material, v_local_position, v_uv), v_world_position, normal), 1.0);
+#ifdef INSTANCED
+    Material material = Material(v_ids.x, v_color_a.rgb, v_color_b, v_color_a.w, v_ids.y, v_uv_scale);
+#else
+    Material material = u_material;
+#endif
+    out_color = vec4(shade(material_albedo(material, v_local_position, v_uv), v_world_position, normal), 1.0);
 #if WRITE_DEPTH_IMAGE
 #ifdef BACK_LAYER
     // The back layer of a depth image (drawn with front faces culled): its colour, the outward
     // face lit as it is (diffuse shading does not depend on the viewer), and its depth in G.
     out_depth_and_object = vec2(gl_FragCoord.z);
 #else
-    out_depth_and_object = vec2(gl_FragCoord.z, float(u_object_id));
+    out_depth_and_object = vec2(gl_FragCoord.z, float(OBJECT_ID));
 #endif
 #endif
 #ifdef WRITE_TRIANGLE_ID
-    out_triangle = vec2(float(u_triangle_offset + gl_PrimitiveID));
+    out_triangle = vec2(float(TRIANGLE_OFFSET + gl_PrimitiveID));
 #endif
 }

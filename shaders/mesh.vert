@@ -1,8 +1,27 @@
 #version 330 core
 // World-space position, normal and UVs of a mesh, shared by the diffuse and mirror passes.
+// INSTANCED (the diffuse pass's batches, gpu/batches.py): the transform and the material are
+// per-instance attributes instead of uniforms, and the material goes on to the fragment shader.
+uniform mat4 u_view_projection;
+#ifdef INSTANCED
+in vec4 in_model_0;  // the model matrix's rows (its last row is 0 0 0 1)
+in vec4 in_model_1;
+in vec4 in_model_2;
+in vec3 in_normal_matrix_0;  // the normal matrix's columns
+in vec3 in_normal_matrix_1;
+in vec3 in_normal_matrix_2;
+in vec4 in_color_a;  // Material.color_a and, in w, Material.scale
+in vec3 in_color_b;
+in vec2 in_uv_scale;
+in ivec4 in_ids;  // Material.kind, Material.texture, the object id, its triangle offset
+flat out vec4 v_color_a;
+flat out vec3 v_color_b;
+flat out vec2 v_uv_scale;
+flat out ivec4 v_ids;
+#else
 uniform mat4 u_model;
 uniform mat3 u_normal_matrix;  // inverse transpose of u_model's upper 3x3
-uniform mat4 u_view_projection;
+#endif
 
 in vec3 in_position;
 in vec3 in_normal;
@@ -14,10 +33,21 @@ out vec3 v_world_normal;
 out vec2 v_uv;
 
 void main() {
-    vec4 world = u_model * vec4(in_position, 1.0);
+#ifdef INSTANCED
+    mat4 model = transpose(mat4(in_model_0, in_model_1, in_model_2, vec4(0.0, 0.0, 0.0, 1.0)));
+    mat3 normal_matrix = mat3(in_normal_matrix_0, in_normal_matrix_1, in_normal_matrix_2);
+    v_color_a = in_color_a;
+    v_color_b = in_color_b;
+    v_uv_scale = in_uv_scale;
+    v_ids = in_ids;
+#else
+    mat4 model = u_model;
+    mat3 normal_matrix = u_normal_matrix;
+#endif
+    vec4 world = model * vec4(in_position, 1.0);
     v_world_position = world.xyz;
     v_local_position = in_position;
-    v_world_normal = u_normal_matrix * in_normal;
+    v_world_normal = normal_matrix * in_normal;
     v_uv = in_uv;
     gl_Position = u_view_projection * world;
 }

@@ -67,12 +67,10 @@ def test_mirror_with_cancelling_normals_stays_finite(ctx: moderngl.Context) -> N
     renderer = Renderer(ctx, scene, reflection_data=True)
     mirror = renderer.world.mirrors[0]
     mesh = mirror.local_mesh
-    normals = np.array(mesh.normals, np.float32)
-    normals[1::2] *= -1.0  # alternate vertices point down: every triangle has opposite normals
-    vertices = np.hstack([np.asarray(mesh.positions, np.float32), normals]).astype(np.float32)
-    renderer.graph.meshes._buffers[mirror.index] = (
-        ctx.buffer(vertices.tobytes()), ctx.buffer(np.asarray(mesh.indices, np.uint32).tobytes())
-    )
+    vertices = mesh.interleaved().copy()
+    vertices[1::2, 3:6] *= -1.0  # alternate vertices point down: every triangle has opposite normals
+    arena = renderer.graph.meshes.arena(mesh)  # the GPU's copy of the mesh, in the world's vertex buffer
+    arena.vertices.write(vertices.tobytes(), offset=arena.first_vertex[mesh] * vertices.itemsize * vertices.shape[1])
     with renderer:
         renderer.render()
         assert_finite(renderer.read_color_float())

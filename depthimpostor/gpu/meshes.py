@@ -1,7 +1,10 @@
-"""GPU copies of the scene's meshes: one vertex and index buffer per mesh (objects of one shape
-share theirs), one VAO per mesh and program."""
+"""GPU copies of the scene's meshes: every mesh of the world in one vertex and one index buffer
+(objects of one shape and level share theirs), one VAO per program over them, and batches of
+objects drawn in one call (gpu/batches.py)."""
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import moderngl
 import numpy as np
@@ -10,43 +13,83 @@ from ..geometry import ObjectGeometry
 from ..meshes import Mesh
 from .uniforms import write_matrix
 
+#: Per-vertex attributes of mesh.vert, and how many floats each takes.
+VERTEX_ATTRIBUTES = (("in_position", 3), ("in_normal", 3), ("in_uv", 2))
+
+
+def attribute_format(program: moderngl.Program, attributes: Sequence[tuple[str, str]],
+                     suffix: str = "") -> tuple[str, list[str]]:
+    """moderngl's format string and attribute names for `attributes` ((name, "3f")) in a buffer:
+    an attribute the shader does not read is compiled away, so its bytes are skipped instead."""
+    layout = [(kind, name) if name in program else (f"{4 * int(kind[:-1])}x", None) for name, kind in attributes]
+    return " ".join(kind for kind, _ in layout) + suffix, [name for _, name in layout if name is not None]
+
+
+class MeshArena:
+    """Meshes packed into one vertex and one index buffer; indices are stored with the mesh's
+    first vertex added, so that a mesh is drawn as the range `ranges[mesh]` of the index buffer."""
+
+    def __init__(self, ctx: moderngl.Context, meshes: Sequence[Mesh]) -> None:
+        self.meshes = list({id(mesh): mesh for mesh in meshes}.values())
+        self.ranges: dict[Mesh, tuple[int, int]] = {}  # (first index, index count)
+        self.first_vertex: dict[Mesh, int] = {}  # where each mesh's vertices start
+        vertex_start = index_start = 0
+        indices = []
+        for mesh in self.meshes:
+            count = 3 * len(mesh.indices)
+            self.ranges[mesh] = (index_start, count)
+            self.first_vertex[mesh] = vertex_start
+            indices.append(mesh.indices.astype(np.uint32).ravel() + np.uint32(vertex_start))
+            vertex_start += len(mesh.positions)
+            index_start += count
+        self.vertices = ctx.buffer(np.concatenate([mesh.interleaved() for mesh in self.meshes]).tobytes())
+        self.indices = ctx.buffer(np.concatenate(indices).tobytes())
+
+    def release(self) -> None:
+        self.vertices.release()
+        self.indices.release()
+
 
 class GpuMeshes:
-    """Owns the vertex/index buffers of the objects drawn (made on first draw) and the vertex
-    arrays that bind them."""
+    """Owns the vertex/index buffers of the world's meshes (`load`) and of meshes drawn that are
+    not in it (made on first draw), and the vertex arrays that bind them."""
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
-        # Keyed by the mesh itself (identity: Mesh has eq=False), which also keeps it alive.
-        self._buffers: dict[Mesh, tuple[moderngl.Buffer, moderngl.Buffer]] = {}
-        self._vertex_arrays: dict[tuple[Mesh, int], moderngl.VertexArray] = {}
+        self._arenas: list[MeshArena] = []
+        self._arena_of: dict[Mesh, MeshArena] = {}  # keyed by identity (Mesh has eq=False)
+        self._vertex_arrays: dict[tuple[MeshArena, int], moderngl.VertexArray] = {}
 
-    def _buffers_of(self, item: ObjectGeometry) -> tuple[moderngl.Buffer, moderngl.Buffer]:
-        mesh = item.local_mesh
-        if mesh not in self._buffers:
-            self._buffers[mesh] = (
-                self.ctx.buffer(mesh.interleaved().tobytes()),
-                self.ctx.buffer(np.ascontiguousarray(mesh.indices, dtype=np.uint32).tobytes()),
-            )
-        return self._buffers[mesh]
+    def load(self, meshes: Sequence[Mesh]) -> None:
+        """Put the meshes not yet on the GPU into one arena (the renderer loads the world's)."""
+        fresh = [mesh for mesh in {id(m): m for m in meshes}.values() if mesh not in self._arena_of]
+        if fresh:
+            arena = MeshArena(self.ctx, fresh)
+            self._arenas.append(arena)
+            self._arena_of.update(dict.fromkeys(fresh, arena))
+
+    def arena(self, mesh: Mesh) -> MeshArena:
+        """The arena holding `mesh` (one of its own when it was not loaded)."""
+        if mesh not in self._arena_of:
+            self.load([mesh])
+        return self._arena_of[mesh]
+
+    def vertex_array(self, program: moderngl.Program, arena: MeshArena) -> moderngl.VertexArray:
+        key = (arena, program.glo)
+        if key not in self._vertex_arrays:
+            fmt, names = attribute_format(program, [(name, f"{n}f") for name, n in VERTEX_ATTRIBUTES])
+            self._vertex_arrays[key] = self.ctx.vertex_array(
+                program, [(arena.vertices, fmt, *names)], index_buffer=arena.indices, index_element_size=4)
+        return self._vertex_arrays[key]
 
     def draw(self, program: moderngl.Program, item: ObjectGeometry, view_projection: np.ndarray) -> None:
         """Draw one object with `program` (which reads mesh.vert's attributes and uniforms)."""
-        key = (item.local_mesh, program.glo)
-        if key not in self._vertex_arrays:
-            vertices, indices = self._buffers_of(item)
-            # An attribute the shader does not read is compiled away; skip its bytes instead.
-            attributes = (("in_position", 3), ("in_normal", 3), ("in_uv", 2))
-            layout = [(f"{n}f", name) if name in program else (f"{4 * n}x", None) for name, n in attributes]
-            fmt = " ".join(kind for kind, _ in layout)
-            names = [name for _, name in layout if name is not None]
-            self._vertex_arrays[key] = self.ctx.vertex_array(
-                program, [(vertices, fmt, *names)], index_buffer=indices, index_element_size=4
-            )
+        arena = self.arena(item.local_mesh)
+        first, count = arena.ranges[item.local_mesh]
         write_matrix(program, "u_model", item.model_matrix)
         write_matrix(program, "u_normal_matrix", item.normal_matrix)
         write_matrix(program, "u_view_projection", view_projection)
-        self._vertex_arrays[key].render(moderngl.TRIANGLES)
+        self.vertex_array(program, arena).render(moderngl.TRIANGLES, vertices=count, first=first)
 
     def forget_vertex_arrays(self) -> None:
         """Release the vertex arrays (before the programs they were made for go: a new program
@@ -63,7 +106,7 @@ class GpuMeshes:
 
     def release(self) -> None:
         self.forget_vertex_arrays()
-        for vertices, indices in self._buffers.values():
-            vertices.release()
-            indices.release()
-        self._buffers.clear()
+        for arena in self._arenas:
+            arena.release()
+        self._arenas.clear()
+        self._arena_of.clear()

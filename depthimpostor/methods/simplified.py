@@ -14,10 +14,8 @@ from __future__ import annotations
 
 import math
 
-import fast_simplification
 import moderngl
 import numpy as np
-import trimesh
 
 from ..geometry import ObjectGeometry
 from ..meshes import Mesh
@@ -35,6 +33,11 @@ def simplified_mesh(mesh: Mesh, target_triangles: int) -> Mesh:
     64-sided cylinder (long thin sides, one ring at each end) stays at its 256 triangles."""
     if len(mesh.indices) <= target_triangles:
         return mesh
+    # Imported here: only a scene with meshes to decimate needs them, and trimesh (with scipy and
+    # networkx) takes longer to import than the rest of the package (issue 24, start-up).
+    import fast_simplification
+    import trimesh
+
     welded = trimesh.Trimesh(mesh.positions, mesh.indices, process=True)
     points, faces = fast_simplification.simplify(
         np.asarray(welded.vertices, np.float64), np.asarray(welded.faces, np.int32), target_count=target_triangles

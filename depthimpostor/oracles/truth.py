@@ -16,10 +16,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from embreex import rtcore_scene
-from embreex.mesh_construction import TriangleMesh
 
 from ..constants import MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
 from ..geometry import ObjectGeometry
@@ -27,6 +26,9 @@ from ..lights import light_sample_points
 from ..meshes import plane_uvs
 from ..scene.model import CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MirrorMaterial, Scene
 from ..textures import texture_bilinear
+
+if TYPE_CHECKING:
+    from embreex import rtcore_scene
 
 Array = np.ndarray
 
@@ -120,6 +122,10 @@ RAY_START_OFFSET = 1e-4
 
 def _embree_scene(items: Sequence[ObjectGeometry]) -> rtcore_scene.EmbreeScene:
     """An Embree scene of the objects' world-space triangles; geomID = position in `items`."""
+    # Imported here: the passes import this module for its constants, and a frame needs no truth.
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
     embree = rtcore_scene.EmbreeScene()
     for item in items:
         mesh = item.world_mesh

@@ -2,53 +2,101 @@
 
 The same shader draws them into the camera view and into depth images (the variant with
 WRITE_DEPTH_IMAGE also stores the window depth in a 32-bit float attachment), so that a reflected
-object is shaded exactly as the object itself.
+object is shaded exactly as the object itself. In the camera view, the objects that do not move
+are drawn in one call (gpu/batches.py: the INSTANCED variant reads each object's transform and
+material from instance attributes); those that move, and every object of a context without
+multi-draw indirect, one call each with uniforms.
 """
 
 from __future__ import annotations
 
+import moderngl
 import numpy as np
 
 from ..geometry import ObjectGeometry
 from ..scene.model import Scene
+from ..gpu.batches import ObjectBatch
+from ..gpu.gl_state import raster_state
+from ..methods.atlas import FRONT_FACES
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
-from ..gpu.uniforms import shading_defines, write, write_material
+from ..gpu.uniforms import shading_defines, write, write_material, write_matrix
 
 
 DIFFUSE_PROGRAM = ("mesh.vert", "diffuse.frag")
 
 
 def diffuse_defines(scene: Scene, write_depth_image: bool, write_triangle_ids: bool = False,
-                    back_layer: bool = False) -> dict[str, int]:
+                    back_layer: bool = False, instanced: bool = False) -> dict[str, int]:
     """The variant drawing into the frame, or (`write_depth_image`) into baked images: their
     visible surface, or (`back_layer`) the colour and depth of the nearest back face; and
-    (`write_triangle_ids`: the hybrid method's) the triangle seen at each sample too."""
+    (`write_triangle_ids`: the hybrid method's) the triangle seen at each sample too; `instanced`:
+    objects drawn in a batch, their transforms and materials from instance attributes."""
     return {"WRITE_DEPTH_IMAGE": int(write_depth_image), **({"WRITE_TRIANGLE_ID": 1} if write_triangle_ids else {}),
-            **({"BACK_LAYER": 1} if back_layer else {}), **shading_defines(scene)}
+            **({"BACK_LAYER": 1} if back_layer else {}), **({"INSTANCED": 1} if instanced else {}),
+            **shading_defines(scene)}
 
 
 class DiffusePass:
     def __init__(
         self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, *, write_depth_image: bool,
-        triangle_offsets: dict[int, int] | None = None, back_layer: bool = False,
+        triangle_offsets: dict[int, int] | None = None, back_layer: bool = False, batched: bool = False,
     ) -> None:
         """`triangle_offsets` (by object index: where the object's triangles start in the list the
         ray-traced method's BVH is built from) makes the variant that writes each sample's triangle;
-        `back_layer` the one drawing a depth image's back layer (see diffuse_defines)."""
-        defines = diffuse_defines(scene, write_depth_image, triangle_offsets is not None, back_layer)
-        self.program = programs.get(*DIFFUSE_PROGRAM, defines)
+        `back_layer` the one drawing a depth image's back layer (see diffuse_defines); `batched`
+        draws the objects that do not move in one call (the context must have batches_supported)."""
+        self.programs = programs
+        self.defines = diffuse_defines(scene, write_depth_image, triangle_offsets is not None, back_layer)
+        self.instanced = (programs.get(*DIFFUSE_PROGRAM, {**self.defines, "INSTANCED": 1}) if batched else None)
         self.scene = scene  # for its texture slots
         self.meshes = meshes
         self.triangle_offsets = triangle_offsets
+        self._batch: ObjectBatch | None = None
+
+    @property
+    def batched(self) -> bool:
+        return self.instanced is not None
+
+    @property
+    def program(self) -> moderngl.Program:
+        """The variant drawing one object at a time (compiled when first needed: a batched pass
+        needs it only for objects that move)."""
+        return self.programs.get(*DIFFUSE_PROGRAM, self.defines)
 
     def draw(self, items: list[ObjectGeometry], view_projection: np.ndarray) -> int:
         """Draw the objects; returns the number of draw calls."""
+        calls = 0
+        if self.instanced is not None:
+            still = [item for item in items if not item.object.moves]
+            if still:
+                write_matrix(self.instanced, "u_view_projection", view_projection)
+                batch = self._batch_of(still)
+                calls += batch.draw(self.instanced, 0, batch.first_closed)
+                # Closed solids seen from outside: their back faces hidden, so culled (half the triangles).
+                with raster_state(self.programs.ctx, FRONT_FACES):
+                    calls += batch.draw(self.instanced, batch.first_closed)
+            items = [item for item in items if item.object.moves]
         for item in items:
-            write_material(self.program, "u_material", item.object.material, self.scene)
-            write(self.program, "u_object_id", item.index)
+            program = self.program
+            write_material(program, "u_material", item.object.material, self.scene)
+            write(program, "u_object_id", item.index)
             if self.triangle_offsets is not None:
-                write(self.program, "u_triangle_offset", self.triangle_offsets[item.index])
-            self.meshes.draw(self.program, item, view_projection)
-        return len(items)
+                write(program, "u_triangle_offset", self.triangle_offsets[item.index])
+            self.meshes.draw(program, item, view_projection)
+        return calls + len(items)
 
+    def _batch_of(self, items: list[ObjectGeometry]) -> ObjectBatch:
+        """The batch of exactly these objects (made again when the list is another: objects that
+        do not move keep their geometry, so a frame's list is the last one's)."""
+        batch = self._batch
+        if batch is None or len(batch.items) != len(items) or any(a is not b for a, b in zip(batch.items, items, strict=True)):
+            if batch is not None:
+                batch.release()
+            batch = self._batch = ObjectBatch(self.programs.ctx, self.meshes, items, self.scene, self.triangle_offsets)
+        return batch
+
+    def release(self) -> None:
+        if self._batch is not None:
+            self._batch.release()
+            self._batch = None

@@ -1,0 +1,160 @@
+"""Many objects (issue 24, item 5): round primitives tessellated for their size on screen (lod.py),
+and the still diffuse objects drawn in one call (gpu/batches.py) with the same pixels as one
+draw per object."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import moderngl
+import numpy as np
+import pytest
+from conftest import SCENES, assert_finite, scene_from_toml
+
+import depthimpostor.passes.diffuse as diffuse_module
+import depthimpostor.render_graph as render_graph_module
+from depthimpostor.geometry import scene_geometry
+from depthimpostor.gpu.context import bind_default_framebuffer
+from depthimpostor.gpu.gl_state import BASE
+from depthimpostor.renderer import Renderer
+from depthimpostor.scene import Scene, load_scene
+from depthimpostor.world import World
+
+HEAD = """
+[render]
+size = [160, 90]
+impostor_resolution = 32
+[camera]
+eye = [0.0, 1.6, 5.0]
+target = [0.0, 0.3, 0.0]
+[[lights]]
+type = "directional"
+direction = [-0.4, -1.0, -0.3]
+[[objects]]
+name = "floor"
+shape = { type = "plane", size = [20.0, 20.0] }
+material = { type = "checker", color_a = [0.8, 0.8, 0.8], color_b = [0.35, 0.35, 0.35], scale = 1.0 }
+"""
+
+SHAPES = ('{ type = "sphere", radius = 0.06 }', '{ type = "box", size = [0.1, 0.1, 0.1] }',
+          '{ type = "torus", major = 0.06, minor = 0.02 }', '{ type = "cylinder", radius = 0.05, height = 0.1 }')
+MATERIALS = ('{ type = "diffuse", color = [0.85, 0.15, 0.12] }',
+             '{ type = "checker", color_a = [0.2, 0.7, 0.3], color_b = [0.9, 0.9, 0.2], scale = 0.03 }',
+             '{ type = "diffuse", color = [0.9, 0.9, 0.9], texture = { path = "textures/checker_f.png" } }')
+
+
+def many_objects(side: int = 12) -> Scene:
+    """The floor and side x side small objects of every shape and material kind."""
+    objects = []
+    for i in range(side):
+        for j in range(side):
+            k = i * side + j
+            objects.append(f'[[objects]]\nname = "o{k}"\nshape = {SHAPES[k % len(SHAPES)]}\n'
+                           f'material = {MATERIALS[(k // len(SHAPES)) % len(MATERIALS)]}\n'
+                           f"position = [{-1.5 + 3.0 * i / (side - 1):.3f}, 0.06, {-1.5 + 3.0 * j / (side - 1):.3f}]\n"
+                           f"rotation = [0.0, {7.0 * k % 90:.1f}, 0.0]\n")
+    return scene_from_toml(HEAD + "\n".join(objects), base_dir=SCENES)
+
+
+def spheres(*placements: tuple[float, tuple[float, float, float]], mirror: bool = False) -> Scene:
+    """Diffuse spheres of (radius, position), and, if asked for, a planar mirror facing the eye."""
+    text = HEAD + ('[[objects]]\nname = "mirror"\nshape = { type = "plane", size = [3.0, 2.0] }\n'
+                   'material = { type = "mirror" }\nposition = [0.0, 1.0, -1.0]\nrotation = [90.0, 0.0, 0.0]\n'
+                   if mirror else "")
+    for k, (radius, position) in enumerate(placements):
+        text += (f'[[objects]]\nname = "ball{k}"\nshape = {{ type = "sphere", radius = {radius} }}\n'
+                 f'material = {{ type = "diffuse", color = [0.9, 0.5, 0.1] }}\nposition = {list(position)}\n')
+    return scene_from_toml(text)
+
+
+#: A sphere's triangles at its full tessellation (96 x 48: the mirror sphere's).
+FULL = 96 * 2 * (48 - 1)
+
+
+def triangles(world: World, name: str) -> int:
+    return next(len(g.local_mesh.indices) for g in world.geometry if g.object.name == name)
+
+
+def test_a_small_far_sphere_gets_fewer_triangles_than_a_large_near_one() -> None:
+    world = World(spheres((0.05, (2.0, 0.05, -30.0)), (0.8, (-1.0, 0.8, 1.0))).with_overrides(size=(960, 540)))
+    far, near = triangles(world, "ball0"), triangles(world, "ball1")
+    assert FULL // 5 <= near < FULL  # 300 pixels across: 48 x 24 keeps it within a third of a pixel
+    assert far <= near // 64  # 2 pixels across
+    close = World(spheres((0.8, (0.0, 1.6, 3.0))).with_overrides(size=(960, 540)))
+    assert triangles(close, "ball0") == FULL  # 1.2 units from the eye: 900 pixels across
+
+
+def test_reflectors_and_what_they_show_keep_the_full_tessellation() -> None:
+    # Two spheres a few pixels across: the one in front of the mirror is in its depth image.
+    world = World(spheres((0.05, (0.5, 0.05, -8.0)), (0.05, (0.5, 0.05, 2.0)), mirror=True))
+    assert triangles(world, "ball1") == FULL
+    assert triangles(world, "ball0") < FULL  # behind the mirror: the eye alone sees it
+    # The mirror is a plane (two triangles at every level); a mirror sphere keeps its 96 x 48.
+    mirror_ball = scene_from_toml(HEAD + '[[objects]]\nname = "mirror"\nshape = { type = "sphere", radius = 0.05 }\n'
+                                  'material = { type = "mirror" }\nposition = [0.0, 0.05, -20.0]\n')
+    assert triangles(World(mirror_ball), "mirror") == FULL
+
+
+def _frame(ctx: moderngl.Context, scene: Scene) -> tuple[np.ndarray, int]:
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        image = renderer.read_color_float()
+        assert_finite(image)
+        return image, renderer.stats.draw_calls
+
+
+def test_the_batch_draws_what_one_draw_per_object_draws(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> None:
+    scene = many_objects()
+    batched, batched_calls = _frame(ctx, scene)
+    monkeypatch.setattr(diffuse_module, "FRONT_FACES", BASE)  # the closed solids' back faces drawn too
+    uncut, _ = _frame(ctx, scene)
+    monkeypatch.setattr(render_graph_module, "batches_supported", lambda ctx: False)
+    alone, calls = _frame(ctx, scene)
+    assert calls == len(scene.objects)  # the floor and 144 objects, one call each
+    assert batched_calls == 2  # the floor; the closed solids, back faces culled
+    assert (np.abs(alone - alone.mean(axis=(0, 1))) > 0.05).mean() > 0.05  # the objects are in the frame
+    # The same transforms and materials from instance attributes instead of uniforms: the same
+    # arithmetic (on llvmpipe, the same bits).
+    assert np.abs(uncut - alone).max() <= 1e-6
+    # Culling back faces changes only pixels where a back face won a depth tie with a front face
+    # at their shared edge (drawn first within its mesh): a few silhouette pixels.
+    changed = np.abs(batched - alone).max(axis=-1) > 1e-6
+    assert changed.sum() <= 0.002 * changed.size
+
+
+def render_floor(ctx: moderngl.Context, scene: Scene) -> np.ndarray:
+    """The frame of `scene` with its first object (the floor) alone."""
+    return _frame(ctx, dataclasses.replace(scene, objects=scene.objects[:1]))[0]
+
+
+def test_levels_of_detail_barely_change_the_picture(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Small round objects at their level draw nearly the pixels of their full tessellation: under
+    half a pixel of silhouette, and shading of interpolated normals."""
+    scene = many_objects()
+    coarse = World(scene)
+    assert sum(len(g.local_mesh.indices) for g in coarse.geometry) * 4 < sum(
+        len(g.local_mesh.indices) for g in scene_geometry(scene.objects))
+    detailed, _ = _frame(ctx, scene)
+    monkeypatch.setattr("depthimpostor.world.detail_levels", lambda *args: {})
+    full, _ = _frame(ctx, scene)
+    difference = np.abs(detailed - full).max(axis=-1)
+    objects = np.abs(full - render_floor(ctx, scene)).max(axis=-1) > 0.0
+    # Objects 2-5 pixels across are all silhouette: a pixel whose centre lies within half a pixel
+    # of the edge may change sides. On llvmpipe: 17 % of the objects' pixels by more than 0.05.
+    assert (difference > 0.05).sum() < 0.25 * objects.sum()
+    assert not (difference[~objects] > 0.0).any()  # nothing else changes
+
+
+def test_a_moving_object_is_drawn_alone_beside_the_batch(ctx: moderngl.Context) -> None:
+    scene = load_scene(SCENES / "carousel.toml").with_overrides(size=(96, 54), impostor_resolution=32)
+    moving = [g for g in World(scene).diffuse_objects if g.object.moves]
+    assert moving
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        assert renderer.graph.diffuse is not None and renderer.graph.diffuse.batched
+        renderer.targets.color_framebuffer.use()
+        try:
+            # The floor, then the still solids with back faces culled (cylinder, knot); the box and torus move.
+            assert renderer.graph.diffuse.draw(renderer.world.diffuse_objects, renderer.camera.view_projection) == 2 + len(moving)
+        finally:
+            bind_default_framebuffer(ctx)
