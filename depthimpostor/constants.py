@@ -187,7 +187,7 @@ MAX_ANALYTIC_PLANES = 8
 MAX_TEXTURES = 4
 #: Depth images one mirror may own (one per reflected object): bounds the uniform block,
 #: 64 x 176 bytes = 11 KiB, under GL's guaranteed 16 KiB.
-MAX_DEPTH_IMAGES_PER_MIRROR = 64
+MAX_DEPTH_IMAGES_PER_REFLECTOR = 64
 #: Reflected triangles the hybrid method's depth images can name: a float32 sample holds
 #: integers below 2^24.
 MAX_NAMED_TRIANGLES = 2**24
@@ -347,7 +347,7 @@ def glsl_constants() -> dict[str, str]:
         "MAX_LIGHTS": str(MAX_LIGHTS),
         "MAX_ANALYTIC_PLANES": str(MAX_ANALYTIC_PLANES),
         "MAX_TEXTURES": str(MAX_TEXTURES),
-        "MAX_DEPTH_IMAGES_PER_MIRROR": str(MAX_DEPTH_IMAGES_PER_MIRROR),
+        "MAX_DEPTH_IMAGES_PER_REFLECTOR": str(MAX_DEPTH_IMAGES_PER_REFLECTOR),
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
         "NO_OBJECT": str(NO_OBJECT),
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",

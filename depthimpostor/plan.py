@@ -17,7 +17,7 @@ from typing import Any
 
 from .methods.bvh import node_count
 from .constants import (
-    BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, HIERARCHICAL_MIN_SIDE, Algorithm, Method,
+    BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_REFLECTOR, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, HIERARCHICAL_MIN_SIDE, Algorithm, Method,
     image_algorithm,
 )
 from .culling import Reach
@@ -31,7 +31,7 @@ from .gpu.batches import batch_bytes
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
 from .gpu.textures import GpuTextures
-from .passes.mirrors import (
+from .passes.reflectors import (
     DEFERRED,
     DEFERRED_REFLECTOR_PROGRAM,
     REFLECTION_OUTPUTS,
@@ -223,8 +223,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             check_model_reach(scene, item.index, item.local_mesh)
     mirrors = [g for g in geometry if g.object.is_mirror]
     glass = [g for g in geometry if g.object.is_glass]
-    reflectors = [g for g in geometry if g.object.is_specular]
-    diffuse = [g for g in geometry if not g.object.is_specular]
+    reflectors = [g for g in geometry if g.object.is_reflector]
+    diffuse = [g for g in geometry if not g.object.is_reflector]
     reflected = [g for g in diffuse if not g.is_analytic_plane]
     check_stand_in(scene, method, reflectors, reflected)
     passes: list[PlannedPass] = []
@@ -336,7 +336,7 @@ def _bvh_bytes(triangles: int, named: bool) -> int:
     def rows(texels: int) -> int:
         return max(1, math.ceil(texels / BVH_TEXTURE_WIDTH))
     textures = rows(3 * node_count(triangles)) + rows(BVH_TRIANGLE_TEXELS * triangles) + (rows(triangles) if named else 0)
-    return textures * BVH_TEXTURE_WIDTH * 16 + MAX_DEPTH_IMAGES_PER_MIRROR * TRIANGLE_OBJECT_DTYPE.itemsize
+    return textures * BVH_TEXTURE_WIDTH * 16 + MAX_DEPTH_IMAGES_PER_REFLECTOR * TRIANGLE_OBJECT_DTYPE.itemsize
 
 
 def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: list[ObjectGeometry],
@@ -347,13 +347,13 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     `images` are the plan's baked images, `bounce_glass` whether one shows glass in a mirror.
     The renderer's own options add outputs: `reflection_data` and `count_samples`."""
     width, height = scene.render.size
-    records = MAX_DEPTH_IMAGES_PER_MIRROR * DEPTH_IMAGE_DTYPE.itemsize  # one mirror's uniform block
+    records = MAX_DEPTH_IMAGES_PER_REFLECTOR * DEPTH_IMAGE_DTYPE.itemsize  # one mirror's uniform block
     memory = {"frame colour and depth": width * height * (16 + 4),
               "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry]),
               "lights and planes": SceneBlocks.BYTES}
     # The diffuse pass's batch of the objects that do not move (gpu/batches.py; a context without
     # OpenGL 4.3 draws them one by one, and makes none).
-    still = [g for g in geometry if not g.object.is_specular and not g.object.moves]
+    still = [g for g in geometry if not g.object.is_reflector and not g.object.moves]
     if still:
         memory["object batch"] = batch_bytes(still)
     if scene.textures:
@@ -362,7 +362,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
         memory["reflection outputs"] = width * height * 16 * REFLECTION_OUTPUTS
     if count_samples:
         memory["sample counts"] = width * height * 4
-    if any(g.object.is_specular for g in geometry):
+    if any(g.object.is_reflector for g in geometry):
         memory["reflector surfaces"] = Surfaces.bytes_for((width, height))
     if scene.environment.is_map:
         memory["environment map"] = environment_map_bytes(scene.environment)
@@ -372,8 +372,8 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     glass = [g for g in geometry if g.object.is_glass]
     if glass:
         memory["glass interiors"] = len(glass) * (interior_bytes(max(scene.render.size)) + DEPTH_IMAGE_DTYPE.itemsize)
-    reflectors = [g for g in geometry if g.object.is_specular]
-    reflected = [g for g in geometry if not g.object.is_specular and not g.is_analytic_plane]
+    reflectors = [g for g in geometry if g.object.is_reflector]
+    reflected = [g for g in geometry if not g.object.is_reflector and not g.is_analytic_plane]
     stand_in = METHODS[method].stand_in
     if not reflectors:
         return memory

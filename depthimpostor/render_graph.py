@@ -33,7 +33,7 @@ from .methods.triangles import TrianglePass
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
 from .passes.glass import GlassInterior
-from .passes.mirrors import MirrorPass, ReflectedObjects
+from .passes.reflectors import ReflectorPass, ReflectedObjects
 from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
 from .plan import RenderPlan, check_stand_in
@@ -102,14 +102,14 @@ class RenderGraph:
         self.diffuse = (DiffusePass(self.programs, scene, self.meshes, write_depth_image=False,
                                     batched=batches_supported(ctx)) if self.plan.runs(Pass.DIFFUSE) else None)
         self.stand_in: ReflectedObjects | None = None
-        self.mirror_pass: MirrorPass | None = None
+        self.reflector_pass: ReflectorPass | None = None
         self.samples: SamplesPass | None = None
         # An interior image per glass object, as large as the frame's larger side (passes/glass.py).
         self.glass_interiors = {item.index: GlassInterior(ctx, self.programs, self.meshes, max(scene.render.size))
                                 for item in world.glass}
         if world.reflectors:
             self._make_stand_in(self.plan)
-            self.mirror_pass = self._mirror_pass()
+            self.reflector_pass = self._reflector_pass()
             if self.show_samples and self.sampled is not None:
                 self.samples = SamplesPass(ctx, self.programs)
         self._baked = False
@@ -159,14 +159,14 @@ class RenderGraph:
         if self.impostors is not None:
             self.impostors.use_pyramid(plan.builds_pyramids)
 
-    def _mirror_pass(self) -> MirrorPass:
+    def _reflector_pass(self) -> ReflectorPass:
         if self.stand_in is None:
             raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
-        made = MirrorPass(self.programs, self.world.scene, self.meshes, self.stand_in,
+        made = ReflectorPass(self.programs, self.world.scene, self.meshes, self.stand_in,
                           METHODS[self.plan.method].defines(self.plan.algorithm), self.options.reflection_data,
                           self.options.count_samples, self.glass_interiors)
-        if self.mirror_pass is not None:
-            self.mirror_pass.release()
+        if self.reflector_pass is not None:
+            self.reflector_pass.release()
         return made
 
     # ------------------------------------------------------------------ changes
@@ -185,8 +185,8 @@ class RenderGraph:
         if world.reflectors and (not same_stand_in or (new_images and self.baked_images is not None)):
             self._make_stand_in(plan)
         self._keep_pyramids(plan)
-        if self.mirror_pass is not None:
-            self.mirror_pass = self._mirror_pass()
+        if self.reflector_pass is not None:
+            self.reflector_pass = self._reflector_pass()
         if self.sampled is None:
             self.show_samples = False
         if self.samples is not None and not self.show_samples:
@@ -211,7 +211,7 @@ class RenderGraph:
         if baked is None:  # the triangle methods' BVH: built again around the moved objects
             if any(g.index in moved for g in world.reflected_objects):
                 self._make_stand_in(self.plan)
-                self.mirror_pass = self._mirror_pass()
+                self.reflector_pass = self._reflector_pass()
             return
         lights, before = world.lit_scene.lights, {g.index: g for g in earlier.geometry}
         relit = {g.index for g in world.reflected_objects} if moved_lights else set()
@@ -341,20 +341,20 @@ class RenderGraph:
                 drawn = [g for g in world.diffuse_objects if g.is_analytic_plane]
                 stats.draw_calls += self.samples.draw(sampled, camera)
             stats.draw_calls += self.diffuse.draw(drawn, camera.view_projection)
-        elif stage is Pass.GLASS_INTERIORS and self.mirror_pass is not None:
+        elif stage is Pass.GLASS_INTERIORS and self.reflector_pass is not None:
             before = self._interiors_made()
             # A glass interior depends on the eye's position and pixel size, not on a sub-pixel
             # jitter: made from the frame's own camera, so that rounding in the jittered one's
             # corner does not make it again for every sample.
-            stats.draw_calls += self.mirror_pass.make_interiors(world.reflectors, unjittered)
+            stats.draw_calls += self.reflector_pass.make_interiors(world.reflectors, unjittered)
             made = self._interiors_made() - before
             if not made:
                 return
             stats.interiors_made += made
-        elif stage is Pass.REFLECTORS and self.mirror_pass is not None:
+        elif stage is Pass.REFLECTORS and self.reflector_pass is not None:
             if targets.surfaces is None:
                 raise RuntimeError("a frame with reflectors has their surface targets")
-            stats.draw_calls += self.mirror_pass.draw(world.reflectors, camera, targets.framebuffer, targets.surfaces,
+            stats.draw_calls += self.reflector_pass.draw(world.reflectors, camera, targets.framebuffer, targets.surfaces,
                                                       self.tint_retraced)
         else:
             return
@@ -365,7 +365,7 @@ class RenderGraph:
 
     def release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
-        for owner in (self.stand_in, self.environment, self.diffuse, self.samples, self.shadow_maps, self.mirror_pass,
+        for owner in (self.stand_in, self.environment, self.diffuse, self.samples, self.shadow_maps, self.reflector_pass,
                       *self.glass_interiors.values()):
             if owner is not None:
                 owner.release()

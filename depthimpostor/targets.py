@@ -15,7 +15,7 @@ from .gpu.bindings import TextureUnit
 from .gpu.context import bind_default_framebuffer
 from .gpu.embedding import FramePresenter
 from .gpu.shaders import ProgramCache
-from .passes.mirrors import REFLECTION_OUTPUTS
+from .passes.reflectors import REFLECTION_OUTPUTS
 from .scene.model import RenderSettings
 
 
@@ -35,7 +35,7 @@ class ReflectionData:
 
 class Surfaces:
     """The visible reflector pixels' world position, normal and reflector (reflector_surface.frag),
-    for the deferred mirror shader (passes/mirrors.py). Float32: the varyings, exactly."""
+    for the deferred mirror shader (passes/reflectors.py). Float32: the varyings, exactly."""
 
     def __init__(self, ctx: moderngl.Context, size: tuple[int, int], depth: moderngl.Renderbuffer | moderngl.Texture) -> None:
         self.position = ctx.texture(size, 4, dtype="f4")

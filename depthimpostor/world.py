@@ -47,9 +47,9 @@ class World:
         self.mirrors = [g for g in geometry if g.object.is_mirror]
         self.glass = [g for g in geometry if g.object.is_glass]
         # Mirrors and glass: drawn by the mirror pass, each with depth images of the others.
-        self.reflectors = [g for g in geometry if g.object.is_specular]
+        self.reflectors = [g for g in geometry if g.object.is_reflector]
         self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
-        self.diffuse_objects = [g for g in geometry if not g.object.is_specular]
+        self.diffuse_objects = [g for g in geometry if not g.object.is_reflector]
         self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
         casters = set(scene.shadow_casters)
         self.shadow_casters = [g for g in geometry if g.object in casters]

@@ -1,7 +1,7 @@
 #version 330 core
-// The deferred reflector pass's first half (passes/mirrors.py): each visible reflector pixel's
+// The deferred reflector pass's first half (passes/reflectors.py): each visible reflector pixel's
 // interpolated world position and normal, and which reflector it is, into float targets. The
-// second half, mirror.frag's DEFERRED variant, reads them back in a screen rectangle per
+// second half, reflector.frag's DEFERRED variant, reads them back in a screen rectangle per
 // reflector: the reflected ray is then traced once per pixel, not once per fragment of every
 // small triangle a curved reflector is made of (a software rasterizer shades those in groups of
 // pixels, most of them outside the triangle). Float32 holds the varyings exactly: the deferred

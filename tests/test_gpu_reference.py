@@ -95,7 +95,7 @@ def test_basic_and_optimized_find_the_same_hits(baked: Renderer) -> None:
 def test_nearest_hit_over_several_depth_images(ctx: moderngl.Context, baked: Renderer) -> None:
     """A mirror's rays see the nearest of its objects: the GPU and the reference agree on which."""
     assert baked.graph.impostors is not None
-    images = baked.graph.impostors.images_by_mirror[baked.world.mirrors[0].index]
+    images = baked.graph.impostors.images_by_reflector[baked.world.mirrors[0].index]
     rng = np.random.default_rng(11)
     origins = baked.world.mirrors[0].bounding_sphere[0] + rng.normal(size=(RAYS, 3)) * 0.5
     directions = rng.normal(size=(RAYS, 3))

@@ -62,7 +62,7 @@ def test_the_nodes_hold_the_plans_programs_and_the_renderer_compiles_them(ctx: m
     plan = plan_render(scene, Method.DEPTH, Algorithm.HIERARCHICAL)
     by_node = [key for node in plan.graph for key in node.programs]
     assert sorted(by_node) == sorted(plan.program_keys) and len(by_node) == len(set(by_node))
-    assert all(key[0][-1] in ("reflector_surface.frag", "mirror.frag") for node in plan.graph
+    assert all(key[0][-1] in ("reflector_surface.frag", "reflector.frag") for node in plan.graph
                if node.stage is Pass.REFLECTORS for key in node.programs)
     with Renderer(ctx, scene, Algorithm.HIERARCHICAL) as renderer:
         assert renderer.programs.keys == plan.program_keys  # compiled at construction, before a frame

@@ -153,7 +153,7 @@ def test_hierarchical_and_linear_agree_on_random_rays(ctx: moderngl.Context, bak
 def test_hierarchical_and_linear_agree_over_several_images(ctx: moderngl.Context, baked: Renderer) -> None:
     """The nearest hit over all of a mirror's depth images, from the pyramids of all of them."""
     assert baked.graph.impostors is not None
-    images = baked.graph.impostors.images_by_mirror[baked.world.mirrors[0].index]
+    images = baked.graph.impostors.images_by_reflector[baked.world.mirrors[0].index]
     rng = np.random.default_rng(13)
     origins = baked.world.mirrors[0].bounding_sphere[0] + rng.normal(size=(60_000, 3)) * 0.5
     directions = rng.normal(size=(60_000, 3))

@@ -17,7 +17,7 @@ from conftest import PROJECT_ROOT, SCENES, scene_from_toml
 from depthimpostor import culling
 from depthimpostor.constants import (
     MAX_ANALYTIC_PLANES,
-    MAX_DEPTH_IMAGES_PER_MIRROR,
+    MAX_DEPTH_IMAGES_PER_REFLECTOR,
     MAX_LIGHTS,
     Method,
 )
@@ -98,16 +98,16 @@ LIMITS = [
     ("model reach", model_scene, Method.DEPTH, "got one reaching 1.41e+19"),
     ("bounces with cube maps", lambda _: scene(BOUNCES), Method.CUBEMAP, "render.max_bounces: expected 1 with --method cubemap"),
     ("bounces with billboards", lambda _: scene(BOUNCES), Method.BILLBOARD, "expected 1 with --method billboard"),
-    ("depth images per mirror", lambda _: scene(HEAD + WALL_MIRROR + balls(MAX_DEPTH_IMAGES_PER_MIRROR + 1, 2.0)),
-     Method.DEPTH, f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} objects a mirror may reflect, got 65"),
-    ("billboards per mirror", lambda _: scene(HEAD + WALL_MIRROR + balls(MAX_DEPTH_IMAGES_PER_MIRROR + 1, 2.0)),
+    ("depth images per mirror", lambda _: scene(HEAD + WALL_MIRROR + balls(MAX_DEPTH_IMAGES_PER_REFLECTOR + 1, 2.0)),
+     Method.DEPTH, f"expected at most {MAX_DEPTH_IMAGES_PER_REFLECTOR} objects a mirror may reflect, got 65"),
+    ("billboards per mirror", lambda _: scene(HEAD + WALL_MIRROR + balls(MAX_DEPTH_IMAGES_PER_REFLECTOR + 1, 2.0)),
      Method.BILLBOARD, "objects a mirror may reflect, got 65"),
     # Behind the mirror: no depth image is planned for any, but the traced methods keep them all.
-    ("traced objects", lambda _: scene(HEAD + WALL_MIRROR + balls(MAX_DEPTH_IMAGES_PER_MIRROR + 1, -2.0)),
-     Method.RAYTRACE, f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} reflected objects with --method raytrace, got 65"),
-    ("simplified objects", lambda _: scene(HEAD + WALL_MIRROR + balls(MAX_DEPTH_IMAGES_PER_MIRROR + 1, -2.0)),
+    ("traced objects", lambda _: scene(HEAD + WALL_MIRROR + balls(MAX_DEPTH_IMAGES_PER_REFLECTOR + 1, -2.0)),
+     Method.RAYTRACE, f"expected at most {MAX_DEPTH_IMAGES_PER_REFLECTOR} reflected objects with --method raytrace, got 65"),
+    ("simplified objects", lambda _: scene(HEAD + WALL_MIRROR + balls(MAX_DEPTH_IMAGES_PER_REFLECTOR + 1, -2.0)),
      Method.SIMPLIFIED, "reflected objects with --method simplified, got 65"),
-    ("images with bounces", lambda _: scene(BOUNCES + balls(MAX_DEPTH_IMAGES_PER_MIRROR - 1, -2.0, first=1)),
+    ("images with bounces", lambda _: scene(BOUNCES + balls(MAX_DEPTH_IMAGES_PER_REFLECTOR - 1, -2.0, first=1)),
      Method.DEPTH, "render.max_bounces: expected 1 with 64 reflected objects and 2 mirrors"),
     ("object around a mirror's centre", lambda _: load_scene(SCENES / "hard" / "surrounds.toml"), Method.DEPTH,
      'object "ring" surrounds or touches the centre of mirror "mirror"'),
@@ -250,8 +250,8 @@ scale = [1.0, 3.0, 0.5]
 animation = { type = "orbit", centre = [0.0, 0.0, 0.0], axis = [0.0, 1.0, 0.0], degrees_per_second = 10.0 }
 """
     geometry = scene_geometry(scene(text).objects)
-    reflectors = [g for g in geometry if g.object.is_specular]
-    targets = [g for g in geometry if not g.object.is_specular]
+    reflectors = [g for g in geometry if g.object.is_reflector]
+    targets = [g for g in geometry if not g.object.is_reflector]
     monkeypatch.setattr(culling, "_CHUNK_ELEMENTS", 3 * 2 * 7)  # the wall's 2 triangles, 7 objects a chunk
     table = reaches(reflectors, targets)
     assert table == [[reach(reflector, target) for target in targets] for reflector in reflectors]

@@ -94,7 +94,7 @@ def test_every_method_renders_every_scene_finite(ctx: moderngl.Context, path: Pa
         # Only the method's own stand-in exists, and only its mirror variant was compiled.
         assert type(renderer.graph.stand_in) is METHODS[method].stand_in
         mirror_variants = {dict(defines)["METHOD"] for _, fragment, defines in renderer.programs.variants
-                           if fragment == "mirror.frag"}
+                           if fragment == "reflector.frag"}
         assert mirror_variants == {str(int(method))}
         if method not in BAKING:
             assert renderer.stats.depth_images_baked == 0

@@ -348,7 +348,7 @@ def test_plan_command(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["plan", str(SCENES / "glass_and_mirrors.toml"), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["counts"] == {"passes": 7, "images": 15, "skipped": 0, "variants": 12}
-    assert {"stages": ["screen_rect.vert", "mirror.frag"], "why": "glass (GLASS), depth method, deferred"}.items() <= \
+    assert {"stages": ["screen_rect.vert", "reflector.frag"], "why": "glass (GLASS), depth method, deferred"}.items() <= \
         {"stages": data["variants"][-1]["stages"], "why": data["variants"][-1]["why"]}.items()
 
 

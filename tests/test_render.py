@@ -91,7 +91,7 @@ def test_scene_without_mirrors_allocates_no_impostor(ctx: moderngl.Context, tmp_
     with Renderer(ctx, scene) as renderer:
         renderer.render()
         assert renderer.graph.impostors is None
-        assert renderer.graph.mirror_pass is None
+        assert renderer.graph.reflector_pass is None
         assert renderer.stats.depth_images_baked == 0
         compiled = {fragment for _, fragment, _ in renderer.programs.variants}
         assert compiled == {"environment.frag", "diffuse.frag"}

@@ -81,7 +81,7 @@ def test_algorithm_switch_changes_the_variant_not_the_depth_images(ctx: moderngl
             frames[algorithm] = renderer.read_color_float()
         assert renderer.programs.compute_variants == [("depth_pyramid.comp", ())]
         assert renderer.stats.depth_images_baked == 5
-        mirror_variants = {d for _, fragment, d in renderer.programs.variants if fragment == "mirror.frag"}
+        mirror_variants = {d for _, fragment, d in renderer.programs.variants if fragment == "reflector.frag"}
         assert mirror_variants == {(("ALGORITHM", str(int(a))), ("DEFERRED", "1"), ("METHOD", str(int(Method.DEPTH))))
                                    for a in Algorithm}
     assert_same_frame(frames[Algorithm.BASIC], fresh_frame(ctx, scene, Algorithm.BASIC))
@@ -118,14 +118,14 @@ def test_a_resolution_this_gl_cannot_hold_changes_nothing(ctx: moderngl.Context)
 def test_shader_reload_keeps_the_last_good_programs(ctx: moderngl.Context, scene: Scene, tmp_path: Path) -> None:
     shaders = tmp_path / "shaders"
     shutil.copytree(PROJECT_ROOT / "shaders", shaders)
-    mirror = shaders / "mirror.frag"
+    mirror = shaders / "reflector.frag"
     original = mirror.read_text()
     with Renderer(ctx, scene, shaders=ShaderLibrary(shaders)) as renderer:
         renderer.render()
         good = renderer.read_color_float()
 
         mirror.write_text(original.replace("out_color = vec4(u_tint * hit.color, 1.0);", "out_color = vec4(u_tint"))
-        with pytest.raises(ShaderError, match=r"mirror\.frag"):
+        with pytest.raises(ShaderError, match=r"reflector\.frag"):
             renderer.reload_shaders()
         renderer.render()
         assert_same_frame(renderer.read_color_float(), good)

@@ -43,7 +43,7 @@ def interleaved(renderers: list[Renderer], frames: int, warmup: int = 2) -> list
 
 
 def mirror_made_diffuse(scene: Scene) -> Scene:
-    objects = [dataclasses.replace(o, material=DiffuseMaterial()) if o.is_specular else o for o in scene.objects]
+    objects = [dataclasses.replace(o, material=DiffuseMaterial()) if o.is_reflector else o for o in scene.objects]
     return dataclasses.replace(scene, objects=objects)
 
 

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from ..gpu.gl_state import Face, RasterState, other_face
 from ..gpu.bindings import TextureUnit, UniformBlock
 from ..gpu.context import bind_default_framebuffer
-from ..constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, NO_OBJECT
+from ..constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_REFLECTOR, NO_OBJECT
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
@@ -98,9 +98,9 @@ FRONT_FACES = RasterState(cull=other_face(BAKE_CULLS_FRONT_FACES))
 
 
 def image_records(images: list[DepthImage]) -> bytes:
-    """A mirror's uniform block. It is declared with MAX_DEPTH_IMAGES_PER_MIRROR entries; a smaller
+    """A mirror's uniform block. It is declared with MAX_DEPTH_IMAGES_PER_REFLECTOR entries; a smaller
     buffer would leave part of it unbacked, which GL leaves undefined."""
-    records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, dtype=DEPTH_IMAGE_DTYPE)
+    records = np.zeros(MAX_DEPTH_IMAGES_PER_REFLECTOR, dtype=DEPTH_IMAGE_DTYPE)
     for i, image in enumerate(images):
         records[i] = image.record()
     return records.tobytes()

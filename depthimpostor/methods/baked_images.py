@@ -14,7 +14,7 @@ import moderngl
 
 from ..gpu.gl_state import raster_state
 from ..gpu.bindings import TextureUnit, UniformBlock
-from ..constants import BACKGROUND_DEPTH, MAX_DEPTH_IMAGES_PER_MIRROR
+from ..constants import BACKGROUND_DEPTH, MAX_DEPTH_IMAGES_PER_REFLECTOR
 from ..errors import SceneError
 from ..geometry import ObjectGeometry, triangle_offsets
 from ..culling import Reach, ReachTable, reaches
@@ -94,7 +94,7 @@ class BakedImages:
         sides = [max(camera.width, camera.height) for images in plan.values() for _, camera, _ in images]
         self.atlas = ImpostorAtlas(ctx, count, max(sides, default=1), layers, self.keeps_triangle_ids,
                                    self.keeps_back_colors, self.keeps_beyond)
-        self.images_by_mirror: dict[int, list[DepthImage]] = {}
+        self.images_by_reflector: dict[int, list[DepthImage]] = {}
         slot = 0
         for mirror in mirrors:
             images: list[DepthImage] = []
@@ -103,10 +103,10 @@ class BakedImages:
                 label = image_label(mirror, targets, level, None if self.per_object else len(images))
                 images.append(DepthImage(mirror, targets, camera, self.atlas.tile_origin(slot), pyramid, level, slot, label))
                 slot += 1
-            self.images_by_mirror[mirror.index] = images
+            self.images_by_reflector[mirror.index] = images
         self.final_level = scene.render.max_bounces
         self.uniform_buffers = {index: self.uniform_buffer(self.images_at(index, self.final_level))
-                                for index in self.images_by_mirror}
+                                for index in self.images_by_reflector}
         self.bakes = 0  # images rendered so far (tests and stats check that nothing re-bakes)
         self.bake_counts: Counter[str] = Counter()  # by image label
         self.bounce_bakes = 0  # of them, images of reflectors (render.max_bounces > 1)
@@ -128,7 +128,7 @@ class BakedImages:
         """Objects (by index) moved to `geometry`: their images are fitted again and, with every
         image showing an object of `stale_targets` (a light that shades it moved, or a shadow
         that may fall on it), baked at the next bake. Bounce images follow what they show."""
-        for index, images in self.images_by_mirror.items():
+        for index, images in self.images_by_reflector.items():
             for i, image in enumerate(images):
                 mirror, targets = geometry[index], tuple(geometry[t.index] for t in image.targets)
                 if index in moved or any(t.index in moved for t in targets):
@@ -163,11 +163,11 @@ class BakedImages:
     def images_at(self, mirror_index: int, bounces: int) -> list[DepthImage]:
         """The images a reflected ray of this mirror is traced against when it may make
         `bounces` bounces: the diffuse objects', and the other mirrors' that show bounces - 1."""
-        return [image for image in self.images_by_mirror[mirror_index] if image.level in (0, bounces)]
+        return [image for image in self.images_by_reflector[mirror_index] if image.level in (0, bounces)]
 
     @property
     def depth_images(self) -> list[DepthImage]:
-        return [image for images in self.images_by_mirror.values() for image in images]
+        return [image for images in self.images_by_reflector.values() for image in images]
 
     @property
     def bytes(self) -> int:
@@ -184,7 +184,7 @@ class BakedImages:
     def bind(self, program: moderngl.Program) -> None:
         bind_impostors(program, self.atlas)
 
-    def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
+    def bind_reflector(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
         self.uniform_buffers[mirror.index].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
         write(program, "u_depth_image_count", len(self.images_at(mirror.index, self.final_level)))
 
@@ -295,10 +295,10 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
     plan = {}
     for mirror, row in zip(mirrors, reach(mirrors, reflected), strict=True):
         shown = [target for target, why in zip(reflected, row, strict=True) if why is Reach.REACHABLE]
-        if len(shown) > MAX_DEPTH_IMAGES_PER_MIRROR:
+        if len(shown) > MAX_DEPTH_IMAGES_PER_REFLECTOR:
             raise SceneError(
                 scene.source, "objects",
-                f"expected at most {MAX_DEPTH_IMAGES_PER_MIRROR} objects a mirror may reflect, got {len(shown)} "
+                f"expected at most {MAX_DEPTH_IMAGES_PER_REFLECTOR} objects a mirror may reflect, got {len(shown)} "
                 f"for \"{mirror.object.name}\"{objects_note(scene)}",
             )
         plan[mirror.index] = [ImagePlan((target,), image_camera(scene, view, mirror, target)) for target in shown]

@@ -16,7 +16,7 @@ from functools import cached_property
 import moderngl
 import numpy as np
 
-from ..constants import MAX_DEPTH_IMAGES_PER_MIRROR
+from ..constants import MAX_DEPTH_IMAGES_PER_REFLECTOR
 from ..geometry import ObjectGeometry
 from .baked_images import BakedImages, SecondLayer
 from ..gpu.uniforms import write
@@ -34,12 +34,12 @@ class BillboardPass(BakedImages):
         """Per mirror, each quad's plane as the camera depth w of its object's centre (w is
         constant on planes parallel to the image plane: this one faces the mirror's centre)."""
         quad_depths = {}
-        for index, images in self.images_by_mirror.items():
-            depths = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, np.float32)
+        for index, images in self.images_by_reflector.items():
+            depths = np.zeros(MAX_DEPTH_IMAGES_PER_REFLECTOR, np.float32)
             depths[: len(images)] = [image.camera.camera_coordinates(image.target.bounding_sphere[0])[2] for image in images]
             quad_depths[index] = depths
         return quad_depths
 
-    def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
-        super().bind_mirror(program, mirror)
+    def bind_reflector(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
+        super().bind_reflector(program, mirror)
         write(program, "u_billboard_w", self.quad_depths[mirror.index])

@@ -25,7 +25,7 @@ from ..scene.model import Scene
 from ..passes.glass import GlassInterior
 from .atlas import DepthImage, ImpostorAtlas, color_mask, mirror_centre
 from .baked_images import BakedImages
-from ..passes.mirrors import REFLECTORS, bounce_defines, reflector_program, reflector_tint, write_glass
+from ..passes.reflectors import REFLECTORS, bounce_defines, reflector_program, reflector_tint, write_glass
 from ..gpu.uniforms import write
 
 
@@ -47,7 +47,7 @@ class BounceBaker:
         # Per (mirror, bounces): the records a mirror drawn into a bounce k image reads (k - 1).
         self.level_buffers = {
             (index, level): images.uniform_buffer(images.images_at(index, level))
-            for index in images.images_by_mirror for level in range(1, images.final_level)
+            for index in images.images_by_reflector for level in range(1, images.final_level)
         }
 
     def bake(self) -> int:

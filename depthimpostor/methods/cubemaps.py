@@ -98,7 +98,7 @@ class CubeMapPass(BakedImages):
         return plan
 
     def refit(self, image: DepthImage, mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...]) -> PPC:
-        face = self.images_by_mirror[mirror.index].index(image)
+        face = self.images_by_reflector[mirror.index].index(image)
         return cube_cameras(self.scene, mirror, list(targets), image.camera.width)[face]
 
     def _forget_fits(self) -> None:
@@ -108,10 +108,10 @@ class CubeMapPass(BakedImages):
     def proxies(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         """Per mirror, the parallax correction's box around it and what its faces show."""
         return {index: proxy_box(images[0].mirror, list(images[0].targets))
-                for index, images in self.images_by_mirror.items() if images}
+                for index, images in self.images_by_reflector.items() if images}
 
-    def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
-        super().bind_mirror(program, mirror)
+    def bind_reflector(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
+        super().bind_reflector(program, mirror)
         lower, upper = self.proxies.get(mirror.index, proxy_box(mirror, []))
         write(program, "u_proxy_lower", tuple(lower))
         write(program, "u_proxy_upper", tuple(upper))

@@ -1,7 +1,7 @@
 """The GPU ray query: the mirror shader's own intersection code, run on arrays of rays.
 
 Each ray is one pixel of an off-screen float framebuffer; ray_query.frag includes the same
-lib/reflected_scene.glsl as mirror.frag and returns the fields of `reference.RayHits`, so that
+lib/reflected_scene.glsl as reflector.frag and returns the fields of `reference.RayHits`, so that
 the GLSL can be tested against the numpy reference on thousands of rays.
 """
 
@@ -18,10 +18,10 @@ from numpy.typing import NDArray
 
 from ..gpu.gl_state import NO_DEPTH_TEST, raster_state
 from ..gpu.bindings import TextureUnit, UniformBlock
-from ..constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_MIRROR, Algorithm, Method
+from ..constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_REFLECTOR, Algorithm, Method
 from ..gpu.context import bind_default_framebuffer
 from ..methods.atlas import ImpostorAtlas, bind_impostors
-from ..passes.mirrors import reflection_defines
+from ..passes.reflectors import reflection_defines
 from ..methods.pyramid import DepthPyramid
 from ..methods.registry import METHODS
 from ..gpu.uniforms import write
@@ -55,15 +55,15 @@ class RayQuery:
     ) -> None:
         """`images` are the atlas's depth images to intersect. The hierarchical algorithm builds
         their depth pyramids here, from the atlas as it is now."""
-        if not 0 < len(images) <= MAX_DEPTH_IMAGES_PER_MIRROR:
-            raise ValueError(f"a ray query takes 1 to {MAX_DEPTH_IMAGES_PER_MIRROR} depth images, got {len(images)}")
+        if not 0 < len(images) <= MAX_DEPTH_IMAGES_PER_REFLECTOR:
+            raise ValueError(f"a ray query takes 1 to {MAX_DEPTH_IMAGES_PER_REFLECTOR} depth images, got {len(images)}")
         self.ctx = ctx
         self.atlas = atlas
         self.image_count = len(images)
         # TRACK_UNSEEN: the query reports what each answer rests on that the images do not hold.
         defines = {**reflection_defines(METHODS[Method.DEPTH].defines(algorithm)), "TRACK_UNSEEN": 1}
         self.program = programs.get("fullscreen.vert", "ray_query.frag", defines)
-        records = np.zeros(MAX_DEPTH_IMAGES_PER_MIRROR, dtype=DEPTH_IMAGE_DTYPE)
+        records = np.zeros(MAX_DEPTH_IMAGES_PER_REFLECTOR, dtype=DEPTH_IMAGE_DTYPE)
         for i, image in enumerate(images):
             records[i] = image.record()
         self.uniform_buffer = ctx.buffer(records.tobytes())

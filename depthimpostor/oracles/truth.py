@@ -110,8 +110,8 @@ def material_albedo(material: Material, local_positions: Array, uvs: Array | Non
     raise TypeError(f"{material!r} is not a diffuse material")
 
 
-#: The grey albedo of a mirror's back (shaders/mirror.frag's u_backing_albedo, written from here by
-#: passes/mirrors.py): dark, as the painted back of a real mirror, and a diffuse surface like any.
+#: The grey albedo of a mirror's back (shaders/reflector.frag's u_backing_albedo, written from here by
+#: passes/reflectors.py): dark, as the painted back of a real mirror, and a diffuse surface like any.
 MIRROR_BACKING_ALBEDO = 0.2
 
 #: A ray that leaves a surface starts this share of a length off it (a shadow ray: of its own
@@ -196,7 +196,7 @@ class TruthTracer:
         """The nearest hits, shaded (the environment where nothing was hit)."""
         hits, albedo = self._intersect(origins, directions)
         hit = hits.hit
-        # A mirror's backing is shaded with its normal facing the ray, as mirror.frag does.
+        # A mirror's backing is shaded with its normal facing the ray, as reflector.frag does.
         normals = np.where(hits.backing[:, None], facing(hits.normal, directions), hits.normal)
         if hit.any():
             hits.color[hit] = shade(self.scene, albedo[hit], hits.position[hit], normals[hit], self.visibility)

@@ -90,7 +90,7 @@ class GlassInterior:
         ]
         self._record = ctx.buffer(reserve=DEPTH_IMAGE_DTYPE.itemsize)
         self.camera: PPC | None = None
-        self.seen_from: object = None  # what the owner made the last image for (passes/mirrors.py)
+        self.seen_from: object = None  # what the owner made the last image for (passes/reflectors.py)
         self.bakes = 0  # interior images made (the tests check when they are)
 
     def bake(self, glass: ObjectGeometry, camera: PPC | None) -> int:

@@ -33,7 +33,7 @@ class SamplesPass:
         write(self.program, "u_pixel_size", float(np.linalg.norm(camera.b)))
         draws = 0
         with raster_state(self.ctx, RasterState(point_size=True)):
-            for mirror_index, images in impostors.images_by_mirror.items():
+            for mirror_index, images in impostors.images_by_reflector.items():
                 impostors.uniform_buffers[mirror_index].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
                 for index, image in enumerate(images):
                     write(self.program, "u_image_index", index)

@@ -10,7 +10,7 @@ the method or on what the mirrors can see. `render` builds its plan before any G
 | planes that are not mirrors (floors, walls) | `MAX_ANALYTIC_PLANES` (8) | load | intersected exactly from a uniform array of that size |
 | `render.max_bounces` | `MAX_BOUNCES` (4) | load | each bounce bakes an image per pair of mirrors |
 | `render.max_bounces` > 1 with two or more mirrors or glass | the depth method alone | plan (`check_method`) | only the depth method bakes reflectors into each other's images |
-| objects a mirror may show (after culling) | `MAX_DEPTH_IMAGES_PER_MIRROR` (64) | plan (`per_object_plan`) | the images of one mirror share a uniform block of that many records |
+| objects a mirror may show (after culling) | `MAX_DEPTH_IMAGES_PER_REFLECTOR` (64) | plan (`per_object_plan`) | the images of one mirror share a uniform block of that many records |
 | objects and other mirrors a mirror shows, with bounces | 64 | plan (`ImpostorPass.plan_images`) | the same block |
 | reflected objects, traced methods (`raytrace`, `simplified`, `hybrid`) | 64 | plan (`check_method`) | one uniform block of that many object records |
 | reflected triangles, `hybrid` | `MAX_NAMED_TRIANGLES` (2^24) | plan (`check_method`) | a float32 depth-image sample names a triangle |

@@ -337,7 +337,7 @@ class SceneObject:
         return isinstance(self.material, GlassMaterial)
 
     @property
-    def is_specular(self) -> bool:
+    def is_reflector(self) -> bool:
         """Does what it shows depend on rays traced from its surface (a mirror, glass)? Such an
         object is drawn by the reflector pass and gets depth images of the others."""
         return self.is_mirror or self.is_glass
@@ -383,7 +383,7 @@ class Scene:
     @property
     def reflectors(self) -> tuple[SceneObject, ...]:
         """Mirrors and glass: the objects whose pixels trace rays into the others."""
-        return tuple(o for o in self.objects if o.is_specular)
+        return tuple(o for o in self.objects if o.is_reflector)
 
     @property
     def shadowed_lights(self) -> tuple[int, ...]:
@@ -425,7 +425,7 @@ class Scene:
     @property
     def diffuse_objects(self) -> tuple[SceneObject, ...]:
         """What the diffuse pass draws and a first bounce sees: everything but mirrors and glass."""
-        return tuple(o for o in self.objects if not o.is_specular)
+        return tuple(o for o in self.objects if not o.is_reflector)
 
     def with_overrides(self, size: tuple[int, int] | None = None, impostor_resolution: int | str | None = None,
                        simplified_triangles: int | None = None, tone_mapping: str | None = None,

@@ -7,7 +7,7 @@
 
 // One mirror's images, from its uniform buffer.
 layout(std140) uniform DepthImages {
-    DepthImage u_depth_images[MAX_DEPTH_IMAGES_PER_MIRROR];
+    DepthImage u_depth_images[MAX_DEPTH_IMAGES_PER_REFLECTOR];
 };
 uniform int u_depth_image_count;
 

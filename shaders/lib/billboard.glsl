@@ -7,7 +7,7 @@
 
 // Per billboard of this mirror: the camera depth w of the quad's plane (w = const is a plane
 // parallel to the image plane).
-uniform float u_billboard_w[MAX_DEPTH_IMAGES_PER_MIRROR];
+uniform float u_billboard_w[MAX_DEPTH_IMAGES_PER_REFLECTOR];
 
 RayHit nearest_billboard_hit(vec3 origin, vec3 direction) {
     RayHit best = no_hit(0);

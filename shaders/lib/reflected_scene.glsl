@@ -57,7 +57,7 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction) {
          i = next_entered_image(i, origin, direction)) {
         // min(): a software rasterizer may run the body once for a group none of whose pixels
         // entered an image (i == u_depth_image_count, up to the array's size): read a real record.
-        RayHit candidate = intersect_depth_image(u_depth_images[min(i, MAX_DEPTH_IMAGES_PER_MIRROR - 1)], origin,
+        RayHit candidate = intersect_depth_image(u_depth_images[min(i, MAX_DEPTH_IMAGES_PER_REFLECTOR - 1)], origin,
                                                  direction);
         samples += candidate.samples;
         if (candidate.unseen != UNSEEN_NONE && candidate.unseen_t < unseen_t) {

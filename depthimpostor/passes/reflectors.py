@@ -50,7 +50,7 @@ class ReflectedObjects(Protocol):
 
     def bind(self, program: moderngl.Program) -> None: ...
 
-    def bind_mirror(self, program: moderngl.Program, mirror: ObjectGeometry) -> None: ...
+    def bind_reflector(self, program: moderngl.Program, mirror: ObjectGeometry) -> None: ...
 
     def release(self) -> None: ...
 
@@ -72,12 +72,12 @@ def reflection_defines(
     return defines
 
 
-REFLECTOR_PROGRAM = ("mesh.vert", "mirror.frag")
+REFLECTOR_PROGRAM = ("mesh.vert", "reflector.frag")
 #: The frame's reflectors, deferred: their surfaces rasterized first (SURFACE_PROGRAM), then the
 #: mirror shader run over each reflector's screen rectangle on those (DEFERRED_REFLECTOR_PROGRAM
 #: with DEFERRED). The bounce bakes draw reflectors into depth images forward (REFLECTOR_PROGRAM).
 SURFACE_PROGRAM = ("mesh.vert", "reflector_surface.frag")
-DEFERRED_REFLECTOR_PROGRAM = ("screen_rect.vert", "mirror.frag")
+DEFERRED_REFLECTOR_PROGRAM = ("screen_rect.vert", "reflector.frag")
 DEFERRED = {"DEFERRED": 1}
 
 
@@ -111,7 +111,7 @@ def reflector_tint(item: ObjectGeometry) -> tuple[float, float, float]:
 
 
 #: GL's front_face that makes a mirror's outward (counter-clockwise) faces GL's front faces, for
-#: mirror.frag's gl_FrontFacing (a mirror's back is its backing): every PPC projection, the
+#: reflector.frag's gl_FrontFacing (a mirror's back is its backing): every PPC projection, the
 #: frame's and a depth image's alike, puts image row 0 at window y = 0 and so turns them clockwise.
 OUTWARD_FRONT_FACE: Winding = "cw" if BAKE_CULLS_FRONT_FACES == "back" else "ccw"
 
@@ -149,7 +149,7 @@ def screen_rectangle(item: ObjectGeometry, camera: PPC) -> tuple[float, float, f
     return (float(low[0]), float(low[1]), float(high[0]), float(high[1]))
 
 
-class MirrorPass:
+class ReflectorPass:
     """Draws the mirrors and the glass objects (the reflectors) over the frame, deferred: each
     reflector's surface is rasterized into the frame's surface targets (position, normal and id,
     reflector_surface.frag) with a trivial shader, and the mirror shader then runs once per pixel
@@ -224,7 +224,7 @@ class MirrorPass:
                 write_glass(program, item)
             framebuffer.use()
             self.reflected.bind(program)
-            self.reflected.bind_mirror(program, item)
+            self.reflected.bind_reflector(program, item)
             write(program, "u_eye", tuple(camera.C))
             write(program, "u_tint", reflector_tint(item))
             write(program, "u_mirror_id", item.index)

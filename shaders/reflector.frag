@@ -34,7 +34,7 @@ uniform int u_mirror_id;
 uniform bool u_tint_retraced;
 #endif
 #ifndef GLASS
-uniform float u_backing_albedo;  // grey, written by passes/mirrors.py from truth.py
+uniform float u_backing_albedo;  // grey, written by passes/reflectors.py from truth.py
 #endif
 
 layout(location = 0) out vec4 out_color;
@@ -52,7 +52,7 @@ layout(location = 4) out vec4 out_normal;         // (the unit normal facing the
 #endif
 #ifdef COUNT_SAMPLES
 // For the benchmark alone: the samples (depth-image texels, BVH nodes) this ray read. The
-// location follows the reflection outputs when they are there (passes/mirrors.py).
+// location follows the reflection outputs when they are there (passes/reflectors.py).
 layout(location = COUNT_SAMPLES) out float out_samples;
 #endif
 
@@ -95,7 +95,7 @@ void main() {
     normal = faceforward(normal, view, normal);
 #ifndef GLASS
     // GL's front faces are the outward ones: the passes draw mirrors with front_face set for
-    // their flipped projections (passes/mirrors.py, outward_faces_front).
+    // their flipped projections (passes/reflectors.py, outward_faces_front).
     if (!front_facing) {
         write_backing(normal);
         return;
