@@ -9,7 +9,7 @@ from typing import Protocol
 import moderngl
 
 from ..gpu.gl_state import RasterState, Winding, raster_state
-from ..constants import Algorithm, Method
+from ..constants import MAX_ANALYTIC_PLANES, Algorithm, Method
 from ..geometry import ObjectGeometry
 from ..ppc import PPC
 from ..scene.model import GlassMaterial, MirrorMaterial, Scene
@@ -67,7 +67,11 @@ REFLECTOR_PROGRAM = ("mesh.vert", "mirror.frag")
 
 def reflector_defines(scene: Scene, defines: dict[str, int], glass: bool) -> dict[str, int]:
     """The mirror shader's variant for mirrors or (GLASS) for glass, under the scene's lights and environment."""
-    return {**defines, **shading_defines(scene), **environment_defines(scene), **({"GLASS": 1} if glass else {})}
+    # PLANE_COUNT: a constant loop bound (lib/reflected_scene.glsl); more than MAX_ANALYTIC_PLANES is
+    # refused when the planes are written.
+    planes = min(len(scene.analytic_planes), MAX_ANALYTIC_PLANES)
+    return {**defines, **shading_defines(scene), **environment_defines(scene), "PLANE_COUNT": planes,
+            **({"GLASS": 1} if glass else {})}
 
 
 def bounce_defines() -> dict[str, int]:

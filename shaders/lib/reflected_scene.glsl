@@ -27,6 +27,11 @@
 #endif
 
 uniform int u_plane_count;
+// The planes traced: a constant of the program where the pass gives one (PLANE_COUNT, from the
+// scene: passes/mirrors.py's reflector_defines), for the reason LIGHT_COUNT is (lib/shading.glsl).
+#ifndef PLANE_COUNT
+#define PLANE_COUNT u_plane_count
+#endif
 uniform mat4 u_plane_world_to_local[MAX_ANALYTIC_PLANES];
 uniform vec2 u_plane_half_size[MAX_ANALYTIC_PLANES];
 uniform vec3 u_plane_normal[MAX_ANALYTIC_PLANES];  // world space, unit
@@ -94,7 +99,7 @@ RayHit nearest_object_hit(vec3 origin, vec3 direction) {
 // keeps the world ray's parameter t because the transform is affine.
 RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
     RayHit best = no_hit(0);
-    for (int i = 0; i < u_plane_count; ++i) {
+    for (int i = 0; i < PLANE_COUNT; ++i) {
         vec3 o = (u_plane_world_to_local[i] * vec4(origin, 1.0)).xyz;
         vec3 d = (u_plane_world_to_local[i] * vec4(direction, 0.0)).xyz;
         // A ray parallel to the plane never meets it; dividing would give +-Inf or NaN.
