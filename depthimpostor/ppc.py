@@ -28,7 +28,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .constants import DEPTH_IMAGE_DTYPE, MAX_SURFACE_SLOPE
+from .constants import BOUND_MARGIN, CLIP_TOLERANCE_PIXELS, DEPTH_IMAGE_DTYPE, MAX_SURFACE_SLOPE
 
 Array = NDArray[np.float64]
 
@@ -276,6 +276,18 @@ class PPC:
         """A matrix as GL wants it: float32, column-major."""
         return np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes()
 
+    def bound(self, pixels: float = CLIP_TOLERANCE_PIXELS) -> tuple[Array, float]:
+        """(centre, radius) of a sphere around the frustum grown by `pixels` as clip_ray_grown
+        grows it: every point a ray clipped to it can hit lies inside. The radius has a margin of
+        BOUND_MARGIN for the rounding of float32 clipping in the shaders."""
+        grow = pixels / max(self.width, self.height)
+        corners = np.array([self.unproject(u, v, w) for u in (-pixels, self.width + pixels)
+                            for v in (-pixels, self.height + pixels)
+                            for w in (self.w_near * (1.0 - grow), self.w_far * (1.0 + grow))])
+        centre = corners.mean(axis=0)
+        radius = float(np.max(np.linalg.norm(corners - centre, axis=1)))
+        return centre, radius * (1.0 + BOUND_MARGIN)
+
     def depth_image_record(
         self, object_id: int, tile_origin: tuple[int, int], pyramid: tuple[int, int, int] = (0, 0, 0)
     ) -> NDArray[np.void]:
@@ -294,4 +306,6 @@ class PPC:
         inverse_near, inverse_far = 1.0 / self.w_near, 1.0 / self.w_far
         record["surface"] = (self.max_relative_depth_step, inverse_near, inverse_near - inverse_far, 0.0)
         record["pyramid"] = (*pyramid, 0)
+        centre, radius = self.bound()
+        record["bound"] = (*centre, radius)
         return record
