@@ -3,8 +3,10 @@ visits the images nearest first, by where the ray enters their bounds (DepthImag
 where the next is entered beyond the nearest hit so far (lib/reflected_scene.glsl). The frame
 must be the one a visit of every image gives, and the visits fewer.
 
-Every image visited is what the shader did before the bounds: a bound of infinite radius is
-entered at t = 0 by every ray, so that every image is visited, in the order of the records.
+The comparison visits every image: a bound of infinite radius is entered at t = 0 by every ray, so
+that every image is visited, in the order of the records (as before the bounds; the marches still
+end at the step past the nearest hit so far, which tools/frames.py check holds against frames
+recorded before any of this: 0 changed).
 """
 
 from __future__ import annotations
