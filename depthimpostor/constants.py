@@ -232,7 +232,10 @@ CLIP_TOLERANCE_PIXELS = 1e-4
 #: coarse levels (methods/pyramid.py; read by the hierarchical traversal alone); `bound` a sphere
 #: (world centre, radius) around every point the image can answer a ray with (PPC.bound): a ray
 #: that misses it misses the image, and a ray meets nothing in the image before it enters it (the
-#: mirror shader visits a mirror's images in that order and stops early: lib/reflected_scene.glsl).
+#: mirror shader visits a mirror's images in that order and stops early: lib/reflected_scene.glsl);
+#: `hit_bound` a sphere that holds every hit the image can give (PPC.hit_bound: its object's
+#: sphere grown by what sampling adds, where it is smaller than `bound`), which the variants that
+#: do not track unseen space (they need nothing of an image but its hits) order and skip by.
 DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
     ("eye", "vec4"),
     ("a", "vec4"),
@@ -246,6 +249,7 @@ DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
     ("surface", "vec4"),
     ("pyramid", "ivec4"),
     ("bound", "vec4"),
+    ("hit_bound", "vec4"),
 )
 #: The share by which a depth image's bound is larger than the sphere around its grown frustum:
 #: the shaders clip in float32, whose rounding moves the entry into the frustum by ~1e-6 of the

@@ -28,7 +28,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .constants import BOUND_MARGIN, CLIP_TOLERANCE_PIXELS, DEPTH_IMAGE_DTYPE, MAX_SURFACE_SLOPE
+from .constants import BOUND_MARGIN, CLIP_TOLERANCE_PIXELS, CONTACT_DEPTH_TOLERANCE, DEPTH_IMAGE_DTYPE, MAX_SURFACE_SLOPE
 
 Array = NDArray[np.float64]
 
@@ -288,8 +288,29 @@ class PPC:
         radius = float(np.max(np.linalg.norm(corners - centre, axis=1)))
         return centre, radius * (1.0 + BOUND_MARGIN)
 
+    def hit_bound(self, around: tuple[Array, float] | None, pixels: float = CLIP_TOLERANCE_PIXELS) -> tuple[Array, float]:
+        """(centre, radius) of a sphere around every hit a march of this image can give, when the
+        image shows what lies in the sphere `around` (its object's bounding sphere): that sphere
+        grown by a texel's width at the far plane (a hit lies on the segment between two samples,
+        each read at its position on the ray, up to half a texel from the texel centre where the
+        surface was rasterized) and by CONTACT_DEPTH_TOLERANCE along a pixel's ray at the far plane
+        (a hit's depth is the surface's within it), with BOUND_MARGIN. The frustum's bound where
+        that is smaller, or where the image shows no one object (`around` None)."""
+        frustum = self.bound(pixels)
+        if around is None:
+            return frustum
+        grow = pixels / max(self.width, self.height)
+        w_far = self.w_far * (1.0 + grow)
+        texel = (float(np.linalg.norm(self.a)) + float(np.linalg.norm(self.b))) * w_far
+        longest_ray = max(float(np.linalg.norm(self.ray_direction(u, v))) for u in (0.0, self.width)
+                          for v in (0.0, self.height))
+        depth = CONTACT_DEPTH_TOLERANCE * w_far * w_far * (1.0 / self.w_near - 1.0 / self.w_far) * longest_ray
+        radius = (around[1] + texel + depth) * (1.0 + BOUND_MARGIN)
+        return (np.asarray(around[0], dtype=np.float64), radius) if radius < frustum[1] else frustum
+
     def depth_image_record(
-        self, object_id: int, tile_origin: tuple[int, int], pyramid: tuple[int, int, int] = (0, 0, 0)
+        self, object_id: int, tile_origin: tuple[int, int], pyramid: tuple[int, int, int] = (0, 0, 0),
+        around: tuple[Array, float] | None = None
     ) -> NDArray[np.void]:
         """This camera packed as one `DepthImage` std140 record, a 0-d structured array (see
         constants.DEPTH_IMAGE_FIELDS); `pyramid` is (x, y, coarse levels) of its depth pyramid, where it has one."""
@@ -308,4 +329,6 @@ class PPC:
         record["pyramid"] = (*pyramid, 0)
         centre, radius = self.bound()
         record["bound"] = (*centre, radius)
+        centre, radius = self.hit_bound(around)
+        record["hit_bound"] = (*centre, radius)
         return record

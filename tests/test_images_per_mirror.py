@@ -1,7 +1,8 @@
 """A mirror with many depth images (scenes/images_per_mirror/boxes_64.toml): the mirror shader
-visits the images nearest first, by where the ray enters their bounds (DepthImage.bound), and stops
-where the next is entered beyond the nearest hit so far (lib/reflected_scene.glsl). The frame
-must be the one a visit of every image gives, and the visits fewer.
+visits the images nearest first, by where the ray enters their bounds (DepthImage.bound, or
+hit_bound where only hits are looked for), and stops where the next is entered beyond the nearest
+hit so far (lib/reflected_scene.glsl). The frame must be the one a visit of every image gives, and
+the visits fewer.
 
 The comparison visits every image: a bound of infinite radius is entered at t = 0 by every ray, so
 that every image is visited, in the order of the records (as before the bounds; the marches still
@@ -37,7 +38,8 @@ def visit_every_image(renderer: Renderer) -> None:
     assert baked is not None
     for index, buffer in baked.uniform_buffers.items():
         records = np.frombuffer(image_records(baked.images_at(index, baked.final_level)), DEPTH_IMAGE_DTYPE).copy()
-        records["bound"][:, 3] = 1e18  # squared, still a float32 (3.4e38 at most)
+        for bound in ("bound", "hit_bound"):
+            records[bound][:, 3] = 1e18  # squared, still a float32 (3.4e38 at most)
         buffer.write(records.tobytes())
 
 

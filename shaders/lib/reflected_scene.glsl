@@ -51,7 +51,12 @@ void next_two_images(int after, float after_t, float limit, vec3 origin, vec3 di
     first_t = second_t = UNBOUNDED_RAY;
     for (int j = 0; j < MAX_DEPTH_IMAGES_PER_MIRROR; ++j) {
         if (j >= u_depth_image_count) break;
+#ifdef TRACK_UNSEEN
         float t = bound_entry(u_depth_images[j].bound, origin, direction, inverse_square_length);
+#else
+        // Hits alone are looked for: the tighter sphere around them.
+        float t = bound_entry(u_depth_images[j].hit_bound, origin, direction, inverse_square_length);
+#endif
         bool candidate = (t > after_t || (t == after_t && j > after)) && t < UNBOUNDED_RAY && t <= limit;
         // j rises: an image entered where an earlier one is comes after it.
         bool before_first = candidate && t < first_t;
