@@ -245,7 +245,13 @@ CLIP_TOLERANCE_PIXELS = 1e-4
 #: in the atlas and its size; `surface` is (the largest relative change in w per texel of
 #: distance that still joins two samples, 1/w_near, 1/w_near - 1/w_far); `pyramid` the (x, y)
 #: origin of the image's first coarse level in the depth pyramid's texture and its number of
-#: coarse levels (methods/pyramid.py; read by the hierarchical traversal alone).
+#: coarse levels (methods/pyramid.py; read by the hierarchical traversal alone); `bound` a sphere
+#: (world centre, radius) around every point the image can answer a ray with (PPC.bound): a ray
+#: that misses it misses the image, and a ray meets nothing in the image before it enters it (the
+#: mirror shader visits a mirror's images in that order and stops early: lib/reflected_scene.glsl);
+#: `hit_bound` a sphere that holds every hit the image can give (PPC.hit_bound: its object's
+#: sphere grown by what sampling adds, where it is smaller than `bound`), which the variants that
+#: do not track unseen space (they need nothing of an image but its hits) order and skip by.
 DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
     ("eye", "vec4"),
     ("a", "vec4"),
@@ -258,7 +264,14 @@ DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
     ("tile", "ivec4"),
     ("surface", "vec4"),
     ("pyramid", "ivec4"),
+    ("bound", "vec4"),
+    ("hit_bound", "vec4"),
 )
+#: The share by which a depth image's bound is larger than the sphere around its grown frustum:
+#: the shaders clip in float32, whose rounding moves the entry into the frustum by ~1e-6 of the
+#: distance; a bound entered 1e-3 of its radius earlier stays in front of it for an object up to
+#: ~1000 radii away from the mirror.
+BOUND_MARGIN = 1e-3
 
 #: One reflected object of the ray-traced method (std140): the world-to-local transform (the
 #: checker is laid out in local coordinates), colour_a with the checker scale in w, colour_b, and

@@ -120,7 +120,7 @@ class ObjectGeometry:
     @property
     def is_analytic_plane(self) -> bool:
         """Planes that are not mirrors (floors, walls) are intersected exactly, not through impostors."""
-        return isinstance(self.object.shape, PlaneShape) and not self.object.is_mirror
+        return self.object.is_analytic_plane
 
 
 def triangle_offsets(objects: list[ObjectGeometry]) -> dict[int, int]:

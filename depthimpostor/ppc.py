@@ -28,7 +28,15 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .constants import DEPTH_IMAGE_DTYPE, MAX_SURFACE_SLOPE, Algorithm, image_algorithm
+from .constants import (
+    BOUND_MARGIN,
+    CLIP_TOLERANCE_PIXELS,
+    CONTACT_DEPTH_TOLERANCE,
+    DEPTH_IMAGE_DTYPE,
+    MAX_SURFACE_SLOPE,
+    Algorithm,
+    image_algorithm,
+)
 
 Array = NDArray[np.float64]
 
@@ -276,8 +284,41 @@ class PPC:
         """A matrix as GL wants it: float32, column-major."""
         return np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes()
 
+    def bound(self, pixels: float = CLIP_TOLERANCE_PIXELS) -> tuple[Array, float]:
+        """(centre, radius) of a sphere around the frustum grown by `pixels` as clip_ray_grown
+        grows it: every point a ray clipped to it can hit lies inside. The radius has a margin of
+        BOUND_MARGIN for the rounding of float32 clipping in the shaders."""
+        grow = pixels / max(self.width, self.height)
+        corners = np.array([self.unproject(u, v, w) for u in (-pixels, self.width + pixels)
+                            for v in (-pixels, self.height + pixels)
+                            for w in (self.w_near * (1.0 - grow), self.w_far * (1.0 + grow))])
+        centre = corners.mean(axis=0)
+        radius = float(np.max(np.linalg.norm(corners - centre, axis=1)))
+        return centre, radius * (1.0 + BOUND_MARGIN)
+
+    def hit_bound(self, around: tuple[Array, float] | None, pixels: float = CLIP_TOLERANCE_PIXELS) -> tuple[Array, float]:
+        """(centre, radius) of a sphere around every hit a march of this image can give, when the
+        image shows what lies in the sphere `around` (its object's bounding sphere): that sphere
+        grown by a texel's width at the far plane (a hit lies on the segment between two samples,
+        each read at its position on the ray, up to half a texel from the texel centre where the
+        surface was rasterized) and by CONTACT_DEPTH_TOLERANCE along a pixel's ray at the far plane
+        (a hit's depth is the surface's within it), with BOUND_MARGIN. The frustum's bound where
+        that is smaller, or where the image shows no one object (`around` None)."""
+        frustum = self.bound(pixels)
+        if around is None:
+            return frustum
+        grow = pixels / max(self.width, self.height)
+        w_far = self.w_far * (1.0 + grow)
+        texel = (float(np.linalg.norm(self.a)) + float(np.linalg.norm(self.b))) * w_far
+        longest_ray = max(float(np.linalg.norm(self.ray_direction(u, v))) for u in (0.0, self.width)
+                          for v in (0.0, self.height))
+        depth = CONTACT_DEPTH_TOLERANCE * w_far * w_far * (1.0 / self.w_near - 1.0 / self.w_far) * longest_ray
+        radius = (around[1] + texel + depth) * (1.0 + BOUND_MARGIN)
+        return (np.asarray(around[0], dtype=np.float64), radius) if radius < frustum[1] else frustum
+
     def depth_image_record(
-        self, object_id: int, tile_origin: tuple[int, int], pyramid: tuple[int, int, int] = (0, 0, 0)
+        self, object_id: int, tile_origin: tuple[int, int], pyramid: tuple[int, int, int] = (0, 0, 0),
+        around: tuple[Array, float] | None = None
     ) -> NDArray[np.void]:
         """This camera packed as one `DepthImage` std140 record, a 0-d structured array (see
         constants.DEPTH_IMAGE_FIELDS); `pyramid` is (x, y, coarse levels) of its depth pyramid, where it has one."""
@@ -295,4 +336,8 @@ class PPC:
         record["surface"] = (self.max_relative_depth_step, inverse_near, inverse_near - inverse_far, 0.0)
         # w: `--algorithm auto` traverses this image hierarchically (constants.image_algorithm).
         record["pyramid"] = (*pyramid, int(image_algorithm(Algorithm.AUTO, self.width, self.height) == Algorithm.HIERARCHICAL))
+        centre, radius = self.bound()
+        record["bound"] = (*centre, radius)
+        centre, radius = self.hit_bound(around)
+        record["hit_bound"] = (*centre, radius)
         return record

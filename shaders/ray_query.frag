@@ -15,7 +15,7 @@ void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     vec3 origin = texelFetch(u_ray_origins, texel, 0).xyz;
     vec3 direction = texelFetch(u_ray_directions, texel, 0).xyz;
-    RayHit hit = nearest_depth_image_hit(origin, direction);
+    RayHit hit = nearest_depth_image_hit(origin, direction, UNBOUNDED_RAY);
     out_hit = vec4(hit.hit ? 1.0 : 0.0, hit.t, hit.image_position);
     out_color = vec4(hit.color, hit.object_id);
     out_stats = vec4(float(hit.samples), hit.unseen_t, float(hit.unseen), 0.0);

@@ -123,3 +123,21 @@ def test_rays_that_miss_every_frustum_read_no_samples(ctx: moderngl.Context, bak
     query.release()
     assert not gpu.hit.any()
     assert (gpu.samples == 0).all()
+
+
+@pytest.mark.parametrize("algorithm", [Algorithm.BASIC, Algorithm.OPTIMIZED], ids=lambda a: a.name.lower())
+def test_every_hit_lies_in_its_images_hit_bound(baked: Renderer, algorithm: Algorithm) -> None:
+    """The mirror shader skips an image whose hit bound a ray enters after its nearest hit
+    (lib/reflected_scene.glsl): every hit a march of the image finds must lie inside it
+    (PPC.hit_bound), and for one object's image it is tighter than the frustum's bound."""
+    assert baked.graph.impostors is not None
+    for seed, image in enumerate(baked.graph.impostors.depth_images):
+        origins, directions = random_rays(image, 100 + seed)
+        hits = reference.intersect_depth_image(image_data(baked, image), origins, directions, algorithm)
+        record = image.record()
+        centre, radius = record["hit_bound"][:3], float(record["hit_bound"][3])
+        assert radius < float(record["bound"][3])
+        points = origins[hits.hit] + directions[hits.hit] * hits.t[hits.hit, None]
+        assert len(points) > 500
+        distance = np.linalg.norm(points - centre, axis=1)
+        assert np.all(distance <= radius), f"{image.label}: a hit {distance.max() - radius:.3g} outside"

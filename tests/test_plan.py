@@ -44,6 +44,9 @@ PLAN_COUNTS = {
     # The glTF room: its floor, walls and mirror are planes; mirror and glass ball x 2 crates and a torus.
     "showcase.toml": (5, 6, 0, 8),
     "two_mirrors.toml": (5, 4, 0, 8),
+    # tools/make_images_per_mirror.py's bench scenes: one mirror, an image per box.
+    **{f"images_per_mirror/{family}_{count:02d}.toml": (4, count, 0, 6)
+       for family in ("boxes", "wall") for count in (1, 4, 16, 64)},
     "hard/grazing.toml": (4, 3, 0, 6),
     "hard/huge.toml": (4, 5, 0, 6),
     "hard/silhouette.toml": (4, 1, 0, 6),

@@ -13,6 +13,7 @@ import pytest
 
 from conftest import assert_finite
 from depthimpostor.gpu.context import bind_default_framebuffer
+from depthimpostor.constants import CLIP_TOLERANCE_PIXELS
 from depthimpostor.ppc import PPC, FrustumFitError
 
 # (eye, target, up, fov, width, height): square, wide, tall, oblique and tilted up-vector cameras.
@@ -453,3 +454,29 @@ def test_gl_points_land_where_project_says(ctx: moderngl.Context, make) -> None:
     np.testing.assert_array_equal(landed, np.arange(len(positions), dtype=np.float32))
     window_depth = image[pixels[:, 1], pixels[:, 0], 1].astype(np.float64)
     np.testing.assert_allclose(window_depth, camera.opengl_depth(w), rtol=0, atol=1e-5)
+
+
+def test_the_bound_holds_the_grown_frustum_and_is_entered_first() -> None:
+    """PPC.bound, the sphere the mirror shader orders and skips a mirror's images by: the grown
+    frustum's corners lie inside it, and a ray that enters the grown frustum enters the sphere no
+    later (the shader's early stop rests on this)."""
+    camera = fitted_camera()
+    centre, radius = camera.bound()
+    grow = CLIP_TOLERANCE_PIXELS / max(camera.width, camera.height)
+    for u in (-CLIP_TOLERANCE_PIXELS, camera.width + CLIP_TOLERANCE_PIXELS):
+        for v in (-CLIP_TOLERANCE_PIXELS, camera.height + CLIP_TOLERANCE_PIXELS):
+            for w in (camera.w_near * (1.0 - grow), camera.w_far * (1.0 + grow)):
+                assert np.linalg.norm(camera.unproject(u, v, w) - centre) < radius
+    rng = np.random.default_rng(11)
+    origins = centre + rng.normal(size=(4000, 3)) * 3.0 * radius
+    # Aimed at points about the bound's middle: many of them cross the frustum, some near its edges.
+    directions = centre + rng.normal(size=(4000, 3)) * 0.5 * radius - origins
+    inside, t_enter, _ = camera.clip_ray_grown(origins, directions, CLIP_TOLERANCE_PIXELS)
+    assert inside.sum() > 1000  # enough rays meet the frustum for the test to mean something
+    a = np.einsum("ij,ij->i", directions, directions)
+    closest = -np.einsum("ij,ij->i", origins - centre, directions) / a
+    offset = origins - centre + directions * closest[:, None]
+    half_chord_squared = (radius**2 - np.einsum("ij,ij->i", offset, offset)) / a
+    assert np.all(half_chord_squared[inside] > 0.0)
+    entry = np.maximum(closest - np.sqrt(np.maximum(half_chord_squared, 0.0)), 0.0)
+    assert np.all(entry[inside] < t_enter[inside] + 1e-12)

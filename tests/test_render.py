@@ -96,7 +96,7 @@ def test_scene_without_mirrors_allocates_no_impostor(ctx: moderngl.Context, tmp_
         compiled = {fragment for _, fragment, _ in renderer.programs.variants}
         assert compiled == {"environment.frag", "diffuse.frag"}
         variants = [defines for _, fragment, defines in renderer.programs.variants if fragment == "diffuse.frag"]
-        assert variants == [(("INSTANCED", "1"), ("WRITE_DEPTH_IMAGE", "0"))]  # one batch of the still objects
+        assert variants == [(("INSTANCED", "1"), ("LIGHT_COUNT", str(len(scene.lights))), ("WRITE_DEPTH_IMAGE", "0"))]  # one batch of the still objects
 
 
 def test_depth_images_are_baked_once_and_not_for_camera_moves(ctx: moderngl.Context) -> None:

@@ -188,6 +188,14 @@ class ProgramCache:
         assert isinstance(program, moderngl.Program)
         return program
 
+    def without_defines(self, program: moderngl.Program, names: tuple[str, ...]) -> moderngl.Program:
+        """`program`, one of this cache's, compiled again without the defines `names` (tools and
+        tests that hold a variant against the shaders' fallback: tools/shading_cost.py)."""
+        for (stages, defines), cached in self._programs.items():
+            if cached is program and len(stages) == 2:
+                return self.get(stages[0], stages[1], {name: value for name, value in defines if name not in names})
+        raise ValueError("the program is not one of this cache's")
+
     def compute(self, name: str, defines: Defines | None = None) -> moderngl.ComputeShader:
         """A compute shader (GLSL 4.30: the caller checks the context has it)."""
         program = self._get((name,), defines)

@@ -13,16 +13,18 @@ import moderngl
 import numpy as np
 
 from .bindings import TextureUnit, UniformBlock
-from ..constants import MAX_TEXTURES, MaterialKind, Wrap
+from ..constants import MAX_LIGHTS, MAX_TEXTURES, MaterialKind, Wrap
 from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, Scene
 from ..textures import SRGB_TABLE, texel_rects
 
 
 def shading_defines(scene: Scene) -> dict[str, int]:
-    """The variant of every shading program that the scene's lights and materials call for: shadow
+    """The variant of every shading program that the scene's lights and materials call for: its
+    number of lights (more than MAX_LIGHTS is refused when the lights are written), shadow
     rays only in scenes where a light casts shadows on something, texture sampling only in scenes
     with image textures (TEXTURE_COUNT of them)."""
-    return {**({"SHADOWS": 1} if scene.has_shadows else {}),
+    return {"LIGHT_COUNT": min(len(scene.lights), MAX_LIGHTS),  # a constant loop bound (lib/shading.glsl)
+            **({"SHADOWS": 1} if scene.has_shadows else {}),
             **({"TEXTURE_COUNT": len(scene.textures)} if scene.textures else {})}
 
 
@@ -41,7 +43,10 @@ def write(program: moderngl.Program | moderngl.ComputeShader, name: str,
         raise TypeError(f"{name} is a {type(uniform).__name__}, not a uniform a value can be written to")
     if isinstance(data, np.ndarray):
         dtype = np.int32 if np.issubdtype(data.dtype, np.integer) else np.float32
-        uniform.write(np.ascontiguousarray(data, dtype=dtype).tobytes())
+        values = np.ascontiguousarray(data, dtype=dtype).reshape(-1)
+        # An array the compiler shortened to the elements the program reads (a loop bounded by a
+        # constant, LIGHT_COUNT or PLANE_COUNT, reads the first ones): those elements alone.
+        uniform.write(values[:uniform.array_length * uniform.dimension].tobytes())
     elif isinstance(data, bytes):
         uniform.write(data)
     else:

@@ -76,9 +76,11 @@ class DepthImage:
 
     def record(self) -> NDArray[np.void]:
         """The std140 record; `eye.w` names the object of a per-object image (NO_OBJECT for a
-        cube-map face, whose texels name their own)."""
-        object_id = self.targets[0].index if len(self.targets) == 1 else NO_OBJECT
-        return self.camera.depth_image_record(object_id, self.tile_origin, self.pyramid)
+        cube-map face, whose texels name their own), whose bounding sphere bounds its hits."""
+        single = len(self.targets) == 1
+        object_id = self.targets[0].index if single else NO_OBJECT
+        around = self.targets[0].bounding_sphere if single else None
+        return self.camera.depth_image_record(object_id, self.tile_origin, self.pyramid, around)
 
 
 #: Draws the nearest back face's window depth into the second layer.

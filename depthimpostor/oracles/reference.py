@@ -458,7 +458,9 @@ def intersect_depth_image(image: DepthImageData, origins: Array, directions: Arr
 def nearest_depth_image_hit(
     images: Sequence[DepthImageData], origins: Array, directions: Array, algorithm: Algorithm = Algorithm.OPTIMIZED
 ) -> RayHits:
-    """The nearest hit over several depth images, as the mirror shader keeps it."""
+    """The nearest hit over several depth images, as the mirror shader keeps it. Every image is
+    marched to its end here; the shader visits them nearest first and stops at the nearest hit
+    (lib/reflected_scene.glsl): the same hit, fewer samples, and nothing unseen after the hit."""
     best = RayHits.misses(len(origins))
     samples = np.zeros(len(origins), np.int64)
     for image in images:

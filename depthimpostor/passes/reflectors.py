@@ -11,7 +11,7 @@ import numpy as np
 
 from ..gpu.bindings import TextureUnit
 from ..gpu.gl_state import NO_DEPTH_TEST, RasterState, Winding, raster_state
-from ..constants import Algorithm, Method
+from ..constants import MAX_ANALYTIC_PLANES, Algorithm, Method
 from ..geometry import ObjectGeometry
 from ..ppc import PPC
 from ..scene.model import GlassMaterial, MirrorMaterial, Scene
@@ -83,7 +83,11 @@ DEFERRED = {"DEFERRED": 1}
 
 def reflector_defines(scene: Scene, defines: dict[str, int], glass: bool) -> dict[str, int]:
     """The mirror shader's variant for mirrors or (GLASS) for glass, under the scene's lights and environment."""
-    return {**defines, **shading_defines(scene), **environment_defines(scene), **({"GLASS": 1} if glass else {})}
+    # PLANE_COUNT: a constant loop bound (lib/reflected_scene.glsl); more than MAX_ANALYTIC_PLANES is
+    # refused when the planes are written.
+    planes = min(len(scene.analytic_planes), MAX_ANALYTIC_PLANES)
+    return {**defines, **shading_defines(scene), **environment_defines(scene), "PLANE_COUNT": planes,
+            **({"GLASS": 1} if glass else {})}
 
 
 def bounce_defines() -> dict[str, int]:
@@ -174,12 +178,7 @@ class ReflectorPass:
             for glass, present in ((False, bool(scene.mirrors)), (True, bool(scene.glass)))
         }
         self.surface_program = programs.get(*SURFACE_PROGRAM)
-        for program in self.programs.values():
-            if program is not None:
-                write(program, "u_surface_position", TextureUnit.SURFACE_POSITION)
-                write(program, "u_surface_normal", TextureUnit.SURFACE_NORMAL)
-        self.rectangles = {program: program.ctx.vertex_array(program, [])
-                           for program in self.programs.values() if program is not None}
+        self.rectangles: dict[moderngl.Program, moderngl.VertexArray] = {}  # each program's screen rectangle
         self.interiors = interiors or {}
         if len(self.interiors) != len(scene.glass):
             raise ValueError("a scene with glass needs a GlassInterior per glass object")
@@ -233,9 +232,18 @@ class ReflectorPass:
             # Every pixel of the rectangle is this reflector's or left alone (discarded): the
             # surfaces' depth test has already chosen the visible one.
             with raster_state(program.ctx, NO_DEPTH_TEST):
-                self.rectangles[program].render(moderngl.TRIANGLE_STRIP, vertices=4)
+                self._rectangle(program).render(moderngl.TRIANGLE_STRIP, vertices=4)
             draws += 1
         return draws
+
+    def _rectangle(self, program: moderngl.Program) -> moderngl.VertexArray:
+        """`program`'s screen rectangle (no vertex buffer: screen_rect.vert), made on its first draw,
+        and where it finds the surfaces."""
+        if program not in self.rectangles:
+            write(program, "u_surface_position", TextureUnit.SURFACE_POSITION)
+            write(program, "u_surface_normal", TextureUnit.SURFACE_NORMAL)
+            self.rectangles[program] = program.ctx.vertex_array(program, [])
+        return self.rectangles[program]
 
     def release(self) -> None:
         for vertex_array in self.rectangles.values():

@@ -337,6 +337,11 @@ class SceneObject:
         return isinstance(self.material, GlassMaterial)
 
     @property
+    def is_analytic_plane(self) -> bool:
+        """Planes that are not mirrors (floors, walls) are intersected exactly, not through impostors."""
+        return isinstance(self.shape, PlaneShape) and not self.is_mirror
+
+    @property
     def is_reflector(self) -> bool:
         """Does what it shows depend on rays traced from its surface (a mirror, glass)? Such an
         object is drawn by the reflector pass and gets depth images of the others."""
@@ -384,6 +389,11 @@ class Scene:
     def reflectors(self) -> tuple[SceneObject, ...]:
         """Mirrors and glass: the objects whose pixels trace rays into the others."""
         return tuple(o for o in self.objects if o.is_reflector)
+
+    @property
+    def analytic_planes(self) -> tuple[SceneObject, ...]:
+        """The floors and walls every method intersects exactly, in the order the shaders list them."""
+        return tuple(o for o in self.objects if o.is_analytic_plane)
 
     @property
     def shadowed_lights(self) -> tuple[int, ...]:

@@ -46,3 +46,19 @@ ivec2 texel_of(DepthImage image, vec2 s) {
     return image.tile.xy + texel;
 }
 
+
+// Where origin + t * direction enters the image's bound (DepthImage.bound: a sphere around every
+// point the image can answer a ray with), or UNBOUNDED_RAY where it misses it (and where the
+// direction is zero, which is no ray); `inverse_square_length` is 1 / |direction|^2, which the
+// caller computes once for all the images. The chord is found from the ray's closest approach to
+// the centre, not from |origin - centre|^2 - r^2, which loses every digit for a small bound far away.
+float bound_entry(vec4 bound, vec3 origin, vec3 direction, float inverse_square_length) {
+    vec3 to_origin = origin - bound.xyz;
+    float closest = -dot(to_origin, direction) * inverse_square_length;
+    vec3 offset = to_origin + direction * closest;
+    float half_chord_squared = (bound.w * bound.w - dot(offset, offset)) * inverse_square_length;
+    float half_chord = sqrt(max(half_chord_squared, 0.0));
+    // Written so that NaN (a zero direction: 0 * Inf) fails it.
+    bool met = half_chord_squared >= 0.0 && closest + half_chord >= 0.0;
+    return met ? max(closest - half_chord, 0.0) : UNBOUNDED_RAY;
+}

@@ -290,11 +290,26 @@ bool march_step(sampler2D layers, bool back_colors, DepthImage image, ClippedRay
     return true;
 }
 
-// The optimized march's loop from sample `first` (s0, its texel and layers) to the end; `reads`
-// texels were read before it, and `unseen` is what sample 0 relies on that the image lacks.
-RayHit march_linear(sampler2D layers, bool back_colors, DepthImage image, ClippedRay ray, int steps, int first, vec3 s0,
-                    ivec2 texel0, vec2 z0, int reads, RayHit unseen) {
-    for (int i = first; i < steps; ++i) {
+// The steps of a march worth taking when nothing beyond t_stop is looked for (the mirror's nearest
+// hit so far): those that start at t <= t_stop, since t grows along the march and a step's hit
+// lies after its start. The same steps at the same samples as the whole march, so that the hit
+// found before t_stop is the whole march's. One step more than the exact count: rounding must not
+// end the march a step early.
+int steps_before(ClippedRay ray, int steps, float t_stop) {
+    if (t_stop >= ray.t_exit) return steps;
+    if (t_stop < ray.t_enter) return 0;  // (and t_exit > t_enter: no division by zero below)
+    float lambda = (t_stop - ray.t_enter) / (ray.t_exit - ray.t_enter);
+    // ray_parameter's inverse: sigma = lambda w_b / ((1 - lambda) w_a + lambda w_b).
+    float sigma = lambda * ray.pb.z / ((1.0 - lambda) * ray.pa.z + lambda * ray.pb.z);
+    return clamp(int(ceil(sigma * float(steps))) + 1, 0, steps);
+}
+
+// The optimized march's loop from sample `first` (s0, its texel and layers) to step `last` (steps:
+// the end); `reads` texels were read before it, and `unseen` is what sample 0 relies on that the
+// image lacks.
+RayHit march_linear(sampler2D layers, bool back_colors, DepthImage image, ClippedRay ray, int steps, int first, int last,
+                    vec3 s0, ivec2 texel0, vec2 z0, int reads, RayHit unseen) {
+    for (int i = first; i < last; ++i) {
         vec3 s1;
         ivec2 texel1, hit_texel;
         vec2 z1, s;
@@ -309,21 +324,24 @@ RayHit march_linear(sampler2D layers, bool back_colors, DepthImage image, Clippe
         texel0 = texel1;
         z0 = z1;
     }
-    return with_unseen(no_hit(reads + steps - first), unseen.unseen_t, unseen.unseen);
+    return with_unseen(no_hit(reads + max(last - first, 0)), unseen.unseen_t, unseen.unseen);
 }
 
 // The lecture's optimized algorithm: clip, project both ends, step along the projection and
 // intersect 2-D segments in OpenGL depth, which is affine in screen space: no unprojection. It
-// reads one texel per step: up to max(w, h) of them. Only hits with t <= t_limit are looked for.
+// reads one texel per step: up to max(w, h) of them. Only hits with t <= t_limit are looked for
+// (the ray is clipped there); the march also ends at the step that starts beyond t_stop
+// (steps_before: the samples stay those of the whole ray, and so do the hits before t_stop).
 RayHit intersect_optimized(sampler2D layers, bool back_colors, DepthImage image, vec3 origin, vec3 direction,
-                          float t_limit) {
+                          float t_limit, float t_stop) {
     ClippedRay ray;
     int steps;
     ivec2 texel0;
     vec2 z0;
     RayHit early;
     if (!march_start(layers, image, origin, direction, t_limit, ray, steps, texel0, z0, early)) return early;
-    return march_linear(layers, back_colors, image, ray, steps, 0, ray.sa, texel0, z0, 1, early);
+    return march_linear(layers, back_colors, image, ray, steps, 0, steps_before(ray, steps, t_stop), ray.sa, texel0, z0,
+                        1, early);
 }
 
 #if ALGORITHM == ALGORITHM_HIERARCHICAL || ALGORITHM == ALGORITHM_AUTO
@@ -360,7 +378,7 @@ int span_end(ClippedRay ray, vec2 samples_per_texel, int steps, int i, ivec2 cel
 // the first thing unseen (TRACK_UNSEEN): until one is found, a span is skipped only where the ray
 // is clear of every silhouette band in it, and never behind (whether a sample there is behind a
 // run or over background, only the step itself can tell).
-RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
+RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction, float t_stop) {
     ClippedRay ray;
     int steps;
     ivec2 texel0;
@@ -383,7 +401,9 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction) {
     vec2 samples_per_texel = float(steps) / abs(ray.sb.xy - ray.sa.xy);
     // Each pass advances i, or descends a level; a level is climbed only after an advance. So at
     // most steps advances, steps + top descents and as many climbs: this bound is never reached.
-    for (int pass = 0; pass <= 4 * steps + top && i < steps; ++pass) {
+    // Up to the step that starts beyond t_stop, as the linear march (steps_before).
+    int last = steps_before(ray, steps, t_stop);
+    for (int pass = 0; pass <= 4 * steps + top && i < last; ++pass) {
         if (level > 0) {
             ivec2 relative0 = texel0 - image.tile.xy;
             ivec2 cell = relative0 >> level;
@@ -533,19 +553,21 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
 }
 
 // A ray against one of the mirror's depth images, with the algorithm of this variant (the hit's
-// colour is left to the caller: see hit_at).
-RayHit intersect_depth_image(DepthImage image, vec3 origin, vec3 direction) {
+// colour is left to the caller: see hit_at). Hits after t_stop are of no interest: the optimized
+// and hierarchical marches end at the step that starts beyond it (the basic one, the lecture's
+// reference point, marches on).
+RayHit intersect_depth_image(DepthImage image, vec3 origin, vec3 direction, float t_stop) {
 #if ALGORITHM == ALGORITHM_BASIC
     return intersect_basic(image, origin, direction);
 #elif ALGORITHM == ALGORITHM_HIERARCHICAL
-    return intersect_hierarchical(image, origin, direction);
+    return intersect_hierarchical(image, origin, direction, t_stop);
 #elif ALGORITHM == ALGORITHM_AUTO
     // Each image's own traversal, chosen by its size (constants.image_algorithm: pyramid.w). A
     // software rasterizer runs both calls' straight-line set-up for a group of pixels, but each
     // one's loop only as long as a pixel of the group takes it.
-    if (image.pyramid.w != 0) return intersect_hierarchical(image, origin, direction);
-    return intersect_optimized(u_impostor_depth, true, image, origin, direction, UNBOUNDED_RAY);
+    if (image.pyramid.w != 0) return intersect_hierarchical(image, origin, direction, t_stop);
+    return intersect_optimized(u_impostor_depth, true, image, origin, direction, UNBOUNDED_RAY, t_stop);
 #else
-    return intersect_optimized(u_impostor_depth, true, image, origin, direction, UNBOUNDED_RAY);
+    return intersect_optimized(u_impostor_depth, true, image, origin, direction, UNBOUNDED_RAY, t_stop);
 #endif
 }

@@ -27,44 +27,91 @@
 #endif
 
 #include "analytic_planes.glsl"
+// The planes traced: a constant of the program where the pass gives one (PLANE_COUNT, from the
+// scene: passes/reflectors.py's reflector_defines), for the reason LIGHT_COUNT is (lib/shading.glsl).
+#ifndef PLANE_COUNT
+#define PLANE_COUNT u_planes.count
+#endif
 
 #if METHOD == METHOD_DEPTH || METHOD == METHOD_HYBRID
-// The first of this mirror's depth images after image `i` whose frustum the ray enters
-// (u_depth_image_count: none after it). A ray that misses a frustum misses the image: the march
-// would clip it away and return no hit, with nothing unseen.
-int next_entered_image(int i, vec3 origin, vec3 direction) {
-    for (++i; i < u_depth_image_count; ++i) {
-        DepthImage image = u_depth_images[i];
-        float t_enter, t_exit;
-        if (clip_ray(image, camera_coordinates(image, origin - image.eye.xyz), camera_coordinates(image, direction),
-                     UNBOUNDED_RAY, t_enter, t_exit)) break;
+// The two images the ray visits after image `after`, which it entered at `after_t` (-1 before the
+// first), in the order of the visits: by where the ray enters their bounds, ties by index, among
+// the images it enters no later than `limit`. u_depth_image_count (entered at UNBOUNDED_RAY)
+// where there are fewer. The loop's bound is a constant and the count a `break`: llvmpipe unrolls
+// it and reads each record's bound from one place for all the pixels of a group, where a loop to a
+// uniform reads it lane by lane at every iteration (twice the cost).
+void next_two_images(int after, float after_t, float limit, vec3 origin, vec3 direction, float inverse_square_length,
+                     out int first, out float first_t, out int second, out float second_t) {
+    first = second = u_depth_image_count;
+    first_t = second_t = UNBOUNDED_RAY;
+    for (int j = 0; j < MAX_DEPTH_IMAGES_PER_REFLECTOR; ++j) {
+        if (j >= u_depth_image_count) break;
+#ifdef TRACK_UNSEEN
+        float t = bound_entry(u_depth_images[j].bound, origin, direction, inverse_square_length);
+#else
+        // Hits alone are looked for: the tighter sphere around them.
+        float t = bound_entry(u_depth_images[j].hit_bound, origin, direction, inverse_square_length);
+#endif
+        bool candidate = (t > after_t || (t == after_t && j > after)) && t < UNBOUNDED_RAY && t <= limit;
+        // j rises: an image entered where an earlier one is comes after it.
+        bool before_first = candidate && t < first_t;
+        bool before_second = candidate && !before_first && t < second_t;
+        second = before_first ? first : before_second ? j : second;
+        second_t = before_first ? first_t : before_second ? t : second_t;
+        first = before_first ? j : first;
+        first_t = before_first ? t : first_t;
     }
-    return i;
 }
 
-// The nearest hit over all depth images of this mirror, and the first place along the ray where
-// one of them relied on what it does not hold (TRACK_UNSEEN). Only the images whose frustum the
-// ray enters are marched (most rays of a mirror with many objects enter one or two): a
-// software rasterizer such as llvmpipe runs a loop's body for a group of pixels as long as one
-// of them needs it, but runs every statement of an `if` whatever the condition, so the march is
-// in a loop over the entered images, not under a test inside a loop over all of them.
-RayHit nearest_depth_image_hit(vec3 origin, vec3 direction) {
+// The nearest hit over all depth images of this mirror with t <= t_limit (or none), and the first
+// place along the ray where one of them relied on what it does not hold (TRACK_UNSEEN). The
+// images are visited nearest first, by where the ray enters their bounds, and the search stops
+// where the next is entered beyond the nearest hit so far (or beyond t_limit): whatever it could
+// answer lies at or after its entry, and an answer after the nearest hit is no hit of the frame.
+// (Nor, with TRACK_UNSEEN, a reason that matters: resolve_unseen looks for unseen space before
+// the answer only; an image is skipped only when entered strictly after the hit.) A mirror with
+// many objects then marches the one or two a ray meets. One scan of the bounds finds the next
+// two (most rays visit one or none, and stop at the second's entry); another runs only where a
+// ray has visited both. The march and the scan are in loops of as many iterations as are needed,
+// not under tests: a software rasterizer such as llvmpipe runs a loop's body for a group of pixels
+// as long as one of them needs it, but runs every statement of an `if` whatever the condition
+// (tools/branch_cost.py).
+RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
     RayHit best = no_hit(0);
     int samples = 0;
     float unseen_t = UNBOUNDED_RAY;
     int unseen = UNSEEN_NONE;
-    for (int i = next_entered_image(-1, origin, direction); i < u_depth_image_count;
-         i = next_entered_image(i, origin, direction)) {
-        // min(): a software rasterizer may run the body once for a group none of whose pixels
-        // entered an image (i == u_depth_image_count, up to the array's size): read a real record.
-        RayHit candidate = intersect_depth_image(u_depth_images[min(i, MAX_DEPTH_IMAGES_PER_REFLECTOR - 1)], origin,
-                                                 direction);
+    float inverse_square_length = 1.0 / dot(direction, direction);
+    int next, after_next, last = -1;
+    float next_t, after_next_t, last_t = -1.0;
+    next_two_images(last, last_t, t_limit, origin, direction, inverse_square_length, next, next_t, after_next,
+                    after_next_t);
+    bool exhausted = after_next >= u_depth_image_count;  // the scan found every image left
+    for (int visit = 0; visit < MAX_DEPTH_IMAGES_PER_REFLECTOR; ++visit) {
+        float limit = best.hit ? min(best.t, t_limit) : t_limit;
+        for (int scan = next >= u_depth_image_count && !exhausted ? 1 : 0; scan > 0; --scan) {
+            next_two_images(last, last_t, limit, origin, direction, inverse_square_length, next, next_t, after_next,
+                            after_next_t);
+            exhausted = after_next >= u_depth_image_count;
+        }
+        if (next >= u_depth_image_count || next_t > limit) break;
+        // min(): a software rasterizer runs the body for a group as long as one of its pixels has
+        // an image left (others have next == u_depth_image_count, up to the array's size): read a
+        // real record.
+        RayHit candidate = intersect_depth_image(u_depth_images[min(next, MAX_DEPTH_IMAGES_PER_REFLECTOR - 1)], origin,
+                                                 direction, limit);
         samples += candidate.samples;
         if (candidate.unseen != UNSEEN_NONE && candidate.unseen_t < unseen_t) {
             unseen_t = candidate.unseen_t;
             unseen = candidate.unseen;
         }
-        if (candidate.hit && (!best.hit || candidate.t < best.t)) best = candidate;
+        if (candidate.hit && candidate.t <= t_limit && (!best.hit || candidate.t < best.t)) best = candidate;
+        last = next;
+        last_t = next_t;
+        next = after_next;
+        next_t = after_next_t;
+        after_next = u_depth_image_count;
+        after_next_t = UNBOUNDED_RAY;
     }
     if (best.hit) best.color = (best.layer == 1 ? texelFetch(u_impostor_back_color, best.texel, 0)
                                                 : texelFetch(u_impostor_color, best.texel, 0)).rgb;
@@ -73,9 +120,11 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction) {
 }
 #endif
 
-RayHit nearest_object_hit(vec3 origin, vec3 direction) {
+// The nearest reflected object; the depth-image method looks no farther than t_limit (the others
+// do: their answer beyond it is no worse, and they have no order to stop early in).
+RayHit nearest_object_hit(vec3 origin, vec3 direction, float t_limit) {
 #if METHOD == METHOD_DEPTH || METHOD == METHOD_HYBRID
-    return nearest_depth_image_hit(origin, direction);
+    return nearest_depth_image_hit(origin, direction, t_limit);
 #elif METHOD == METHOD_CUBEMAP || METHOD == METHOD_CUBEMAP_PARALLAX
     return cube_map_hit(origin, direction);
 #elif METHOD == METHOD_BILLBOARD
@@ -89,7 +138,7 @@ RayHit nearest_object_hit(vec3 origin, vec3 direction) {
 // keeps the world ray's parameter t because the transform is affine.
 RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
     RayHit best = no_hit(0);
-    for (int i = 0; i < u_planes.count; ++i) {
+    for (int i = 0; i < PLANE_COUNT; ++i) {
         AnalyticPlane plane = u_planes.planes[i];
         vec3 o = (plane.world_to_local * vec4(origin, 1.0)).xyz;
         vec3 d = (plane.world_to_local * vec4(direction, 0.0)).xyz;
@@ -185,10 +234,14 @@ RayHit resolve_unseen(RayHit hit, RayHit plane, vec3 origin, vec3 direction) {
 
 // What the reflected ray origin + t * direction sees: the nearest hit, or the environment.
 RayHit trace_reflected(vec3 origin, vec3 direction) {
-    RayHit hit = nearest_object_hit(origin, direction);
     RayHit plane = nearest_plane_hit(origin, direction);
 #if METHOD == METHOD_HYBRID
-    hit = resolve_unseen(hit, plane, origin, direction);
+    // The hybrid method orders a plane against the exact hit within a window (resolve_unseen):
+    // it needs the images' nearest hit beyond the plane too.
+    RayHit hit = resolve_unseen(nearest_object_hit(origin, direction, UNBOUNDED_RAY), plane, origin, direction);
+#else
+    // Nothing beyond the nearest plane is seen: the images entered after it are not visited.
+    RayHit hit = nearest_object_hit(origin, direction, plane.hit ? plane.t : UNBOUNDED_RAY);
 #endif
     if (plane.hit && (!hit.hit || plane.t < hit.t)) {
         plane.samples = hit.samples;

@@ -31,9 +31,18 @@ vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
     return material.color_a;
 }
 
+// The lights shaded: a constant of the program where the pass gives one (LIGHT_COUNT, from the
+// scene: gpu/uniforms.py's shading_defines). llvmpipe runs a loop bounded by a uniform at about 5
+// times the cost of the same loop with a constant bound, which it unrolls: 5 ms of the floor's
+// 7.5 ms at 960x540 (tools/shading_cost.py). A program made without it (the GPU ray query, which
+// shades nothing) loops over the Lights block's count.
+#ifndef LIGHT_COUNT
+#define LIGHT_COUNT u_lighting.light_count
+#endif
+
 vec3 shade(vec3 albedo, vec3 position, vec3 normal) {
     vec3 irradiance = vec3(u_lighting.ambient);
-    for (int i = 0; i < u_lighting.light_count; ++i) {
+    for (int i = 0; i < LIGHT_COUNT; ++i) {
         Light light = u_lighting.lights[i];
         vec3 to_light = light.kind == LIGHT_DIRECTIONAL
             ? -light.vector

@@ -16,7 +16,7 @@ uniform sampler2D u_shadow_depth;  // every shadow map's layers (RG32F), one til
 // to the segment: what lies behind the point casts nothing on it.
 bool segment_blocked(DepthImage map, vec3 from, vec3 to) {
     // No back colours: a ray from the light never comes from behind a caster's back face.
-    return intersect_optimized(u_shadow_depth, false, map, from, to - from, 1.0).hit;
+    return intersect_optimized(u_shadow_depth, false, map, from, to - from, 1.0, UNBOUNDED_RAY).hit;
 }
 
 // Two unit vectors completing the unit vector n to an orthonormal frame, as lights.py's
