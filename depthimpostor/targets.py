@@ -33,6 +33,10 @@ class ReflectionData:
     retraced: np.ndarray  # (h, w) bool: the hybrid method traced this pixel's ray against the real triangles
 
 
+#: Stamps run 1 .. MAX_STAMP: 2 stamp + 1 is an integer float32 holds exactly.
+MAX_STAMP = 2**22
+
+
 class Surfaces:
     """The visible reflector pixels' world position, normal and reflector (reflector_surface.frag),
     for the deferred mirror shader (passes/reflectors.py). Float32: the varyings, exactly."""
@@ -44,13 +48,22 @@ class Surfaces:
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.framebuffer = ctx.framebuffer([self.position, self.normal], depth)  # the frame's depth test
         self._colours = ctx.framebuffer([self.position, self.normal])  # cleared without the frame's depth
+        self.stamp = 0  # the frame's (next_frame), written beside each texel: no clear between frames
 
     @staticmethod
     def bytes_for(size: tuple[int, int]) -> int:
         return size[0] * size[1] * 16 * 2
 
-    def clear(self) -> None:
-        self._colours.clear(0.0, 0.0, 0.0, 0.0)
+    def next_frame(self) -> int:
+        """A new frame's stamp. Clearing the targets for every frame costs as much as a third of
+        rasterizing a curved mirror into them (two float targets of the frame's size, on llvmpipe);
+        a texel whose stamp is another frame's is read as cleared. They are cleared once, at stamp
+        0 (the first frame and after MAX_STAMP frames): stamps stay exact in float32."""
+        if self.stamp == 0 or self.stamp == MAX_STAMP:
+            self._colours.clear(0.0, 0.0, 0.0, 0.0)
+            self.stamp = 0
+        self.stamp += 1
+        return self.stamp
 
     def use(self) -> None:
         self.position.use(TextureUnit.SURFACE_POSITION)

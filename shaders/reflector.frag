@@ -17,7 +17,8 @@ uniform vec3 u_tint;  // a mirror's, or the light a glass transmits
 // The reflector's surface, from the deferred pass's first half (reflector_surface.frag), drawn
 // over the reflector's screen rectangle (screen_rect.vert).
 uniform sampler2D u_surface_position;  // (world position, reflector's object id + 1; 0: none)
-uniform sampler2D u_surface_normal;    // (interpolated world normal, 1 on a front face)
+uniform sampler2D u_surface_normal;    // (interpolated world normal, 2 stamp + 1 on a front face)
+uniform int u_surface_stamp;           // this frame's (reflector_surface.frag)
 vec3 v_world_position;
 vec3 v_world_normal;
 bool front_facing;
@@ -82,11 +83,13 @@ void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
     vec4 surface = texelFetch(u_surface_position, pixel, 0);
     // Another reflector's pixel, or none: this pass leaves it as it is.
-    if (int(surface.w) != u_mirror_id + 1) discard;
     vec4 surface_normal = texelFetch(u_surface_normal, pixel, 0);
+    int stamp_and_facing = int(surface_normal.w);
+    // Another reflector's pixel, or one no reflector covers this frame: left as it is.
+    if (int(surface.w) != u_mirror_id + 1 || stamp_and_facing / 2 != u_surface_stamp) discard;
     v_world_position = surface.xyz;
     v_world_normal = surface_normal.xyz;
-    front_facing = surface_normal.w > 0.5;
+    front_facing = (stamp_and_facing & 1) == 1;
 #endif
     vec3 view = safe_normalize(v_world_position - u_eye, vec3(0.0, 0.0, -1.0));
     vec3 normal = safe_normalize(v_world_normal, -view);

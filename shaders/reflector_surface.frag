@@ -11,11 +11,14 @@ in vec3 v_local_position;
 in vec3 v_world_normal;
 
 uniform int u_mirror_id;
+// This frame's stamp (targets.Surfaces): the targets are not cleared between frames, so a texel
+// is this frame's only where it carries this frame's stamp.
+uniform int u_surface_stamp;
 
 layout(location = 0) out vec4 out_position;  // (world position, the reflector's object id + 1)
-layout(location = 1) out vec4 out_normal;    // (interpolated world normal, 1 on GL's front faces)
+layout(location = 1) out vec4 out_normal;    // (interpolated world normal, 2 stamp + 1 on GL's front faces)
 
 void main() {
     out_position = vec4(v_world_position, float(u_mirror_id + 1));
-    out_normal = vec4(v_world_normal, gl_FrontFacing ? 1.0 : 0.0);
+    out_normal = vec4(v_world_normal, float(2 * u_surface_stamp + (gl_FrontFacing ? 1 : 0)));
 }

@@ -29,7 +29,7 @@ class Surfaces(Protocol):
 
     framebuffer: moderngl.Framebuffer
 
-    def clear(self) -> None: ...
+    def next_frame(self) -> int: ...
 
     def use(self) -> None: ...
 
@@ -204,7 +204,8 @@ class ReflectorPass:
         """Draw the reflectors into `framebuffer` as `camera` sees them, through the frame's
         `surfaces`; returns the draw calls. `tint_retraced` tints the pixels whose ray the hybrid
         method traced (other methods have none)."""
-        surfaces.clear()
+        stamp = surfaces.next_frame()
+        write(self.surface_program, "u_surface_stamp", stamp)
         surfaces.framebuffer.use()
         with raster_state(self.surface_program.ctx, REFLECTORS):
             for item in reflectors:
@@ -228,6 +229,7 @@ class ReflectorPass:
             write(program, "u_tint", reflector_tint(item))
             write(program, "u_mirror_id", item.index)
             write(program, "u_tint_retraced", tint_retraced)
+            write(program, "u_surface_stamp", stamp)
             write(program, "u_rect", screen_rectangle(item, camera))
             # Every pixel of the rectangle is this reflector's or left alone (discarded): the
             # surfaces' depth test has already chosen the visible one.
