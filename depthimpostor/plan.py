@@ -253,7 +253,11 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             skipped += [SkippedImage(reflector.object.name, target.object.name, why.value)
                         for target, why in zip(shown, row, strict=True) if why is not Reach.REACHABLE and target is not reflector]
         if issubclass(stand_in, BakedImages):
-            planned = image_plans = stand_in.plan_images(scene, reflectors, reflected, world.reaches)
+            # Planned once per stand-in and render settings: an algorithm or a method sharing the
+            # stand-in plans the same images (World.planned).
+            planned = image_plans = world.planned(
+                ("images", stand_in, scene.render),
+                lambda: stand_in.plan_images(scene, reflectors, reflected, world.reaches))
             by_index = {g.index: g for g in geometry}
             for index, plans in planned.items():
                 for face, (targets, camera, level) in enumerate(plans):

@@ -10,8 +10,9 @@ which neither object moves.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Hashable, Sequence
 from functools import cached_property
+from typing import Any, TypeVar, cast
 
 import numpy as np
 
@@ -23,6 +24,7 @@ from .ppc import PPC
 from .scene.model import Camera, Scene
 
 Sphere = tuple[np.ndarray, float]
+T = TypeVar("T")
 
 
 class World:
@@ -34,6 +36,9 @@ class World:
         # The scene with its lights where they are at `time` (the one the passes shade with).
         self.lit_scene = scene if lights == tuple(scene.lights) else dataclasses.replace(scene, lights=lights)
         self._reach: dict[tuple[int, int], Reach] = {}  # (reflector index, target index)
+        # What the plan worked out from these objects under some render settings (the images each
+        # reflector bakes, by stand-in and settings): kept across settings changes.
+        self._planned: dict[Hashable, Any] = {}
         self.reach_pairs_computed = 0  # pairs culling.reaches worked out for this world (tests count them)
         if geometry is None:
             self._sort([g.at(time) for g in scene_geometry(scene.objects)])
@@ -62,8 +67,9 @@ class World:
         keep = {g.index for g in self.reflectors} | {g.index for g in self.geometry if g.object.moves}
         if self.scene.has_shadows:
             keep |= {g.index for g in self.shadow_casters}
-        for reflector in self.reflectors:
-            keep |= {g.index for g in self.reachable(reflector, self.reflected_objects)}
+        # Every pair at once: culling.reaches works on all of a world's reflectors together.
+        for row in self.reaches(self.reflectors, self.reflected_objects):
+            keep |= {g.index for g, why in zip(self.reflected_objects, row, strict=True) if why is Reach.REACHABLE}
         levels = detail_levels(self.scene, self.geometry, keep)
         if not levels:
             return self.geometry
@@ -93,6 +99,13 @@ class World:
             self.reach_pairs_computed += len(missing_rows) * len(missing_targets)
         return [[self._reach[(r.index, t.index)] for t in targets] for r in reflectors]
 
+    def planned(self, key: Hashable, plan: Callable[[], T]) -> T:
+        """`plan()`, worked out once per `key` for these objects at this time (the key names what
+        else it depends on: the plan's images, the stand-in and the render settings)."""
+        if key not in self._planned:
+            self._planned[key] = plan()
+        return cast(T, self._planned[key])
+
     def reachable(self, reflector: ObjectGeometry, targets: Sequence[ObjectGeometry]) -> list[ObjectGeometry]:
         """The targets `reflector` may show, in order."""
         return [t for t, why in zip(targets, self.reaches([reflector], targets)[0], strict=True) if why is Reach.REACHABLE]
@@ -101,7 +114,7 @@ class World:
         """The same objects, at the same time, under other render settings (`scene` differs from
         this world's in its render section alone): what can reach what stays, shared."""
         other = World(scene, self.geometry, self.time)
-        other._reach = self._reach
+        other._reach, other._planned = self._reach, self._planned
         return other
 
     def at(self, time: float, scene: Scene | None = None) -> World:

@@ -63,6 +63,14 @@ def test_the_stand_in_bakes_the_plans_images_without_planning_them_again(
         planned_cameras = {id(image.camera) for plans in renderer.plan.image_plans.values() for image in plans}
         baked = renderer.graph.impostors.depth_images  # type: ignore[union-attr]
         assert len(baked) == 72 and all(id(image.camera) in planned_cameras for image in baked)
+        # Another algorithm, or a method with the same stand-in, plans the same images: not again
+        # (World.planned); another resolution plans its own.
+        renderer.set_algorithm(Algorithm.HIERARCHICAL)
+        renderer.set_method(Method.HYBRID)
+        renderer.set_method(Method.DEPTH)
+        assert len(planned) == 2  # the hybrid's stand-in plans (and keeps) its own images once
+        renderer.set_impostor_resolution(32)
+        assert len(planned) == 3
 
 
 def test_a_later_world_keeps_the_still_pairs_and_says_what_moved() -> None:
