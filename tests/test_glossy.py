@@ -168,3 +168,24 @@ def test_the_depth_method_is_closest_to_the_ggx_truth(glossy_comparisons: dict) 
     rough = glossy_comparisons[(0.15, Method.DEPTH)]
     sharp_error = float(np.sqrt(((sharp_rendered - rough.truth) ** 2)[rough.mirror_mask].mean()))
     assert depth < 0.8 * sharp_error, (depth, sharp_error)
+
+
+@pytest.mark.parametrize("name", ["shadows.toml", "glass_and_mirrors.toml", "hdr_sky.toml", "two_mirrors.toml"])
+def test_glossy_mirrors_in_every_kind_of_scene(ctx: moderngl.Context, name: str) -> None:
+    """The GLOSSY variant beside shadows (whose chunk includes the baked images first), glass,
+    an equirect sky and reflections of reflections: built as planned, and finite."""
+    scene = load_scene(SCENES / name).with_overrides(size=(96, 54), impostor_resolution=32).with_roughness(0.2)
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        assert renderer.programs.keys == renderer.plan.program_keys
+        assert_finite(renderer.read_color_float())
+
+
+@pytest.mark.parametrize("method", list(Method))
+def test_every_method_draws_a_glossy_mirror(ctx: moderngl.Context, method: Method) -> None:
+    """In a scene with shadows, whose chunk includes the baked images before the reflected scene does."""
+    scene = load_scene(SCENES / "shadows.toml").with_overrides(size=(96, 54), impostor_resolution=32).with_roughness(0.2)
+    with Renderer(ctx, scene, method=method) as renderer:
+        renderer.render()
+        assert renderer.programs.keys == renderer.plan.program_keys
+        assert_finite(renderer.read_color_float())

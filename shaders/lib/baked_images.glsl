@@ -40,6 +40,8 @@ vec3 unproject(DepthImage image, vec2 s, float w) {
 }
 
 #if defined(GLOSSY) && METHOD != METHOD_HYBRID
+#include "cone.glsl"
+
 // The images' colours prefiltered (methods/colour_mips.py): RGBA16F, premultiplied by coverage;
 // mip m holds level m + 1 of every image, from `pyramid.xy >> m`.
 uniform sampler2D u_impostor_color_mips;

@@ -11,17 +11,7 @@
 // map's faces), an exactly box-filtered checker (the analytic planes), a few directions averaged
 // (the environment).
 
-// tan of the cone's half-angle: 0 for a perfect mirror and for glass (the sharp path, exactly).
-float g_cone_tan = 0.0;
-// The share of the cone's footprint that the object its axis hit covers (cone_color sets it from
-// the mips' coverage): the rest sees what lies behind the object (trace_reflected).
-float g_cone_coverage = 1.0;
-
-float cone_spread(float roughness) {
-    float alpha = roughness * roughness;
-    // alpha = 1 would be a half-angle of 90 degrees: the widest cone is held just short of it.
-    return 2.0 * alpha / max(1.0 - alpha * alpha, 1e-3);
-}
+#include "cone.glsl"
 
 // The environment averaged over the cone: its axis and a ring of 8 directions at the cone's
 // half-angle (half of GGX's rays fall inside it), weighted 1/5 and 1/10 each. Coarse for very
