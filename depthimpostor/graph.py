@@ -21,6 +21,7 @@ class Pass(Enum):
     STAND_IN = "reflected objects"  # the method's bake: depth images, cube maps, billboards, triangles
     BOUNCES = "reflections of reflections"
     PYRAMIDS = "depth pyramids"
+    COLOUR_MIPS = "colour mips"  # the baked images' prefiltered colours: a glossy mirror's cone reads them
     ENVIRONMENT = "environment"
     DIFFUSE = "diffuse objects"
     GLASS_INTERIORS = "glass interiors"
@@ -31,7 +32,7 @@ class Pass(Enum):
 FRAME = ("frame colour", "frame depth")
 
 #: The passes that bake (they run only for what is stale) and the eye's passes (every frame).
-BAKES = (Pass.SHADOW_MAPS, Pass.STAND_IN, Pass.BOUNCES, Pass.PYRAMIDS)
+BAKES = (Pass.SHADOW_MAPS, Pass.STAND_IN, Pass.BOUNCES, Pass.PYRAMIDS, Pass.COLOUR_MIPS)
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,7 @@ def build_graph(stages: Sequence[tuple[Pass, str]], programs: Mapping[Pass, tupl
     shadows = ("shadow maps",) if Pass.SHADOW_MAPS in planned else ()
     pyramids = ("depth pyramids",) if reads_pyramids else ()
     bounces = ("bounce images",) if Pass.BOUNCES in planned else ()
+    colour_mips = ("colour mips",) if Pass.COLOUR_MIPS in planned else ()
     interiors = ("glass interiors",) if Pass.GLASS_INTERIORS in planned else ()
     io: dict[Pass, tuple[tuple[str, ...], tuple[str, ...]]] = {
         Pass.SHADOW_MAPS: ((), ("shadow maps",)),
@@ -66,10 +68,12 @@ def build_graph(stages: Sequence[tuple[Pass, str]], programs: Mapping[Pass, tupl
         Pass.STAND_IN: (shadows if "baked images" in stand_in else (), stand_in),
         Pass.BOUNCES: (("baked images", *shadows), bounces),
         Pass.PYRAMIDS: (("baked images", *bounces), ("depth pyramids",)),
+        Pass.COLOUR_MIPS: (("baked images", *bounces), ("colour mips",)),
         Pass.ENVIRONMENT: (("frame colour",), ("frame colour",)),
         Pass.DIFFUSE: (("frame colour", "frame depth", *shadows), ("frame colour", "frame depth")),
         Pass.GLASS_INTERIORS: ((), interiors),
-        Pass.REFLECTORS: (("frame colour", "frame depth", *stand_in, *pyramids, *bounces, *interiors, *shadows),
+        Pass.REFLECTORS: (("frame colour", "frame depth", *stand_in, *pyramids, *colour_mips, *bounces, *interiors,
+                           *shadows),
                           ("frame colour", "frame depth")),
     }
     nodes = tuple(RenderNode(stage, *io[stage], why, programs.get(stage, ())) for stage, why in stages)

@@ -5,7 +5,7 @@ and why each is there. The renderer builds exactly these (tests compare the two)
 Nothing else is made: no reflection pass without a mirror or glass, no image of an object a
 mirror can never show (culling.py), no shadow map for a light without shadows, no GLASS or
 SHADOWS variant in a scene without glass or shadows, no depth pyramid unless the hierarchical
-algorithm reads it.
+algorithm reads it, no GLOSSY variant nor colour mips without a rough mirror.
 """
 
 from __future__ import annotations
@@ -38,11 +38,13 @@ from .passes.reflectors import (
     REFLECTOR_PROGRAM,
     SURFACE_PROGRAM,
     bounce_defines,
+    glossy_defines,
     reflection_defines,
     reflector_defines,
 )
 from .targets import Surfaces
 from .methods.registry import METHODS
+from .methods.colour_mips import COLOUR_MIPS_PROGRAM
 from .methods.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
 from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
 from .gpu.uniforms import environment_defines
@@ -58,6 +60,7 @@ WHEN: dict[Pass, str] = {
     Pass.STAND_IN: "once; an image again when its reflector, its object or a light shading it moves",
     Pass.BOUNCES: "once; again when an image it shows is re-baked",
     Pass.PYRAMIDS: "after each bake",
+    Pass.COLOUR_MIPS: "after each bake",
     Pass.ENVIRONMENT: "every frame",
     Pass.DIFFUSE: "every frame",
     Pass.GLASS_INTERIORS: "once; a glass's again when the eye or the glass moves",
@@ -208,6 +211,14 @@ def _builds_pyramids(method: Method, algorithm: Algorithm, images: Sequence[Plan
         image_algorithm(algorithm, image.width, image.height) == Algorithm.HIERARCHICAL for image in images)
 
 
+def _builds_colour_mips(scene: Scene, method: Method, images: Sequence[PlannedImage]) -> bool:
+    """Does a glossy mirror read the baked images' colours prefiltered (their colour mips)? Not
+    the hybrid method's: its exact triangles have no prefiltered colours, and the mirror shader
+    would pass 16 samplers with the mips beside its BVH (tests/test_bindings.py)."""
+    return (scene.has_rough_mirrors and issubclass(METHODS[method].stand_in, BakedImages) and bool(images)
+            and not METHODS[method].names_triangles)
+
+
 def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorithm = Algorithm.OPTIMIZED,
                 geometry: list[ObjectGeometry] | None = None, reflection_data: bool = False,
                 count_samples: bool = False, world: World | None = None) -> RenderPlan:
@@ -296,6 +307,11 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             auto = f" (auto: the images of sides >= {HIERARCHICAL_MIN_SIDE})" if algorithm == Algorithm.AUTO else ""
             passes.append(PlannedPass(Pass.PYRAMIDS, f"the hierarchical algorithm skips spans by min/max depth{auto}"))
             variant(Pass.PYRAMIDS, (PYRAMID_PROGRAM,), None, "the hierarchical algorithm's min/max pyramid")
+        if _builds_colour_mips(scene, method, images):
+            rough = _names([g for g in mirrors if g.object.material.is_rough])  # type: ignore[union-attr]
+            passes.append(PlannedPass(Pass.COLOUR_MIPS, f"glossy mirrors ({rough}) read the images' colours "
+                                      "prefiltered at their cones' footprints"))
+            variant(Pass.COLOUR_MIPS, (COLOUR_MIPS_PROGRAM,), None, "the baked images' colour mips")
 
     passes.append(PlannedPass(Pass.ENVIRONMENT, f"the {scene.environment.type} sky behind everything"))
     variant(Pass.ENVIRONMENT, ENVIRONMENT_PROGRAM, environment_defines(scene),
@@ -315,7 +331,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         kinds = [f"mirrors ({_names(mirrors)})"] * bool(mirrors) + [f"glass ({_names(glass)})"] * bool(glass)
         passes.append(PlannedPass(Pass.REFLECTORS, " and ".join(kinds)))
         variant(Pass.REFLECTORS, SURFACE_PROGRAM, None, "the reflectors' surfaces, for the deferred mirror shader")
-        defines = {**reflection_defines(METHODS[method].defines(algorithm), reflection_data, count_samples), **DEFERRED}
+        defines = {**reflection_defines(METHODS[method].defines(algorithm), reflection_data, count_samples), **DEFERRED,
+                   **glossy_defines(scene)}
         if mirrors:
             variant(Pass.REFLECTORS, DEFERRED_REFLECTOR_PROGRAM, reflector_defines(scene, defines, False),
                     f"mirrors, {method.option} method, deferred")
@@ -394,6 +411,8 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
             memory["bounce baking"] = ImpostorAtlas.bytes_for(1, side, True) + side * side * 8 + levels * records + interior
         if _builds_pyramids(method, algorithm, images):
             memory["depth pyramids"] = pyramid_bytes(PyramidLayout.of_grid(*atlas_grid(len(images)), side), len(images))
+        if _builds_colour_mips(scene, method, images):
+            memory["colour mips"] = pyramid_bytes(PyramidLayout.of_grid(*atlas_grid(len(images)), side), len(images))
     traced = METHODS[method].traces
     if traced is not None:
         memory["BVH"] = _bvh_bytes(traced.traced_triangles(scene, reflected), named=METHODS[method].names_triangles)

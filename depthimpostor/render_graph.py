@@ -155,9 +155,11 @@ class RenderGraph:
         self._keep_pyramids(plan)
 
     def _keep_pyramids(self, plan: RenderPlan) -> None:
-        """Depth pyramids exist exactly while the plan builds them."""
+        """Depth pyramids and colour mips exist exactly while the plan builds them."""
         if self.impostors is not None:
             self.impostors.use_pyramid(plan.builds_pyramids)
+        if self.baked_images is not None:
+            self.baked_images.use_colour_mips(plan.runs(Pass.COLOUR_MIPS))
 
     def _reflector_pass(self) -> ReflectorPass:
         if self.stand_in is None:
@@ -292,7 +294,9 @@ class RenderGraph:
             return self.shadow_maps is not None and bool(self.shadow_maps.stale)
         if stage is Pass.STAND_IN:
             return self.stand_in is not None and self._stand_in_stale()
-        # Bounce images and pyramids follow the stand-in's images: stale when any of them is.
+        # Bounce images, pyramids and colour mips follow the stand-in's images: stale when any of them is.
+        if stage is Pass.COLOUR_MIPS:
+            return self.baked_images is not None and self._stand_in_stale()
         return self.impostors is not None and self._stand_in_stale()
 
     def _stand_in_stale(self) -> bool:
@@ -322,6 +326,8 @@ class RenderGraph:
                 return
         elif stage is Pass.PYRAMIDS and impostors is not None and impostors.pyramid is not None:
             impostors.build_pyramids()
+        elif stage is Pass.COLOUR_MIPS and self.baked_images is not None and self.baked_images.colour_mips is not None:
+            self.baked_images.build_colour_mips()
         else:
             return
         stats.passes[stage.value] += 1

@@ -30,6 +30,9 @@ in vec3 v_world_normal;
 #endif
 
 uniform int u_mirror_id;
+#ifdef GLOSSY
+uniform float u_roughness;  // the mirror's GGX roughness (0: sharp; glass: 0), lib/glossy.glsl
+#endif
 #if METHOD == METHOD_HYBRID
 // The viewer's view of where the depth images could not answer: those rays tinted magenta.
 uniform bool u_tint_retraced;
@@ -105,6 +108,9 @@ void main() {
     }
 #endif
     vec3 direction = reflect(view, normal);
+#ifdef GLOSSY
+    g_cone_tan = cone_spread(u_roughness);
+#endif
     RayHit hit = trace_reflected(v_world_position, direction);
 #ifdef GLASS
     out_color = vec4(glass_color(v_world_position, view, normal, hit.color, u_tint, hit.samples), 1.0);

@@ -123,6 +123,19 @@ def test_hierarchical_plans_pyramids(ctx: moderngl.Context) -> None:
         assert renderer.programs.keys == renderer.plan.program_keys
 
 
+def test_a_rough_mirror_adds_the_colour_mips(ctx: moderngl.Context) -> None:
+    """Roughness > 0: one pass (the colour mips, after each bake) and one program (its compute
+    shader; the mirror variant is GLOSSY instead of plain), and the renderer does what it says."""
+    scene = small("default.toml").with_roughness(0.15)
+    counts = plan_render(scene).counts()
+    assert (counts["passes"], counts["images"], counts["skipped"], counts["variants"]) == (5, 5, 0, 7)
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        renderer.render()
+        assert renderer.programs.keys == renderer.plan.program_keys
+        assert renderer.stats.passes[Pass.COLOUR_MIPS.value] == 1  # built after the one bake
+
+
 def test_animation_rebakes_only_the_moving_objects_images(ctx: moderngl.Context) -> None:
     frames = 4
     with Renderer(ctx, small("carousel.toml")) as renderer:

@@ -75,15 +75,19 @@ CASES = [
     ("carousel.toml", Method.RAYTRACE, Algorithm.OPTIMIZED, {}),
     ("carousel.toml", Method.SIMPLIFIED, Algorithm.OPTIMIZED, {}),
     ("default.toml", Method.HYBRID, Algorithm.HIERARCHICAL, {"count_samples": True}),
+    ("default.toml", Method.DEPTH, Algorithm.OPTIMIZED, {"roughness": 0.15}),  # a glossy mirror's colour mips
+    ("grid_3x3.toml", Method.CUBEMAP, Algorithm.OPTIMIZED, {"roughness": 0.3}),
 ]
 
 
 @pytest.mark.parametrize(("name", "method", "algorithm", "options"), CASES,
-                         ids=[f"{n}-{m.option}-{a.name.lower()}" for n, m, a, _ in CASES])
+                         ids=[f"{n}-{m.option}-{a.name.lower()}{'-rough' * ('roughness' in o)}" for n, m, a, o in CASES])
 def test_plan_memory_is_what_the_renderer_allocates(ctx: moderngl.Context, allocations: list[tuple[Any, list[int]]],
                                                     name: str, method: Method, algorithm: Algorithm,
-                                                    options: dict[str, bool]) -> None:
+                                                    options: dict[str, float]) -> None:
+    options = dict(options)
     scene = load_scene(SCENES / name).with_overrides(size=(96, 54), impostor_resolution=32)
+    scene = scene.with_roughness(options.pop("roughness", 0.0))
     with Renderer(ctx, scene, algorithm, method=method, **options) as renderer:
         renderer.render()
         allocated = _alive_bytes(allocations)

@@ -50,6 +50,8 @@ class TextureUnit(IntEnum):
     # it samples at most 16 textures, GL 3.3's least GL_MAX_TEXTURE_IMAGE_UNITS.
     SURFACE_POSITION = 22
     SURFACE_NORMAL = 23
+    # The baked images' prefiltered colours, read by a glossy mirror's cone (methods/colour_mips.py).
+    COLOUR_MIPS = 24
 
 
 @unique
@@ -71,6 +73,7 @@ class StorageBuffer(IntEnum):
 class ImageUnit(IntEnum):
     PYRAMID_SOURCE = 0  # the level a pyramid level is built from
     PYRAMID_TARGET = 1  # the level being built
+    COLOUR_ATLAS = 2  # the colour mips' first source: the atlas's RGBA8 colour (methods/colour_mips.py)
 
 
 def glsl_bindings() -> dict[str, str]:

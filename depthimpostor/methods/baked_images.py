@@ -26,6 +26,7 @@ from ..gpu.shaders import ProgramCache
 from ..passes.diffuse import DiffusePass
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import bind_texture, write
+from .colour_mips import ColourMips
 from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural
 
 
@@ -66,6 +67,8 @@ class BakedImages:
     image_noun: ClassVar[str]
     #: One image per reflected object (False: faces that show them all).
     per_object: ClassVar[bool] = True
+    #: The prefiltered colours a glossy mirror's cone reads (only in a scene with one).
+    colour_mips: ColourMips | None = None
 
     def __init__(
         self,
@@ -171,7 +174,25 @@ class BakedImages:
 
     @property
     def bytes(self) -> int:
-        return self.atlas.bytes + sum(buffer.size for buffer in self.uniform_buffers.values())
+        mips = self.colour_mips.bytes if self.colour_mips is not None else 0
+        return self.atlas.bytes + sum(buffer.size for buffer in self.uniform_buffers.values()) + mips
+
+    def use_colour_mips(self, wanted: bool) -> None:
+        """Keep the images' colour mips (a glossy mirror's cone reads them) or free them. New ones
+        are built at once from the images already baked."""
+        if wanted and self.colour_mips is None:
+            tiles = [image.tile for image in self.depth_images]  # in slot order, as __init__ assigned them
+            self.colour_mips = ColourMips(self.ctx, self.programs, self.atlas.pyramid_layout, tiles)
+            if self.bakes:
+                self.colour_mips.build(self.atlas.color)
+        elif not wanted and self.colour_mips is not None:
+            self.colour_mips.release()
+            self.colour_mips = None
+
+    def build_colour_mips(self) -> None:
+        """The colour mips of every image, from the atlas as baked (the graph's colour-mip node)."""
+        if self.colour_mips is not None:
+            self.colour_mips.build(self.atlas.color)
 
     def describe(self) -> str:
         sides = sorted({image.camera.width for image in self.depth_images}) or [self.atlas.resolution]
@@ -183,6 +204,8 @@ class BakedImages:
 
     def bind(self, program: moderngl.Program) -> None:
         bind_impostors(program, self.atlas)
+        if self.colour_mips is not None:
+            self.colour_mips.bind(program)
 
     def bind_reflector(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
         self.uniform_buffers[mirror.index].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
@@ -272,6 +295,7 @@ class BakedImages:
         return len(image.targets)
 
     def release(self) -> None:
+        self.use_colour_mips(False)
         for buffer in self.uniform_buffers.values():
             buffer.release()
         self.atlas.release()

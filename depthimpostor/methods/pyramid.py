@@ -92,7 +92,19 @@ def pyramid_bytes(layout: PyramidLayout, tiles: int) -> int:
 
 
 class DepthPyramid:
-    """The pyramid texture of one atlas, and the compute pass that fills it from the depth layers."""
+    """The pyramid texture of one atlas, and the compute pass that fills it from the depth layers.
+    methods/colour_mips.py's ColourMips is the same slot layout and build loop over the colours."""
+
+    PROGRAM: str = PYRAMID_PROGRAM
+    #: The texture's channels and its image format in the build shader.
+    COMPONENTS = 2
+    FORMAT = _RG32F
+    #: The mirror shader's sampler of it, and its texture unit.
+    SAMPLER = "u_impostor_pyramid"
+    UNIT = TextureUnit.PYRAMID
+    #: What needs it, for the message when the context cannot build it.
+    PURPOSE = "the hierarchical algorithm builds its depth pyramid"
+    REMEDY = "use the optimized algorithm"
 
     def __init__(
         self, ctx: moderngl.Context, programs: ProgramCache, layout: PyramidLayout, tiles: Sequence[tuple[int, int, int, int]]
@@ -100,15 +112,15 @@ class DepthPyramid:
         """`tiles` are the atlas tiles (x, y, width, height) of the images in slot order."""
         if ctx.version_code < REQUIRED_GL_VERSION:
             raise ContextError(
-                f"the hierarchical algorithm builds its depth pyramid with compute shaders, which need OpenGL "
+                f"{self.PURPOSE} with compute shaders, which need OpenGL "
                 f"{REQUIRED_GL_VERSION // 100}.{REQUIRED_GL_VERSION % 100 // 10}; this context has "
-                f"{ctx.version_code // 100}.{ctx.version_code % 100 // 10}: use the optimized algorithm"
+                f"{ctx.version_code // 100}.{ctx.version_code % 100 // 10}: {self.REMEDY}"
             )
         self.ctx = ctx
         self.layout = layout
         self.tile_count = len(tiles)
-        self.program = programs.compute(PYRAMID_PROGRAM)
-        self.texture = ctx.texture(layout.size, 2, dtype="f4")
+        self.program = programs.compute(self.PROGRAM)
+        self.texture = ctx.texture(layout.size, self.COMPONENTS, dtype="f4" if self.COMPONENTS == 2 else "f2")
         # Allocates mips 1.. (their contents are overwritten by `build`) and sets the texture's
         # level range, so that texelFetch may read every level.
         self.texture.build_mipmaps(0, max(0, layout.levels - 1))
@@ -120,8 +132,13 @@ class DepthPyramid:
     def bytes(self) -> int:
         return pyramid_bytes(self.layout, self.tile_count)
 
-    def build(self, depth_layers: moderngl.Texture) -> None:
-        """Fill every level from the atlas's depth layers, which hold the images just baked."""
+    def bind_first_source(self, source: moderngl.Texture) -> None:
+        """Level 1's source (the depth layers), for the build shader."""
+        source.bind_to_image(ImageUnit.PYRAMID_SOURCE, read=True, write=False, level=0, format=self.FORMAT)
+
+    def build(self, source: moderngl.Texture) -> None:
+        """Fill every level from the atlas texture `source` (the depth layers), which holds the
+        images just baked."""
         program = self.program
         self.tiles.bind_to_storage_buffer(StorageBuffer.PYRAMID_TILES)
         write(program, "u_tile_count", self.tile_count)
@@ -129,9 +146,13 @@ class DepthPyramid:
         write(program, "u_slot_pitch", self.layout.pitch)
         width, height = self.layout.size
         for level in range(1, self.layout.levels + 1):
-            source, source_level = (depth_layers, 0) if level == 1 else (self.texture, level - 2)
-            source.bind_to_image(ImageUnit.PYRAMID_SOURCE, read=True, write=False, level=source_level, format=_RG32F)
-            self.texture.bind_to_image(ImageUnit.PYRAMID_TARGET, read=False, write=True, level=level - 1, format=_RG32F)
+            if level == 1:
+                self.bind_first_source(source)
+            else:
+                self.texture.bind_to_image(ImageUnit.PYRAMID_SOURCE, read=True, write=False, level=level - 2,
+                                           format=self.FORMAT)
+            self.texture.bind_to_image(ImageUnit.PYRAMID_TARGET, read=False, write=True, level=level - 1,
+                                       format=self.FORMAT)
             write(program, "u_level", level)
             mip_width, mip_height = max(1, width >> (level - 1)), max(1, height >> (level - 1))
             program.run(-(-mip_width // _GROUP), -(-mip_height // _GROUP))
@@ -141,14 +162,15 @@ class DepthPyramid:
         self.builds += 1
 
     def bind(self, program: moderngl.Program) -> None:
-        bind_texture(program, "u_impostor_pyramid", self.texture, TextureUnit.PYRAMID)
+        bind_texture(program, self.SAMPLER, self.texture, self.UNIT)
 
     def read_level(self, level: int) -> np.ndarray:
-        """Level `level` >= 1 of the whole texture as (rows, columns, 2) float32 (tests)."""
+        """Level `level` >= 1 of the whole texture as (rows, columns, channels) float32 (tests)."""
         width, height = self.layout.size
         mip = level - 1
-        shape = (max(1, height >> mip), max(1, width >> mip), 2)
-        return np.frombuffer(self.texture.read(level=mip), np.float32).reshape(shape).copy()
+        shape = (max(1, height >> mip), max(1, width >> mip), self.COMPONENTS)
+        dtype = np.float32 if self.COMPONENTS == 2 else np.float16
+        return np.frombuffer(self.texture.read(level=mip), dtype).reshape(shape).astype(np.float32)
 
     def release(self) -> None:
         self.tiles.release()

@@ -9,7 +9,8 @@ intersected as in the shader, and hits are shaded with the same model as shaders
 (albedo * (ambient + lights), smooth normals interpolated from the same vertex normals). Shadows
 are the real ones: the rays the shadow maps are marched with (lights.py) traced against the real
 casters. A mirror reflects on its front side alone (where its counter-clockwise faces face): a ray
-that meets one from behind sees its backing, a diffuse grey (MIRROR_BACKING_ALBEDO).
+that meets one from behind sees its backing, a diffuse grey (MIRROR_BACKING_ALBEDO). A glossy
+mirror (roughness > 0) averages many rays importance-sampled from GGX (oracles/ggx.py).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from ..lights import light_sample_points
 from ..meshes import plane_uvs
 from ..scene.model import CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MirrorMaterial, Scene
 from ..textures import texture_bilinear
+from .ggx import glossy_average
 
 if TYPE_CHECKING:
     from embreex import rtcore_scene
@@ -365,13 +367,26 @@ class SpecularTruth:
             mine = ids == index
             material = self.reflectors[int(index)].object.material
             if isinstance(material, MirrorMaterial):
-                color[mine] = np.asarray(material.tint) * seen.color[mine]
+                reflected_color = seen.color[mine]
+                if material.is_rough:  # many rays about the reflected one (oracles/ggx.py)
+                    reflected_color = self._glossy(int(index), material.roughness, positions[mine], normals[mine],
+                                                   incoming[mine], reflected_color, bounces)
+                color[mine] = np.asarray(material.tint) * reflected_color
             elif isinstance(material, GlassMaterial):
                 fresnel = schlick(-_dot(incoming[mine], normals[mine]), material.ior)[:, None]
                 refracted = refract(incoming[mine], normals[mine], 1.0 / material.ior)
                 transmitted = self._transmitted(int(index), material.ior, positions[mine], refracted, bounces)
                 color[mine] = fresnel * seen.color[mine] + (1.0 - fresnel) * np.asarray(material.tint) * transmitted
         return color, seen
+
+    def _glossy(self, index: int, roughness: float, positions: Array, normals: Array, incoming: Array,
+                central: Array, bounces: int) -> Array:
+        """What glossy mirror `index` reflects at each point: the GGX average of GGX_SAMPLES rays,
+        each traced as the perfect mirror's one ray is."""
+        def radiance(pixels: Array, directions: Array) -> Array:
+            return self.trace(positions[pixels], directions, np.full(len(pixels), index), bounces).color
+
+        return glossy_average(incoming, normals, roughness, central, radiance)
 
     def _transmitted(self, index: int, ior: float, entry: Array, direction: Array, bounces: int) -> Array:
         """lib/glass.glsl's glass_transmitted: each ray followed inside glass `index` (Embree,

@@ -90,6 +90,19 @@ def reflector_defines(scene: Scene, defines: dict[str, int], glass: bool) -> dic
             **({"GLASS": 1} if glass else {})}
 
 
+def glossy_defines(scene: Scene) -> dict[str, int]:
+    """The frame's mirror variant in a scene with a rough mirror (GLOSSY: a cone about each
+    reflected ray, lib/glossy.glsl); none otherwise, so that a perfect mirror's frame is the very
+    program it always was. Reflectors drawn into other reflectors' images stay sharp."""
+    return {"GLOSSY": 1} if scene.has_rough_mirrors else {}
+
+
+def reflector_roughness(item: ObjectGeometry) -> float:
+    """u_roughness of a reflector: a mirror's roughness, 0 for glass (a perfect surface)."""
+    material = item.object.material
+    return material.roughness if isinstance(material, MirrorMaterial) else 0.0
+
+
 def bounce_defines() -> dict[str, int]:
     """The variant drawing a reflector into another's depth image (render.max_bounces > 1): the
     optimized march, since a bake's images are the same whatever the frame's algorithm."""
@@ -172,7 +185,8 @@ class ReflectorPass:
         count_samples: bool = False,
         interiors: dict[int, GlassInterior] | None = None,
     ) -> None:
-        defines = {**reflection_defines(method_defines, write_reflection_data, count_samples), **DEFERRED}
+        defines = {**reflection_defines(method_defines, write_reflection_data, count_samples), **DEFERRED,
+                   **glossy_defines(scene)}
         self.programs = {
             glass: reflector_program(programs, scene, defines, glass, DEFERRED_REFLECTOR_PROGRAM) if present else None
             for glass, present in ((False, bool(scene.mirrors)), (True, bool(scene.glass)))
@@ -227,6 +241,7 @@ class ReflectorPass:
             self.reflected.bind_reflector(program, item)
             write(program, "u_eye", tuple(camera.C))
             write(program, "u_tint", reflector_tint(item))
+            write(program, "u_roughness", reflector_roughness(item))
             write(program, "u_mirror_id", item.index)
             write(program, "u_tint_retraced", tint_retraced)
             write(program, "u_surface_stamp", stamp)

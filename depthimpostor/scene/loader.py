@@ -129,7 +129,8 @@ _MATERIALS: dict[str, Variant[Material]] = {
     "diffuse": Variant(("color", "texture"), _diffuse),
     "checker": Variant(("color_a", "color_b", "scale"), lambda t: CheckerMaterial(
         t.req("color_a", _COLOR), t.req("color_b", _COLOR), t.opt("scale", _LENGTH, 1.0))),
-    "mirror": Variant(("tint",), lambda t: MirrorMaterial(t.opt("tint", _COLOR, MirrorMaterial().tint))),
+    "mirror": Variant(("tint", "roughness"), lambda t: MirrorMaterial(
+        t.opt("tint", _COLOR, MirrorMaterial().tint), t.opt("roughness", f.number(f.UNIT), MirrorMaterial().roughness))),
     "glass": Variant(("ior", "tint"), lambda t: GlassMaterial(
         t.opt("ior", f.number(f.Bounds(1.0, MAX_IOR)), GlassMaterial().ior), t.opt("tint", _COLOR, GlassMaterial().tint))),
 }

@@ -19,7 +19,7 @@ from depthimpostor.colour import TONE_MAPPINGS
 from depthimpostor.constants import SAMPLE_OFFSETS
 from depthimpostor.meshes import Mesh
 from depthimpostor.scene.fields import (
-    RESOLUTION, SIZE, TRIANGLE_TARGET, At, Bounds, Reader, Vec3, choice, number, word_or,
+    RESOLUTION, SIZE, TRIANGLE_TARGET, UNIT, At, Bounds, Reader, Vec3, choice, number, word_or,
 )
 
 ZERO: Vec3 = (0.0, 0.0, 0.0)
@@ -290,7 +290,16 @@ class CheckerMaterial:
 
 @dataclass(frozen=True)
 class MirrorMaterial:
+    """A metal mirror: `tint` what it multiplies the light it reflects by; `roughness` in [0, 1]
+    its GGX roughness (alpha = roughness^2): 0 a perfect mirror (one reflected ray), above it a
+    glossy one (docs/methods_and_results.md, "Glossy mirrors")."""
+
     tint: Vec3 = (1.0, 1.0, 1.0)
+    roughness: float = 0.0
+
+    @property
+    def is_rough(self) -> bool:
+        return self.roughness > 0.0
 
 
 @dataclass(frozen=True)
@@ -382,6 +391,12 @@ class Scene:
         return tuple(o for o in self.objects if o.is_mirror)
 
     @property
+    def has_rough_mirrors(self) -> bool:
+        """Does a mirror have roughness > 0? Only then do the reflectors' GLOSSY variant and the
+        baked images' colour mips exist (a perfect mirror's frame is the same program's as ever)."""
+        return any(isinstance(o.material, MirrorMaterial) and o.material.is_rough for o in self.objects)
+
+    @property
     def glass(self) -> tuple[SceneObject, ...]:
         return tuple(o for o in self.objects if o.is_glass)
 
@@ -436,6 +451,14 @@ class Scene:
     def diffuse_objects(self) -> tuple[SceneObject, ...]:
         """What the diffuse pass draws and a first bounce sees: everything but mirrors and glass."""
         return tuple(o for o in self.objects if not o.is_reflector)
+
+    def with_roughness(self, roughness: float) -> Scene:
+        """This scene with every mirror's roughness set to `roughness` (tools/glossy_table.py's
+        family of glossy scenes), checked as the file's field is."""
+        value = At("command line", "").key("roughness").read(roughness, number(UNIT))
+        objects = tuple(dataclasses.replace(o, material=dataclasses.replace(o.material, roughness=value))
+                        if isinstance(o.material, MirrorMaterial) else o for o in self.objects)
+        return dataclasses.replace(self, objects=objects)
 
     def with_overrides(self, size: tuple[int, int] | None = None, impostor_resolution: int | str | None = None,
                        simplified_triangles: int | None = None, tone_mapping: str | None = None,

@@ -39,6 +39,54 @@ vec3 unproject(DepthImage image, vec2 s, float w) {
     return image.eye.xyz + (image.a.xyz * s.x + image.b.xyz * s.y + image.c.xyz) * w;
 }
 
+#if defined(GLOSSY) && METHOD != METHOD_HYBRID
+#include "cone.glsl"
+
+// The images' colours prefiltered (methods/colour_mips.py): RGBA16F, premultiplied by coverage;
+// mip m holds level m + 1 of every image, from `pyramid.xy >> m`.
+uniform sampler2D u_impostor_color_mips;
+
+// Premultiplied colour of `image` at level `level` around image point s, filtered bilinearly
+// within the image (texels beyond its edge are clamped to it, never a neighbour's).
+vec4 colour_level(DepthImage image, vec2 s, int level) {
+    ivec2 size = (image.tile.zw + (1 << level) - 1) >> level;
+    vec2 p = s / float(1 << level) - 0.5;
+    vec2 base = floor(p);
+    vec2 f = p - base;
+    vec4 texels[4];
+    for (int k = 0; k < 4; ++k) {
+        ivec2 texel = clamp(ivec2(base) + ivec2(k & 1, k >> 1), ivec2(0), size - 1);
+        if (level == 0) {
+            vec4 c = texelFetch(u_impostor_color, image.tile.xy + texel, 0);
+            texels[k] = vec4(c.rgb * c.a, c.a);
+        } else {
+            texels[k] = texelFetch(u_impostor_color_mips, (image.pyramid.xy >> (level - 1)) + texel, level - 1);
+        }
+    }
+    return mix(mix(texels[0], texels[1], f.x), mix(texels[2], texels[3], f.x), f.y);
+}
+
+// The colour a glossy mirror's cone sees where its axis meets `image`'s surface at `offset`
+// from the image's eye, t along the ray: the level whose texel is as wide as the cone's footprint
+// there (2 t tan, over a texel's width |a| w at the point's depth w), trilinearly, divided by
+// its coverage, which g_cone_coverage keeps. `sharp` (the hit's own texel) where the footprint is
+// under a texel.
+vec3 cone_color(DepthImage image, vec3 offset, float t, vec3 sharp) {
+    vec3 projected = camera_coordinates(image, offset);
+    float texels = 2.0 * t * g_cone_tan / (length(image.a.xyz) * max(projected.z, 1e-30));
+    g_cone_coverage = 1.0;
+    if (!(texels > 1.0)) return sharp;
+    float level = min(log2(texels), float(image.pyramid.z));
+    vec2 s = projected.xy / projected.z;
+    int low = int(floor(level));
+    vec4 color = mix(colour_level(image, s, low), colour_level(image, s, min(low + 1, image.pyramid.z)),
+                     level - float(low));
+    if (!(color.a > 0.0)) return sharp;
+    g_cone_coverage = min(color.a, 1.0);
+    return color.rgb / color.a;
+}
+#endif
+
 // The sample under image point s. Clipped endpoints lie on the frustum's sides, where s.x can be
 // exactly width (or a rounding step outside [0, width]): clamp to the image's own texels.
 ivec2 texel_of(DepthImage image, vec2 s) {

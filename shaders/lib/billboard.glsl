@@ -26,6 +26,11 @@ RayHit nearest_billboard_hit(vec3 origin, vec3 direction) {
         vec4 color = texelFetch(u_impostor_color, image.tile.xy + ivec2(s), 0);
         ++samples;
         if (color.a == 0.0) continue;  // a transparent texel: the ray goes on to what lies behind
+#ifdef GLOSSY
+        // A glossy mirror's cone (lib/glossy.glsl): the billboard's colour at its footprint. Each
+        // call is for a nearer hit than the last, so the coverage it leaves is the best hit's.
+        color.rgb = cone_color(image, origin + direction * t - image.eye.xyz, t, color.rgb);
+#endif
         best = make_hit(true, t, s, color.rgb, image.eye.w, 0);
     }
     best.samples = samples;

@@ -47,6 +47,12 @@ RayHit cube_map_hit(vec3 origin, vec3 direction) {
     ivec2 texel = texel_of(face, s);
     vec4 color = texelFetch(u_impostor_color, texel, 0);
     if (color.a == 0.0) return no_hit(1);
+#ifdef GLOSSY
+    // A glossy mirror's cone, as the depth method reads it, from the centre the faces were baked
+    // from: the level is set by roughness alone (the footprint is an angle: 2 tan over a texel's
+    // angle |a| w / |lookup| about the centre), the hit's distance is not known to a direction lookup.
+    color.rgb = cone_color(face, lookup, length(lookup), color.rgb);
+#endif
     // What the cube map saw in that direction, where it saw it: the hit the method reports (and
     // orders against the analytic planes by its distance from the ray's origin).
     vec2 surface = texelFetch(u_impostor_depth, texel, 0).rg;

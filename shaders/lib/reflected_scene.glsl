@@ -13,6 +13,9 @@
 #include "ray_hit.glsl"
 #include "shading.glsl"
 #include "environment.glsl"
+#ifdef GLOSSY
+#include "glossy.glsl"
+#endif
 #if METHOD == METHOD_DEPTH
 #include "depth_image.glsl"
 #elif METHOD == METHOD_HYBRID
@@ -78,6 +81,9 @@ void next_two_images(int after, float after_t, float limit, vec3 origin, vec3 di
 // (tools/branch_cost.py).
 RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
     RayHit best = no_hit(0);
+#if defined(GLOSSY) && METHOD == METHOD_DEPTH
+    int best_image = 0;
+#endif
     int samples = 0;
     float unseen_t = UNBOUNDED_RAY;
     int unseen = UNSEEN_NONE;
@@ -105,7 +111,12 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
             unseen_t = candidate.unseen_t;
             unseen = candidate.unseen;
         }
-        if (candidate.hit && candidate.t <= t_limit && (!best.hit || candidate.t < best.t)) best = candidate;
+        if (candidate.hit && candidate.t <= t_limit && (!best.hit || candidate.t < best.t)) {
+            best = candidate;
+#if defined(GLOSSY) && METHOD == METHOD_DEPTH
+            best_image = min(next, MAX_DEPTH_IMAGES_PER_REFLECTOR - 1);
+#endif
+        }
         last = next;
         last_t = next_t;
         next = after_next;
@@ -115,6 +126,15 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
     }
     if (best.hit) best.color = (best.layer == 1 ? texelFetch(u_impostor_back_color, best.texel, 0)
                                                 : texelFetch(u_impostor_color, best.texel, 0)).rgb;
+#if defined(GLOSSY) && METHOD == METHOD_DEPTH
+    // A glossy mirror's cone: the visible surface's colour prefiltered at its footprint (the back
+    // layer, seen from behind, keeps its texel: it has no mips; the hybrid method, whose exact
+    // triangles have none either, keeps its texels too: plan.py's _builds_colour_mips).
+    if (best.hit && best.layer == 0) {
+        DepthImage image = u_depth_images[best_image];
+        best.color = cone_color(image, origin + direction * best.t - image.eye.xyz, best.t, best.color);
+    }
+#endif
     best.samples = samples;
     return with_unseen(best, unseen_t, unseen);
 }
@@ -150,7 +170,15 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
         if (t > 0.0 && all(lessThanEqual(abs(p.xz), plane.half_size)) && (!best.hit || t < best.t)) {
             // The plane's UVs as meshes.plane_uvs lays them out: the image over the whole rectangle.
             vec2 uv = p.xz / (2.0 * plane.half_size) + 0.5;
-            best = unlit_hit(t, p.xz, material_albedo(plane.material, p, uv), plane.normal, float(plane.object_id), 0);
+            vec3 albedo = material_albedo(plane.material, p, uv);
+#ifdef GLOSSY
+            // A glossy mirror's cone: the checker box-filtered over its footprint on the plane.
+            if (g_cone_tan > 0.0 && plane.material.kind == MATERIAL_CHECKER) {
+                float share = checker_b_share(p.xz / plane.material.scale, plane_footprint(d, t) / plane.material.scale);
+                albedo = mix(plane.material.color_a, plane.material.color_b, share);
+            }
+#endif
+            best = unlit_hit(t, p.xz, albedo, plane.normal, float(plane.object_id), 0);
         }
     }
     return best;
@@ -248,7 +276,18 @@ RayHit trace_reflected(vec3 origin, vec3 direction) {
         plane.retraced = hit.retraced;
         hit = plane;
     }
+#ifdef GLOSSY
+    // The share of the cone the object its axis hit does not cover (its silhouette's
+    // neighbourhood in the footprint) sees what lies behind it: the plane beyond it, or the sky.
+    if (hit.hit && !hit.unlit && g_cone_coverage < 1.0) {
+        vec3 behind = plane.hit ? shade(plane.color, origin + direction * plane.t, plane.normal)
+                                : prefiltered_environment(direction);
+        hit.color = mix(behind, hit.color, g_cone_coverage);
+    }
+    if (!hit.hit) hit.color = prefiltered_environment(direction);
+#else
     if (!hit.hit) hit.color = environment(direction);
+#endif
     if (hit.hit && hit.unlit) hit.color = shade(hit.color, origin + direction * hit.t, hit.normal);
     return hit;
 }
