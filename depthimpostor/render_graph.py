@@ -163,10 +163,10 @@ class RenderGraph:
 
     def _reflector_pass(self) -> ReflectorPass:
         if self.stand_in is None:
-            raise RuntimeError("mirror passes are made only after the reflected objects' stand-in")
+            raise RuntimeError("the reflector pass is made only after the reflected objects' stand-in")
         made = ReflectorPass(self.programs, self.world.scene, self.meshes, self.stand_in,
-                          METHODS[self.plan.method].defines(self.plan.algorithm), self.options.reflection_data,
-                          self.options.count_samples, self.glass_interiors)
+                             METHODS[self.plan.method].defines(self.plan.algorithm), self.options.reflection_data,
+                             self.options.count_samples, self.glass_interiors)
         if self.reflector_pass is not None:
             self.reflector_pass.release()
         return made
@@ -360,8 +360,8 @@ class RenderGraph:
         elif stage is Pass.REFLECTORS and self.reflector_pass is not None:
             if targets.surfaces is None:
                 raise RuntimeError("a frame with reflectors has their surface targets")
-            stats.draw_calls += self.reflector_pass.draw(world.reflectors, camera, targets.framebuffer, targets.surfaces,
-                                                      self.tint_retraced)
+            stats.draw_calls += self.reflector_pass.draw(world.reflectors, camera, targets.framebuffer,
+                                                         targets.surfaces, self.tint_retraced)
         else:
             return
         stats.passes[stage.value] += 1
