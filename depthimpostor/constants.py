@@ -33,6 +33,8 @@ class Method(IntEnum):
     SIMPLIFIED = 4  # decimated triangles, through the ray-traced method's BVH
     RAYTRACE = 5  # the real triangles, through a BVH traversed in the mirror shader
     HYBRID = 6  # depth images, and the real triangles for the rays they cannot answer (Unseen)
+    PLANAR = 7  # flat mirrors: the scene rendered again through each mirror's plane (methods/planar.py)
+    SSR = 8  # screen-space reflections: a march through the eye's own depth (methods/screen_space.py)
 
     @property
     def option(self) -> str:
@@ -320,6 +322,24 @@ PLANES = Struct("Planes", (
 ))
 
 
+#: `--method ssr` (lib/screen_space.glsl): how thick the march takes every surface the eye sees to
+#: be, as a share of its distance w from the eye. The eye's depth holds front surfaces alone, so a
+#: ray that passes behind one is taken to hit it while it is within this much behind; a ray farther
+#: behind passes on (and may see what the eye does not, which SSR shows as what lies beyond). A
+#: share, not a length, so that the scenes' different scales need no setting: 0.03 holds the
+#: 0.7-unit box 5 units away (0.15 of w thick) where a reflected ray runs nearly along the eye's
+#: view of it for a few pixels, and lets rays pass well behind the spheres' silhouettes.
+SSR_THICKNESS = 0.03
+#: The most pixels one SSR march visits (one per pixel along the ray's projection, a linear DDA, no
+#: depth pyramid): the larger side of a 1080p frame. A ray that has not hit or left the screen by
+#: then falls back to the environment.
+SSR_MAX_STEPS = 1920
+#: Where SSR's hits fade to the fallback (the environment): within this share of the frame's
+#: half-size from its edge, linearly, so that an object sliding out of the frame does not cut its
+#: reflection off at a hard line (the engines' "edge fade").
+SSR_EDGE_FADE = 0.1
+
+
 def glsl_constants() -> dict[str, str]:
     """Every shared constant as a GLSL define (name -> value text)."""
     defines: dict[str, str] = {
@@ -349,6 +369,9 @@ def glsl_constants() -> dict[str, str]:
         "SRGB_GAMMA": f"{SRGB_GAMMA!r}",
         "ACES_A": f"{ACES_A!r}", "ACES_B": f"{ACES_B!r}", "ACES_C": f"{ACES_C!r}", "ACES_D": f"{ACES_D!r}",
         "ACES_E": f"{ACES_E!r}",
+        "SSR_THICKNESS": f"{SSR_THICKNESS!r}",
+        "SSR_MAX_STEPS": str(SSR_MAX_STEPS),
+        "SSR_EDGE_FADE": f"{SSR_EDGE_FADE!r}",
     }
     defines.update(glsl_bindings())
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",

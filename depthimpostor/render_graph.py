@@ -29,6 +29,8 @@ from .graph import BAKES, Pass
 from .methods.baked_images import BakedImages
 from .methods.impostors import ImpostorPass
 from .methods.registry import METHODS
+from .methods.screen_space import ScreenSpacePass
+from .methods.seen_from_eye import SeenFromEye
 from .methods.triangles import TrianglePass
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
@@ -36,7 +38,7 @@ from .passes.glass import GlassInterior
 from .passes.mirrors import MirrorPass, ReflectedObjects
 from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
-from .plan import RenderPlan, check_stand_in
+from .plan import RenderPlan, check_stand_in, frame_surface
 from .ppc import PPC
 from .targets import FrameTargets
 from .world import World
@@ -50,6 +52,7 @@ class RenderStats:
     depth_images_baked: int = 0  # every baked image: depth images, cube-map faces, billboards
     shadow_maps_baked: int = 0
     interiors_made: int = 0  # glass interior images
+    eye_images_made: int = 0  # planar reflections' renders and SSR's frame copies (made every frame)
     draw_calls: int = 0
     passes: Counter[str] = field(default_factory=Counter)  # frames each pass ran in, by Pass value
     images_baked: Counter[str] = field(default_factory=Counter)  # bakes of each image, by its label
@@ -98,8 +101,7 @@ class RenderGraph:
         # Made (and baked) before anything that shades: depth images show the shadows too.
         self.shadow_maps = (ShadowMaps(ctx, self.programs, world.lit_scene, self.meshes, world.shadow_casters)
                             if self.plan.runs(Pass.SHADOW_MAPS) else None)
-        self.diffuse = (DiffusePass(self.programs, scene, self.meshes, write_depth_image=False)
-                        if self.plan.runs(Pass.DIFFUSE) else None)
+        self.diffuse = self._diffuse_pass()
         self.stand_in: ReflectedObjects | None = None
         self.mirror_pass: MirrorPass | None = None
         self.samples: SamplesPass | None = None
@@ -112,6 +114,13 @@ class RenderGraph:
             if self.show_samples and self.sampled is not None:
                 self.samples = SamplesPass(ctx, self.programs)
         self._baked = False
+
+    def _diffuse_pass(self) -> DiffusePass | None:
+        """The frame's diffuse objects: with the eye's surface beside the colour where SSR reads it."""
+        if not self.plan.runs(Pass.DIFFUSE):
+            return None
+        return DiffusePass(self.programs, self.world.scene, self.meshes, write_depth_image=False,
+                           write_surface=frame_surface(self.plan.method, bool(self.world.reflectors)))
 
     # ------------------------------------------------------------------ what the nodes hold
     @property
@@ -145,6 +154,8 @@ class RenderGraph:
         if issubclass(kind, BakedImages):
             stand_in = kind(self.ctx, self.programs, scene, self.meshes, world.reflectors, world.reflected_objects,
                             plan.image_plans)
+        elif issubclass(kind, SeenFromEye):
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, world.reflectors)
         else:
             stand_in = kind(self.ctx, scene, world.reflected_objects)
         if self.stand_in is not None:
@@ -181,6 +192,7 @@ class RenderGraph:
         self.world = world
         self.plan = plan
         self._compile()
+        self.diffuse = self._diffuse_pass()
         if world.reflectors and (not same_stand_in or (new_images and self.baked_images is not None)):
             self._make_stand_in(plan)
         self._keep_pyramids(plan)
@@ -205,6 +217,8 @@ class RenderGraph:
             self.shadow_maps.move(world.lit_scene, world.shadow_casters,
                                   (moved_lights | (shadowed if moved_casters else set())) & shadowed)
         if self.stand_in is None or not (moved or moved_lights):
+            return
+        if isinstance(self.stand_in, SeenFromEye):  # made every frame from where everything is
             return
         baked = self.baked_images
         if baked is None:  # the triangle methods' BVH: built again around the moved objects
@@ -271,7 +285,8 @@ class RenderGraph:
             for node in graph:
                 if node.stage in BAKES:
                     continue
-                if node.stage in (Pass.GLASS_INTERIORS, Pass.REFLECTORS) and self.options.time_mirror_pass \
+                if node.stage in (Pass.EYE_IMAGES, Pass.GLASS_INTERIORS, Pass.REFLECTORS) \
+                        and self.options.time_mirror_pass \
                         and mirror_start is None:
                     self.ctx.finish()
                     mirror_start = time.perf_counter()
@@ -338,7 +353,15 @@ class RenderGraph:
             if self.show_samples and self.samples is not None and sampled is not None:
                 drawn = [g for g in world.diffuse_objects if g.is_analytic_plane]
                 stats.draw_calls += self.samples.draw(sampled, camera)
+            if isinstance(self.stand_in, ScreenSpacePass):  # the eye's surface beside the colour
+                self.stand_in.diffuse_framebuffer(targets.color_framebuffer, targets.size).use()
             stats.draw_calls += self.diffuse.draw(drawn, camera.view_projection)
+            targets.color_framebuffer.use()
+        elif stage is Pass.EYE_IMAGES and isinstance(self.stand_in, SeenFromEye):
+            before = self.stand_in.made
+            stats.draw_calls += self.stand_in.make(camera, world.diffuse_objects, world.reflectors,
+                                                   targets.color_framebuffer)
+            stats.eye_images_made += self.stand_in.made - before
         elif stage is Pass.GLASS_INTERIORS and self.mirror_pass is not None:
             before = self._interiors_made()
             # A glass interior depends on the eye's position and pixel size, not on a sub-pixel

@@ -75,6 +75,8 @@ CASES = [
     ("carousel.toml", Method.RAYTRACE, Algorithm.OPTIMIZED, {}),
     ("carousel.toml", Method.SIMPLIFIED, Algorithm.OPTIMIZED, {}),
     ("default.toml", Method.HYBRID, Algorithm.HIERARCHICAL, {"count_samples": True}),
+    ("planar_mirror.toml", Method.PLANAR, Algorithm.OPTIMIZED, {}),  # made in the frame (methods/seen_from_eye.py)
+    ("default.toml", Method.SSR, Algorithm.OPTIMIZED, {"reflection_data": True}),
 ]
 
 

@@ -50,6 +50,11 @@ class TextureUnit(IntEnum):
     # it samples at most 16 textures, GL 3.3's least GL_MAX_TEXTURE_IMAGE_UNITS.
     SURFACE_POSITION = 22
     SURFACE_NORMAL = 23
+    # What the eye-dependent methods look up at a pixel (methods/planar.py, methods/screen_space.py):
+    # a flat mirror's image of the scene through its plane, or the frame's copy after the diffuse
+    # pass; and beside it the world position and object id seen there.
+    SCREEN_COLOR = 24
+    SCREEN_SURFACE = 25
 
 
 @unique
