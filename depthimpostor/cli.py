@@ -172,7 +172,8 @@ def format_stats(stats: RenderStats, plan: RenderPlan, start: float, fps: float)
     if never:
         lines.append(f"  planned images never baked: {', '.join(never)}")
     lines.append(f"  shadow maps baked: {stats.shadow_maps_baked}, glass interiors made: {stats.interiors_made}, "
-                 f"draw calls: {stats.draw_calls}")
+                 + (f"eye images made: {stats.eye_images_made}, " if stats.eye_images_made else "")
+                 + f"draw calls: {stats.draw_calls}")
     return "\n".join(lines)
 
 
