@@ -330,10 +330,14 @@ PLANES = Struct("Planes", (
 #: 0.7-unit box 5 units away (0.15 of w thick) where a reflected ray runs nearly along the eye's
 #: view of it for a few pixels, and lets rays pass well behind the spheres' silhouettes.
 SSR_THICKNESS = 0.03
-#: The most pixels one SSR march visits (one per pixel along the ray's projection, a linear DDA, no
-#: depth pyramid): the larger side of a 1080p frame. A ray that has not hit or left the screen by
-#: then falls back to the environment.
-SSR_MAX_STEPS = 1920
+#: The most cells one SSR march reads (lib/screen_space.glsl: a pixel, or a cell of its min-depth
+#: pyramid skipped whole, or a step up or down the pyramid): twice the larger side of a 1080p
+#: frame, room for a ray across the frame at the finest level with steps up and down around what
+#: it passes. A ray that has not hit or left the screen by then falls back to the environment.
+SSR_MAX_STEPS = 3840
+#: The pyramid's w where the eye saw nothing (the sky, and its cells beyond the frame): farther
+#: than any ray, so that every ray is in front of it.
+SSR_NOTHING = 1e30
 #: Where SSR's hits fade to the fallback (the environment): within this share of the frame's
 #: half-size from its edge, linearly, so that an object sliding out of the frame does not cut its
 #: reflection off at a hard line (the engines' "edge fade").
@@ -371,6 +375,7 @@ def glsl_constants() -> dict[str, str]:
         "ACES_E": f"{ACES_E!r}",
         "SSR_THICKNESS": f"{SSR_THICKNESS!r}",
         "SSR_MAX_STEPS": str(SSR_MAX_STEPS),
+        "SSR_NOTHING": f"{SSR_NOTHING!r}",
         "SSR_EDGE_FADE": f"{SSR_EDGE_FADE!r}",
     }
     defines.update(glsl_bindings())

@@ -29,7 +29,7 @@ def test_every_unit_and_binding_fits_the_gl_minimums() -> None:
     diffuse_only = (TextureUnit.MATERIAL_TEXTURE_0, TextureUnit.MATERIAL_TEXTURE_1, TextureUnit.MATERIAL_TEXTURE_2,
                     TextureUnit.MATERIAL_TEXTURE_3)
     ray_query_only = (TextureUnit.RAY_ORIGINS, TextureUnit.RAY_DIRECTIONS)
-    screen_only = (TextureUnit.SCREEN_COLOR, TextureUnit.SCREEN_SURFACE)
+    screen_only = (TextureUnit.SCREEN_COLOR, TextureUnit.SCREEN_SURFACE, TextureUnit.SSR_PYRAMID)
     shader_units = [unit for unit in TextureUnit
                     if unit not in (TextureUnit.FRAME, TextureUnit.GLYPHS, *diffuse_only, *ray_query_only, *screen_only)]
     assert max(TextureUnit) < 48 and len(shader_units) <= 16

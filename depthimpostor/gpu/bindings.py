@@ -55,6 +55,7 @@ class TextureUnit(IntEnum):
     # pass; and beside it the world position and object id seen there.
     SCREEN_COLOR = 24
     SCREEN_SURFACE = 25
+    SSR_PYRAMID = 26  # SSR's min-depth pyramid of the frame (methods/screen_space.py)
 
 
 @unique
