@@ -38,6 +38,7 @@ from .gpu.context import describe
 from .errors import GpuLimitError
 from .gpu.limits import check_fits, context_limits, planned_bytes
 from .outputs import Outputs
+from .methods.planar import all_flat_mirrors
 from .methods.registry import METHODS
 from .plan import plan_render
 from .renderer import Renderer
@@ -226,10 +227,13 @@ def configurations(settings: BenchSettings) -> list[tuple[int | str, list[Techni
 
 
 def _configured(scene: Scene, settings: BenchSettings) -> list[tuple[Scene, int | str, Technique]]:
-    """Every configuration of one scene: the scene at its size and resolution, and the technique."""
+    """Every configuration of one scene: the scene at its size and resolution, and the technique
+    (but a method for flat mirrors alone, the planar one, in a scene with another reflector)."""
+    flat = all_flat_mirrors(scene)
     return [
         (scene.with_overrides(size=settings.size, impostor_resolution=resolution), resolution, technique)
         for resolution, group in configurations(settings) for technique in group
+        if flat or not METHODS[technique.method].flat_mirrors
     ]
 
 
@@ -281,8 +285,8 @@ def run_bench(
     return rows
 
 
-def total_configurations(scene_count: int, settings: BenchSettings) -> int:
-    return scene_count * sum(len(group) for _, group in configurations(settings))
+def total_configurations(scenes: Sequence[Scene], settings: BenchSettings) -> int:
+    return sum(len(_configured(scene, settings)) for scene in scenes)
 
 
 # ---------------------------------------------------------------------------------- output

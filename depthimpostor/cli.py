@@ -208,7 +208,8 @@ def format_stats(stats: RenderStats, plan: RenderPlan, start: float, fps: float)
     if never:
         lines.append(f"  planned images never baked: {', '.join(never)}")
     lines.append(f"  shadow maps baked: {stats.shadow_maps_baked}, glass interiors made: {stats.interiors_made}, "
-                 f"draw calls: {stats.draw_calls}")
+                 + (f"eye images made: {stats.eye_images_made}, " if stats.eye_images_made else "")
+                 + f"draw calls: {stats.draw_calls}")
     return "\n".join(lines)
 
 
@@ -267,6 +268,7 @@ def _compare(args: argparse.Namespace) -> int:
     scene = _load(args)
     methods = list(Method) if args.method == ALL_METHODS else [Method.from_option(args.method)]
     rows: dict[str, tuple[str, Figures]] = {}
+    refused: dict[str, str] = {}  # `all`: the methods that refuse the scene (planar: curved mirrors), and why
     comparisons: dict[str, Comparison] = {}
     written: list[Path] = []
     tables: list[str] = []
@@ -278,7 +280,13 @@ def _compare(args: argparse.Namespace) -> int:
         for method in methods:
             # Every method computes the same rays: the truth is traced once and reused.
             truth = next(iter(comparisons.values())).truth_frame if comparisons else None
-            comparison, kept = _compare_frame(ctx, scene, args, method, truth)
+            try:
+                comparison, kept = _compare_frame(ctx, scene, args, method, truth)
+            except SceneError as error:
+                if len(methods) == 1:
+                    raise
+                refused[method.option] = error.detail
+                continue
             settings = {
                 "scene": scene.source,
                 "size": list(scene.render.size),
@@ -295,7 +303,7 @@ def _compare(args: argparse.Namespace) -> int:
             rows[method.option], comparisons[method.option] = (kept, comparison.figures), comparison
         if len(methods) > 1:
             written.append(out.image(output / "methods.png", side_by_side(comparisons)))
-            written.append(out.text(output / "methods.md", markdown_table(rows)))
+            written.append(out.text(output / "methods.md", markdown_table(rows, refused)))
         out.commit()
     finally:
         out.discard()
@@ -304,7 +312,7 @@ def _compare(args: argparse.Namespace) -> int:
         print(path)
     print("\n".join(tables))
     if len(methods) > 1:
-        print(markdown_table(rows), end="")
+        print(markdown_table(rows, refused), end="")
     return 0
 
 
@@ -349,7 +357,7 @@ def _bench(args: argparse.Namespace) -> int:
         check_bench(ctx, scenes, settings)  # before any work
         header = machine_lines(ctx, settings, scenes)
         print("\n".join(header), flush=True)
-        with tqdm(total=total_configurations(len(scenes), settings), unit="configuration") as progress:
+        with tqdm(total=total_configurations(scenes, settings), unit="configuration") as progress:
             rows = run_bench(ctx, scenes, settings, progress)
     finally:
         ctx.release()

@@ -54,6 +54,8 @@ class Method(IntEnum):
     SIMPLIFIED = 4  # decimated triangles, through the ray-traced method's BVH
     RAYTRACE = 5  # the real triangles, through a BVH traversed in the mirror shader
     HYBRID = 6  # depth images, and the real triangles for the rays they cannot answer (Unseen)
+    PLANAR = 7  # flat mirrors: the scene rendered again through each mirror's plane (methods/planar.py)
+    SSR = 8  # screen-space reflections: a march through the eye's own depth (methods/screen_space.py)
 
     @property
     def option(self) -> str:
@@ -354,6 +356,28 @@ PLANES = Struct("Planes", (
 ))
 
 
+#: `--method ssr` (lib/screen_space.glsl): how thick the march takes every surface the eye sees to
+#: be, as a share of its distance w from the eye. The eye's depth holds front surfaces alone, so a
+#: ray that passes behind one is taken to hit it while it is within this much behind; a ray farther
+#: behind passes on (and may see what the eye does not, which SSR shows as what lies beyond). A
+#: share, not a length, so that the scenes' different scales need no setting: 0.03 holds the
+#: 0.7-unit box 5 units away (0.15 of w thick) where a reflected ray runs nearly along the eye's
+#: view of it for a few pixels, and lets rays pass well behind the spheres' silhouettes.
+SSR_THICKNESS = 0.03
+#: The most cells one SSR march reads (lib/screen_space.glsl: a pixel, or a cell of its min-depth
+#: pyramid skipped whole, or a step up or down the pyramid): twice the larger side of a 1080p
+#: frame, room for a ray across the frame at the finest level with steps up and down around what
+#: it passes. A ray that has not hit or left the screen by then falls back to the environment.
+SSR_MAX_STEPS = 3840
+#: The pyramid's w where the eye saw nothing (the sky, and its cells beyond the frame): farther
+#: than any ray, so that every ray is in front of it.
+SSR_NOTHING = 1e30
+#: Where SSR's hits fade to the fallback (the environment): within this share of the frame's
+#: half-size from its edge, linearly, so that an object sliding out of the frame does not cut its
+#: reflection off at a hard line (the engines' "edge fade").
+SSR_EDGE_FADE = 0.1
+
+
 def glsl_constants() -> dict[str, str]:
     """Every shared constant as a GLSL define (name -> value text)."""
     defines: dict[str, str] = {
@@ -383,6 +407,10 @@ def glsl_constants() -> dict[str, str]:
         "SRGB_GAMMA": f"{SRGB_GAMMA!r}",
         "ACES_A": f"{ACES_A!r}", "ACES_B": f"{ACES_B!r}", "ACES_C": f"{ACES_C!r}", "ACES_D": f"{ACES_D!r}",
         "ACES_E": f"{ACES_E!r}",
+        "SSR_THICKNESS": f"{SSR_THICKNESS!r}",
+        "SSR_MAX_STEPS": str(SSR_MAX_STEPS),
+        "SSR_NOTHING": f"{SSR_NOTHING!r}",
+        "SSR_EDGE_FADE": f"{SSR_EDGE_FADE!r}",
     }
     defines.update(glsl_bindings())
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",

@@ -24,6 +24,7 @@ class Pass(Enum):
     COLOUR_MIPS = "colour mips"  # the baked images' prefiltered colours: a glossy mirror's cone reads them
     ENVIRONMENT = "environment"
     DIFFUSE = "diffuse objects"
+    EYE_IMAGES = "images seen from the eye"  # planar reflections' renders, SSR's frame copy (methods/seen_from_eye.py)
     GLASS_INTERIORS = "glass interiors"
     REFLECTORS = "mirrors and glass"
 
@@ -50,30 +51,39 @@ class RenderNode:
 
 
 def build_graph(stages: Sequence[tuple[Pass, str]], programs: Mapping[Pass, tuple[ProgramKey, ...]],
-                stand_in: tuple[str, ...], reads_pyramids: bool) -> tuple[RenderNode, ...]:
+                stand_in: tuple[str, ...], reads_pyramids: bool,
+                eye_images: tuple[tuple[str, ...], bool] = ((), False)) -> tuple[RenderNode, ...]:
     """The planned passes (`stages`: each with the plan's reason) as nodes, each with its
     `programs` (the plan's shader variants, by the pass that runs them). `stand_in`: what the
-    method's stand-in makes for the reflectors to read ("baked images", "BVH"); `reads_pyramids`:
-    the reflectors' variant marches with the hierarchical traversal. GraphError where a pass
-    would read what nothing wrote."""
+    method's stand-in makes for the reflectors to read ("baked images", "BVH", or what its
+    eye-images node makes: "planar images", "frame copy"); `reads_pyramids`: the reflectors'
+    variant marches with the hierarchical traversal; `eye_images`: what the eye-images node reads
+    (the shadow maps where it shades), and whether the frame's diffuse pass writes the eye's surface for it
+    (SSR). GraphError where a pass would read what nothing wrote."""
     planned = {stage for stage, _ in stages}
     shadows = ("shadow maps",) if Pass.SHADOW_MAPS in planned else ()
     pyramids = ("depth pyramids",) if reads_pyramids else ()
     bounces = ("bounce images",) if Pass.BOUNCES in planned else ()
     colour_mips = ("colour mips",) if Pass.COLOUR_MIPS in planned else ()
     interiors = ("glass interiors",) if Pass.GLASS_INTERIORS in planned else ()
+    eye_reads, eye_surface = eye_images
+    surface = ("eye surface",) if eye_surface else ()
+    # Made in the frame (planar renders, the frame copy): by the eye-images node, not the bake's.
+    made_in_frame = stand_in if Pass.EYE_IMAGES in planned else ()
+    baked = tuple(name for name in stand_in if name not in made_in_frame)
     io: dict[Pass, tuple[tuple[str, ...], tuple[str, ...]]] = {
         Pass.SHADOW_MAPS: ((), ("shadow maps",)),
         # Baked images are shaded, shadows included; a BVH is triangles alone.
-        Pass.STAND_IN: (shadows if "baked images" in stand_in else (), stand_in),
+        Pass.STAND_IN: (shadows if "baked images" in stand_in else (), baked),
         Pass.BOUNCES: (("baked images", *shadows), bounces),
         Pass.PYRAMIDS: (("baked images", *bounces), ("depth pyramids",)),
         Pass.COLOUR_MIPS: (("baked images", *bounces), ("colour mips",)),
         Pass.ENVIRONMENT: (("frame colour",), ("frame colour",)),
-        Pass.DIFFUSE: (("frame colour", "frame depth", *shadows), ("frame colour", "frame depth")),
+        Pass.DIFFUSE: (("frame colour", "frame depth", *shadows), ("frame colour", "frame depth", *surface)),
+        Pass.EYE_IMAGES: (eye_reads, made_in_frame),
         Pass.GLASS_INTERIORS: ((), interiors),
-        Pass.REFLECTORS: (("frame colour", "frame depth", *stand_in, *pyramids, *colour_mips, *bounces, *interiors,
-                           *shadows),
+        Pass.REFLECTORS: (("frame colour", "frame depth", *stand_in, *surface, *pyramids, *colour_mips, *bounces,
+                           *interiors, *shadows),
                           ("frame colour", "frame depth")),
     }
     nodes = tuple(RenderNode(stage, *io[stage], why, programs.get(stage, ())) for stage, why in stages)

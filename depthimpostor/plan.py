@@ -28,6 +28,9 @@ from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .methods.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
 from .methods.baked_images import BakedImages, ImagePlan, SecondLayer
 from .gpu.batches import batch_bytes
+from .methods.planar import PlanarPass, check_flat_mirrors
+from .methods.screen_space import SSR_PYRAMID_PROGRAM, ScreenSpacePass
+from .methods.seen_from_eye import SeenFromEye
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
 from .gpu.textures import GpuTextures
@@ -63,6 +66,7 @@ WHEN: dict[Pass, str] = {
     Pass.COLOUR_MIPS: "after each bake",
     Pass.ENVIRONMENT: "every frame",
     Pass.DIFFUSE: "every frame",
+    Pass.EYE_IMAGES: "every frame (they depend on the eye, to the sub-pixel)",
     Pass.GLASS_INTERIORS: "once; a glass's again when the eye or the glass moves",
     Pass.REFLECTORS: "every frame",
 }
@@ -203,6 +207,8 @@ def check_stand_in(scene: Scene, method: Method, reflectors: list[ObjectGeometry
     """The limits of `method`'s stand-in for `reflected` in `reflectors` (scene/limits.py): the
     plan checks them, and the renderer again before it switches to another method."""
     check_method(scene, METHODS[method], len(reflectors), len(reflected), sum(len(g.local_mesh.indices) for g in reflected))
+    if METHODS[method].flat_mirrors:
+        check_flat_mirrors(scene, reflectors)
 
 
 def _builds_pyramids(method: Method, algorithm: Algorithm, images: Sequence[PlannedImage]) -> bool:
@@ -279,10 +285,17 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                     images.append(PlannedImage(label, level, camera.width, camera.height, reason))
                     if level:
                         shown_in_bounces.add(targets[0].object.is_glass)
-        noun = stand_in.image_noun if issubclass(stand_in, BakedImages) else "BVH of triangles"
+        noun = stand_in.image_noun if issubclass(stand_in, (BakedImages, SeenFromEye)) else "BVH of triangles"
         also = ", and a BVH of their triangles for the rays those cannot answer" if METHODS[method].names_triangles else ""
-        passes.append(PlannedPass(Pass.STAND_IN, f"{_names(reflectors)} may reflect "
-                                  f"{plural(len(reflected), 'object')}, seen through {noun}s{also}"))
+        seen_from_eye = METHODS[method].seen_from_eye
+        passes.append(PlannedPass(Pass.STAND_IN if seen_from_eye is None else Pass.EYE_IMAGES,
+                                  f"{_names(reflectors)} may reflect {plural(len(reflected), 'object')}, "
+                                  f"seen through {noun}s{also}"))
+        if seen_from_eye is ScreenSpacePass:
+            variant(Pass.EYE_IMAGES, (SSR_PYRAMID_PROGRAM,), None, "SSR: the frame's min-depth pyramid")
+        if seen_from_eye is PlanarPass:
+            variant(Pass.EYE_IMAGES, DIFFUSE_PROGRAM, diffuse_defines(scene, False, write_surface=True),
+                    "planar reflections: the scene through each mirror's plane, with the position and object seen")
         if issubclass(stand_in, BakedImages) and images:
             ids = stand_in.keeps_triangle_ids
             with_ids = ", with the triangle each sample shows" if ids else ""
@@ -319,11 +332,14 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     if diffuse:
         passes.append(PlannedPass(Pass.DIFFUSE, f"{plural(len(diffuse), 'object')} with diffuse materials"))
         shadows = " (SHADOWS: a light casts shadows)" if scene.has_shadows else ""
+        surface = frame_surface(method, bool(reflectors))
+        written = " (WRITE_SURFACE: the position and object seen, for screen-space reflections)" if surface else ""
         if any(not g.object.moves for g in diffuse):
-            variant(Pass.DIFFUSE, DIFFUSE_PROGRAM, diffuse_defines(scene, False, instanced=True),
-                    "diffuse objects in the frame, those that do not move in one batch (INSTANCED)" + shadows)
+            variant(Pass.DIFFUSE, DIFFUSE_PROGRAM, diffuse_defines(scene, False, instanced=True, write_surface=surface),
+                    "diffuse objects in the frame, those that do not move in one batch (INSTANCED)" + shadows + written)
         if any(g.object.moves for g in diffuse):
-            variant(Pass.DIFFUSE, DIFFUSE_PROGRAM, diffuse_defines(scene, False), "diffuse objects that move, one by one" + shadows)
+            variant(Pass.DIFFUSE, DIFFUSE_PROGRAM, diffuse_defines(scene, False, write_surface=surface),
+                    "diffuse objects that move, one by one" + shadows + written)
     if glass:
         passes.append(PlannedPass(Pass.GLASS_INTERIORS, f"glass ({_names(glass)}): where refracted rays leave"))
         variant(Pass.GLASS_INTERIORS, INTERIOR_PROGRAM, None, "glass: its front and back faces from the eye")
@@ -343,11 +359,20 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                          count_samples)
     ordered = tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage)))
     programs = {stage: tuple(key for key, (_, of) in variants.items() if of is stage) for stage in Pass}
+    eye = METHODS[method].seen_from_eye
+    eye_reads = (() if eye is None else eye.reads) + (("shadow maps",) if eye is not None and eye.shades
+                                                      and scene.has_shadows else ())
     graph = build_graph([(p.stage, p.reason) for p in ordered], programs, METHODS[method].outputs,
-                        _builds_pyramids(method, algorithm, images))
+                        _builds_pyramids(method, algorithm, images), (eye_reads, frame_surface(method, bool(reflectors))))
     return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
                       tuple(PlannedVariant(k, r) for k, (r, _) in variants.items()), memory, image_plans, graph,
                       scene.render.samples)
+
+
+def frame_surface(method: Method, reflectors: bool) -> bool:
+    """Does the frame's diffuse pass write the eye's surface (SSR's march reads it)?"""
+    eye = METHODS[method].seen_from_eye
+    return reflectors and eye is not None and eye.reads_frame
 
 
 def _bvh_bytes(triangles: int, named: bool) -> int:
@@ -413,6 +438,9 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
             memory["depth pyramids"] = pyramid_bytes(PyramidLayout.of_grid(*atlas_grid(len(images)), side), len(images))
         if _builds_colour_mips(scene, method, images):
             memory["colour mips"] = pyramid_bytes(PyramidLayout.of_grid(*atlas_grid(len(images)), side), len(images))
+    eye = METHODS[method].seen_from_eye
+    if eye is not None:
+        memory[eye.image_plural] = eye.bytes_for((width, height), len(reflectors))
     traced = METHODS[method].traces
     if traced is not None:
         memory["BVH"] = _bvh_bytes(traced.traced_triangles(scene, reflected), named=METHODS[method].names_triangles)

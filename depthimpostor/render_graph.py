@@ -29,6 +29,8 @@ from .graph import BAKES, Pass
 from .methods.baked_images import BakedImages
 from .methods.impostors import ImpostorPass
 from .methods.registry import METHODS
+from .methods.screen_space import ScreenSpacePass
+from .methods.seen_from_eye import SeenFromEye
 from .methods.triangles import TrianglePass
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
@@ -36,7 +38,7 @@ from .passes.glass import GlassInterior
 from .passes.reflectors import ReflectorPass, ReflectedObjects
 from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
-from .plan import RenderPlan, check_stand_in
+from .plan import RenderPlan, check_stand_in, frame_surface
 from .ppc import PPC
 from .targets import FrameTargets
 from .world import World
@@ -50,6 +52,7 @@ class RenderStats:
     depth_images_baked: int = 0  # every baked image: depth images, cube-map faces, billboards
     shadow_maps_baked: int = 0
     interiors_made: int = 0  # glass interior images
+    eye_images_made: int = 0  # planar reflections' renders and SSR's frame copies (made every frame)
     draw_calls: int = 0
     passes: Counter[str] = field(default_factory=Counter)  # frames each pass ran in, by Pass value
     images_baked: Counter[str] = field(default_factory=Counter)  # bakes of each image, by its label
@@ -82,6 +85,8 @@ class RenderGraph:
         self.scene_blocks = SceneBlocks(ctx)  # the lights and analytic planes, bound for every frame
         self.show_samples = False
         self.tint_retraced = False  # the hybrid method's re-traced rays tinted (the viewer's T)
+        self.diffuse: DiffusePass | None = None
+        self._diffuse_key: tuple[bool, bool] | None = None  # what the diffuse pass was made for
         self.build()
 
     def _compile(self) -> None:
@@ -99,8 +104,7 @@ class RenderGraph:
         # Made (and baked) before anything that shades: depth images show the shadows too.
         self.shadow_maps = (ShadowMaps(ctx, self.programs, world.lit_scene, self.meshes, world.shadow_casters)
                             if self.plan.runs(Pass.SHADOW_MAPS) else None)
-        self.diffuse = (DiffusePass(self.programs, scene, self.meshes, write_depth_image=False,
-                                    batched=batches_supported(ctx)) if self.plan.runs(Pass.DIFFUSE) else None)
+        self.diffuse = self._diffuse_pass()
         self.stand_in: ReflectedObjects | None = None
         self.reflector_pass: ReflectorPass | None = None
         self.samples: SamplesPass | None = None
@@ -113,6 +117,21 @@ class RenderGraph:
             if self.show_samples and self.sampled is not None:
                 self.samples = SamplesPass(ctx, self.programs)
         self._baked = False
+
+    def _diffuse_pass(self) -> DiffusePass | None:
+        """The frame's diffuse objects: with the eye's surface beside the colour where SSR reads it.
+        The one there is kept when it would be made the same (another algorithm, another method
+        that reads no surface), and released when it is replaced."""
+        key = (self.plan.runs(Pass.DIFFUSE), frame_surface(self.plan.method, bool(self.world.reflectors)))
+        if self.diffuse is not None and key == self._diffuse_key:
+            return self.diffuse
+        if self.diffuse is not None:
+            self.diffuse.release()
+        self._diffuse_key = key
+        if not key[0]:
+            return None
+        return DiffusePass(self.programs, self.world.scene, self.meshes, write_depth_image=False,
+                           batched=batches_supported(self.ctx), write_surface=key[1])
 
     # ------------------------------------------------------------------ what the nodes hold
     @property
@@ -146,6 +165,8 @@ class RenderGraph:
         if issubclass(kind, BakedImages):
             stand_in = kind(self.ctx, self.programs, scene, self.meshes, world.reflectors, world.reflected_objects,
                             plan.image_plans)
+        elif issubclass(kind, SeenFromEye):
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, world.reflectors)
         else:
             stand_in = kind(self.ctx, scene, world.reflected_objects)
         if self.stand_in is not None:
@@ -184,6 +205,7 @@ class RenderGraph:
         self.world = world
         self.plan = plan
         self._compile()
+        self.diffuse = self._diffuse_pass()
         if world.reflectors and (not same_stand_in or (new_images and self.baked_images is not None)):
             self._make_stand_in(plan)
         self._keep_pyramids(plan)
@@ -208,6 +230,8 @@ class RenderGraph:
             self.shadow_maps.move(world.lit_scene, world.shadow_casters,
                                   (moved_lights | (shadowed if moved_casters else set())) & shadowed)
         if self.stand_in is None or not (moved or moved_lights):
+            return
+        if isinstance(self.stand_in, SeenFromEye):  # made every frame from where everything is
             return
         baked = self.baked_images
         if baked is None:  # the triangle methods' BVH: built again around the moved objects
@@ -275,7 +299,8 @@ class RenderGraph:
             for node in graph:
                 if node.stage in BAKES:
                     continue
-                if node.stage in (Pass.GLASS_INTERIORS, Pass.REFLECTORS) and self.options.time_mirror_pass \
+                if node.stage in (Pass.EYE_IMAGES, Pass.GLASS_INTERIORS, Pass.REFLECTORS) \
+                        and self.options.time_mirror_pass \
                         and mirror_start is None:
                     self.ctx.finish()
                     mirror_start = time.perf_counter()
@@ -346,7 +371,15 @@ class RenderGraph:
             if self.show_samples and self.samples is not None and sampled is not None:
                 drawn = [g for g in world.diffuse_objects if g.is_analytic_plane]
                 stats.draw_calls += self.samples.draw(sampled, camera)
+            if isinstance(self.stand_in, ScreenSpacePass):  # the eye's surface beside the colour
+                self.stand_in.diffuse_framebuffer(targets.color_framebuffer, targets.size).use()
             stats.draw_calls += self.diffuse.draw(drawn, camera.view_projection)
+            targets.color_framebuffer.use()
+        elif stage is Pass.EYE_IMAGES and isinstance(self.stand_in, SeenFromEye):
+            before = self.stand_in.made
+            stats.draw_calls += self.stand_in.make(camera, world.diffuse_objects, world.reflectors,
+                                                   targets.color_framebuffer)
+            stats.eye_images_made += self.stand_in.made - before
         elif stage is Pass.GLASS_INTERIORS and self.reflector_pass is not None:
             before = self._interiors_made()
             # A glass interior depends on the eye's position and pixel size, not on a sub-pixel
@@ -375,6 +408,7 @@ class RenderGraph:
                       *self.glass_interiors.values()):
             if owner is not None:
                 owner.release()
+        self.diffuse = None  # made again by the next build
 
     def release(self) -> None:
         self.release_passes()

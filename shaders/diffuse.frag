@@ -32,6 +32,14 @@ layout(location = 1) out vec2 out_depth_and_object;
 uniform int u_object_id;
 #endif
 #endif
+#ifdef WRITE_SURFACE
+// What the eye-dependent methods look up at a pixel (methods/planar.py, methods/screen_space.py):
+// the world position seen there and the object's id + 1 (0, as cleared: nothing, the sky).
+layout(location = 1) out vec4 out_surface;
+#ifndef INSTANCED
+uniform int u_object_id;
+#endif
+#endif
 #ifdef WRITE_TRIANGLE_ID
 // The hybrid method's depth images: the triangle seen, as its place in the list the BVH is built
 // from (passes/triangles.py: the object's offset plus its index in the object's mesh). A float
@@ -59,6 +67,9 @@ void main() {
 #else
     out_depth_and_object = vec2(gl_FragCoord.z, float(OBJECT_ID));
 #endif
+#endif
+#ifdef WRITE_SURFACE
+    out_surface = vec4(v_world_position, float(OBJECT_ID + 1));
 #endif
 #ifdef WRITE_TRIANGLE_ID
     out_triangle = vec2(float(TRIANGLE_OFFSET + gl_PrimitiveID));

@@ -23,13 +23,16 @@ def test_every_unit_and_binding_fits_the_gl_minimums() -> None:
     # number must stay under), 16 samplers in one fragment shader (the mirror shader samples at most
     # every unit but the viewer's own two, the diffuse pass's mipmapped material textures, whose
     # level 0 it reads from MATERIAL_TEXELS, and the ray query's rays, which its shader reads in
-    # place of the deferred pass's surfaces) and 12 uniform blocks; GL 4.3 8 storage buffers and 8
-    # image units a compute shader.
+    # place of the deferred pass's surfaces, and the planar and SSR methods' screen textures, which
+    # their variants read in place of the depth images' and the BVH's) and 12 uniform blocks; GL 4.3
+    # 8 storage buffers and 8 image units a compute shader.
     diffuse_only = (TextureUnit.MATERIAL_TEXTURE_0, TextureUnit.MATERIAL_TEXTURE_1, TextureUnit.MATERIAL_TEXTURE_2,
                     TextureUnit.MATERIAL_TEXTURE_3)
     ray_query_only = (TextureUnit.RAY_ORIGINS, TextureUnit.RAY_DIRECTIONS)
+    screen_only = (TextureUnit.SCREEN_COLOR, TextureUnit.SCREEN_SURFACE, TextureUnit.SSR_PYRAMID)
     shader_units = [unit for unit in TextureUnit
-                    if unit not in (TextureUnit.FRAME, TextureUnit.GLYPHS, *diffuse_only, *ray_query_only)]
+                    if unit not in (TextureUnit.FRAME, TextureUnit.GLYPHS, *diffuse_only, *ray_query_only,
+                                     *screen_only)]
     # A glossy mirror's colour mips are read by the methods that bake images and trace no triangles
     # (plan.py's _builds_colour_mips): never with the BVH's units or the hybrid method's.
     triangles_only = (TextureUnit.BVH_NODES, TextureUnit.BVH_TRIANGLES, TextureUnit.BVH_PLACES,

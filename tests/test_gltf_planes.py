@@ -14,6 +14,7 @@ import pytest
 from conftest import assert_finite
 from depthimpostor import meshes
 from depthimpostor.constants import Method
+from depthimpostor.errors import SceneError
 from depthimpostor.geometry import scene_geometry
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
@@ -113,6 +114,10 @@ def test_the_showcase_loads_its_room_as_planes_and_renders_through_every_method(
     assert any(o.is_glass for o in scene.objects) and any(o.is_mirror for o in scene.objects)
     small = scene.with_overrides(size=(96, 54), impostor_resolution=32)
     for method in Method:  # the baking methods refused the room while its floor was a mesh
+        if method == Method.PLANAR:  # flat mirrors alone: the glass ball is refused by name
+            with pytest.raises(SceneError, match='"room/Glass ball" is glass'):
+                Renderer(ctx, small, method=method)
+            continue
         with Renderer(ctx, small, method=method) as renderer:
             renderer.render()
             assert_finite(renderer.read_color_float())

@@ -152,6 +152,7 @@ RAISES = {
     "methods/atlas.py": 2,  # a frustum around an object; the atlas past GL_MAX_TEXTURE_SIZE (GL)
     "methods/baked_images.py": 1,  # depth images per mirror
     "methods/impostors.py": 1,  # images with bounces
+    "methods/planar.py": 1,  # a curved mirror or glass with --method planar (the plan: tests/test_eye_methods.py)
     "passes/shadows.py": 1,  # light among its casters
     "methods/triangles.py": 1,  # BVH texture past GL_MAX_TEXTURE_SIZE (GL)
     "gpu/scene_blocks.py": 2,  # lights, analytic planes: the loader and the plan refuse them first

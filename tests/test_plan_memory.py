@@ -77,6 +77,8 @@ CASES = [
     ("default.toml", Method.HYBRID, Algorithm.HIERARCHICAL, {"count_samples": True}),
     ("default.toml", Method.DEPTH, Algorithm.OPTIMIZED, {"roughness": 0.15}),  # a glossy mirror's colour mips
     ("grid_3x3.toml", Method.CUBEMAP, Algorithm.OPTIMIZED, {"roughness": 0.3}),
+    ("planar_mirror.toml", Method.PLANAR, Algorithm.OPTIMIZED, {}),  # made in the frame (methods/seen_from_eye.py)
+    ("default.toml", Method.SSR, Algorithm.OPTIMIZED, {"reflection_data": True}),
 ]
 
 

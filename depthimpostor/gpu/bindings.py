@@ -52,6 +52,12 @@ class TextureUnit(IntEnum):
     SURFACE_NORMAL = 23
     # The baked images' prefiltered colours, read by a glossy mirror's cone (methods/colour_mips.py).
     COLOUR_MIPS = 24
+    # What the eye-dependent methods look up at a pixel (methods/planar.py, methods/screen_space.py):
+    # a flat mirror's image of the scene through its plane, or the frame's copy after the diffuse
+    # pass; and beside it the world position and object id seen there.
+    SCREEN_COLOR = 25
+    SCREEN_SURFACE = 26
+    SSR_PYRAMID = 27  # SSR's min-depth pyramid of the frame (methods/screen_space.py)
 
 
 @unique

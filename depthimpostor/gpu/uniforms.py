@@ -53,7 +53,8 @@ def write(program: moderngl.Program | moderngl.ComputeShader, name: str,
         uniform.value = data
 
 
-def bind_texture(program: moderngl.Program, name: str, texture: moderngl.Texture, unit: int) -> None:
+def bind_texture(program: moderngl.Program | moderngl.ComputeShader, name: str, texture: moderngl.Texture,
+                 unit: int) -> None:
     """Put `texture` on texture unit `unit` and point the sampler `name` at it."""
     texture.use(unit)
     write(program, name, unit)
@@ -69,7 +70,7 @@ def bind_uniform_block(program: moderngl.Program, name: str, binding: int) -> No
     block.binding = binding
 
 
-def write_matrix(program: moderngl.Program, name: str, matrix: np.ndarray) -> None:
+def write_matrix(program: moderngl.Program | moderngl.ComputeShader, name: str, matrix: np.ndarray) -> None:
     """A matrix in GL's column-major float32 layout."""
     write(program, name, np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes())
 

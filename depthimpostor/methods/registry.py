@@ -3,7 +3,8 @@ includes for it, and what it can and cannot do. The plan, the renderer, the benc
 and the scene's limits read a method's facts here instead of branching on its name.
 
 Adding a method: its stand-in (a `BakedImages` subclass when it bakes images from the reflector's
-centre, or a `TrianglePass` subclass when it traces triangles) in a module of this package, a value
+centre, a `TrianglePass` subclass when it traces triangles, or a `SeenFromEye` subclass when it is
+made in the frame from the eye) in a module of this package, a value
 of `constants.Method` (the GLSL sees it as METHOD_<NAME>), its chunk under shaders/lib/ defining
 `nearest_object_hit` for `#if METHOD == METHOD_<NAME>` in lib/reflected_scene.glsl, and a row below
 (tests/test_methods.py checks that every row's chunks are the ones that branch includes).
@@ -19,6 +20,9 @@ from .billboards import BillboardPass
 from .cubemaps import CubeMapPass
 from .hybrid import HybridPass
 from .impostors import ImpostorPass
+from .planar import PlanarPass
+from .screen_space import ScreenSpacePass
+from .seen_from_eye import SeenFromEye
 from .simplified import SimplifiedPass
 from .triangles import TrianglePass
 
@@ -28,7 +32,7 @@ class MethodSpec:
     method: Method
     #: What it makes for the reflectors to read. Two methods with the same stand-in share it: a
     #: switch between them keeps it (the cube-map lookups) and changes the mirror variant alone.
-    stand_in: type[BakedImages | TrianglePass]
+    stand_in: type[BakedImages | TrianglePass | SeenFromEye]
     label: str  # what the viewer calls it
     glsl: tuple[str, ...]  # the chunks lib/reflected_scene.glsl includes for it, under shaders/lib/
     #: Does it march depth images, and so take an `--algorithm`?
@@ -44,6 +48,9 @@ class MethodSpec:
     #: The triangles it traces through a BVH, when it does (TrianglePass or a subclass: which
     #: triangles, and so how much memory, is its `triangle_count`).
     traces: type[TrianglePass] | None = None
+    #: Does it need every reflector to be a flat mirror (planar reflections)? The plan refuses
+    #: another by name; `bench` and `compare --method all` leave it out of such scenes.
+    flat_mirrors: bool = False
 
     @property
     def bakes_images(self) -> bool:
@@ -56,6 +63,11 @@ class MethodSpec:
         return {"METHOD": int(self.method), **({"ALGORITHM": int(algorithm)} if self.marches_depth_images else {})}
 
     @property
+    def seen_from_eye(self) -> type[SeenFromEye] | None:
+        """Its stand-in, when it is made in the frame from the eye (planar, SSR: graph.py's eye-images node)."""
+        return self.stand_in if issubclass(self.stand_in, SeenFromEye) else None
+
+    @property
     def names_triangles(self) -> bool:
         """Do its depth images name the triangle each sample shows (the hybrid's exact surfaces)?"""
         return self.bakes_images and self.traces is not None
@@ -63,7 +75,8 @@ class MethodSpec:
     @property
     def outputs(self) -> tuple[str, ...]:
         """What its stand-in node writes for the reflectors to read (graph.py's resource names)."""
-        return ("baked images",) * self.bakes_images + ("BVH",) * (self.traces is not None)
+        return ("baked images",) * self.bakes_images + ("BVH",) * (self.traces is not None) + (
+            self.stand_in.writes if issubclass(self.stand_in, SeenFromEye) else ())
 
     @property
     def option(self) -> str:
@@ -83,6 +96,8 @@ METHODS: dict[Method, MethodSpec] = {spec.method: spec for spec in (
     MethodSpec(Method.HYBRID, HybridPass, "depth images, uncertain rays ray-traced",
                ("depth_image.glsl", "triangles.glsl"), marches_depth_images=True,
                reflected_limit=MAX_DEPTH_IMAGES_PER_REFLECTOR, triangle_limit=MAX_NAMED_TRIANGLES, traces=TrianglePass),
+    MethodSpec(Method.PLANAR, PlanarPass, "planar reflections (flat mirrors)", ("planar.glsl",), flat_mirrors=True),
+    MethodSpec(Method.SSR, ScreenSpacePass, "screen-space reflections", ("screen_space.glsl",)),
 )}
 
 

@@ -407,8 +407,9 @@ def side_by_side(comparisons: dict[str, Comparison]) -> np.ndarray:
     return np.asarray(sheet)
 
 
-def markdown_table(rows: dict[str, tuple[str, Figures]]) -> str:
-    """One row per method: what it keeps, and its figures against the truth."""
+def markdown_table(rows: dict[str, tuple[str, Figures]], refused: dict[str, str] | None = None) -> str:
+    """One row per method: what it keeps, and its figures against the truth; a method that
+    refused the scene (`refused`: why), a row saying so."""
     lines = [
         "| method | stand-in | wrong object | wrong surface | colour RMSE | PSNR | geometric error, median / 95th pct |",
         "|---|---|---:|---:|---:|---:|---:|",
@@ -419,4 +420,5 @@ def markdown_table(rows: dict[str, tuple[str, Figures]]) -> str:
             f"{f.color_rmse:.4f} | "
             f"{f.psnr_db:.1f} dB | {100 * f.geometric_error_median:.2f} % / {100 * f.geometric_error_p95:.1f} % |"
         )
+    lines += [f"| `{name}` | refused: {why} | | | | | |" for name, why in (refused or {}).items()]
     return "\n".join(lines) + "\n"

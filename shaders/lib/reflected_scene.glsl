@@ -1,6 +1,7 @@
 // Everything a reflected ray can hit: the reflected objects as the method stands them in (this
 // mirror's depth images, its cube map, its billboards, or triangles: simplified or the real
-// ones; the hybrid method: the depth images, and the real triangles where they cannot answer),
+// ones; the hybrid method: the depth images, and the real triangles where they cannot answer;
+// the planar method: the mirror's render of the scene through its plane; SSR: the frame itself),
 // the analytic planes (floors and walls, intersected exactly by every method), and the
 // environment.
 #ifndef METHOD
@@ -25,6 +26,10 @@
 #include "cube_map.glsl"
 #elif METHOD == METHOD_BILLBOARD
 #include "billboard.glsl"
+#elif METHOD == METHOD_PLANAR
+#include "planar.glsl"
+#elif METHOD == METHOD_SSR
+#include "screen_space.glsl"
 #else  // METHOD_SIMPLIFIED, METHOD_RAYTRACE: one traversal, other triangles
 #include "triangles.glsl"
 #endif
@@ -149,6 +154,8 @@ RayHit nearest_object_hit(vec3 origin, vec3 direction, float t_limit) {
     return cube_map_hit(origin, direction);
 #elif METHOD == METHOD_BILLBOARD
     return nearest_billboard_hit(origin, direction);
+#elif METHOD == METHOD_PLANAR || METHOD == METHOD_SSR
+    return nearest_screen_hit(origin, direction);
 #else
     return nearest_triangle_hit(origin, direction);
 #endif
