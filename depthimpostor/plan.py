@@ -440,7 +440,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
             memory["colour mips"] = pyramid_bytes(PyramidLayout.of_grid(*atlas_grid(len(images)), side), len(images))
     eye = METHODS[method].seen_from_eye
     if eye is not None:
-        memory[eye.image_plural] = eye.bytes_for((width, height), len(reflectors))
+        memory[eye.image_plural] = eye.bytes_for((width, height), len(reflectors), scene.has_rough_mirrors)
     traced = METHODS[method].traces
     if traced is not None:
         memory["BVH"] = _bvh_bytes(traced.traced_triangles(scene, reflected), named=METHODS[method].names_triangles)

@@ -102,7 +102,7 @@ def _high_frequency_energy(image: np.ndarray, mask: np.ndarray) -> float:
     return float((laplacian[inside] ** 2).mean())
 
 
-@pytest.mark.parametrize("method", [Method.DEPTH, Method.CUBEMAP])
+@pytest.mark.parametrize("method", [Method.DEPTH, Method.CUBEMAP, Method.SSR])
 def test_a_rough_mirror_is_blurrier(ctx: moderngl.Context, method: Method) -> None:
     with Renderer(ctx, default(0.0), method=method, reflection_data=True) as renderer:
         renderer.render()

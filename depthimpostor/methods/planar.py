@@ -141,7 +141,8 @@ class PlanarPass(SeenFromEye):
                                       moderngl.Framebuffer]] = {}
 
     @classmethod
-    def bytes_for(cls, size: tuple[int, int], reflectors: int) -> int:
+    def bytes_for(cls, size: tuple[int, int], reflectors: int, glossy: bool = False) -> int:
+        # A flat mirror's image is exact: a rough one reads it as it is (no mips; docs say so).
         return reflectors * size[0] * size[1] * (16 + 16 + 4)  # colour, surface, depth
 
     def _ensure(self, size: tuple[int, int]) -> None:

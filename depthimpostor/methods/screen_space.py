@@ -67,10 +67,13 @@ class ScreenSpacePass(SeenFromEye):
         self._diffuse_frame: tuple[moderngl.Framebuffer, moderngl.Framebuffer] | None = None  # (frame's, with surface)
 
     @classmethod
-    def bytes_for(cls, size: tuple[int, int], reflectors: int) -> int:
+    def bytes_for(cls, size: tuple[int, int], reflectors: int, glossy: bool = False) -> int:
         side = pyramid_side(size)
         pyramid = sum((side >> level) ** 2 * 4 for level in range(pyramid_levels(size)))
-        return size[0] * size[1] * (16 + 16) + pyramid  # the colour copy, the surface, the pyramid
+        # The colour copy, the surface, the pyramid; a rough mirror's copy has its mips too.
+        mips = sum(max(1, size[0] >> level) * max(1, size[1] >> level) * 16
+                   for level in range(1, max(size).bit_length())) if glossy else 0
+        return size[0] * size[1] * (16 + 16) + pyramid + mips
 
     def _ensure(self, size: tuple[int, int]) -> None:
         if self.size == size:
@@ -107,6 +110,9 @@ class ScreenSpacePass(SeenFromEye):
         self._ensure((camera.width, camera.height))
         assert self.color is not None
         self.ctx.copy_framebuffer(self.color, frame)
+        if self.glossy:  # a rough mirror's cone reads the copy prefiltered (lib/screen_space.glsl)
+            self.color.build_mipmaps()
+            self.color.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         frame.use()
         self.camera = camera
         self._build_pyramid(camera)
@@ -146,6 +152,7 @@ class ScreenSpacePass(SeenFromEye):
         write_matrix(program, "u_ssr_inverse", np.asarray(camera.inverse))
         write(program, "u_ssr_w_near", camera.w_near)
         write(program, "u_ssr_w_far", camera.w_far)
+        write(program, "u_ssr_pixel", float(np.linalg.norm(camera.a)))
 
     def _release_targets(self) -> None:
         if self._diffuse_frame is not None:

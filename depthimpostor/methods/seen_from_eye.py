@@ -43,15 +43,16 @@ class SeenFromEye:
         self.made = 0  # images made so far (stats)
         self.size: tuple[int, int] | None = None  # the frame size its targets have
         self.reflectors = len(reflectors)
+        self.glossy = scene.has_rough_mirrors  # a rough mirror reads its images prefiltered
 
     @classmethod
-    def bytes_for(cls, size: tuple[int, int], reflectors: int) -> int:
+    def bytes_for(cls, size: tuple[int, int], reflectors: int, glossy: bool = False) -> int:
         raise NotImplementedError
 
     @property
     def bytes(self) -> int:
         """GPU bytes of its targets at the frame's size (none before the first frame)."""
-        return self.bytes_for(self.size, self.reflectors) if self.size else 0
+        return self.bytes_for(self.size, self.reflectors, self.glossy) if self.size else 0
 
     def describe(self) -> str:
         size = f" of {self.size[0]}x{self.size[1]}" if self.size else ""

@@ -22,6 +22,7 @@ uniform float u_ssr_w_near;          // its near plane, in w
 uniform float u_ssr_w_far;           // and its far one, beyond every object
 uniform sampler2D u_ssr_pyramid;     // min-depth pyramid: the least w of each cell (ssr_pyramid.comp)
 uniform int u_ssr_levels;            // its levels
+uniform float u_ssr_pixel;           // |a|: a pixel's width in the world at w = 1
 
 // Homogeneous screen coordinates (u w, v w, w) of a world point.
 vec3 ssr_homogeneous(vec3 point) {
@@ -93,7 +94,16 @@ RayHit nearest_screen_hit(vec3 origin, vec3 direction) {
             float s_hit = s;
             if (w_a < w_s && w_b != w_a) s_hit = mix(s, s_out, clamp((1.0 / w_s - 1.0 / w_a) / (1.0 / w_b - 1.0 / w_a), 0.0, 1.0));
             float t = s_hit * t1 * k1 / mix(k0, k1, s_hit);
-            RayHit hit = make_hit(true, t, p, texelFetch(u_screen_color, ivec2(cell), 0).rgb, surface.w - 1.0, samples);
+#ifdef GLOSSY
+            // A glossy mirror's cone: the frame's colour prefiltered over the cone's footprint at the
+            // hit (the copy's mip chain, made in a scene with a rough mirror), as engines' glossy
+            // SSR reads it; a sharp mirror's cone is a pixel wide (level 0).
+            float footprint = 2.0 * t * g_cone_tan * length(direction) / max(u_ssr_pixel * w_s, 1e-30);
+            vec3 seen = textureLod(u_screen_color, (cell + 0.5) / size, log2(max(footprint, 1.0))).rgb;
+#else
+            vec3 seen = texelFetch(u_screen_color, ivec2(cell), 0).rgb;
+#endif
+            RayHit hit = make_hit(true, t, p, seen, surface.w - 1.0, samples);
             // The colour fades to the fallback; what was hit stays what compare counts.
             hit.color = mix(environment(direction), hit.color, ssr_edge_fade(p, size));
             return hit;
