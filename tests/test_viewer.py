@@ -7,6 +7,7 @@ types, in its own process with its own X display.
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import select
@@ -16,7 +17,7 @@ import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import moderngl
 import numpy as np
@@ -30,6 +31,7 @@ from depthimpostor.constants import NO_OBJECT, Method
 from depthimpostor.passes.overlay import PANEL_PADDING
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
+from depthimpostor.viewer.app import NoPanel, Viewer, make_panel
 from depthimpostor.viewer.keys import ACTIONS_BY_KEY, parse_key_script
 
 SIZE = (480, 270)
@@ -430,6 +432,8 @@ def test_the_panel_changes_method_and_resolution_and_shows_the_error_against_the
     """Clicks on the panel's widgets (mouse events through the viewer's glfw handlers into ImGui)
     change the method and the resolution, and the frame is then the one `render` makes with them;
     the error view, traced in the background, is `compare`'s difference image."""
+    if sys.version_info < (3, 11) and importlib.util.find_spec("imgui_bundle") is None:
+        pytest.skip("imgui-bundle has wheels for Python 3.11 and later (pyproject.toml): the panel is tested there")
     env = {**os.environ, "DISPLAY": display, "PYTHONPATH": str(PROJECT_ROOT)}
     done = subprocess.run([sys.executable, "-c", PANEL, str(DEFAULT_SCENE)], cwd=tmp_path, env=env,
                           capture_output=True, text=True, timeout=300)
@@ -478,3 +482,12 @@ def test_the_panel_changes_method_and_resolution_and_shows_the_error_against_the
     left = int(result["error_rect"][0]) - 20
     assert close(error_window[130:, :left], expected[130:, :left]) > 0.99, "the window shows the error view"
     assert result["view_after"] == "frame"
+
+
+def test_without_imgui_bundle_the_viewer_has_no_panel_and_says_why(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where imgui-bundle is not installed (Python 3.10: no wheel), the viewer runs without its panel."""
+    monkeypatch.setitem(sys.modules, "imgui_bundle", None)  # an import of it raises ImportError
+    monkeypatch.delitem(sys.modules, "depthimpostor.viewer.panel", raising=False)
+    panel = make_panel(cast(Viewer, None), visible=True)
+    assert isinstance(panel, NoPanel) and not panel.visible and not panel.wants_mouse
+    assert panel.view_image() is None and "imgui-bundle" in NoPanel.WHY

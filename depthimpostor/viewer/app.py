@@ -21,7 +21,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import glfw
 import numpy as np
@@ -39,7 +39,9 @@ from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache, ShaderLibrary
 from .keys import ACTIONS_BY_KEY, FLY_KEYS, KEY_CODES, TURN_STEP_DEGREES, Action, KeyPress, help_lines, key_name
 from .navigation import Navigation, scene_radius
-from .panel import ControlPanel
+
+if TYPE_CHECKING:  # imported where it is made: imgui-bundle may be absent (make_panel)
+    from .panel import ControlPanel
 
 #: Frames the overlay's median frame time and fps are taken over.
 TIMING_WINDOW = 60
@@ -116,6 +118,34 @@ def _reason(error: DepthImpostorError) -> str:
     return f"{error.path}: {error.detail}" if isinstance(error, SceneError) and error.path else str(error)
 
 
+class NoPanel:
+    """The viewer without its panel, where imgui-bundle is not installed (it has wheels for Python
+    3.11 and later): the keys and the overlay do everything but the panel's views."""
+
+    WHY = "the panel needs imgui-bundle (Python 3.11 or later: pip install imgui-bundle PyOpenGL)"
+    visible = False
+    wants_mouse = False
+
+    def on_button(self, button: int, pressed: bool) -> None: ...
+    def on_scroll(self, dx: float, dy: float) -> None: ...
+    def on_cursor(self, x: float, y: float) -> None: ...
+    def build(self, window_size: tuple[int, int], frame_size: tuple[int, int], seconds: float) -> None: ...
+    def advance(self, seconds: float) -> None: ...
+    def view_image(self) -> np.ndarray | None:
+        return None
+    def draw(self) -> None: ...
+    def release(self) -> None: ...
+
+
+def make_panel(viewer: Viewer, visible: bool) -> ControlPanel | NoPanel:
+    """The panel of controls (viewer/panel.py), or, without imgui-bundle, none."""
+    try:
+        from .panel import ControlPanel  # imgui-bundle: imported only where it is installed
+    except ImportError:
+        return NoPanel()
+    return ControlPanel(viewer, visible=visible)
+
+
 @dataclass
 class SessionLog:
     """What happened, for `--report` and the closing summary."""
@@ -155,7 +185,7 @@ class Viewer:
         self.frame_intervals: deque[float] = deque(maxlen=TIMING_WINDOW)
         self.window_pixels: np.ndarray | None = None  # the last frame as the window showed it (--window-screenshot)
         self._last_frame = time.perf_counter()
-        self.panel = ControlPanel(self, visible=options.panel)
+        self.panel = make_panel(self, options.panel)
         self._install_callbacks()
 
     # ------------------------------------------------------------------ GL objects
@@ -316,6 +346,8 @@ class Viewer:
         elif action == Action.TOGGLE_HELP:
             self.show_help = not self.show_help
         elif action == Action.TOGGLE_PANEL:
+            if isinstance(self.panel, NoPanel):
+                return NoPanel.WHY
             self.panel.visible = not self.panel.visible
         elif action == Action.QUIT:
             glfw.set_window_should_close(self.window.handle, True)
