@@ -538,6 +538,8 @@ class Viewer:
             "scene": renderer.scene.source,
             "frames": self.frames,
             "frame_ms_median": 1000.0 * statistics.median(draws) if draws else None,
+            # The whole loop, copy, overlay, panel and present included, over the last TIMING_WINDOW frames.
+            "fps_median": 1.0 / statistics.median(self.frame_intervals) if self.frame_intervals else None,
             "depth_images_baked": renderer.stats.depth_images_baked,
             "baked_after_frame": self.log.baked_after_frame,
             "events": self.log.events,
