@@ -125,13 +125,12 @@ class RenderGraph:
         key = (self.plan.runs(Pass.DIFFUSE), frame_surface(self.plan.method, bool(self.world.reflectors)))
         if self.diffuse is not None and key == self._diffuse_key:
             return self.diffuse
-        if self.diffuse is not None:
+        made = (DiffusePass(self.programs, self.world.scene, self.meshes, write_depth_image=False,
+                            batched=batches_supported(self.ctx), write_surface=key[1]) if key[0] else None)
+        if self.diffuse is not None:  # released once the new one exists
             self.diffuse.release()
         self._diffuse_key = key
-        if not key[0]:
-            return None
-        return DiffusePass(self.programs, self.world.scene, self.meshes, write_depth_image=False,
-                           batched=batches_supported(self.ctx), write_surface=key[1])
+        return made
 
     # ------------------------------------------------------------------ what the nodes hold
     @property
@@ -169,18 +168,24 @@ class RenderGraph:
             stand_in = kind(self.ctx, self.programs, scene, self.meshes, world.reflectors)
         else:
             stand_in = kind(self.ctx, scene, world.reflected_objects)
-        if self.stand_in is not None:
+        try:  # its pyramids and colour mips too (a GL without compute shaders refuses them) ...
+            self._keep_pyramids(plan, stand_in)
+        except BaseException:
+            stand_in.release()
+            raise
+        if self.stand_in is not None:  # ... before the old one goes
             self.stand_in.release()
         self.stand_in = stand_in
         self._baked = False
-        self._keep_pyramids(plan)
 
-    def _keep_pyramids(self, plan: RenderPlan) -> None:
-        """Depth pyramids and colour mips exist exactly while the plan builds them."""
-        if self.impostors is not None:
-            self.impostors.use_pyramid(plan.builds_pyramids)
-        if self.baked_images is not None:
-            self.baked_images.use_colour_mips(plan.runs(Pass.COLOUR_MIPS))
+    def _keep_pyramids(self, plan: RenderPlan, stand_in: ReflectedObjects | None = None) -> None:
+        """Depth pyramids and colour mips exist exactly while the plan builds them (on `stand_in`,
+        the graph's own by default)."""
+        stand_in = stand_in if stand_in is not None else self.stand_in
+        if isinstance(stand_in, ImpostorPass):
+            stand_in.use_pyramid(plan.builds_pyramids)
+        if isinstance(stand_in, BakedImages):
+            stand_in.use_colour_mips(plan.runs(Pass.COLOUR_MIPS))
 
     def _reflector_pass(self) -> ReflectorPass:
         if self.stand_in is None:
@@ -196,19 +201,24 @@ class RenderGraph:
     def apply(self, plan: RenderPlan, world: World) -> None:
         """Draw by `plan` (another method, algorithm or impostor resolution) in `world` (the same
         objects, perhaps other render settings): the nodes whose part of the plan changed are
-        rebuilt, the others kept."""
-        before = self.plan
+        rebuilt, the others kept. What can be refused (a program, a stand-in or pyramids this GL
+        cannot make) is made first: a refusal leaves the graph drawing by the plan it had."""
+        before, before_world = self.plan, self.world
         same_stand_in = METHODS[plan.method].stand_in is METHODS[before.method].stand_in
         new_images = plan.image_plans is not before.image_plans and (
             plan.images != before.images or world.scene.render.impostor_resolution
             != self.world.scene.render.impostor_resolution)
-        self.world = world
-        self.plan = plan
-        self._compile()
+        self.plan, self.world = plan, world  # what the nodes below are made from
+        try:
+            self._compile()
+            if world.reflectors and (not same_stand_in or (new_images and self.baked_images is not None)):
+                self._make_stand_in(plan)
+            else:
+                self._keep_pyramids(plan)
+        except BaseException:
+            self.plan, self.world = before, before_world
+            raise
         self.diffuse = self._diffuse_pass()
-        if world.reflectors and (not same_stand_in or (new_images and self.baked_images is not None)):
-            self._make_stand_in(plan)
-        self._keep_pyramids(plan)
         if self.reflector_pass is not None:
             self.reflector_pass = self._reflector_pass()
         if self.sampled is None:

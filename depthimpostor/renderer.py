@@ -87,8 +87,10 @@ class Renderer:
         with allocating(self.ctx, context):
             self.targets = self.targets.resized(scene.render.size)
             (self.graph.rebuild if edited else self.graph.apply)(plan, world)
+        resized = scene.render.size != self.scene.render.size
         self.scene, self.world, self.method, self.algorithm, self.plan = scene, world, method, algorithm, plan
-        self.look_at(self.view)
+        if edited or resized:  # the near and far planes follow the objects; a set_camera stays otherwise
+            self.look_at(self.view)
 
     def resize(self, size: tuple[int, int]) -> None:
         """Render frames of another size; depth images do not depend on it."""

@@ -244,3 +244,27 @@ def test_a_setting_change_rebuilds_only_the_nodes_whose_plan_changed(ctx: modern
         assert renderer.stats.depth_images_baked > baked
         renderer.set_method(Method.RAYTRACE)
         assert type(graph.stand_in).__name__ == "TrianglePass" and graph.environment is kept[1]
+
+
+def test_a_refused_setting_leaves_the_graph_drawing_by_the_plan_it_had(
+        ctx: moderngl.Context, scene: Scene, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A stand-in this GL refuses (here SSR's, as on a GL without compute shaders) is refused before
+    anything is replaced: the renderer and its graph keep the old plan, and draw what they drew."""
+    from depthimpostor.errors import ContextError
+    from depthimpostor.methods.screen_space import ScreenSpacePass
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise ContextError("no compute shaders here")
+
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        before = renderer.read_color_float()
+        monkeypatch.setattr(ScreenSpacePass, "__init__", refuse)
+        with pytest.raises(ContextError):
+            renderer.set_method(Method.SSR)
+        assert renderer.method == Method.DEPTH and renderer.graph.plan is renderer.plan
+        renderer.set_time(0.0)
+        renderer.bake_again()
+        renderer.render()
+        assert renderer.stats.depth_images_baked == 10  # the depth images, baked again on asking
+        assert_same_frame(renderer.read_color_float(), before)
