@@ -28,8 +28,7 @@ from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .methods.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
 from .methods.baked_images import BakedImages, ImagePlan, SecondLayer
 from .gpu.batches import batch_bytes
-from .methods.planar import PlanarPass, check_flat_mirrors
-from .methods.screen_space import SSR_PYRAMID_PROGRAM, ScreenSpacePass
+from .methods.planar import check_flat_mirrors
 from .methods.seen_from_eye import SeenFromEye
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
@@ -291,11 +290,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         passes.append(PlannedPass(Pass.STAND_IN if seen_from_eye is None else Pass.EYE_IMAGES,
                                   f"{_names(reflectors)} may reflect {plural(len(reflected), 'object')}, "
                                   f"seen through {noun}s{also}"))
-        if seen_from_eye is ScreenSpacePass:
-            variant(Pass.EYE_IMAGES, (SSR_PYRAMID_PROGRAM,), None, "SSR: the frame's min-depth pyramid")
-        if seen_from_eye is PlanarPass:
-            variant(Pass.EYE_IMAGES, DIFFUSE_PROGRAM, diffuse_defines(scene, False, write_surface=True),
-                    "planar reflections: the scene through each mirror's plane, with the position and object seen")
+        for stages, defines, why in seen_from_eye.variants(scene) if seen_from_eye is not None else []:
+            variant(Pass.EYE_IMAGES, stages, defines, why)
         if issubclass(stand_in, BakedImages) and images:
             ids = stand_in.keeps_triangle_ids
             with_ids = ", with the triangle each sample shows" if ids else ""

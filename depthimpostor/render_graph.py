@@ -29,7 +29,6 @@ from .graph import BAKES, Pass
 from .methods.baked_images import BakedImages
 from .methods.impostors import ImpostorPass
 from .methods.registry import METHODS
-from .methods.screen_space import ScreenSpacePass
 from .methods.seen_from_eye import SeenFromEye
 from .methods.triangles import TrianglePass
 from .passes.diffuse import DiffusePass
@@ -381,7 +380,7 @@ class RenderGraph:
             if self.show_samples and self.samples is not None and sampled is not None:
                 drawn = [g for g in world.diffuse_objects if g.is_analytic_plane]
                 stats.draw_calls += self.samples.draw(sampled, camera)
-            if isinstance(self.stand_in, ScreenSpacePass):  # the eye's surface beside the colour
+            if isinstance(self.stand_in, SeenFromEye):  # SSR's: the eye's surface beside the colour
                 self.stand_in.diffuse_framebuffer(targets.color_framebuffer, targets.size).use()
             stats.draw_calls += self.diffuse.draw(drawn, camera.view_projection)
             targets.color_framebuffer.use()

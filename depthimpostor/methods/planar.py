@@ -28,7 +28,7 @@ from ..gpu.bindings import TextureUnit
 from ..gpu.meshes import GpuMeshes
 from ..gpu.shaders import ProgramCache
 from ..gpu.uniforms import bind_texture
-from ..passes.diffuse import DiffusePass
+from ..passes.diffuse import DIFFUSE_PROGRAM, DiffusePass, diffuse_defines
 from ..ppc import PPC
 from ..scene.model import PlaneShape, Scene
 from .seen_from_eye import SeenFromEye
@@ -130,6 +130,11 @@ class PlanarPass(SeenFromEye):
     per_reflector = True
     writes = ("planar images",)
     shades = True
+
+    @classmethod
+    def variants(cls, scene: Scene) -> list[tuple[tuple[str, ...], dict[str, int] | None, str]]:
+        return [(DIFFUSE_PROGRAM, diffuse_defines(scene, False, write_surface=True),
+                 "planar reflections: the scene through each mirror's plane, with the position and object seen")]
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
                  reflectors: list[ObjectGeometry]) -> None:

@@ -100,6 +100,3 @@ METHODS: dict[Method, MethodSpec] = {spec.method: spec for spec in (
     MethodSpec(Method.SSR, ScreenSpacePass, "screen-space reflections", ("screen_space.glsl",)),
 )}
 
-
-def method_spec(method: Method) -> MethodSpec:
-    return METHODS[method]

@@ -91,6 +91,10 @@ class ScreenSpacePass(SeenFromEye):
         self.pyramid.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
         self.size = size
 
+    @classmethod
+    def variants(cls, scene: Scene) -> list[tuple[tuple[str, ...], dict[str, int] | None, str]]:
+        return [((SSR_PYRAMID_PROGRAM,), None, "SSR: the frame's min-depth pyramid")]
+
     def diffuse_framebuffer(self, frame: moderngl.Framebuffer, size: tuple[int, int]) -> moderngl.Framebuffer:
         """The framebuffer the frame's diffuse pass draws through: the frame's colour and depth
         (`frame`), and this stand-in's surface, cleared (0: nothing seen, the sky)."""

@@ -49,6 +49,16 @@ class SeenFromEye:
     def bytes_for(cls, size: tuple[int, int], reflectors: int, glossy: bool = False) -> int:
         raise NotImplementedError
 
+    @classmethod
+    def variants(cls, scene: Scene) -> list[tuple[tuple[str, ...], dict[str, int] | None, str]]:
+        """The programs its eye node compiles (stages, defines, why), for the plan."""
+        raise NotImplementedError
+
+    def diffuse_framebuffer(self, frame: moderngl.Framebuffer, size: tuple[int, int]) -> moderngl.Framebuffer:
+        """What the frame's diffuse pass draws through (`frame`: the frame's colour and depth); a
+        stand-in that reads what the eye saw (reads_frame) adds its own targets beside them."""
+        return frame
+
     @property
     def bytes(self) -> int:
         """GPU bytes of its targets at the frame's size (none before the first frame)."""
