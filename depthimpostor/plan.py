@@ -112,6 +112,10 @@ class PlannedVariant:
         return " + ".join(stages) + (f" [{settings}]" if settings else "")
 
 
+#: The memory entry of the baked images' depth buffer, kept only while frames bake (BakedImages.rest).
+BAKE_DEPTH_BUFFER = "bake depth buffer"
+
+
 @dataclass(frozen=True)
 class RenderPlan:
     scene: str
@@ -194,6 +198,9 @@ class RenderPlan:
         total = sum(self.memory.values())
         parts = ", ".join(f"{name} {size / 2**20:.2f}" for name, size in self.memory.items())
         lines.append(f"memory: {total / 2**20:.2f} MiB" + (f" ({parts})" if parts else ""))
+        if BAKE_DEPTH_BUFFER in self.memory:
+            lines.append(f"  the {BAKE_DEPTH_BUFFER} is let go at the first frame that bakes nothing (a still scene's "
+                         "second) and made again for the next bake")
         return "\n".join(lines)
 
 
@@ -423,7 +430,8 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
         side = max((max(i.width, i.height) for i in images), default=1)
         memory[stand_in.image_noun + "s"] = ImpostorAtlas.bytes_for(
             len(images), side, stand_in.second_layer != SecondLayer.NONE, stand_in.keeps_triangle_ids,
-            stand_in.keeps_back_colors, stand_in.keeps_beyond)
+            stand_in.keeps_back_colors, stand_in.keeps_beyond, bake_buffer=False)
+        memory[BAKE_DEPTH_BUFFER] = ImpostorAtlas.bake_buffer_bytes(len(images), side)
         memory[stand_in.image_noun + " records"] = len(reflectors) * records
         marches = METHODS[method].marches_depth_images
         if marches and scene.render.max_bounces > 1 and len(reflectors) > 1:  # methods/bounces.py

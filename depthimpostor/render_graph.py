@@ -297,6 +297,8 @@ class RenderGraph:
                 self._run_bake(stage)
             self.ctx.finish()
             stats.bake_seconds.append(time.perf_counter() - start)
+        elif self.baked_images is not None:
+            self.baked_images.rest()
 
         self.ctx.finish()
         start = time.perf_counter()

@@ -20,6 +20,7 @@ from depthimpostor.culling import Reach, may_shadow, reach
 from depthimpostor.geometry import scene_geometry
 from depthimpostor.graph import Pass
 from depthimpostor.plan import plan_render
+from depthimpostor.methods.atlas import ImpostorAtlas
 from depthimpostor.renderer import Renderer
 from depthimpostor.resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION
 from depthimpostor.scene import Scene, load_scene
@@ -173,6 +174,57 @@ def test_animated_frame_matches_a_fresh_renderer(ctx: moderngl.Context) -> None:
         fresh.render()
         expected = fresh.read_color_float()
     assert np.abs(frame - expected).max() < 1e-4
+
+
+def _tiles(renderer: Renderer) -> list[tuple[np.ndarray, ...]]:
+    """Every depth image of the renderer as baked: colour, both layers and the back colour."""
+    baked = renderer.graph.baked_images
+    assert baked is not None
+    images = [baked.atlas.read(image) for image in baked.depth_images]
+    return [(i.color, i.depth, i.back_layer, i.back_color) for i in images]
+
+
+def test_the_bake_depth_buffer_is_kept_only_while_frames_bake(ctx: moderngl.Context) -> None:
+    """A still scene lets its bakes' depth buffer go at its first frame that bakes nothing; the
+    next bake makes it again and bakes the very images of the first. An animated scene bakes
+    every frame and keeps it."""
+    with Renderer(ctx, small("default.toml", 64)) as renderer:
+        renderer.render()
+        baked = renderer.graph.baked_images
+        assert baked is not None and baked.atlas.keeps_bake_buffer
+        first, frame = _tiles(renderer), renderer.read_color_float()
+        with_buffer = baked.bytes
+        renderer.render()
+        assert not baked.atlas.keeps_bake_buffer
+        assert with_buffer - baked.bytes == ImpostorAtlas.bake_buffer_bytes(len(baked.depth_images), 64)
+        renderer.bake_again()
+        renderer.render()
+        assert baked.atlas.keeps_bake_buffer
+        for before, after in zip(first, _tiles(renderer), strict=True):
+            for a, b in zip(before, after, strict=True):
+                np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(frame, renderer.read_color_float())
+    with Renderer(ctx, small("carousel.toml", 64)) as animated:
+        for time in (0.0, 0.5, 1.0):
+            animated.set_time(time)
+            animated.render()
+            assert animated.graph.baked_images is not None and animated.graph.baked_images.atlas.keeps_bake_buffer
+
+
+def test_an_image_baked_alone_is_the_image_baked_with_all(ctx: moderngl.Context) -> None:
+    """A bake of some images clears and draws their tiles alone; a bake of all clears the atlas
+    whole (BakedImages._clears): the same images either way, the others untouched."""
+    with Renderer(ctx, small("default.toml", 64)) as renderer:
+        renderer.render()
+        everything = _tiles(renderer)
+        baked = renderer.graph.baked_images
+        assert baked is not None and len(baked.depth_images) > 2
+        baked.stale = {baked.depth_images[1].slot}
+        renderer.render()
+        assert baked.bake_counts[baked.depth_images[1].label] == 2
+        for before, after in zip(everything, _tiles(renderer), strict=True):
+            for a, b in zip(before, after, strict=True):
+                np.testing.assert_array_equal(a, b)
 
 
 def _scene(text: str) -> Scene:

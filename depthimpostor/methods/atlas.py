@@ -188,24 +188,60 @@ class ImpostorAtlas:
         self.back_color = ctx.texture(size, 4, dtype="f1") if back_colors and layers else None
         for texture in self.textures + ([self.back_color] if self.back_color is not None else []):
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self._depth_buffer = ctx.depth_renderbuffer(size)
-        self.framebuffer = ctx.framebuffer(self.textures, self._depth_buffer)
-        # The back layer's pass writes its colour at location 0, and G of the layers behind it.
-        self.back_framebuffer: moderngl.Framebuffer | None = None
-        if self.back_color is not None:
-            self.back_framebuffer = ctx.framebuffer([self.back_color, *self.textures[1:]], self._depth_buffer)
+        # R32F: where a second solid run begins behind the first (beyond_run.frag); 0 where not
+        # known (written by hand for tests): everything behind the first run is then unseen.
+        self.beyond = ctx.texture(size, 1, dtype="f4") if beyond and layers else None
+        if self.beyond is not None:
+            self.beyond.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        # The depth buffer is the bakes' scratch alone (one float a texel of the atlas):
+        # free_bake_buffer lets it go between bakes of a scene that will not bake again
+        # unless something changes, and bake_buffer makes it again for the next.
+        self._depth_buffer: moderngl.Renderbuffer | None = None
+        self._make_framebuffers(ctx.depth_renderbuffer(size))
+        if self.back_framebuffer is not None:
             # Images baked otherwise (reflectors at bounce k, copied in) have no back colour.
             self.back_framebuffer.color_mask = self.masks((True,) * 4)
             self.back_framebuffer.clear(1.0, 1.0, 1.0, 0.0)
             self.back_framebuffer.color_mask = self.masks(*[(True,) * 4] * len(self.textures))
-        # R32F: where a second solid run begins behind the first (beyond_run.frag); 0 where not
-        # known (written by hand for tests): everything behind the first run is then unseen.
-        self.beyond = ctx.texture(size, 1, dtype="f4") if beyond and layers else None
+        if self.beyond_framebuffer is not None:
+            self.beyond_framebuffer.clear(0.0)
+
+    def _make_framebuffers(self, depth_buffer: moderngl.Renderbuffer | None) -> None:
+        """The framebuffers over the atlas's textures, with `depth_buffer` (to bake) or without it
+        (to read tiles back)."""
+        self._depth_buffer = depth_buffer
+        self.framebuffer = self.ctx.framebuffer(self.textures, depth_buffer)
+        # The back layer's pass writes its colour at location 0, and G of the layers behind it.
+        self.back_framebuffer: moderngl.Framebuffer | None = None
+        if self.back_color is not None:
+            self.back_framebuffer = self.ctx.framebuffer([self.back_color, *self.textures[1:]], depth_buffer)
         self.beyond_framebuffer: moderngl.Framebuffer | None = None
         if self.beyond is not None:
-            self.beyond.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            self.beyond_framebuffer = ctx.framebuffer([self.beyond], self._depth_buffer)
-            self.beyond_framebuffer.clear(0.0)
+            self.beyond_framebuffer = self.ctx.framebuffer([self.beyond], depth_buffer)
+
+    def _release_framebuffers(self) -> None:
+        bind_default_framebuffer(self.ctx)
+        for framebuffer in (self.framebuffer, self.back_framebuffer, self.beyond_framebuffer):
+            if framebuffer is not None:
+                framebuffer.release()
+
+    @property
+    def keeps_bake_buffer(self) -> bool:
+        """Is the bakes' depth buffer made (between bakes too)?"""
+        return self._depth_buffer is not None
+
+    def bake_buffer(self) -> None:
+        """Make the bakes' depth buffer again if free_bake_buffer let it go."""
+        if self._depth_buffer is None:
+            self._release_framebuffers()
+            self._make_framebuffers(self.ctx.depth_renderbuffer(self.size))
+
+    def free_bake_buffer(self) -> None:
+        """Let the bakes' depth buffer go (the framebuffers stay, for reading tiles back)."""
+        if self._depth_buffer is not None:
+            self._release_framebuffers()
+            self._depth_buffer.release()
+            self._make_framebuffers(None)
 
     @property
     def size(self) -> tuple[int, int]:
@@ -213,19 +249,28 @@ class ImpostorAtlas:
 
     @property
     def bytes(self) -> int:
-        return self.bytes_for(self.count, self.resolution, self.depth is not None, self.triangles is not None,
-                              self.back_color is not None, self.beyond is not None)
+        """GPU memory now: the textures and, while it is kept, the bakes' depth buffer."""
+        textures = self.bytes_for(self.count, self.resolution, self.depth is not None, self.triangles is not None,
+                                  self.back_color is not None, self.beyond is not None, bake_buffer=False)
+        return textures + (self.bake_buffer_bytes(self.count, self.resolution) if self.keeps_bake_buffer else 0)
+
+    @staticmethod
+    def bake_buffer_bytes(count: int, resolution: int) -> int:
+        """GPU memory of the bakes' depth buffer (one float a texel of the atlas)."""
+        columns, rows = atlas_grid(count)
+        return columns * rows * resolution * resolution * 4
 
     @staticmethod
     def bytes_for(count: int, resolution: int, layers: bool, triangle_ids: bool = False, back_colors: bool = False,
-                  beyond: bool = False) -> int:
+                  beyond: bool = False, bake_buffer: bool = True) -> int:
         """GPU memory of an atlas of `count` slots: colour, float layers (unless not `layers`),
         triangle ids (with `triangle_ids`), back colours (with `back_colors`), where second runs
-        begin (with `beyond`) and the depth buffer used to bake."""
+        begin (with `beyond`) and (with `bake_buffer`) the depth buffer used to bake."""
         columns, rows = atlas_grid(count)
-        texel = 4 + (8 if layers else 0) + (8 if triangle_ids else 0) + (4 if back_colors and layers else 0) + 4
+        texel = 4 + (8 if layers else 0) + (8 if triangle_ids else 0) + (4 if back_colors and layers else 0)
         texel += 4 if beyond and layers else 0
-        return columns * rows * resolution * resolution * texel
+        textures = columns * rows * resolution * resolution * texel
+        return textures + (ImpostorAtlas.bake_buffer_bytes(count, resolution) if bake_buffer else 0)
 
     def masks(self, *per_attachment: tuple[bool, ...]) -> ColorMask:
         """A colour mask for this atlas's framebuffer (see color_mask)."""
@@ -291,14 +336,12 @@ class ImpostorAtlas:
             self.beyond.write(np.ascontiguousarray(beyond, np.float32).tobytes(), viewport=viewport)
 
     def release(self) -> None:
-        bind_default_framebuffer(self.ctx)
-        extra: list[moderngl.Framebuffer | moderngl.Texture] = []
-        if self.back_framebuffer is not None and self.back_color is not None:
-            extra += [self.back_framebuffer, self.back_color]
-        if self.beyond_framebuffer is not None and self.beyond is not None:
-            extra += [self.beyond_framebuffer, self.beyond]
-        for item in (*extra, self.framebuffer, self._depth_buffer, *self.textures):
-            item.release()
+        self._release_framebuffers()
+        if self._depth_buffer is not None:
+            self._depth_buffer.release()
+        for texture in (self.back_color, self.beyond, *self.textures):
+            if texture is not None:
+                texture.release()
 
 
 def plural(count: int, noun: str) -> str:

@@ -212,37 +212,69 @@ class BakedImages:
         write(program, "u_depth_image_count", len(self.images_at(mirror.index, self.final_level)))
 
     def bake(self) -> int:
-        """Render the stale images into their tiles; returns the number of draw calls."""
-        framebuffer = self.atlas.framebuffer
-        framebuffer.use()
-        # The visible surface writes colour, R, G when G is the object id, and the triangle ids.
+        """Render the stale images into their tiles, layer by layer (every image's visible surface,
+        then every back layer, then where second runs begin: three framebuffers bound in turn, not
+        three an image, since a software rasterizer flushes its work at each change); returns the
+        number of draw calls. Where every slot is stale (the first bake, `bake_again`), each
+        layer's attachments are cleared whole, once, instead of tile by tile (_clears). The depth
+        buffer is the bakes' scratch, let go when a frame bakes nothing (rest)."""
+        stale = [image for image in self.depth_images if not image.level and image.slot in self.stale]
+        if not stale:
+            return 0
         atlas = self.atlas
-        everything = atlas.masks(*[(True,) * 4] * len(atlas.textures))
-        surface_mask = atlas.masks((True,) * 4, (True, self.second_layer == SecondLayer.OBJECT_ID, False, False),
-                                   (True, False, False, False))  # triangle ids: R, the visible surface's
+        atlas.bake_buffer()
+        # Every image of every level: those of reflectors are baked after these (the bounce node).
+        whole = self.stale >= {image.slot for image in self.depth_images}
         draws = 0
         with raster_state(self.ctx):
-            try:
-                for image in self.depth_images:
-                    if image.level or image.slot not in self.stale:  # ImpostorPass bakes images of mirrors after these
-                        continue
-                    framebuffer.viewport = image.tile
-                    # Cleared colour alpha 0 marks "nothing here"; both depth layers clear to
-                    # BACKGROUND_DEPTH, the value the depth buffer clears to.
-                    framebuffer.color_mask = everything
-                    framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
-                    framebuffer.color_mask = surface_mask
-                    draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
-                    if self.back_layer is not None:
-                        draws += self._bake_back_layer(image)
-                        if self.atlas.beyond is not None:
-                            draws += self._bake_beyond(image)
-                        framebuffer.use()
-                    elif self.second_layer == SecondLayer.BACK_FACE:
-                        draws += self.bake_back_faces(image, framebuffer, image.tile)
-                    self.baked(image)
-            finally:
-                framebuffer.color_mask = everything
+            draws += self._bake_surfaces(stale, whole)
+            if self.back_layer is not None:
+                draws += self._bake_back_layers(stale, whole)
+                if atlas.beyond is not None:
+                    draws += self._bake_beyond(stale, whole)
+            elif self.second_layer == SecondLayer.BACK_FACE:
+                for image in stale:
+                    draws += self.bake_back_faces(image, atlas.framebuffer, image.tile)
+                atlas.framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
+        for image in stale:
+            self.baked(image)
+        return draws
+
+    def rest(self) -> None:
+        """A frame with nothing to bake: the bakes' depth buffer (one float a texel of the atlas)
+        is let go until the next bake makes it again. A scene where nothing moves keeps it for its
+        first frame alone; one whose objects move, or a light being dragged in the viewer, bakes
+        every frame and keeps it."""
+        self.atlas.free_bake_buffer()
+
+    def _clears(self, stale: list[DepthImage], whole: bool) -> list[tuple[int, int, int, int] | None]:
+        """The viewports a layer's clear covers: the whole atlas (None) or each stale tile. A whole
+        clear is nearly free on a software rasterizer, folded into the tiles' first writes; a
+        scissored one is drawn, and 72 of them at 1024^2 cost about a tenth of the 8 x 9 scene's bake."""
+        return [None] if whole else [image.tile for image in stale]
+
+    def _bake_surfaces(self, stale: list[DepthImage], whole: bool) -> int:
+        """The visible surface of each stale image: colour, R (and G where G is the object id), the
+        triangle ids' R; cleared to colour alpha 0 ("nothing here") and BACKGROUND_DEPTH in both
+        layers, the value the depth buffer clears to."""
+        atlas = self.atlas
+        framebuffer = atlas.framebuffer
+        framebuffer.use()
+        everything = atlas.masks(*[(True,) * 4] * len(atlas.textures))
+        surface_mask = atlas.masks((True,) * 4, (True, self.second_layer == SecondLayer.OBJECT_ID, False, False),
+                                   (True, False, False, False))
+        draws = 0
+        try:
+            framebuffer.color_mask = everything
+            framebuffer.viewport = (0, 0, *atlas.size)
+            for tile in self._clears(stale, whole):
+                framebuffer.clear(BACKGROUND_DEPTH, BACKGROUND_DEPTH, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=tile)
+            framebuffer.color_mask = surface_mask
+            for image in stale:
+                framebuffer.viewport = image.tile
+                draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
+        finally:
+            framebuffer.color_mask = everything
         return draws
 
     def baked(self, image: DepthImage) -> None:
@@ -264,35 +296,45 @@ class BakedImages:
                 self.meshes.draw(back_faces, target, image.camera.view_projection)
         return len(image.targets)
 
-    def _bake_back_layer(self, image: DepthImage) -> int:
-        """The nearest back face's colour, depth (G) and triangle (G), against a fresh depth buffer."""
+    def _bake_back_layers(self, stale: list[DepthImage], whole: bool) -> int:
+        """The nearest back face's colour, depth (G) and triangle (G) of each stale image, against
+        a fresh depth buffer; the colour cleared to alpha 0 (none drawn)."""
         assert self.back_layer is not None and self.atlas.back_framebuffer is not None
         framebuffer, atlas = self.atlas.back_framebuffer, self.atlas
         framebuffer.use()
-        framebuffer.viewport = image.tile
-        framebuffer.color_mask = atlas.masks((True,) * 4)
-        framebuffer.clear(1.0, 1.0, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=image.tile)
-        framebuffer.color_mask = atlas.masks((True,) * 4, (False, True, False, False), (False, True, False, False))
-        with raster_state(self.ctx, BACK_FACES):
-            try:
-                return self.back_layer.draw(list(image.targets), image.camera.view_projection)
-            finally:
-                framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
+        framebuffer.viewport = (0, 0, *atlas.size)
+        try:
+            framebuffer.color_mask = atlas.masks((True,) * 4)
+            for tile in self._clears(stale, whole):
+                framebuffer.clear(1.0, 1.0, 1.0, 0.0, depth=BACKGROUND_DEPTH, viewport=tile)
+            framebuffer.color_mask = atlas.masks((True,) * 4, (False, True, False, False), (False, True, False, False))
+            draws = 0
+            with raster_state(self.ctx, BACK_FACES):
+                for image in stale:
+                    framebuffer.viewport = image.tile
+                    draws += self.back_layer.draw(list(image.targets), image.camera.view_projection)
+            return draws
+        finally:
+            framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
 
-    def _bake_beyond(self, image: DepthImage) -> int:
-        """Where a second solid run begins behind the first (beyond_run.frag): the nearest front
-        face behind the layers just baked, which it reads (they are not attached here)."""
+    def _bake_beyond(self, stale: list[DepthImage], whole: bool) -> int:
+        """Where a second solid run begins behind the first (beyond_run.frag), for each stale
+        image: the nearest front face behind the layers just baked, which it reads (they are not
+        attached here)."""
         assert self.atlas.beyond_framebuffer is not None
         program = self.programs.get(*BEYOND_PROGRAM)
         framebuffer = self.atlas.beyond_framebuffer
         framebuffer.use()
-        framebuffer.viewport = image.tile
-        framebuffer.clear(BACKGROUND_DEPTH, depth=BACKGROUND_DEPTH, viewport=image.tile)
+        framebuffer.viewport = (0, 0, *self.atlas.size)
+        for tile in self._clears(stale, whole):
+            framebuffer.clear(BACKGROUND_DEPTH, depth=BACKGROUND_DEPTH, viewport=tile)
         bind_texture(program, "u_impostor_depth", self.atlas.depth_layers(), TextureUnit.IMPOSTOR_DEPTH)
         with raster_state(self.ctx, FRONT_FACES):
-            for target in image.targets:
-                self.meshes.draw(program, target, image.camera.view_projection)
-        return len(image.targets)
+            for image in stale:
+                framebuffer.viewport = image.tile
+                for target in image.targets:
+                    self.meshes.draw(program, target, image.camera.view_projection)
+        return sum(len(image.targets) for image in stale)
 
     def release(self) -> None:
         self.use_colour_mips(False)
