@@ -22,7 +22,7 @@ from .constants import (
 )
 from .culling import Reach
 from .geometry import ObjectGeometry
-from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines
+from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines, has_checker
 from .passes.environment import ENVIRONMENT_PROGRAM, environment_map_bytes
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .methods.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
@@ -302,10 +302,12 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         if issubclass(stand_in, BakedImages) and images:
             ids = stand_in.keeps_triangle_ids
             with_ids = ", with the triangle each sample shows" if ids else ""
-            variant(Pass.STAND_IN, DIFFUSE_PROGRAM, diffuse_defines(scene, stand_in.second_layer != SecondLayer.NONE, ids),
+            checker = has_checker(g.object for g in reflected)
+            variant(Pass.STAND_IN, DIFFUSE_PROGRAM,
+                    diffuse_defines(scene, stand_in.second_layer != SecondLayer.NONE, ids, checker=checker),
                     f"{stand_in.image_noun}s: the reflected objects shaded into them{with_ids}")
             if stand_in.keeps_back_colors:
-                variant(Pass.STAND_IN, DIFFUSE_PROGRAM, diffuse_defines(scene, True, ids, back_layer=True),
+                variant(Pass.STAND_IN, DIFFUSE_PROGRAM, diffuse_defines(scene, True, ids, back_layer=True, checker=checker),
                         f"depth images: the back layer's colour and depth (a ray may come in through it){with_ids}")
             if stand_in.keeps_beyond:
                 variant(Pass.STAND_IN, BEYOND_PROGRAM, None, "depth images: where a second solid run begins (the space before it "

@@ -227,6 +227,37 @@ def test_an_image_baked_alone_is_the_image_baked_with_all(ctx: moderngl.Context)
                 np.testing.assert_array_equal(a, b)
 
 
+@pytest.mark.parametrize(("name", "checker", "directional"), [
+    ("lecture_8x9.toml", False, True),  # plain objects in the images, a checker floor in the frame
+    ("checker_near_mirror.toml", True, True),  # checker objects in the images
+    ("shadows.toml", False, False),  # point lights
+])
+def test_bakes_leave_out_what_they_draw_none_of(ctx: moderngl.Context, name: str, checker: bool,
+                                                 directional: bool) -> None:
+    """The bake's programs leave out the checker where no baked object has one (NO_CHECKER) and the
+    point lights' code in a scene without one (DIRECTIONAL_LIGHTS, every shading program), and
+    bake the very images the programs without those specializations bake."""
+    with Renderer(ctx, small(name, 32)) as renderer:
+        renderer.render()
+        baked = renderer.graph.baked_images
+        assert baked is not None and baked.back_layer is not None
+        passes = [baked.diffuse, baked.back_layer]
+        for diffuse_pass in passes:
+            assert ("NO_CHECKER" not in diffuse_pass.defines) == checker
+            assert ("DIRECTIONAL_LIGHTS" in diffuse_pass.defines) == directional
+        assert renderer.graph.diffuse is not None and "NO_CHECKER" not in renderer.graph.diffuse.defines
+        specialized, frame = _tiles(renderer), renderer.read_color_float()
+        for diffuse_pass in passes:
+            diffuse_pass.defines = {k: v for k, v in diffuse_pass.defines.items()
+                                    if k not in ("NO_CHECKER", "DIRECTIONAL_LIGHTS")}
+        renderer.bake_again()
+        renderer.render()
+        for before, after in zip(specialized, _tiles(renderer), strict=True):
+            for a, b in zip(before, after, strict=True):
+                np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(frame, renderer.read_color_float())
+
+
 def _scene(text: str) -> Scene:
     return scene_from_toml(text)
 

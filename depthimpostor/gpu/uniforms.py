@@ -20,10 +20,12 @@ from ..textures import SRGB_TABLE, texel_rects
 
 def shading_defines(scene: Scene) -> dict[str, int]:
     """The variant of every shading program that the scene's lights and materials call for: its
-    number of lights (more than MAX_LIGHTS is refused when the lights are written), shadow
-    rays only in scenes where a light casts shadows on something, texture sampling only in scenes
-    with image textures (TEXTURE_COUNT of them)."""
+    number of lights (more than MAX_LIGHTS is refused when the lights are written), the point
+    lights' code only in scenes with one (DIRECTIONAL_LIGHTS: none), shadow rays only in scenes
+    where a light casts shadows on something, texture sampling only in scenes with image textures
+    (TEXTURE_COUNT of them)."""
     return {"LIGHT_COUNT": min(len(scene.lights), MAX_LIGHTS),  # a constant loop bound (lib/shading.glsl)
+            **({"DIRECTIONAL_LIGHTS": 1} if all(light.type == "directional" for light in scene.lights) else {}),
             **({"SHADOWS": 1} if scene.has_shadows else {}),
             **({"TEXTURE_COUNT": len(scene.textures)} if scene.textures else {})}
 

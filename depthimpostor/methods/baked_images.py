@@ -23,7 +23,7 @@ from ..resolution import MIN_AUTO_RESOLUTION, auto_resolution, scene_view
 from ..scene.limits import objects_note
 from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
-from ..passes.diffuse import DiffusePass
+from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import bind_texture, write
 from .colour_mips import ColourMips
@@ -89,9 +89,11 @@ class BakedImages:
         self.meshes = meshes
         layers = self.second_layer != SecondLayer.NONE
         offsets = triangle_offsets(reflected) if self.keeps_triangle_ids else None
-        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=layers, triangle_offsets=offsets)
+        checker = has_checker(item.object for item in reflected)
+        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=layers, triangle_offsets=offsets,
+                                   checker=checker)
         self.back_layer = (DiffusePass(programs, scene, meshes, write_depth_image=True, triangle_offsets=offsets,
-                                       back_layer=True) if self.keeps_back_colors else None)
+                                       back_layer=True, checker=checker) if self.keeps_back_colors else None)
         count = sum(len(images) for images in plan.values())
         # Slots as large as the largest image ("auto" sizes each image apart).
         sides = [max(camera.width, camera.height) for images in plan.values() for _, camera, _ in images]

@@ -10,11 +10,13 @@ multi-draw indirect, one call each with uniforms.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import moderngl
 import numpy as np
 
 from ..geometry import ObjectGeometry
-from ..scene.model import Scene
+from ..scene.model import CheckerMaterial, Scene, SceneObject
 from ..gpu.batches import ObjectBatch
 from ..gpu.gl_state import raster_state
 from ..methods.atlas import FRONT_FACES
@@ -26,16 +28,25 @@ from ..gpu.uniforms import shading_defines, write, write_material, write_matrix
 DIFFUSE_PROGRAM = ("mesh.vert", "diffuse.frag")
 
 
+def has_checker(objects: Iterable[SceneObject]) -> bool:
+    """Does one of `objects` have a checker material?"""
+    return any(isinstance(item.material, CheckerMaterial) for item in objects)
+
+
 def diffuse_defines(scene: Scene, write_depth_image: bool, write_triangle_ids: bool = False,
-                    back_layer: bool = False, instanced: bool = False, write_surface: bool = False) -> dict[str, int]:
+                    back_layer: bool = False, instanced: bool = False, write_surface: bool = False,
+                    checker: bool | None = None) -> dict[str, int]:
     """The variant drawing into the frame, or (`write_depth_image`) into baked images: their
     visible surface, or (`back_layer`) the colour and depth of the nearest back face; and
     (`write_triangle_ids`: the hybrid method's) the triangle seen at each sample too; `instanced`:
     objects drawn in a batch, their transforms and materials from instance attributes;
-    (`write_surface`: the planar and SSR methods') the world position and object seen."""
+    (`write_surface`: the planar and SSR methods') the world position and object seen; without
+    the checker's code (NO_CHECKER) where no object drawn has one (`checker`; by default, none
+    of the scene's)."""
+    drawn_checker = has_checker(scene.objects) if checker is None else checker
     return {"WRITE_DEPTH_IMAGE": int(write_depth_image), **({"WRITE_TRIANGLE_ID": 1} if write_triangle_ids else {}),
             **({"BACK_LAYER": 1} if back_layer else {}), **({"INSTANCED": 1} if instanced else {}),
-            **({"WRITE_SURFACE": 1} if write_surface else {}),
+            **({"WRITE_SURFACE": 1} if write_surface else {}), **({} if drawn_checker else {"NO_CHECKER": 1}),
             **shading_defines(scene)}
 
 
@@ -43,16 +54,17 @@ class DiffusePass:
     def __init__(
         self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, *, write_depth_image: bool,
         triangle_offsets: dict[int, int] | None = None, back_layer: bool = False, batched: bool = False,
-        write_surface: bool = False,
+        write_surface: bool = False, checker: bool | None = None,
     ) -> None:
         """`triangle_offsets` (by object index: where the object's triangles start in the list the
         ray-traced method's BVH is built from) makes the variant that writes each sample's triangle;
         `back_layer` the one drawing a depth image's back layer, `write_surface` the one writing the
-        world position and object seen (see diffuse_defines); `batched` draws the objects that do
-        not move in one call (the context must have batches_supported)."""
+        world position and object seen, `checker` whether an object it draws has a checker
+        material (see diffuse_defines); `batched` draws the objects that do not move in one call
+        (the context must have batches_supported)."""
         self.programs = programs
         self.defines = diffuse_defines(scene, write_depth_image, triangle_offsets is not None, back_layer,
-                                       write_surface=write_surface)
+                                       write_surface=write_surface, checker=checker)
         self.instanced = (programs.get(*DIFFUSE_PROGRAM, {**self.defines, "INSTANCED": 1}) if batched else None)
         self.scene = scene  # for its texture slots
         self.meshes = meshes

@@ -17,11 +17,18 @@
 // checker would flicker on a plane at y = 0, where floor(y / scale) jumps between -1 and 0. A
 // textured diffuse material's colour is color_a times the texel: trilinear in rasterized
 // fragments, level 0 bilinear for traced rays (material_texture.glsl).
+//
+// NO_CHECKER: a program that draws no checker material (diffuse.frag's, for objects without one:
+// passes/diffuse.py) leaves the checker out, and with it the local position it reads. llvmpipe runs
+// the body of an `if` whatever the condition: the test alone would not spare it (about a tenth of
+// a bake's fragment cost, tools/bake_cost.py).
 vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
+#ifndef NO_CHECKER
     if (material.kind == MATERIAL_CHECKER) {
         ivec2 cell = ivec2(floor(local_position.xz / material.scale));
         return ((cell.x + cell.y) & 1) == 0 ? material.color_a : material.color_b;
     }
+#endif
 #ifdef TEXTURE_COUNT
     if (material.texture >= 0) {
         vec2 scaled = uv * material.uv_scale;
@@ -40,13 +47,19 @@ vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
 #define LIGHT_COUNT u_lighting.light_count
 #endif
 
+// DIRECTIONAL_LIGHTS (a scene without point lights: shading_defines): the point lights' direction
+// is left out, and with it the surface's position where no shadow reads it (another tenth).
 vec3 shade(vec3 albedo, vec3 position, vec3 normal) {
     vec3 irradiance = vec3(u_lighting.ambient);
     for (int i = 0; i < LIGHT_COUNT; ++i) {
         Light light = u_lighting.lights[i];
+#ifdef DIRECTIONAL_LIGHTS
+        vec3 to_light = -light.vector;
+#else
         vec3 to_light = light.kind == LIGHT_DIRECTIONAL
             ? -light.vector
             : safe_normalize(light.vector - position, normal);
+#endif
         float cosine = max(0.0, dot(normal, to_light));
 #ifdef SHADOWS
         // A surface facing away from the light gets none of it: no shadow ray needed.

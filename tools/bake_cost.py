@@ -1,0 +1,134 @@
+"""What a bake costs (issue 24, item 4): a scene's full bake (every image stale, as `bake_again`
+makes it) with the programs the renderer makes, against the same bake with programs made without
+the specializations that spare work in the bake's fragments: NO_CHECKER (no object baked has a
+checker material) and DIRECTIONAL_LIGHTS (no point light: the surface's position is not read).
+Then what bounds the bake on this machine: the same images drawn with a trivial fragment shader
+(colour and depth alone), and with no colour at all.
+
+    python3 tools/bake_cost.py [scene.toml] [--resolution 1024] [--rounds 5]
+
+Medians of bakes taken in rounds that rotate over the variants (as bench does), wall-clock around
+ctx.finish(); the machine's load weighs on all variants alike.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import moderngl
+
+from depthimpostor.gpu.context import create_context, describe
+from depthimpostor.methods.baked_images import BakedImages
+from depthimpostor.renderer import Renderer
+from depthimpostor.scene import load_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+SPECIALIZATIONS = ("NO_CHECKER", "DIRECTIONAL_LIGHTS")
+
+TRIVIAL_VERTEX = """#version 330 core
+in vec3 in_position;
+uniform mat4 u_model;
+uniform mat4 u_view_projection;
+void main() { gl_Position = u_view_projection * u_model * vec4(in_position, 1.0); }
+"""
+TRIVIAL_FRAGMENT = """#version 330 core
+layout(location = 0) out vec4 out_color;
+layout(location = 1) out vec2 out_depth_and_object;
+void main() { out_color = vec4(1.0); out_depth_and_object = vec2(gl_FragCoord.z); }
+"""
+
+
+def bake_timer(baked: BakedImages, dropped: tuple[str, ...] = ()) -> Callable[[], float]:
+    """Seconds of a full bake, its surface and back-layer passes drawing with their programs made
+    without the defines `dropped`."""
+    passes = [p for p in (baked.diffuse, baked.back_layer) if p is not None]
+
+    def run() -> float:
+        kept = [p.defines for p in passes]
+        for diffuse_pass in passes:
+            diffuse_pass.defines = {k: v for k, v in diffuse_pass.defines.items() if k not in dropped}
+        try:
+            baked.bake_again()
+            baked.ctx.finish()
+            start = time.perf_counter()
+            baked.bake()
+            baked.ctx.finish()
+            return time.perf_counter() - start
+        finally:
+            for diffuse_pass, defines in zip(passes, kept, strict=True):
+                diffuse_pass.defines = defines
+    return run
+
+
+def trivial_timer(baked: BakedImages, program: moderngl.Program, colour: bool) -> Callable[[], float]:
+    """Seconds to draw every image's objects (surfaces, then back faces) with `program`, after
+    whole clears: what rasterizing the bake's fragments costs without its shading."""
+    atlas = baked.atlas
+
+    def run() -> float:
+        atlas.bake_buffer()
+        framebuffer = atlas.framebuffer
+        baked.ctx.finish()
+        start = time.perf_counter()
+        framebuffer.use()
+        framebuffer.color_mask = atlas.masks(*[(colour,) * 4] * len(atlas.textures))
+        for _ in range(2):  # the surface and the back layer
+            framebuffer.viewport = (0, 0, *atlas.size)
+            framebuffer.clear(1.0, 1.0, 1.0, 0.0, depth=1.0)
+            for image in baked.depth_images:
+                framebuffer.viewport = image.tile
+                for target in image.targets:
+                    baked.meshes.draw(program, target, image.camera.view_projection)
+        baked.ctx.finish()
+        framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
+        return time.perf_counter() - start
+    return run
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("scene", nargs="?", type=Path, default=ROOT / "scenes" / "lecture_8x9.toml")
+    parser.add_argument("--resolution", type=int, default=1024)
+    parser.add_argument("--rounds", type=int, default=5)
+    args = parser.parse_args()
+    ctx = create_context()
+    print(describe(ctx))
+    scene = load_scene(args.scene).with_overrides(impostor_resolution=args.resolution)
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        baked = renderer.graph.baked_images
+        if baked is None or baked.back_layer is None:
+            raise SystemExit(f"{args.scene}: the depth-image method bakes no images here")
+        trivial = ctx.program(vertex_shader=TRIVIAL_VERTEX, fragment_shader=TRIVIAL_FRAGMENT)
+        frame_times = []
+        for _ in range(3):
+            renderer.render()
+            frame_times.append(renderer.stats.draw_seconds[-1])
+        timers = {
+            "bake, the renderer's programs": bake_timer(baked),
+            f"bake, without {' and '.join(SPECIALIZATIONS)}": bake_timer(baked, SPECIALIZATIONS),
+            "the same fragments, a trivial shader": trivial_timer(baked, trivial, colour=True),
+            "the same fragments, depth alone": trivial_timer(baked, trivial, colour=False),
+        }
+        names = list(timers)
+        times: dict[str, list[float]] = {name: [] for name in names}
+        for round_index in range(args.rounds + 1):  # one warm-up round
+            for offset in range(len(names)):
+                name = names[(round_index + offset) % len(names)]
+                seconds = timers[name]()
+                if round_index >= 1:
+                    times[name].append(1000.0 * seconds)
+        frame = 1000.0 * statistics.median(frame_times)
+    print(f"{scene.source}: {len(baked.depth_images)} images at {args.resolution}^2, median of {args.rounds} rounds; "
+          f"a frame at {scene.render.size[0]}x{scene.render.size[1]}: {frame:.1f} ms")
+    for name in names:
+        median = statistics.median(times[name])
+        print(f"  {name:58s} {median:8.1f} ms  ({median / frame:5.1f} frames)")
+
+
+if __name__ == "__main__":
+    main()
