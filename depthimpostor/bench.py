@@ -23,7 +23,7 @@ import math
 import os
 import platform
 import statistics
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
 from functools import partial
@@ -99,6 +99,21 @@ class BenchRow:
     geometric_error_median_percent: float
     geometric_error_p95_percent: float
 
+
+
+def rotated_medians(timers: dict[str, Callable[[], float]], rounds: int, warmup: int = 1) -> dict[str, float]:
+    """The median milliseconds of each timer (returning seconds), taken in rounds that rotate the
+    order of the timers, after `warmup` rounds: a load on the machine that comes and goes weighs
+    on all of them alike (the tools' comparisons of variants; `bench` rotates its renderers so)."""
+    names = list(timers)
+    times: dict[str, list[float]] = {name: [] for name in names}
+    for round_index in range(warmup + rounds):
+        for offset in range(len(names)):
+            name = names[(round_index + offset) % len(names)]
+            seconds = timers[name]()
+            if round_index >= warmup:
+                times[name].append(1000.0 * seconds)
+    return {name: statistics.median(values) for name, values in times.items()}
 
 def machine_lines(ctx: moderngl.Context, settings: BenchSettings, scenes: Sequence[Scene]) -> list[str]:
     """What the figures were measured on and with: the first lines of every output."""

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import moderngl
 
+from depthimpostor.bench import rotated_medians
 from depthimpostor.gpu.context import create_context, describe
 from depthimpostor.methods.baked_images import BakedImages
 from depthimpostor.renderer import Renderer
@@ -114,19 +115,11 @@ def main() -> None:
             "the same fragments, a trivial shader": trivial_timer(baked, trivial, colour=True),
             "the same fragments, depth alone": trivial_timer(baked, trivial, colour=False),
         }
-        names = list(timers)
-        times: dict[str, list[float]] = {name: [] for name in names}
-        for round_index in range(args.rounds + 1):  # one warm-up round
-            for offset in range(len(names)):
-                name = names[(round_index + offset) % len(names)]
-                seconds = timers[name]()
-                if round_index >= 1:
-                    times[name].append(1000.0 * seconds)
+        medians = rotated_medians(timers, args.rounds)
         frame = 1000.0 * statistics.median(frame_times)
     print(f"{scene.source}: {len(baked.depth_images)} images at {args.resolution}^2, median of {args.rounds} rounds; "
           f"a frame at {scene.render.size[0]}x{scene.render.size[1]}: {frame:.1f} ms")
-    for name in names:
-        median = statistics.median(times[name])
+    for name, median in medians.items():
         print(f"  {name:58s} {median:8.1f} ms  ({median / frame:5.1f} frames)")
 
 

@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import statistics
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import moderngl
 
+from depthimpostor.bench import rotated_medians
 from depthimpostor.eye import clear_depth, eye_depth
 from depthimpostor.gpu.context import create_context, describe
 from depthimpostor.gpu.uniforms import write, write_material
@@ -102,17 +102,10 @@ def main() -> None:
         renderer.render()
         bare.render()
         timers = {**variants(renderer, True), **variants(bare, False)}
-        names = list(timers)
-        times: dict[str, list[float]] = {name: [] for name in names}
-        for round_index in range(args.frames + 2):  # two warm-up rounds
-            for offset in range(len(names)):
-                name = names[(round_index + offset) % len(names)]
-                seconds = timers[name]()
-                if round_index >= 2:
-                    times[name].append(1000.0 * seconds)
+        medians = rotated_medians(timers, args.frames, warmup=2)
     print(f"{scene.source} at {scene.render.size[0]}x{scene.render.size[1]}, median of {args.frames} frames:")
-    for name in names:
-        print(f"  {name:58s} {statistics.median(times[name]):7.2f} ms")
+    for name, median in medians.items():
+        print(f"  {name:58s} {median:7.2f} ms")
 
 
 if __name__ == "__main__":
