@@ -6,6 +6,7 @@ must be the one the uniform-bounded fallback draws."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import moderngl
@@ -43,3 +44,32 @@ def test_constant_loop_bounds_draw_the_frame_the_uniform_bounds_draw(ctx: modern
         uniform = renderer.read_color_float()
     assert_finite(constant)
     assert np.abs(constant - uniform).max() < 1e-6
+
+
+def test_the_bound_without_objects_is_a_variant_of_the_mirror_program(ctx: moderngl.Context) -> None:
+    """tools/interactive_frame.py's bound (OBJECTS_LEFT_OUT: the mirror pass without any reflected
+    object) is the frame's own program with one define more, and draws the mirror with no object
+    in it: each pixel is the frame's (an object seen directly) or that of the same scene without
+    its reflected objects (the mirror then shows the floor and the sky alone)."""
+    scene = load_scene(SCENES / "default.toml").with_overrides(size=(160, 90), impostor_resolution=64)
+    bare = dataclasses.replace(scene, objects=tuple(o for o in scene.objects if o.is_reflector or o.is_analytic_plane))
+    with Renderer(ctx, bare) as renderer:
+        renderer.render()
+        nothing_reflected = renderer.read_color_float()
+    with Renderer(ctx, scene) as renderer:
+        reflectors = renderer.graph.reflector_pass
+        assert reflectors is not None and reflectors.programs[False] is not None
+        mirror = reflectors.programs[False]
+        renderer.render()
+        full = renderer.read_color_float()
+        bound = renderer.programs.with_defines(mirror, {"OBJECTS_LEFT_OUT": 1})
+        assert renderer.programs.without_defines(bound, ("OBJECTS_LEFT_OUT",)) is mirror
+        write(bound, "u_backing_albedo", MIRROR_BACKING_ALBEDO)
+        reflectors.programs[False] = bound
+        renderer.render()
+        without = renderer.read_color_float()
+    assert_finite(without)
+    assert np.abs(full - without).max() > 0.1  # the reflections of the objects are gone
+    seen_directly = np.abs(without - full).max(axis=2) < 1e-4
+    as_if_absent = np.abs(without - nothing_reflected).max(axis=2) < 1e-4
+    assert np.all(seen_directly | as_if_absent)

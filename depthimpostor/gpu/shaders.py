@@ -196,6 +196,14 @@ class ProgramCache:
                 return self.get(stages[0], stages[1], {name: value for name, value in defines if name not in names})
         raise ValueError("the program is not one of this cache's")
 
+    def with_defines(self, program: moderngl.Program, extra: Mapping[str, int]) -> moderngl.Program:
+        """`program`, one of this cache's, compiled again with the defines `extra` added (tools that
+        bound a pass by leaving part of it out: tools/interactive_frame.py)."""
+        for (stages, defines), cached in self._programs.items():
+            if cached is program and len(stages) == 2:
+                return self.get(stages[0], stages[1], {**dict(defines), **extra})
+        raise ValueError("the program is not one of this cache's")
+
     def compute(self, name: str, defines: Defines | None = None) -> moderngl.ComputeShader:
         """A compute shader (GLSL 4.30: the caller checks the context has it)."""
         program = self._get((name,), defines)

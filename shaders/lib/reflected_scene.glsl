@@ -148,6 +148,11 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
 // The nearest reflected object; the depth-image method looks no farther than t_limit (the others
 // do: their answer beyond it is no worse, and they have no order to stop early in).
 RayHit nearest_object_hit(vec3 origin, vec3 direction, float t_limit) {
+#ifdef OBJECTS_LEFT_OUT
+    // A bound, not a method: the mirror pass with no reflected object at all, the least any
+    // stand-in can cost (tools/interactive_frame.py; never made by the renderer).
+    return no_hit(0);
+#endif
 #if METHOD == METHOD_DEPTH || METHOD == METHOD_HYBRID
     return nearest_depth_image_hit(origin, direction, t_limit);
 #elif METHOD == METHOD_CUBEMAP || METHOD == METHOD_CUBEMAP_PARALLAX
