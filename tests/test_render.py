@@ -11,6 +11,7 @@ import pytest
 from conftest import SCENES, assert_finite
 from depthimpostor.constants import Algorithm
 from depthimpostor.ppc import PPC
+from depthimpostor.passes.diffuse import has_checker
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene, parse_scene
 
@@ -96,7 +97,9 @@ def test_scene_without_mirrors_allocates_no_impostor(ctx: moderngl.Context, tmp_
         compiled = {fragment for _, fragment, _ in renderer.programs.variants}
         assert compiled == {"environment.frag", "diffuse.frag"}
         variants = [defines for _, fragment, defines in renderer.programs.variants if fragment == "diffuse.frag"]
-        assert variants == [(("INSTANCED", "1"), ("LIGHT_COUNT", str(len(scene.lights))), ("WRITE_DEPTH_IMAGE", "0"))]  # one batch of the still objects
+        # One batch of the still objects; without the checker's code where none has one (NO_CHECKER).
+        checker = () if has_checker(scene.objects) else (("NO_CHECKER", "1"),)
+        assert variants == [(("INSTANCED", "1"), ("LIGHT_COUNT", str(len(scene.lights))), *checker, ("WRITE_DEPTH_IMAGE", "0"))]
 
 
 def test_depth_images_are_baked_once_and_not_for_camera_moves(ctx: moderngl.Context) -> None:

@@ -25,7 +25,8 @@ def shading_defines(scene: Scene) -> dict[str, int]:
     where a light casts shadows on something, texture sampling only in scenes with image textures
     (TEXTURE_COUNT of them)."""
     return {"LIGHT_COUNT": min(len(scene.lights), MAX_LIGHTS),  # a constant loop bound (lib/shading.glsl)
-            **({"DIRECTIONAL_LIGHTS": 1} if all(light.type == "directional" for light in scene.lights) else {}),
+            **({"DIRECTIONAL_LIGHTS": 1} if scene.lights and all(light.type == "directional" for light in scene.lights)
+               else {}),
             **({"SHADOWS": 1} if scene.has_shadows else {}),
             **({"TEXTURE_COUNT": len(scene.textures)} if scene.textures else {})}
 
