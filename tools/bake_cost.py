@@ -20,12 +20,15 @@ from collections.abc import Callable
 from pathlib import Path
 
 import moderngl
+import numpy as np
 
 from depthimpostor.bench import rotated_medians
 from depthimpostor.gpu.context import create_context, describe
+from depthimpostor.geometry import ObjectGeometry, mesh_for_shape
 from depthimpostor.methods.baked_images import BakedImages
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
+from depthimpostor.scene.model import BoxShape, SceneObject
 
 ROOT = Path(__file__).resolve().parent.parent
 SPECIALIZATIONS = ("NO_CHECKER", "DIRECTIONAL_LIGHTS")
@@ -90,6 +93,34 @@ def trivial_timer(baked: BakedImages, program: moderngl.Program, colour: bool) -
     return run
 
 
+def draw_call_timer(baked: BakedImages, program: moderngl.Program, box: ObjectGeometry) -> Callable[[], float]:
+    """Seconds to draw a 12-triangle box into every image twice (the bake's draw count) with
+    `program`: what the bake's draw calls cost, apart from what they draw."""
+    atlas = baked.atlas
+
+    def run() -> float:
+        atlas.bake_buffer()
+        framebuffer = atlas.framebuffer
+        baked.ctx.finish()
+        start = time.perf_counter()
+        framebuffer.use()
+        for _ in range(2):
+            for image in baked.depth_images:
+                framebuffer.viewport = image.tile
+                baked.meshes.draw(program, box, image.camera.view_projection)
+        baked.ctx.finish()
+        return time.perf_counter() - start
+    return run
+
+
+def covered_texels(baked: BakedImages) -> int:
+    """Texels of the atlas's images that show a surface (colour alpha > 0) after a bake."""
+    baked.bake_again()
+    baked.bake()
+    alpha = np.frombuffer(baked.atlas.color.read(), np.uint8)[3::4]
+    return int(np.count_nonzero(alpha))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("scene", nargs="?", type=Path, default=ROOT / "scenes" / "lecture_8x9.toml")
@@ -105,6 +136,10 @@ def main() -> None:
         if baked is None or baked.back_layer is None:
             raise SystemExit(f"{args.scene}: the depth-image method bakes no images here")
         trivial = ctx.program(vertex_shader=TRIVIAL_VERTEX, fragment_shader=TRIVIAL_FRAGMENT)
+        small_box = BoxShape((0.1, 0.1, 0.1))
+        box = ObjectGeometry(0, SceneObject(name="box", shape=small_box), mesh_for_shape(small_box))
+        covered = covered_texels(baked)
+        slots = sum(image.camera.width * image.camera.height for image in baked.depth_images)
         frame_times = []
         for _ in range(3):
             renderer.render()
@@ -114,11 +149,13 @@ def main() -> None:
             f"bake, without {' and '.join(SPECIALIZATIONS)}": bake_timer(baked, SPECIALIZATIONS),
             "the same fragments, a trivial shader": trivial_timer(baked, trivial, colour=True),
             "the same fragments, depth alone": trivial_timer(baked, trivial, colour=False),
+            "the bake's draw calls, each drawing a 12-triangle box": draw_call_timer(baked, trivial, box),
         }
         medians = rotated_medians(timers, args.rounds)
         frame = 1000.0 * statistics.median(frame_times)
     print(f"{scene.source}: {len(baked.depth_images)} images at {args.resolution}^2, median of {args.rounds} rounds; "
-          f"a frame at {scene.render.size[0]}x{scene.render.size[1]}: {frame:.1f} ms")
+          f"a frame at {scene.render.size[0]}x{scene.render.size[1]}: {frame:.1f} ms; "
+          f"{covered / 1e6:.1f} million of the images' {slots / 1e6:.1f} million texels show a surface")
     for name, median in medians.items():
         print(f"  {name:58s} {median:8.1f} ms  ({median / frame:5.1f} frames)")
 
