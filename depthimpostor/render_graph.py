@@ -208,15 +208,21 @@ class RenderGraph:
             plan.images != before.images or world.scene.render.impostor_resolution
             != self.world.scene.render.impostor_resolution)
         self.plan, self.world = plan, world  # what the nodes below are made from
+        interiors = self.glass_interiors
         try:
             self._compile()
             if world.reflectors and (not same_stand_in or (new_images and self.baked_images is not None)):
                 self._make_stand_in(plan)
             else:
                 self._keep_pyramids(plan)
+            interiors = self._sized_interiors()
         except BaseException:
             self.plan, self.world = before, before_world
             raise
+        if interiors is not self.glass_interiors:
+            for interior in self.glass_interiors.values():
+                interior.release()
+            self.glass_interiors = interiors
         self.diffuse = self._diffuse_pass()
         if self.reflector_pass is not None:
             self.reflector_pass = self._reflector_pass()
@@ -225,6 +231,13 @@ class RenderGraph:
         if self.samples is not None and not self.show_samples:
             self.samples.release()
             self.samples = None
+
+    def _sized_interiors(self) -> dict[int, GlassInterior]:
+        """The glass interiors, or new ones as large as the frame's larger side where it changed."""
+        side = max(self.world.scene.render.size)
+        if all(interior.size == side for interior in self.glass_interiors.values()):
+            return self.glass_interiors
+        return {index: GlassInterior(self.ctx, self.programs, self.meshes, side) for index in self.glass_interiors}
 
     def follow(self, earlier: World, world: World) -> None:
         """The world moved from `earlier` to `world`: mark stale only what depends on what moved

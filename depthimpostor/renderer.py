@@ -85,8 +85,20 @@ class Renderer:
         world = World(scene, time=self.time) if edited else self.world.with_settings(scene)
         plan = self._checked_plan(scene, method, algorithm, world)
         with allocating(self.ctx, context):
-            self.targets = self.targets.resized(scene.render.size)
-            (self.graph.rebuild if edited else self.graph.apply)(plan, world)
+            targets = self.targets.reshaped(scene.render.size, bool(world.reflectors))
+            try:
+                if edited:  # its texture table into every program, those made before too
+                    self.programs.rewrite_scene_uniforms(lambda program: write_scene_uniforms(program, scene))
+                (self.graph.rebuild if edited else self.graph.apply)(plan, world)
+            except BaseException:
+                if targets is not self.targets:
+                    targets.release()
+                if edited:
+                    self.programs.rewrite_scene_uniforms(lambda program: write_scene_uniforms(program, self.scene))
+                raise
+        if targets is not self.targets:
+            self.targets.release()
+            self.targets = targets
         resized = scene.render.size != self.scene.render.size
         self.scene, self.world, self.method, self.algorithm, self.plan = scene, world, method, algorithm, plan
         if edited or resized:  # the near and far planes follow the objects; a set_camera stays otherwise

@@ -110,13 +110,13 @@ class FrameTargets:
             self._presenter.release()
             self._presenter = None
 
-    def resized(self, size: tuple[int, int]) -> FrameTargets:
-        """These targets, or (released) new ones of another size."""
-        if size == self.size:
+    def reshaped(self, size: tuple[int, int], reflectors: bool) -> FrameTargets:
+        """These targets, or new ones of another size, or with the reflectors' surfaces where the
+        frame now draws reflectors (or without them where it no longer does). The old are kept
+        for the caller to release once the change has taken: a refused change draws on with them."""
+        if size == self.size and (self.surfaces is not None) == reflectors:
             return self
-        self.release()
-        return FrameTargets(self.ctx, size, bool(self.reflection_outputs), self.sample_counts is not None,
-                            self.surfaces is not None)
+        return FrameTargets(self.ctx, size, bool(self.reflection_outputs), self.sample_counts is not None, reflectors)
 
     def _read(self, components: int, attachment: int = 0) -> np.ndarray:
         width, height = self.size

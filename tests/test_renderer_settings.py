@@ -270,3 +270,76 @@ def test_a_refused_setting_leaves_the_graph_drawing_by_the_plan_it_had(
         renderer.render()
         assert renderer.stats.depth_images_baked == 10  # the depth images, baked again on asking
         assert_same_frame(renderer.read_color_float(), before)
+
+
+def test_an_edited_scene_may_gain_or_lose_its_reflectors(ctx: moderngl.Context, scene: Scene) -> None:
+    """set_scene from a scene without a reflector to one with (the frame's reflector surfaces are
+    made then) and back (they go): each frame the one a fresh renderer draws."""
+    bare = dataclasses.replace(scene, objects=tuple(o for o in scene.objects if not o.is_reflector))
+    with Renderer(ctx, bare) as renderer:
+        renderer.render()
+        assert renderer.targets.surfaces is None
+        renderer.set_scene(scene)
+        renderer.render()
+        assert renderer.targets.surfaces is not None
+        assert_same_frame(renderer.read_color_float(), fresh_frame(ctx, scene))
+        renderer.set_scene(bare)
+        renderer.render()
+        assert renderer.targets.surfaces is None
+        assert_same_frame(renderer.read_color_float(), fresh_frame(ctx, bare))
+
+
+def test_a_resize_makes_glass_interiors_of_the_new_frame(ctx: moderngl.Context) -> None:
+    """A glass object's interior image is as large as the frame's larger side: a resize makes it
+    again at the new size (the plan counts it so), and the frame is a fresh renderer's."""
+    glass = load_scene(SCENES / "glass_and_mirrors.toml").with_overrides(size=(96, 54), impostor_resolution=32)
+    larger = glass.with_overrides(size=(128, 72))
+    with Renderer(ctx, glass) as renderer:
+        renderer.render()
+        renderer.resize((128, 72))
+        renderer.render()
+        interiors = renderer.graph.glass_interiors
+        assert interiors and all(interior.size == 128 for interior in interiors.values())
+        assert_same_frame(renderer.read_color_float(), fresh_frame(ctx, larger))
+
+
+def test_an_edited_scene_brings_its_texture_table_to_every_program(ctx: moderngl.Context) -> None:
+    """Another texture of the same count (a size of its own: other texel rectangles; another wrap)
+    reaches the programs made before the edit as well as those made after: the frame is a fresh
+    renderer's."""
+    textured = load_scene(SCENES / "textured_near_mirror.toml").with_overrides(size=(96, 54), impostor_resolution=32)
+    old = textured.textures[0]
+    rng = np.random.default_rng(7)
+    image = np.concatenate([rng.integers(0, 256, (24, 40, 3)), np.full((24, 40, 1), 255)], axis=2).astype(np.uint8)
+    new = dataclasses.replace(old, image=image, sampler={"wrapS": 33071, "wrapT": 33648}, scale=(2.0, 3.0))
+
+    def swapped(material: object) -> object:
+        return dataclasses.replace(material, texture=new) if getattr(material, "texture", None) is old else material  # type: ignore[type-var]
+
+    edited = dataclasses.replace(textured, objects=tuple(dataclasses.replace(o, material=swapped(o.material))
+                                                          for o in textured.objects))
+    assert len(edited.textures) == len(textured.textures) and edited.textures[0] is new
+    with Renderer(ctx, textured) as renderer:
+        renderer.render()
+        renderer.set_scene(edited)
+        renderer.render()
+        assert_same_frame(renderer.read_color_float(), fresh_frame(ctx, edited))
+
+
+def test_a_refused_resize_keeps_the_frame_targets(ctx: moderngl.Context, scene: Scene,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """A change the graph refuses after the plan accepted it leaves the frame's targets as they were
+    (the new ones are made first and let go), and the renderer draws on as before."""
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        before, targets = renderer.read_color_float(), renderer.targets
+
+        def refuse(*_: object) -> None:
+            raise RuntimeError("refused")
+        monkeypatch.setattr(renderer.graph, "apply", refuse)
+        with pytest.raises(RuntimeError):
+            renderer.resize((SIZE[0] * 2, SIZE[1] * 2))
+        monkeypatch.undo()
+        assert renderer.targets is targets and targets.size == SIZE
+        renderer.render()
+        assert_same_frame(renderer.read_color_float(), before)

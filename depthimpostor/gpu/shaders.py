@@ -241,6 +241,14 @@ class ProgramCache:
         """(file, defines) of every compute shader compiled so far."""
         return [(stages[0], defines) for stages, defines in self._programs if len(stages) == 1]
 
+    def rewrite_scene_uniforms(self, scene_uniforms: SceneUniforms) -> None:
+        """Write `scene_uniforms` (another scene's texture table: Renderer.set_scene) into every
+        program made so far, and into each made from now on."""
+        self._scene_uniforms = scene_uniforms
+        for program in self._programs.values():
+            if isinstance(program, moderngl.Program):
+                scene_uniforms(program)
+
     def reloaded(self) -> ProgramCache:
         """A new cache holding every program of this one, compiled from the files as they are
         now. Raises ShaderError (and leaves this cache as it is) if any of them fails."""
