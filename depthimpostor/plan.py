@@ -151,8 +151,9 @@ class RenderPlan:
 
     @property
     def builds_pyramids(self) -> bool:
-        """Are depth pyramids kept (the hierarchical algorithm, or `auto` with an image it traverses so)?"""
-        return self.algorithm == Algorithm.HIERARCHICAL or self.runs(Pass.PYRAMIDS)
+        """Are depth pyramids kept (the hierarchical algorithm, or `auto` with an image it traverses
+        so; none where the reflectors have no depth image to march)?"""
+        return self.runs(Pass.PYRAMIDS)
 
     def traversal(self, image: PlannedImage) -> Algorithm:
         """How the reflectors' shader marches `image` (`auto` picks by its size)."""

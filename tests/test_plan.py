@@ -258,6 +258,19 @@ def test_bakes_leave_out_what_they_draw_none_of(ctx: moderngl.Context, name: str
         np.testing.assert_array_equal(frame, renderer.read_color_float())
 
 
+def test_no_pyramid_where_no_image_is_marched(ctx: moderngl.Context) -> None:
+    """The hierarchical algorithm over a mirror that reflects nothing but the floor and the sky
+    plans no pyramid pass, and the renderer makes no pyramid (an empty one was made before)."""
+    scene = small("default.toml", 32)
+    bare = dataclasses.replace(scene, objects=tuple(o for o in scene.objects if o.is_reflector or o.is_analytic_plane))
+    plan = plan_render(bare, Method.DEPTH, Algorithm.HIERARCHICAL)
+    assert not plan.images and not plan.runs(Pass.PYRAMIDS) and not plan.builds_pyramids
+    with Renderer(ctx, bare, Algorithm.HIERARCHICAL) as renderer:
+        renderer.render()
+        assert renderer.graph.impostors is not None and renderer.graph.impostors.pyramid is None
+        assert_finite(renderer.read_color_float())
+
+
 def _scene(text: str) -> Scene:
     return scene_from_toml(text)
 
