@@ -493,3 +493,12 @@ def test_without_imgui_bundle_the_viewer_has_no_panel_and_says_why(monkeypatch: 
     panel = make_panel(cast(Viewer, None), visible=True)
     assert isinstance(panel, NoPanel) and not panel.visible and not panel.wants_mouse
     assert panel.view_image() is None and "imgui-bundle" in NoPanel.WHY
+
+
+def test_an_import_error_of_the_panels_own_is_raised(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Only imgui-bundle or PyOpenGL missing means "no panel": a module of the panel's own that
+    fails to import is a bug to see, not a panel quietly gone."""
+    monkeypatch.setitem(sys.modules, "depthimpostor.viewer.views", None)
+    monkeypatch.delitem(sys.modules, "depthimpostor.viewer.panel", raising=False)
+    with pytest.raises(ModuleNotFoundError, match="depthimpostor.viewer.views"):
+        make_panel(cast(Viewer, None), visible=True)

@@ -138,12 +138,19 @@ class NoPanel:
 
 
 def make_panel(viewer: Viewer, visible: bool) -> ControlPanel | NoPanel:
-    """The panel of controls (viewer/panel.py), or, without imgui-bundle, none."""
+    """The panel of controls (viewer/panel.py), or, without imgui-bundle (or the PyOpenGL its
+    renderer needs), none. Any other import error is the panel's own, and is raised."""
     try:
         from .panel import ControlPanel  # imgui-bundle: imported only where it is installed
-    except ImportError:
-        return NoPanel()
+    except ModuleNotFoundError as error:
+        if (error.name or "").split(".")[0] in PANEL_PACKAGES:
+            return NoPanel()
+        raise
     return ControlPanel(viewer, visible=visible)
+
+
+#: The packages the panel is optional for: the viewer runs without them (NoPanel).
+PANEL_PACKAGES = ("imgui_bundle", "OpenGL")
 
 
 @dataclass
