@@ -435,13 +435,15 @@ class Viewer:
         renderer = self.renderer
         width, height = self.frame_size
         draws = list(itertools.islice(reversed(renderer.stats.draw_seconds), TIMING_WINDOW))
-        frame_ms = 1000.0 * statistics.median(draws) if draws else float("nan")
-        fps = 1.0 / statistics.median(self.frame_intervals) if self.frame_intervals else float("nan")
+        # Before a frame is timed (the first, or frames drawn one by one by a caller, without the
+        # loop that measures their intervals) there is no figure yet: the overlay says so.
+        frame_ms = f"{1000.0 * statistics.median(draws):.1f} ms (median of {len(draws)})" if draws else "- ms"
+        fps = f"{1.0 / statistics.median(self.frame_intervals):.1f} fps" if self.frame_intervals else "- fps"
         lines = [
             # The algorithm is the depth images' intersection; the other methods have none.
             METHOD_LABELS[renderer.method]
             + (f", {renderer.algorithm.name.lower()}" if renderer.method == Method.DEPTH else ""),
-            f"{width}x{height} | {frame_ms:.1f} ms (median of {len(draws)}) | {fps:.1f} fps",
+            f"{width}x{height} | {frame_ms} | {fps}",
         ]
         if renderer.graph.stand_in is not None:
             line = f"{renderer.graph.stand_in.describe()} | {renderer.graph.stand_in.bytes / 2**20:.1f} MiB"
