@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
 from . import meshes, textured_meshes
-from .meshes import Mesh
+from .meshes import Mesh, ritter_centres
 from .scene.model import (
     BoxShape,
     CylinderShape,
@@ -121,6 +122,46 @@ class ObjectGeometry:
     def is_analytic_plane(self) -> bool:
         """Planes that are not mirrors (floors, walls) are intersected exactly, not through impostors."""
         return self.object.is_analytic_plane
+
+
+#: Objects sharing a local mesh whose bounding spheres bounding_spheres works out together, and
+#: the points it transforms at once (float64: 48 MB).
+BATCHED_SPHERES = 16
+BATCH_POINTS = 2_000_000
+
+
+def bounding_spheres(items: Sequence[ObjectGeometry]) -> list[tuple[np.ndarray, float]]:
+    """Each item's bounding_sphere. Where many share a local mesh (ten thousand equal spheres, a
+    glTF scene's repeated parts) they are worked out together, by the same steps as the property
+    (the world mesh's float32 vertices, Mesh.bounding_sphere's two candidates), without making
+    each world mesh: 1.7 s of the start-up of a scene of 10,000 small spheres."""
+    groups: dict[int, list[ObjectGeometry]] = {}
+    for item in items:
+        if "bounding_sphere" not in item.__dict__:
+            groups.setdefault(id(item.local_mesh), []).append(item)
+    for group in groups.values():
+        if len(group) < BATCHED_SPHERES:
+            continue
+        chunk = max(1, BATCH_POINTS // len(group[0].local_mesh.positions))
+        for first in range(0, len(group), chunk):
+            part = group[first:first + chunk]
+            for item, sphere in zip(part, _spheres_of_one_mesh(part), strict=True):
+                item.__dict__["bounding_sphere"] = sphere  # the cached property's slot
+    return [item.bounding_sphere for item in items]
+
+
+def _spheres_of_one_mesh(items: Sequence[ObjectGeometry]) -> list[tuple[np.ndarray, float]]:
+    """Mesh.bounding_sphere of each item's world mesh, for items of one local mesh."""
+    models = np.stack([item.model_matrix for item in items])
+    local = items[0].local_mesh.positions.astype(np.float64)
+    # As Mesh.transformed places the vertices, then stores them in float32.
+    points = (np.matmul(local, models[:, :3, :3].transpose(0, 2, 1)) + models[:, None, :3, 3])
+    points = points.astype(np.float32).astype(np.float64)
+    candidates = [ritter_centres(points), 0.5 * (points.min(axis=1) + points.max(axis=1))]
+    radii = [np.linalg.norm(points - centre[:, None], axis=2).max(axis=1) for centre in candidates]
+    ritter_wins = radii[0] <= radii[1]  # np.argmin's choice: the first of equals
+    return [(candidates[0][i].copy(), float(radii[0][i])) if ritter_wins[i] else (candidates[1][i].copy(), float(radii[1][i]))
+            for i in range(len(items))]
 
 
 def triangle_offsets(objects: list[ObjectGeometry]) -> dict[int, int]:

@@ -442,6 +442,28 @@ def _ritter_centre(points: np.ndarray) -> np.ndarray:
     return centre
 
 
+def ritter_centres(points: np.ndarray) -> np.ndarray:
+    """_ritter_centre of each of a stack of point sets ((N, V, 3) float64), in one pass of numpy:
+    the same steps, each set stopping where its own would."""
+    rows = np.arange(len(points))
+    start = points[rows, np.argmax(np.linalg.norm(points - points[:, :1], axis=2), axis=1)]
+    end = points[rows, np.argmax(np.linalg.norm(points - start[:, None], axis=2), axis=1)]
+    centre, radius = 0.5 * (start + end), 0.5 * np.linalg.norm(end - start, axis=1)
+    growing = np.ones(len(points), bool)
+    for _ in range(64):
+        distances = np.linalg.norm(points - centre[:, None], axis=2)
+        far = np.argmax(distances, axis=1)
+        farthest = distances[rows, far]
+        growing &= ~(farthest <= radius)
+        if not growing.any():
+            break
+        new_radius = 0.5 * (radius + farthest)
+        share = 1.0 - np.divide(new_radius, farthest, out=np.ones_like(farthest), where=growing)
+        centre = np.where(growing[:, None], centre + share[:, None] * (points[rows, far] - centre), centre)
+        radius = np.where(growing, new_radius, radius)
+    return centre
+
+
 def _require_positive(shape: str, **values: float) -> None:
     for name, value in values.items():
         if not (math.isfinite(value) and value > 0.0):

@@ -18,7 +18,7 @@ import numpy as np
 
 from .culling import Reach, reaches
 from .eye import fitted_camera
-from .geometry import ObjectGeometry, scene_geometry
+from .geometry import ObjectGeometry, bounding_spheres, scene_geometry
 from .lod import detail_levels
 from .ppc import PPC
 from .scene.model import Camera, Scene
@@ -81,7 +81,7 @@ class World:
     @cached_property
     def bounds(self) -> list[Sphere]:
         """Every object's bounding sphere (the eye camera's near plane is fitted to them)."""
-        return [g.bounding_sphere for g in self.geometry]
+        return bounding_spheres(self.geometry)
 
     def camera(self, view: Camera | None = None, size: tuple[int, int] | None = None, reversed_: bool = False) -> PPC:
         """The eye camera of `view` (the scene's by default) at `size`, its near and far planes

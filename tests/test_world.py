@@ -4,14 +4,18 @@ what can reach what worked out once per pair; and nothing planned twice (issue 2
 from __future__ import annotations
 
 import moderngl
+import numpy as np
 import pytest
 
 import depthimpostor.culling as culling
+import depthimpostor.geometry as geometry
 import depthimpostor.methods.baked_images as baked_images
 from conftest import SCENES
 from depthimpostor.constants import Algorithm, Method
+from depthimpostor.geometry import BATCHED_SPHERES, bounding_spheres, scene_geometry
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
+from depthimpostor.scene.model import BoxShape, SceneObject, Shape, SphereShape, TorusKnotShape
 from depthimpostor.world import World
 
 LECTURE = SCENES / "lecture_8x9.toml"
@@ -87,3 +91,20 @@ def test_a_later_world_keeps_the_still_pairs_and_says_what_moved() -> None:
     assert later.reach_pairs_computed <= worked_out < len(later.reflectors) * len(later.reflected_objects)
     assert later.reaches(later.reflectors, later.reflected_objects) == culling.reaches(later.reflectors,
                                                                                       later.reflected_objects)
+
+
+@pytest.mark.parametrize("shape", [SphereShape(0.3), BoxShape((0.2, 0.5, 0.1)), TorusKnotShape(2, 3, 0.4, 0.1)])
+def test_bounding_spheres_together_are_each_ones_own(shape: Shape, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Many objects of one mesh get their bounding spheres worked out together (and in chunks):
+    the very spheres each one's world mesh gives, under any placement, scale or turn."""
+    rng = np.random.default_rng(5)
+    objects = tuple(SceneObject(name=f"o{i}", shape=shape, position=tuple(rng.normal(size=3) * 4),
+                                rotation=tuple(rng.uniform(0.0, 360.0, 3)), scale=tuple(rng.uniform(0.2, 3.0, 3)))
+                    for i in range(2 * BATCHED_SPHERES + 3))
+    monkeypatch.setattr(geometry, "BATCH_POINTS", 7 * len(scene_geometry(objects[:1])[0].local_mesh.positions))
+    together = bounding_spheres(scene_geometry(objects))
+    alone = [item.world_mesh.bounding_sphere() for item in scene_geometry(objects)]
+    assert len(together) == len(alone)
+    for (centre, radius), (own_centre, own_radius) in zip(together, alone, strict=True):
+        np.testing.assert_array_equal(centre, own_centre)
+        assert radius == own_radius
