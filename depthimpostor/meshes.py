@@ -105,7 +105,7 @@ class Mesh:
         if len(self.positions) == 0:
             raise ValueError("Mesh.bounding_sphere: the mesh has no vertices")
         points = self.positions.astype(np.float64)
-        candidates = [_ritter_centre(points), 0.5 * (points.min(axis=0) + points.max(axis=0))]
+        candidates = [ritter_centres(points[None])[0], 0.5 * (points.min(axis=0) + points.max(axis=0))]
         radii = [float(np.linalg.norm(points - centre, axis=1).max()) for centre in candidates]
         best = int(np.argmin(radii))
         object.__setattr__(self, "_bounding_sphere", (candidates[best], radii[best]))
@@ -424,27 +424,12 @@ def _closed_transport_frames(curve: np.ndarray, tangent: np.ndarray) -> np.ndarr
     return _normalized_rows(rotated)
 
 
-def _ritter_centre(points: np.ndarray) -> np.ndarray:
-    """Centre of Ritter's bounding sphere, grown towards the farthest outlier a bounded number of times."""
-    start = points[int(np.argmax(np.linalg.norm(points - points[0], axis=1)))]
-    end = points[int(np.argmax(np.linalg.norm(points - start, axis=1)))]
-    centre, radius = 0.5 * (start + end), 0.5 * float(np.linalg.norm(end - start))
-    # Each step takes in the farthest point; a few dozen steps settle any real model, and the
-    # caller measures the final radius from the centre anyway, so stopping early is still correct.
-    for _ in range(64):
-        distances = np.linalg.norm(points - centre, axis=1)
-        far = int(np.argmax(distances))
-        if distances[far] <= radius:
-            break
-        new_radius = 0.5 * (radius + float(distances[far]))
-        centre = centre + (1.0 - new_radius / float(distances[far])) * (points[far] - centre)
-        radius = new_radius
-    return centre
-
-
 def ritter_centres(points: np.ndarray) -> np.ndarray:
-    """_ritter_centre of each of a stack of point sets ((N, V, 3) float64), in one pass of numpy:
-    the same steps, each set stopping where its own would."""
+    """The centre of Ritter's bounding sphere of each of a stack of point sets ((N, V, 3)
+    float64), grown towards the farthest outlier a bounded number of times, all in one pass of
+    numpy (each set stops where it alone would). Each step takes in the farthest point; a few
+    dozen steps settle any real model, and the callers measure the final radius from the centre
+    anyway, so stopping early is still correct."""
     rows = np.arange(len(points))
     start = points[rows, np.argmax(np.linalg.norm(points - points[:, :1], axis=2), axis=1)]
     end = points[rows, np.argmax(np.linalg.norm(points - start[:, None], axis=2), axis=1)]
