@@ -1,4 +1,5 @@
-"""The GLSL preprocessor: includes inside #if branches, include cycles, and error locations."""
+"""The GLSL preprocessor: includes inside #if branches, include cycles, and error locations; and
+probes of the mirror shader's functions where NaN could creep in."""
 
 from __future__ import annotations
 
@@ -8,9 +9,11 @@ import moderngl
 import numpy as np
 import pytest
 
+from depthimpostor.constants import Method
 from depthimpostor.gpu.context import bind_default_framebuffer
 from depthimpostor.errors import ShaderError
 from depthimpostor.gpu.shaders import ProgramCache, ShaderLibrary
+from depthimpostor.gpu.uniforms import write
 
 VERTEX = """#version 330 core
 void main() { gl_Position = vec4(vec2(gl_VertexID & 1, gl_VertexID >> 1) * 4.0 - 1.0, 0.0, 1.0); }
@@ -82,5 +85,60 @@ def test_a_compile_error_names_the_included_file_and_line(ctx: moderngl.Context,
     try:
         with pytest.raises(ShaderError, match=r"lib/value\.glsl:2:"):
             programs.get("quad.vert", "pick.frag", {"BRANCH": 1})
+    finally:
+        programs.release()
+
+
+#: Probes of the mirror shader's own GLSL functions (the shipped library, one extra file).
+PROBES = {
+    "probe.vert": VERTEX,
+    "box_exit_probe.frag": """#version 330 core
+#include "lib/common.glsl"
+#include "lib/reflected_scene.glsl"
+uniform vec3 u_origin;
+uniform vec3 u_direction;
+out vec4 out_color;
+void main() { out_color = vec4(box_exit(u_origin, u_direction, vec3(-1.0), vec3(1.0))); }
+""",
+    "slab_probe.frag": """#version 330 core
+#include "lib/common.glsl"
+#include "lib/reflected_scene.glsl"
+uniform vec3 u_origin;
+uniform vec3 u_direction;
+out vec4 out_color;
+void main() {
+    float t_near;
+    bool met = ray_meets_box(u_origin, 1.0 / u_direction, vec3(-1.0), vec3(1.0), 1e30, t_near);
+    out_color = vec4(met ? t_near : -1.0);
+}
+""",
+}
+
+
+@pytest.mark.parametrize(("fragment", "method", "origin", "direction", "expected"), [
+    # The parallax cube map's exit from its proxy box: from a point on the box's top face, along it.
+    ("box_exit_probe.frag", Method.CUBEMAP_PARALLAX, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0), 1.0),
+    ("box_exit_probe.frag", Method.CUBEMAP_PARALLAX, (0.5, 1.0, -1.0), (0.0, 0.0, 1.0), 2.0),
+    ("box_exit_probe.frag", Method.CUBEMAP_PARALLAX, (0.0, 0.5, 0.0), (1.0, 0.0, 0.0), 1.0),
+    # The BVH's slab test: a ray lying in a face of the box meets it, one beside the box does not.
+    ("slab_probe.frag", Method.RAYTRACE, (-3.0, 1.0, 0.0), (1.0, 0.0, 0.0), 2.0),
+    ("slab_probe.frag", Method.RAYTRACE, (-3.0, 1.0, 1.0), (1.0, 0.0, 0.0), 2.0),
+    ("slab_probe.frag", Method.RAYTRACE, (-3.0, 0.5, 0.0), (1.0, 0.0, 0.0), 2.0),
+    ("slab_probe.frag", Method.RAYTRACE, (-3.0, 1.5, 0.0), (1.0, 0.0, 0.0), -1.0),
+])
+def test_rays_along_a_box_face_are_not_lost_to_nan(ctx: moderngl.Context, fragment: str, method: Method,
+                                                   origin: tuple[float, ...], direction: tuple[float, ...],
+                                                   expected: float) -> None:
+    """A ray parallel to an axis, starting on a face of a box: 0 * (1/0) is NaN, which GLSL's min
+    and max may pass on. llvmpipe did: the cube map's parallax lookup went to the ray's own origin,
+    and the BVH missed the box the ray lies on."""
+    library = ShaderLibrary()
+    library.generated.update(PROBES)
+    programs = ProgramCache(ctx, library)
+    try:
+        program = programs.get("probe.vert", fragment, {"METHOD": int(method)})
+        write(program, "u_origin", origin)
+        write(program, "u_direction", direction)
+        assert _draw(ctx, program) == expected
     finally:
         programs.release()

@@ -23,10 +23,14 @@ int cube_face(vec3 direction) {
 }
 
 // Where origin + t * direction leaves the box. The origin is inside, so the exit is the nearest
-// of the three far slabs; an axis the ray is parallel to never bounds it (1/0 = +Inf).
+// of the three far slabs; an axis the ray is parallel to never bounds it. It is set apart, not
+// left to 1/0 = +Inf: an origin on that axis's face (a mirror's extreme point bounds the box)
+// gives 0 * Inf = NaN, which GLSL's min and max may pass on (llvmpipe did: the exit was 0, and the
+// lookup the mirror's own surface).
 float box_exit(vec3 origin, vec3 direction, vec3 lower, vec3 upper) {
     vec3 inverse_direction = 1.0 / direction;
     vec3 far_t = max((lower - origin) * inverse_direction, (upper - origin) * inverse_direction);
+    far_t = mix(far_t, vec3(UNBOUNDED_RAY), equal(direction, vec3(0.0)));  // a select, no arithmetic
     return max(min(min(far_t.x, far_t.y), far_t.z), 0.0);
 }
 

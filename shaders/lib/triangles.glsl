@@ -16,17 +16,21 @@ vec4 bvh_fetch(sampler2D data, int index) {
     return texelFetch(data, ivec2(index % BVH_TEXTURE_WIDTH, index / BVH_TEXTURE_WIDTH), 0);
 }
 
-// Slab test against [lower, upper]; t_near is where the ray enters. 1/0 = +-Inf makes an axis the
-// ray is parallel to either never or always inside its slab, as it should. A ray lying exactly in
-// a slab's face gives 0 * Inf = NaN, and GLSL leaves min/max of NaN undefined: such a box may be
-// missed (not seen in the tests against Embree; a robust slab test is left for later).
+// Slab test against [lower, upper]; t_near is where the ray enters. An axis the ray is parallel to
+// (1/0 = +-Inf) is set apart: the ray is always inside its slab or never, by where it starts. Left
+// to the Infs, a ray lying exactly in a slab's face gives 0 * Inf = NaN, which GLSL's min and max
+// may pass on, and the box (with what it holds) could be missed.
 bool ray_meets_box(vec3 origin, vec3 inverse_direction, vec3 lower, vec3 upper, float t_max, out float t_near) {
     vec3 t0 = (lower - origin) * inverse_direction;
     vec3 t1 = (upper - origin) * inverse_direction;
-    vec3 near_t = min(t0, t1), far_t = max(t0, t1);
+    bvec3 parallel = isinf(inverse_direction);
+    vec3 near_t = mix(min(t0, t1), vec3(-UNBOUNDED_RAY), parallel);  // selects, no arithmetic
+    vec3 far_t = mix(max(t0, t1), vec3(UNBOUNDED_RAY), parallel);
+    vec3 beyond_slab = max(lower - origin, origin - upper);  // > 0 on an axis whose slab the origin is out of
+    bool outside_a_parallel_slab = any(greaterThan(mix(vec3(-1.0), beyond_slab, parallel), vec3(0.0)));
     t_near = max(max(near_t.x, near_t.y), max(near_t.z, 0.0));
     float t_far = min(min(far_t.x, far_t.y), min(far_t.z, t_max));
-    return t_near <= t_far;
+    return t_near <= t_far && !outside_a_parallel_slab;
 }
 
 // Moller-Trumbore; returns t (or -1) and the barycentrics (u, v) of p1 and p2. Triangles are
