@@ -140,14 +140,24 @@ def bounding_spheres(items: Sequence[ObjectGeometry]) -> list[tuple[np.ndarray, 
         if "bounding_sphere" not in item.__dict__:
             groups.setdefault(id(item.local_mesh), []).append(item)
     for group in groups.values():
-        if len(group) < BATCHED_SPHERES:
-            continue
+        if len(group) < BATCHED_SPHERES or len(group[0].local_mesh.positions) == 0 or not _placeable(group):
+            continue  # each alone: the property (Mesh.transformed) says what is wrong, if anything
         chunk = max(1, BATCH_POINTS // len(group[0].local_mesh.positions))
         for first in range(0, len(group), chunk):
             part = group[first:first + chunk]
             for item, sphere in zip(part, _spheres_of_one_mesh(part), strict=True):
                 item.__dict__["bounding_sphere"] = sphere  # the cached property's slot
     return [item.bounding_sphere for item in items]
+
+
+def _placeable(items: Sequence[ObjectGeometry]) -> bool:
+    """Would Mesh.transformed take every item's model matrix (finite, affine, not singular)?"""
+    models = np.stack([item.model_matrix for item in items]).astype(np.float64)
+    if not np.isfinite(models).all() or not np.allclose(models[:, 3], (0.0, 0.0, 0.0, 1.0)):
+        return False
+    linear = models[:, :3, :3]
+    scale = np.linalg.norm(linear, axis=(1, 2))
+    return bool(np.all(np.abs(np.linalg.det(linear)) > 1e-12 * scale**3))
 
 
 def _spheres_of_one_mesh(items: Sequence[ObjectGeometry]) -> list[tuple[np.ndarray, float]]:

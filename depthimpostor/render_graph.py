@@ -208,24 +208,23 @@ class RenderGraph:
             plan.images != before.images or world.scene.render.impostor_resolution
             != self.world.scene.render.impostor_resolution)
         self.plan, self.world = plan, world  # what the nodes below are made from
-        interiors = self.glass_interiors
+        interiors = kept_interiors = self.glass_interiors
         try:
             self._compile()
+            interiors = self._sized_interiors()  # before the stand-in, which replaces the old one
             if world.reflectors and (not same_stand_in or (new_images and self.baked_images is not None)):
                 self._make_stand_in(plan)
             else:
                 self._keep_pyramids(plan)
-            interiors = self._sized_interiors()
         except BaseException:
+            _release_other(interiors, kept_interiors)
             self.plan, self.world = before, before_world
             raise
-        if interiors is not self.glass_interiors:
-            for interior in self.glass_interiors.values():
-                interior.release()
-            self.glass_interiors = interiors
+        self.glass_interiors = interiors
         self.diffuse = self._diffuse_pass()
         if self.reflector_pass is not None:
             self.reflector_pass = self._reflector_pass()
+        _release_other(kept_interiors, interiors)  # once no pass reads them
         if self.sampled is None:
             self.show_samples = False
         if self.samples is not None and not self.show_samples:
@@ -237,7 +236,14 @@ class RenderGraph:
         side = max(self.world.scene.render.size)
         if all(interior.size == side for interior in self.glass_interiors.values()):
             return self.glass_interiors
-        return {index: GlassInterior(self.ctx, self.programs, self.meshes, side) for index in self.glass_interiors}
+        made: dict[int, GlassInterior] = {}
+        try:
+            for index in self.glass_interiors:
+                made[index] = GlassInterior(self.ctx, self.programs, self.meshes, side)
+        except BaseException:
+            _release_other(made, self.glass_interiors)
+            raise
+        return made
 
     def follow(self, earlier: World, world: World) -> None:
         """The world moved from `earlier` to `world`: mark stale only what depends on what moved
@@ -439,3 +445,10 @@ class RenderGraph:
         self.meshes.release()
         self.textures.release()
         self.scene_blocks.release()
+
+
+def _release_other(interiors: dict[int, GlassInterior], kept: dict[int, GlassInterior]) -> None:
+    """Release `interiors` unless they are the `kept` ones."""
+    if interiors is not kept:
+        for interior in interiors.values():
+            interior.release()

@@ -113,7 +113,8 @@ class FrameTargets:
     def reshaped(self, size: tuple[int, int], reflectors: bool) -> FrameTargets:
         """These targets, or new ones of another size, or with the reflectors' surfaces where the
         frame now draws reflectors (or without them where it no longer does). The old are kept
-        for the caller to release once the change has taken: a refused change draws on with them."""
+        for the caller to release once the change has taken: a refused change draws on with them
+        (both sets are held meanwhile: a change near the GL's memory is refused sooner)."""
         if size == self.size and (self.surfaces is not None) == reflectors:
             return self
         return FrameTargets(self.ctx, size, bool(self.reflection_outputs), self.sample_counts is not None, reflectors)

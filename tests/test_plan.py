@@ -21,6 +21,7 @@ from depthimpostor.geometry import scene_geometry
 from depthimpostor.graph import Pass
 from depthimpostor.plan import plan_render
 from depthimpostor.methods.atlas import ImpostorAtlas
+from depthimpostor.methods.impostors import ImpostorPass
 from depthimpostor.renderer import Renderer
 from depthimpostor.resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION
 from depthimpostor.scene import Scene, load_scene
@@ -269,6 +270,27 @@ def test_no_pyramid_where_no_image_is_marched(ctx: moderngl.Context) -> None:
         renderer.render()
         assert renderer.graph.impostors is not None and renderer.graph.impostors.pyramid is None
         assert_finite(renderer.read_color_float())
+
+
+def test_back_faces_without_their_colours_are_baked_into_each_images_own_tile(ctx: moderngl.Context) -> None:
+    """A stand-in that keeps the back layer's depth without its colour (bake_back_faces, as the
+    bounce images do) bakes each image's back faces into its own tile: the same G layer the depth
+    method's back-colour pass bakes."""
+    class BackDepthsAlone(ImpostorPass):
+        keeps_back_colors = False
+
+    with Renderer(ctx, small("default.toml", 32)) as renderer:
+        renderer.render()
+        baked, world = renderer.graph.baked_images, renderer.world
+        assert baked is not None and len(baked.depth_images) > 1
+        alone = BackDepthsAlone(ctx, renderer.programs, world.scene, renderer.graph.meshes, world.mirrors,
+                                world.reflected_objects, renderer.plan.image_plans)
+        try:
+            alone.bake()
+            for image, own in zip(baked.depth_images, alone.depth_images, strict=True):
+                np.testing.assert_array_equal(alone.atlas.read(own).back_layer, baked.atlas.read(image).back_layer)
+        finally:
+            alone.release()
 
 
 def _scene(text: str) -> Scene:

@@ -24,7 +24,9 @@ import numpy as np
 
 from depthimpostor.bench import rotated_medians
 from depthimpostor.gpu.context import create_context, describe
+from depthimpostor.gpu.gl_state import RasterState, raster_state
 from depthimpostor.geometry import ObjectGeometry, mesh_for_shape
+from depthimpostor.methods.atlas import BACK_FACES
 from depthimpostor.methods.baked_images import BakedImages
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
@@ -46,9 +48,10 @@ void main() { out_color = vec4(1.0); out_depth_and_object = vec2(gl_FragCoord.z)
 """
 
 
-def bake_timer(baked: BakedImages, dropped: tuple[str, ...] = ()) -> Callable[[], float]:
+def bake_timer(baked: BakedImages, dropped: tuple[str, ...] = (), rested: bool = False) -> Callable[[], float]:
     """Seconds of a full bake, its surface and back-layer passes drawing with their programs made
-    without the defines `dropped`."""
+    without the defines `dropped`; `rested`: after the depth buffer was let go (BakedImages.rest,
+    as after a frame that baked nothing), so that the bake makes it again."""
     passes = [p for p in (baked.diffuse, baked.back_layer) if p is not None]
 
     def run() -> float:
@@ -56,6 +59,8 @@ def bake_timer(baked: BakedImages, dropped: tuple[str, ...] = ()) -> Callable[[]
         for diffuse_pass in passes:
             diffuse_pass.defines = {k: v for k, v in diffuse_pass.defines.items() if k not in dropped}
         try:
+            if rested:
+                baked.rest()
             baked.bake_again()
             baked.ctx.finish()
             start = time.perf_counter()
@@ -80,13 +85,15 @@ def trivial_timer(baked: BakedImages, program: moderngl.Program, colour: bool) -
         start = time.perf_counter()
         framebuffer.use()
         framebuffer.color_mask = atlas.masks(*[(colour,) * 4] * len(atlas.textures))
-        for _ in range(2):  # the surface and the back layer
+        # The surface's pass (nothing culled, as the bake's), then the back layer's (front faces culled).
+        for state in (RasterState(), BACK_FACES):
             framebuffer.viewport = (0, 0, *atlas.size)
             framebuffer.clear(1.0, 1.0, 1.0, 0.0, depth=1.0)
-            for image in baked.depth_images:
-                framebuffer.viewport = image.tile
-                for target in image.targets:
-                    baked.meshes.draw(program, target, image.camera.view_projection)
+            with raster_state(baked.ctx, state):
+                for image in baked.depth_images:
+                    framebuffer.viewport = image.tile
+                    for target in image.targets:
+                        baked.meshes.draw(program, target, image.camera.view_projection)
         baked.ctx.finish()
         framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
         return time.perf_counter() - start
@@ -146,6 +153,7 @@ def main() -> None:
             frame_times.append(renderer.stats.draw_seconds[-1])
         timers = {
             "bake, the renderer's programs": bake_timer(baked),
+            "bake, after a frame that baked nothing (depth buffer made again)": bake_timer(baked, rested=True),
             f"bake, without {' and '.join(SPECIALIZATIONS)}": bake_timer(baked, SPECIALIZATIONS),
             "the same fragments, a trivial shader": trivial_timer(baked, trivial, colour=True),
             "the same fragments, depth alone": trivial_timer(baked, trivial, colour=False),

@@ -233,8 +233,9 @@ class ImpostorAtlas:
     def bake_buffer(self) -> None:
         """Make the bakes' depth buffer again if free_bake_buffer let it go."""
         if self._depth_buffer is None:
+            depth_buffer = self.ctx.depth_renderbuffer(self.size)  # first: a refusal changes nothing
             self._release_framebuffers()
-            self._make_framebuffers(self.ctx.depth_renderbuffer(self.size))
+            self._make_framebuffers(depth_buffer)
 
     def free_bake_buffer(self) -> None:
         """Let the bakes' depth buffer go (the framebuffers stay, for reading tiles back)."""

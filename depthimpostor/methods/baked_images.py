@@ -235,9 +235,11 @@ class BakedImages:
                 if atlas.beyond is not None:
                     draws += self._bake_beyond(stale, whole)
             elif self.second_layer == SecondLayer.BACK_FACE:
-                for image in stale:
-                    draws += self.bake_back_faces(image, atlas.framebuffer, image.tile)
-                atlas.framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
+                try:
+                    for image in stale:
+                        draws += self.bake_back_faces(image, atlas.framebuffer, image.tile)
+                finally:
+                    atlas.framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
         for image in stale:
             self.baked(image)
         return draws
@@ -290,6 +292,7 @@ class BakedImages:
         reflectors at bounce k >= 2, which have no colour of their backs to show)."""
         back_faces = self.programs.get(*BACK_FACE_PROGRAM)
         attachments = len(framebuffer.color_attachments)
+        framebuffer.viewport = tile
         framebuffer.color_mask = color_mask(attachments)
         framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=tile)
         framebuffer.color_mask = color_mask(attachments, (False,) * 4, (False, True, False, False))

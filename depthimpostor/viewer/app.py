@@ -142,7 +142,7 @@ def make_panel(viewer: Viewer, visible: bool) -> ControlPanel | NoPanel:
     renderer needs), none. Any other import error is the panel's own, and is raised."""
     try:
         from .panel import ControlPanel  # imgui-bundle: imported only where it is installed
-    except ModuleNotFoundError as error:
+    except ImportError as error:  # missing, or installed but failing to load its native library
         if (error.name or "").split(".")[0] in PANEL_PACKAGES:
             return NoPanel()
         raise

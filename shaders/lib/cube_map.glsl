@@ -30,7 +30,7 @@ int cube_face(vec3 direction) {
 float box_exit(vec3 origin, vec3 direction, vec3 lower, vec3 upper) {
     vec3 inverse_direction = 1.0 / direction;
     vec3 far_t = max((lower - origin) * inverse_direction, (upper - origin) * inverse_direction);
-    far_t = mix(far_t, vec3(UNBOUNDED_RAY), equal(direction, vec3(0.0)));  // a select, no arithmetic
+    far_t = mix(far_t, vec3(UNBOUNDED_RAY), isinf(inverse_direction));  // a select, no arithmetic
     return max(min(min(far_t.x, far_t.y), far_t.z), 0.0);
 }
 
