@@ -59,9 +59,9 @@ def bake_timer(baked: BakedImages, dropped: tuple[str, ...] = (), rested: bool =
         for diffuse_pass in passes:
             diffuse_pass.defines = {k: v for k, v in diffuse_pass.defines.items() if k not in dropped}
         try:
-            if rested:
-                baked.rest()
             baked.bake_again()
+            if rested:
+                baked.rest()  # after bake_again, which makes the buffer: the bake makes it again
             baked.ctx.finish()
             start = time.perf_counter()
             baked.bake()
