@@ -15,6 +15,9 @@ watertight by index, not only by position.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any, cast
+
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -330,17 +333,45 @@ def _parse_mesh_file(resolved: Path, shown: Path) -> Mesh:
     if not largest <= MAX_COORDINATE:  # also NaN; float32 turns what is past 3.4e38 into inf
         raise MeshError(f"{shown}: expected vertex coordinates of magnitude at most {MAX_COORDINATE:g} (float32 "
                         f"geometry squares distances), got {largest:g}")
-    # Loaders keep vertices split where texture coordinates or file normals differ; normals averaged
-    # over such split vertices show creases along UV seams, so merge by position alone first.
-    loaded.merge_vertices(merge_tex=True, merge_norm=True)
-    loaded.remove_unreferenced_vertices()
-    normals = corner_weighted_normals(len(loaded.vertices), np.asarray(loaded.faces),
-                                      np.asarray(loaded.face_normals), np.asarray(loaded.face_angles))
+    uvs = _file_uvs(loaded)
+    if uvs is not None:  # a file's stray vertices would only widen its bounds
+        loaded.remove_unreferenced_vertices()  # (trimesh drops their UVs with them)
+        uvs = _file_uvs(loaded)
+    if uvs is None:
+        # Loaders keep vertices split where texture coordinates or file normals differ; normals
+        # averaged over such split vertices show creases along UV seams, so merge by position alone.
+        loaded.merge_vertices(merge_tex=True, merge_norm=True)
+        loaded.remove_unreferenced_vertices()
+        merged, faces = np.arange(len(loaded.vertices)), np.asarray(loaded.faces)
+    else:
+        # With texture coordinates the split vertices stay (a seam has two UVs at one point), and
+        # each takes the normal of all the faces at its position, as the merged mesh would give it.
+        from trimesh import grouping
+
+        # Grouped as merge_vertices groups them (coordinates rounded to trimesh's merge tolerance).
+        unique_rows = cast(Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], grouping.unique_rows)
+        _, merged = unique_rows(np.asarray(loaded.vertices))
+        faces = np.asarray(loaded.faces)
+    normals = corner_weighted_normals(int(merged.max()) + 1, merged[faces], np.asarray(loaded.face_normals),
+                                      np.asarray(loaded.face_angles))[merged]
     # A vertex touched only by zero-area faces gets a zero sum; any unit vector is as good there
     # and keeps NaN out of the shading. 1e-13 is trimesh's own zero for a vector's length.
     lengths = np.linalg.norm(normals, axis=1)
     normals[~(lengths > 1e-13)] = (0.0, 1.0, 0.0)
-    return Mesh(np.asarray(loaded.vertices), _normalized_rows(normals), np.asarray(loaded.faces))
+    return Mesh(np.asarray(loaded.vertices), _normalized_rows(normals), faces, uvs)
+
+
+def _file_uvs(loaded: Any) -> np.ndarray | None:
+    """The loaded mesh's per-vertex texture coordinates (OBJ's `vt`, PLY's texture_u/v, ...), in
+    the project's convention, v down from the image's top row as glTF's (files put v = 0 at the
+    bottom row); None where the file has none, or none that is finite for every vertex."""
+    uv = getattr(loaded.visual, "uv", None)
+    if uv is None:
+        return None
+    uv = np.asarray(uv, np.float64)
+    if uv.shape != (len(loaded.vertices), 2) or not np.isfinite(uv).all():
+        return None
+    return np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1)
 
 
 def corner_weighted_normals(vertex_count: int, faces: np.ndarray, face_normals: np.ndarray,

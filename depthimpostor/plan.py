@@ -50,7 +50,7 @@ from .methods.colour_mips import COLOUR_MIPS_PROGRAM
 from .methods.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
 from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
 from .gpu.uniforms import environment_defines
-from .scene.limits import check_method, check_model_reach, check_scene
+from .scene.limits import check_method, check_model_reach, check_model_uvs, check_scene
 from .scene.model import MeshShape, Scene
 from .gpu.shaders import ProgramKey, program_key
 from .graph import Pass, RenderNode, build_graph, format_graph
@@ -245,6 +245,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     for item in geometry:
         if isinstance(item.object.shape, MeshShape):
             check_model_reach(scene, item.index, item.local_mesh)
+            check_model_uvs(scene, item.index, item.local_mesh)
     mirrors = [g for g in geometry if g.object.is_mirror]
     glass = [g for g in geometry if g.object.is_glass]
     reflectors = [g for g in geometry if g.object.is_reflector]

@@ -220,3 +220,62 @@ def test_more_textures_than_the_traced_shader_samples_are_refused(tmp_path: Path
     path.write_text(cards, encoding="utf-8")
     assert_one_line_error(*run_in_process(["plan", str(path)], capsys), f"objects[{MAX_TEXTURES}].material.texture",
                           f"expected at most {MAX_TEXTURES} distinct image textures")
+
+
+QUAD_OBJ = """# A 2 x 2 square in the XZ plane facing +Y, its texture coordinates as a plane shape lays them out
+v -1 0 -1
+v 1 0 -1
+v 1 0 1
+v -1 0 1
+vt 0 1
+vt 1 1
+vt 1 0
+vt 0 0
+f 1/1 4/4 3/3
+f 1/1 3/3 2/2
+"""
+
+TEXTURED_CARD = """[render]
+size = [96, 96]
+ambient = 1.0
+[camera]
+eye = [0.0, 3.0, 0.001]
+up = [0.0, 0.0, -1.0]
+target = [0.0, 0.0, 0.0]
+fov_y = 45.0
+[[objects]]
+name = "card"
+shape = {shape}
+material = {{ type = "diffuse", color = [1.0, 1.0, 1.0], texture = "f.png" }}
+"""
+
+
+def test_a_mesh_files_texture_coordinates_are_read(ctx: moderngl.Context, tmp_path: Path) -> None:
+    """An OBJ's `vt` coordinates (v up from the image's bottom row, as files have them) texture it
+    as the project's own shapes are textured: a square read from a file, its corners' coordinates
+    those a plane shape gives its corners, draws the plane's very picture (the "F" upright, seen
+    from above)."""
+    write_f(tmp_path / "f.png")
+    (tmp_path / "quad.obj").write_text(QUAD_OBJ, encoding="utf-8")
+    frames = []
+    for name, shape in (("plane", '{ type = "plane", size = [2.0, 2.0] }'), ("mesh", '{ type = "mesh", path = "quad.obj" }')):
+        (tmp_path / f"{name}.toml").write_text(TEXTURED_CARD.format(shape=shape), encoding="utf-8")
+        with Renderer(ctx, load_scene(tmp_path / f"{name}.toml")) as renderer:
+            renderer.render()
+            frames.append(renderer.read_color_float())
+    assert_finite(frames[1])
+    red = (frames[0][..., 0] > 0.5) & (frames[0][..., 1] < 0.3)
+    assert red.mean() > 0.05, "the F is in the plane's picture"
+    np.testing.assert_allclose(frames[1], frames[0], atol=2e-3)
+
+
+def test_a_mesh_file_without_texture_coordinates_refuses_a_texture(tmp_path: Path,
+                                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    write_f(tmp_path / "f.png")
+    (tmp_path / "bare.obj").write_text("\n".join(line for line in QUAD_OBJ.splitlines() if not line.startswith("vt"))
+                                       .replace("/1", "").replace("/2", "").replace("/3", "").replace("/4", ""),
+                                       encoding="utf-8")
+    (tmp_path / "bare.toml").write_text(TEXTURED_CARD.format(shape='{ type = "mesh", path = "bare.obj" }'),
+                                        encoding="utf-8")
+    assert_one_line_error(*run_in_process(["plan", str(tmp_path / "bare.toml")], capsys), "objects[0].material.texture",
+                          "bare.obj, which has none")

@@ -39,6 +39,7 @@ from depthimpostor.scene.model import (
     BoxShape,
     CylinderShape,
     GltfShape,
+    MeshShape,
     PlaneShape,
     Scene,
     Shape,
@@ -111,22 +112,32 @@ def check_scene(scene: Scene) -> None:
 
 
 #: The shapes whose meshes carry UVs (meshes.py, textured_meshes.py); a glTF part has them where the
-#: file gives TEXCOORD_0. A torus knot (no natural image layout on its tube) and a mesh file (read
-#: without its UVs) have none.
+#: file gives TEXCOORD_0, a mesh file where it gives texture coordinates (OBJ's `vt`: known once it
+#: is loaded, check_model_uvs). A torus knot (no natural image layout on its tube) has none.
 TEXTURED_SHAPES = (PlaneShape, BoxShape, SphereShape, CylinderShape, TorusShape)
 
 
 def _check_textured_shapes(scene: Scene) -> None:
-    """A texture needs UVs: TEXTURED_SHAPES have them."""
+    """A texture needs UVs: TEXTURED_SHAPES have them (a mesh file's are checked once it is loaded)."""
     for index, obj in enumerate(scene.objects):
         if scene.texture_slot(obj.material) < 0:
             continue
-        if isinstance(obj.shape, TEXTURED_SHAPES) or (isinstance(obj.shape, GltfShape) and obj.shape.mesh.uvs is not None):
+        if isinstance(obj.shape, TEXTURED_SHAPES + (MeshShape,)) \
+                or (isinstance(obj.shape, GltfShape) and obj.shape.mesh.uvs is not None):
             continue
         name = re.sub(r"(?<!^)(?=[A-Z])", "_", type(obj.shape).__name__.removesuffix("Shape")).lower()
         kind = "a glTF part without TEXCOORD_0" if isinstance(obj.shape, GltfShape) else f"a {name} shape"
         raise SceneError(scene.source, f"objects[{index}].material.texture", "expected a shape with texture coordinates "
                          f"(a plane, box, sphere, cylinder, torus, or a glTF part with TEXCOORD_0), got {kind}, which has none")
+
+
+def check_model_uvs(scene: Scene, index: int, model: Mesh) -> None:
+    """A textured objects[index] whose model file, once loaded, has no texture coordinates."""
+    obj = scene.objects[index]
+    if scene.texture_slot(obj.material) >= 0 and model.uvs is None:
+        path = obj.shape.path if isinstance(obj.shape, MeshShape) else obj.name
+        raise SceneError(scene.source, f"objects[{index}].material.texture", "expected a shape with texture "
+                         f"coordinates, got the mesh file {path}, which has none (no `vt` lines in an OBJ)")
 
 
 def check_model_reach(scene: Scene, index: int, model: Mesh) -> None:
