@@ -52,8 +52,13 @@ def key(name: str, method: Method, algorithm: Algorithm) -> str:
 
 def refusal(error: SceneError) -> str:
     """A refusal's message without the folder of the checkout it came from (the scene's path is
-    in it), so that a recording made in one clone compares with a check in another."""
-    return re.sub(r"\S*/scenes/", "scenes/", str(error))
+    in it, and the folders a model file was looked for in), so that a recording made in one clone
+    compares with a check in another."""
+    return refusal_text(str(error))
+
+
+def refusal_text(message: str) -> str:
+    return re.sub(r"[^\s(]*/scenes\b", "scenes", message)
 
 
 def render(ctx: object, scene: Scene | SceneError, method: Method, algorithm: Algorithm) -> np.ndarray | str:
@@ -86,7 +91,7 @@ def main() -> int:
             continue
         before = np.load(path)["frame"]
         if isinstance(frame, str) or before.dtype.kind == "U":
-            same = isinstance(frame, str) and before.dtype.kind == "U" and re.sub(r"\S*/scenes/", "scenes/", str(before)) == frame
+            same = isinstance(frame, str) and before.dtype.kind == "U" and refusal_text(str(before)) == frame
             difference = "same refusal" if same else f"was {str(before)[:60]!r}, now {str(frame)[:60]!r}"
         else:
             largest = float(np.abs(frame - before).max()) if frame.shape == before.shape else float("inf")
