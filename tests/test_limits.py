@@ -5,6 +5,7 @@ is loaded. Also: culling all pairs at once, fast enough for thousands of objects
 from __future__ import annotations
 
 import dataclasses
+import io
 import re
 import time
 from pathlib import Path
@@ -12,6 +13,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 import pytest
+from PIL import Image
 from conftest import PROJECT_ROOT, SCENES, scene_from_toml
 
 from depthimpostor import culling
@@ -68,6 +70,21 @@ def model_scene(tmp_path: Path) -> Scene:
                            'path = "far.obj" }\nscale = 1e10\nposition = [0.0, 0.0, 2.0]\n', "limits.toml", tmp_path)
 
 
+def untextured_model_scene(tmp_path: Path) -> Scene:
+    """A texture on a model file whose triangles carry no texture coordinates (no `vt`)."""
+    (tmp_path / "bare.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", encoding="utf-8")
+    (tmp_path / "grey.png").write_bytes(_grey_png())
+    return scene_from_toml(HEAD + WALL_MIRROR + '[[objects]]\nname = "model"\nshape = { type = "mesh", path = "bare.obj" }\n'
+                           'material = { type = "diffuse", texture = "grey.png" }\nposition = [0.0, 0.0, 2.0]\n',
+                           "limits.toml", tmp_path)
+
+
+def _grey_png() -> bytes:
+    buffer = io.BytesIO()
+    Image.new("RGB", (2, 2), (128, 128, 128)).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
 def too_many_lights() -> Scene:
     written = scene(HEAD + WALL_MIRROR + balls(1, 2.0))
     return dataclasses.replace(written, lights=written.lights * (MAX_LIGHTS + 1))
@@ -96,6 +113,7 @@ LIMITS = [
     ("analytic planes", lambda _: too_many_planes(), Method.DEPTH, f"at most {MAX_ANALYTIC_PLANES} planes that are not"),
     ("reach", lambda _: too_far(), Method.DEPTH, "expected an object within 1e+18 of the origin"),
     ("model reach", model_scene, Method.DEPTH, "got one reaching 1.41e+19"),
+    ("texture on a model without UVs", untextured_model_scene, Method.DEPTH, "got the mesh file"),
     ("bounces with cube maps", lambda _: scene(BOUNCES), Method.CUBEMAP, "render.max_bounces: expected 1 with --method cubemap"),
     ("bounces with billboards", lambda _: scene(BOUNCES), Method.BILLBOARD, "expected 1 with --method billboard"),
     ("depth images per mirror", lambda _: scene(HEAD + WALL_MIRROR + balls(MAX_DEPTH_IMAGES_PER_REFLECTOR + 1, 2.0)),
@@ -157,8 +175,9 @@ RAISES = {
     "methods/triangles.py": 1,  # BVH texture past GL_MAX_TEXTURE_SIZE (GL)
     "gpu/scene_blocks.py": 2,  # lights, analytic planes: the loader and the plan refuse them first
     # lights, analytic planes, reach, bounces per method, traced objects, named triangles; textures
-    # past MAX_TEXTURES and a texture on a shape without UVs (at load: tests/test_textures.py)
-    "scene/limits.py": 8,
+    # past MAX_TEXTURES and a texture on a shape without UVs (at load: tests/test_textures.py); a
+    # texture on a model file without UVs (once loaded)
+    "scene/limits.py": 9,
     # render --video's arguments, refused before any work as cli.py's are: walked in tests/test_video.py
     "video.py": 3,
 }
