@@ -251,14 +251,13 @@ class BakedImages:
     def rest(self) -> None:
         """A frame with nothing to bake: the bakes' depth buffer (one float a texel of the atlas)
         is let go until the next bake makes it again. A scene where nothing moves keeps it for its
-        first frame alone; one whose objects move, or a light being dragged in the viewer, bakes
-        every frame and keeps it."""
+        first frame alone; one whose objects or lights move bakes every frame and keeps it."""
         self.atlas.free_bake_buffer()
 
     def _clears(self, stale: list[DepthImage], whole: bool) -> list[tuple[int, int, int, int] | None]:
-        """The viewports a layer's clear covers: the whole atlas (None) or each stale tile. A whole
-        clear is nearly free on a software rasterizer, folded into the tiles' first writes; a
-        scissored one is drawn, and 72 of them at 1024^2 cost about a tenth of the 8 x 9 scene's bake."""
+        """The viewports a layer's clear covers: the whole atlas (None) or each stale tile. One whole
+        clear costs less than one a tile where all are stale: llvmpipe folds a whole clear into the
+        tiles' first writes, and draws a scissored one."""
         return [None] if whole else [image.tile for image in stale]
 
     def _bake_surfaces(self, stale: list[DepthImage], whole: bool) -> int:
