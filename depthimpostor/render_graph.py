@@ -290,6 +290,12 @@ class RenderGraph:
         if show and self.samples is None and self.sampled is not None:
             self.samples = SamplesPass(self.ctx, self.programs)
 
+    def rest(self) -> None:
+        """A frame (all its sub-frames) baked nothing: what only bakes use is let go until the next
+        bake (the baked images' depth buffer, BakedImages.rest)."""
+        if self.baked_images is not None:
+            self.baked_images.rest()
+
     def bake_again(self) -> None:
         self._baked = False
         if self.baked_images is not None:
@@ -316,8 +322,6 @@ class RenderGraph:
                 self._run_bake(stage)
             self.ctx.finish()
             stats.bake_seconds.append(time.perf_counter() - start)
-        elif self.baked_images is not None:
-            self.baked_images.rest()
 
         self.ctx.finish()
         start = time.perf_counter()

@@ -157,12 +157,15 @@ class Renderer:
         # The passes expect the depth test on and nothing else (no blending of the caller's).
         with kept_state(self.ctx, enable_only=moderngl.DEPTH_TEST):
             samples, camera = self.scene.render.samples, self.camera
+            bakes = len(self.stats.bake_seconds)
             if samples == 1:
                 self.graph.draw(camera, camera, self.targets)
             else:
                 self.last_sub_frames = draw_supersampled(lambda sub: self.graph.draw(sub, camera, self.targets),
                                                          camera, samples, self.targets, self.stats,
                                                          self.options.reflection_data)
+            if len(self.stats.bake_seconds) == bakes:  # not a sub-frame's: the frame's, all of it
+                self.graph.rest()
             if target is not None:
                 self.targets.present(self.programs, target, viewport, self.scene.render)
         return self.stats
