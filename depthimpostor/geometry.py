@@ -134,7 +134,7 @@ def bounding_spheres(items: Sequence[ObjectGeometry]) -> list[tuple[np.ndarray, 
     """Each item's bounding_sphere. Where many share a local mesh (ten thousand equal spheres, a
     glTF scene's repeated parts) they are worked out together, by the same steps as the property
     (the world mesh's float32 vertices, Mesh.bounding_sphere's two candidates), without making
-    each world mesh: 1.7 s of the start-up of a scene of 10,000 small spheres."""
+    each world mesh (results/llvmpipe/many_objects.md: a scene of 10,000 small spheres)."""
     groups: dict[int, list[ObjectGeometry]] = {}
     for item in items:
         if "bounding_sphere" not in item.__dict__:

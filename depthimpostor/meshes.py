@@ -15,13 +15,11 @@ watertight by index, not only by position.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any, cast
-
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
 
@@ -362,7 +360,7 @@ def _parse_mesh_file(resolved: Path, shown: Path) -> Mesh:
 
 
 def _file_uvs(loaded: Any) -> np.ndarray | None:
-    """The loaded mesh's per-vertex texture coordinates (OBJ's `vt`, PLY's texture_u/v, ...), in
+    """The loaded mesh's per-vertex texture coordinates (OBJ's `vt`; whatever trimesh reads), in
     the project's convention, v down from the image's top row as glTF's (files put v = 0 at the
     bottom row); None where the file has none, or none that is finite for every vertex."""
     uv = getattr(loaded.visual, "uv", None)
