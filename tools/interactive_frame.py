@@ -6,10 +6,12 @@ renderers draw in turn, so that the machine's load weighs on both alike):
 - the lecture's 8 x 9 scene's bake at 1024^2, in frames of that scene.
 
 The first two come with a bound measured in the same run: the mirror pass with no reflected object
-at all (OBJECTS_LEFT_OUT: the ray set-up, the analytic planes and the sky alone), the least any
-stand-in can cost here. The default frame with it over the diffuse frame is the lowest ratio any
-stand-in could reach on this machine; the raytrace method's mirror pass over it, the highest ratio
-any stand-in could reach against ray tracing. (tools/bake_cost.py bounds the bake likewise.)
+at all (OBJECTS_LEFT_OUT: the ray set-up, the analytic planes and the sky alone), about the least
+any stand-in this reflector pass reads can cost here (approximately: a ray that would meet an
+object meets the floor or the sky instead, and is shaded so). The default frame with it over the
+diffuse frame is about the lowest ratio such a stand-in could reach on this machine; the raytrace
+method's mirror pass over it, about the highest against ray tracing. (tools/bake_cost.py bounds
+the bake likewise.)
 
     python3 tools/interactive_frame.py -o results/llvmpipe/interactive_frame.md
 
@@ -61,7 +63,7 @@ def median_ms(values: list[float]) -> float:
 
 def objects_left_out(renderer: Renderer) -> Renderer:
     """`renderer` with its mirrors drawn by the OBJECTS_LEFT_OUT variant of their program: the
-    mirror pass without any stand-in (lib/reflected_scene.glsl), a bound on every method's."""
+    mirror pass without any stand-in (lib/reflected_scene.glsl), about the least any method's costs."""
     reflector_pass = renderer.graph.reflector_pass
     mirrors = reflector_pass.programs[False] if reflector_pass is not None else None
     assert reflector_pass is not None and mirrors is not None
@@ -80,7 +82,7 @@ def default_against_diffuse(ctx: moderngl.Context, frames: int) -> list[str]:
     a, b, c = median_ms(with_mirror), median_ms(without), median_ms(least)
     return [f"| default scene, 960x540, depth method ({scene.render.impostor_resolution}) over the mirror made "
             f"diffuse | {a:.1f} ms / {b:.1f} ms | {a / b:.2f} |",
-            f"| the same, the mirror pass without any reflected object (a bound for every stand-in) over the "
+            f"| the same, the mirror pass without any reflected object (about the least any stand-in costs) over the "
             f"mirror made diffuse | {c:.1f} ms / {b:.1f} ms | {c / b:.2f} |"]
 
 
