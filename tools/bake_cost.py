@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import moderngl
@@ -26,7 +26,7 @@ from depthimpostor.bench import rotated_medians
 from depthimpostor.gpu.context import create_context, describe
 from depthimpostor.gpu.gl_state import RasterState, raster_state
 from depthimpostor.geometry import ObjectGeometry, mesh_for_shape
-from depthimpostor.methods.atlas import BACK_FACES
+from depthimpostor.methods.atlas import BACK_FACES, DepthImage
 from depthimpostor.methods.baked_images import BakedImages
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
@@ -73,9 +73,14 @@ def bake_timer(baked: BakedImages, dropped: tuple[str, ...] = (), rested: bool =
     return run
 
 
-def trivial_timer(baked: BakedImages, program: moderngl.Program, colour: bool) -> Callable[[], float]:
-    """Seconds to draw every image's objects (surfaces, then back faces) with `program`, after
-    whole clears: what rasterizing the bake's fragments costs without its shading."""
+def drawing_timer(baked: BakedImages, program: moderngl.Program,
+                  drawn: Callable[[DepthImage], Sequence[ObjectGeometry]], colour: bool = True,
+                  cleared: bool = True) -> Callable[[], float]:
+    """Seconds to draw `drawn(image)` into every image's tile with `program`, twice as the bake
+    does (nothing culled, then front faces culled for the back layer), each time after a whole
+    clear (unless not `cleared`), colour written (unless not `colour`): the images' own objects
+    give what rasterizing the bake's fragments costs without its shading; a small box in every
+    image, what its draw calls cost apart from what they draw."""
     atlas = baked.atlas
 
     def run() -> float:
@@ -85,37 +90,17 @@ def trivial_timer(baked: BakedImages, program: moderngl.Program, colour: bool) -
         start = time.perf_counter()
         framebuffer.use()
         framebuffer.color_mask = atlas.masks(*[(colour,) * 4] * len(atlas.textures))
-        # The surface's pass (nothing culled, as the bake's), then the back layer's (front faces culled).
         for state in (RasterState(), BACK_FACES):
-            framebuffer.viewport = (0, 0, *atlas.size)
-            framebuffer.clear(1.0, 1.0, 1.0, 0.0, depth=1.0)
+            if cleared:
+                framebuffer.viewport = (0, 0, *atlas.size)
+                framebuffer.clear(1.0, 1.0, 1.0, 0.0, depth=1.0)
             with raster_state(baked.ctx, state):
                 for image in baked.depth_images:
                     framebuffer.viewport = image.tile
-                    for target in image.targets:
+                    for target in drawn(image):
                         baked.meshes.draw(program, target, image.camera.view_projection)
         baked.ctx.finish()
         framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
-        return time.perf_counter() - start
-    return run
-
-
-def draw_call_timer(baked: BakedImages, program: moderngl.Program, box: ObjectGeometry) -> Callable[[], float]:
-    """Seconds to draw a 12-triangle box into every image twice (the bake's draw count) with
-    `program`: what the bake's draw calls cost, apart from what they draw."""
-    atlas = baked.atlas
-
-    def run() -> float:
-        atlas.bake_buffer()
-        framebuffer = atlas.framebuffer
-        baked.ctx.finish()
-        start = time.perf_counter()
-        framebuffer.use()
-        for _ in range(2):
-            for image in baked.depth_images:
-                framebuffer.viewport = image.tile
-                baked.meshes.draw(program, box, image.camera.view_projection)
-        baked.ctx.finish()
         return time.perf_counter() - start
     return run
 
@@ -126,6 +111,10 @@ def covered_texels(baked: BakedImages) -> int:
     baked.bake()
     alpha = np.frombuffer(baked.atlas.color.read(), np.uint8)[3::4]
     return int(np.count_nonzero(alpha))
+
+
+def shown(image: DepthImage) -> Sequence[ObjectGeometry]:
+    return image.targets
 
 
 def main() -> None:
@@ -155,9 +144,10 @@ def main() -> None:
             "bake, the renderer's programs": bake_timer(baked),
             "bake, after a frame that baked nothing (depth buffer made again)": bake_timer(baked, rested=True),
             f"bake, without {' and '.join(SPECIALIZATIONS)}": bake_timer(baked, SPECIALIZATIONS),
-            "the same fragments, a trivial shader": trivial_timer(baked, trivial, colour=True),
-            "the same fragments, depth alone": trivial_timer(baked, trivial, colour=False),
-            "the bake's draw calls, each drawing a 12-triangle box": draw_call_timer(baked, trivial, box),
+            "the same fragments, a trivial shader": drawing_timer(baked, trivial, shown),
+            "the same fragments, depth alone": drawing_timer(baked, trivial, shown, colour=False),
+            "the bake's draw calls, each drawing a 12-triangle box": drawing_timer(baked, trivial, lambda _: [box],
+                                                                                    cleared=False),
         }
         medians = rotated_medians(timers, args.rounds)
         frame = 1000.0 * statistics.median(frame_times)
