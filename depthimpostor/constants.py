@@ -187,9 +187,33 @@ MAX_ANALYTIC_PLANES = 8
 #: (GLSL 3.30 indexes an array of samplers only with constants); traced rays read all of them from
 #: one stacked texture (MATERIAL_TEXELS) through this many rectangles. Kept small: units are few.
 MAX_TEXTURES = 4
-#: Depth images one mirror may own (one per reflected object): bounds the uniform block,
-#: 64 x 176 bytes = 11 KiB, under GL's guaranteed 16 KiB.
-MAX_DEPTH_IMAGES_PER_REFLECTOR = 64
+#: The depth-image records a mirror's uniform block holds: 64 x 208 bytes = 13 KiB, under the
+#: 16 KiB every GL 3.3 guarantees a uniform block. A mirror may own any number of images (one per
+#: reflected object): where a scene may give one more than this, its programs read the records
+#: from a storage buffer instead (GL 4.3), which is as large as memory allows (depth_image_capacity).
+DEPTH_IMAGE_BLOCK_RECORDS = 64
+
+
+#: Reflected objects the traced methods' uniform block of object records holds.
+MAX_TRACED_OBJECTS = 64
+
+
+def depth_image_capacity(objects: int) -> int:
+    """The records a mirror's image table is declared with in a scene of `objects` objects: the
+    uniform block's DEPTH_IMAGE_BLOCK_RECORDS, or, past it, the next power of two (a mirror
+    shows at most every other object, or six cube faces). It is the mirror shader's constant loop
+    bound (lib/reflected_scene.glsl says why a constant) and a program define, so that scenes
+    of a similar size share programs."""
+    return max(DEPTH_IMAGE_BLOCK_RECORDS, 1 << max(0, objects - 1).bit_length())
+
+
+def depth_image_defines(capacity: int) -> dict[str, int]:
+    """The defines of a program reading image tables of `capacity` records (lib/baked_images.glsl):
+    none for the uniform block's own size, so that a scene of up to DEPTH_IMAGE_BLOCK_RECORDS objects
+    keeps the programs it always had; past it the capacity, and the storage buffers' extension."""
+    if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
+        return {}
+    return {"DEPTH_IMAGE_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1}
 #: Reflected triangles the hybrid method's depth images can name: a float32 sample holds
 #: integers below 2^24.
 MAX_NAMED_TRIANGLES = 2**24
@@ -384,7 +408,8 @@ def glsl_constants() -> dict[str, str]:
         "MAX_LIGHTS": str(MAX_LIGHTS),
         "MAX_ANALYTIC_PLANES": str(MAX_ANALYTIC_PLANES),
         "MAX_TEXTURES": str(MAX_TEXTURES),
-        "MAX_DEPTH_IMAGES_PER_REFLECTOR": str(MAX_DEPTH_IMAGES_PER_REFLECTOR),
+        "DEPTH_IMAGE_BLOCK_RECORDS": str(DEPTH_IMAGE_BLOCK_RECORDS),
+        "MAX_TRACED_OBJECTS": str(MAX_TRACED_OBJECTS),
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
         "NO_OBJECT": str(NO_OBJECT),
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",

@@ -17,7 +17,7 @@ from typing import Any
 
 from .methods.bvh import node_count
 from .constants import (
-    BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_REFLECTOR, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, HIERARCHICAL_MIN_SIDE, Algorithm, Method,
+    BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, depth_image_capacity, DEPTH_IMAGE_DTYPE, MAX_TRACED_OBJECTS, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, HIERARCHICAL_MIN_SIDE, Algorithm, Method,
     image_algorithm,
 )
 from .culling import Reach
@@ -389,7 +389,7 @@ def _bvh_bytes(triangles: int, named: bool) -> int:
     def rows(texels: int) -> int:
         return max(1, math.ceil(texels / BVH_TEXTURE_WIDTH))
     textures = rows(3 * node_count(triangles)) + rows(BVH_TRIANGLE_TEXELS * triangles) + (rows(triangles) if named else 0)
-    return textures * BVH_TEXTURE_WIDTH * 16 + MAX_DEPTH_IMAGES_PER_REFLECTOR * TRIANGLE_OBJECT_DTYPE.itemsize
+    return textures * BVH_TEXTURE_WIDTH * 16 + MAX_TRACED_OBJECTS * TRIANGLE_OBJECT_DTYPE.itemsize
 
 
 def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: list[ObjectGeometry],
@@ -400,7 +400,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     `images` are the plan's baked images, `bounce_glass` whether one shows glass in a mirror.
     The renderer's own options add outputs: `reflection_data` and `count_samples`."""
     width, height = scene.render.size
-    records = MAX_DEPTH_IMAGES_PER_REFLECTOR * DEPTH_IMAGE_DTYPE.itemsize  # one mirror's uniform block
+    records = depth_image_capacity(len(scene.objects)) * DEPTH_IMAGE_DTYPE.itemsize  # one mirror's record table
     memory = {"frame colour and depth": width * height * (16 + 4),
               "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry]),
               "lights and planes": SceneBlocks.BYTES}

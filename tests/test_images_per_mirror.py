@@ -37,7 +37,7 @@ def visit_every_image(renderer: Renderer) -> None:
     baked = renderer.graph.baked_images
     assert baked is not None
     for index, buffer in baked.uniform_buffers.items():
-        records = np.frombuffer(image_records(baked.images_at(index, baked.final_level)), DEPTH_IMAGE_DTYPE).copy()
+        records = image_records(baked.images_at(index, baked.final_level)).copy()
         for bound in ("bound", "hit_bound"):
             records[bound][:, 3] = 1e18  # squared, still a float32 (3.4e38 at most)
         buffer.write(records.tobytes())

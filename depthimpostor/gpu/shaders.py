@@ -86,6 +86,10 @@ class ShaderLibrary:
             raise ShaderError(f"{name}: the first line must be a #version directive")
         result = PreprocessedSource(text="", files=[name])
         prefix = [lines[version_index]]
+        if defines.get("NEEDS_STORAGE_BLOCKS") and int(lines[version_index].split()[1]) < 430:
+            # A GLSL 3.30 stage reading a storage buffer (GL 4.3's, the caller checks the context
+            # has it). #extension must precede every declaration, so it goes before the defines.
+            prefix.append("#extension GL_ARB_shader_storage_buffer_object : require")
         prefix += [f"#define {key} {value}" for key, value in {**glsl_constants(), **defines}.items()]
         body = self._expand(name, lines[version_index + 1 :], version_index + 2, result, stack=[name])
         result.text = "\n".join(prefix + [_line_directive(0, version_index + 2)] + body) + "\n"

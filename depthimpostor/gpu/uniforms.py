@@ -73,6 +73,21 @@ def bind_uniform_block(program: moderngl.Program, name: str, binding: int) -> No
     block.binding = binding
 
 
+def bind_record_block(program: moderngl.Program, name: str, uniform_binding: int, storage_binding: int) -> None:
+    """Point the block `name` (if the variant kept it) at its binding point: `uniform_binding` where
+    the variant declares a uniform block, `storage_binding` where a storage buffer (a record table
+    the variant's size puts past a uniform block's: lib/baked_images.glsl)."""
+    if name not in program:
+        return
+    block = program[name]
+    if isinstance(block, moderngl.UniformBlock):
+        block.binding = uniform_binding
+    elif isinstance(block, moderngl.StorageBlock):
+        block.binding = storage_binding
+    else:
+        raise TypeError(f"{name} is a {type(block).__name__}, not a uniform block or a storage block")
+
+
 def write_matrix(program: moderngl.Program | moderngl.ComputeShader, name: str, matrix: np.ndarray) -> None:
     """A matrix in GL's column-major float32 layout."""
     write(program, name, np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes())

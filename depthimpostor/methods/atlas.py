@@ -19,16 +19,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..gpu.gl_state import Face, RasterState, other_face
-from ..gpu.bindings import TextureUnit, UniformBlock
+from ..gpu.bindings import StorageBuffer, TextureUnit, UniformBlock
 from ..gpu.context import bind_default_framebuffer
-from ..constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_REFLECTOR, NO_OBJECT
+from ..constants import DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, NO_OBJECT
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
 from ..oracles.reference import DepthImageData
 from ..scene.model import Scene
 from .pyramid import PyramidLayout
-from ..gpu.uniforms import bind_texture, bind_uniform_block
+from ..gpu.uniforms import bind_record_block, bind_texture
 
 
 
@@ -42,7 +42,7 @@ def bind_impostors(program: moderngl.Program, atlas: ImpostorAtlas) -> None:
         bind_texture(program, "u_impostor_back_color", atlas.back_color, TextureUnit.IMPOSTOR_BACK_COLOR)
     if atlas.beyond is not None:
         bind_texture(program, "u_impostor_beyond", atlas.beyond, TextureUnit.IMPOSTOR_BEYOND)
-    bind_uniform_block(program, "DepthImages", UniformBlock.DEPTH_IMAGES)
+    bind_record_block(program, "DepthImages", UniformBlock.DEPTH_IMAGES, StorageBuffer.DEPTH_IMAGES)
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,13 +99,26 @@ BACK_FACES = RasterState(cull=BAKE_CULLS_FRONT_FACES)
 FRONT_FACES = RasterState(cull=other_face(BAKE_CULLS_FRONT_FACES))
 
 
-def image_records(images: list[DepthImage]) -> bytes:
-    """A mirror's uniform block. It is declared with MAX_DEPTH_IMAGES_PER_REFLECTOR entries; a smaller
-    buffer would leave part of it unbacked, which GL leaves undefined."""
-    records = np.zeros(MAX_DEPTH_IMAGES_PER_REFLECTOR, dtype=DEPTH_IMAGE_DTYPE)
+def image_records(images: list[DepthImage], capacity: int = DEPTH_IMAGE_BLOCK_RECORDS) -> NDArray[np.void]:
+    """A mirror's record table of `capacity` records (constants.depth_image_capacity), `images`
+    first. The program declares that many (a uniform block), or reads as far (a storage buffer: the
+    mirror shader's loop bound may read one past the count), so the table is padded to it: a
+    smaller buffer would leave records unbacked, which GL leaves undefined."""
+    if len(images) > capacity:
+        raise ValueError(f"{len(images)} depth images passed a record table of {capacity}")
+    records = np.zeros(capacity, dtype=DEPTH_IMAGE_DTYPE)
     for i, image in enumerate(images):
         records[i] = image.record()
-    return records.tobytes()
+    return records
+
+
+def bind_image_records(buffer: moderngl.Buffer, capacity: int) -> None:
+    """Bind a mirror's record table where programs of its `capacity` read it (lib/baked_images.glsl):
+    the uniform block's binding, or past a uniform block's size the storage buffer's."""
+    if capacity > DEPTH_IMAGE_BLOCK_RECORDS:
+        buffer.bind_to_storage_buffer(StorageBuffer.DEPTH_IMAGES)
+    else:
+        buffer.bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
 
 
 def image_label(mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...], level: int, face: int | None) -> str:

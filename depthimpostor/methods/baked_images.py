@@ -11,23 +11,23 @@ from enum import Enum
 from typing import ClassVar, NamedTuple
 
 import moderngl
+import numpy as np
+from numpy.typing import NDArray
 
 from ..gpu.gl_state import raster_state
-from ..gpu.bindings import TextureUnit, UniformBlock
-from ..constants import BACKGROUND_DEPTH, MAX_DEPTH_IMAGES_PER_REFLECTOR
-from ..errors import SceneError
+from ..gpu.bindings import TextureUnit
+from ..constants import BACKGROUND_DEPTH, depth_image_capacity
 from ..geometry import ObjectGeometry, triangle_offsets
 from ..culling import Reach, ReachTable, reaches
 from ..ppc import PPC
 from ..resolution import MIN_AUTO_RESOLUTION, auto_resolution, scene_view
-from ..scene.limits import objects_note
 from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
 from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import bind_texture, write
 from .colour_mips import ColourMips
-from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural
+from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural
 
 
 
@@ -110,6 +110,8 @@ class BakedImages:
                 slot += 1
             self.images_by_reflector[mirror.index] = images
         self.final_level = scene.render.max_bounces
+        # The records each mirror's table holds: as the programs of this scene declare them.
+        self.record_capacity = depth_image_capacity(len(scene.objects))
         self.uniform_buffers = {index: self.uniform_buffer(self.images_at(index, self.final_level))
                                 for index in self.images_by_reflector}
         self.bakes = 0  # images rendered so far (tests and stats check that nothing re-bakes)
@@ -147,7 +149,7 @@ class BakedImages:
                     self.stale.add(image.slot)
         self._spread_staleness()
         for index, buffer in self.uniform_buffers.items():
-            buffer.write(image_records(self.images_at(index, self.final_level)))
+            buffer.write(self.image_records(self.images_at(index, self.final_level)).tobytes())
         self._forget_fits()
 
     def _spread_staleness(self) -> None:
@@ -205,8 +207,17 @@ class BakedImages:
         sizes = " to ".join(f"{side}x{side}" for side in dict.fromkeys((sides[0], sides[-1])))
         return f"{plural(len(self.depth_images), self.image_noun)} of {sizes}"
 
+    def image_records(self, images: list[DepthImage]) -> NDArray[np.void]:
+        """The record table of a mirror's `images` (a subclass may add what its shader reads)."""
+        return image_records(images, self.record_capacity)
+
     def uniform_buffer(self, images: list[DepthImage]) -> moderngl.Buffer:
-        return self.ctx.buffer(image_records(images))
+        """The buffer of a mirror's record table (a uniform block's or a storage buffer's: bind_records)."""
+        return self.ctx.buffer(self.image_records(images).tobytes())
+
+    def bind_records(self, buffer: moderngl.Buffer) -> None:
+        """Bind one of uniform_buffer's buffers where this stand-in's programs read it."""
+        bind_image_records(buffer, self.record_capacity)
 
     def bind(self, program: moderngl.Program) -> None:
         bind_impostors(program, self.atlas)
@@ -214,7 +225,7 @@ class BakedImages:
             self.colour_mips.bind(program)
 
     def bind_reflector(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
-        self.uniform_buffers[mirror.index].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
+        self.bind_records(self.uniform_buffers[mirror.index])
         write(program, "u_depth_image_count", len(self.images_at(mirror.index, self.final_level)))
 
     def bake(self) -> int:
@@ -369,12 +380,6 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
     plan = {}
     for mirror, row in zip(mirrors, reach(mirrors, reflected), strict=True):
         shown = [target for target, why in zip(reflected, row, strict=True) if why is Reach.REACHABLE]
-        if len(shown) > MAX_DEPTH_IMAGES_PER_REFLECTOR:
-            raise SceneError(
-                scene.source, "objects",
-                f"expected at most {MAX_DEPTH_IMAGES_PER_REFLECTOR} objects a mirror may reflect, got {len(shown)} "
-                f"for \"{mirror.object.name}\"{objects_note(scene)}",
-            )
         plan[mirror.index] = [ImagePlan((target,), image_camera(scene, view, mirror, target)) for target in shown]
     return plan
 

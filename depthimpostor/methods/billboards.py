@@ -11,35 +11,22 @@ kept: the quad is all the geometry a billboard has.
 
 from __future__ import annotations
 
-from functools import cached_property
-
-import moderngl
 import numpy as np
+from numpy.typing import NDArray
 
-from ..constants import MAX_DEPTH_IMAGES_PER_REFLECTOR
-from ..geometry import ObjectGeometry
+from .atlas import DepthImage
 from .baked_images import BakedImages, SecondLayer
-from ..gpu.uniforms import write
 
 
 class BillboardPass(BakedImages):
     second_layer = SecondLayer.NONE
     image_noun = "billboard"
 
-    def _forget_fits(self) -> None:
-        self.__dict__.pop("quad_depths", None)  # the cached property below
-
-    @cached_property
-    def quad_depths(self) -> dict[int, np.ndarray]:
-        """Per mirror, each quad's plane as the camera depth w of its object's centre (w is
-        constant on planes parallel to the image plane: this one faces the mirror's centre)."""
-        quad_depths = {}
-        for index, images in self.images_by_reflector.items():
-            depths = np.zeros(MAX_DEPTH_IMAGES_PER_REFLECTOR, np.float32)
-            depths[: len(images)] = [image.camera.camera_coordinates(image.target.bounding_sphere[0])[2] for image in images]
-            quad_depths[index] = depths
-        return quad_depths
-
-    def bind_reflector(self, program: moderngl.Program, mirror: ObjectGeometry) -> None:
-        super().bind_reflector(program, mirror)
-        write(program, "u_billboard_w", self.quad_depths[mirror.index])
+    def image_records(self, images: list[DepthImage]) -> NDArray[np.void]:
+        """The depth images' records, each with its quad's plane in `a.w` (lib/billboard.glsl):
+        the camera depth w of its object's centre (w is constant on planes parallel to the image
+        plane: this one faces the mirror's centre)."""
+        records = super().image_records(images)
+        for i, image in enumerate(images):
+            records[i]["a"][3] = image.camera.camera_coordinates(image.target.bounding_sphere[0])[2]
+        return records

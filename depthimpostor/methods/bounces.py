@@ -19,7 +19,6 @@ which GL leaves undefined even for disjoint regions.
 from __future__ import annotations
 
 from ..gpu.gl_state import raster_state
-from ..gpu.bindings import UniformBlock
 from ..constants import BACKGROUND_DEPTH
 from ..scene.model import Scene
 from ..passes.glass import GlassInterior
@@ -76,7 +75,7 @@ class BounceBaker:
         framebuffer.color_mask = color_mask(2, (True,) * 4, (True, False, False, False))
         images.bind(program)
         below = image.level - 1
-        self.level_buffers[(shown.index, below)].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
+        images.bind_records(self.level_buffers[(shown.index, below)])
         write(program, "u_depth_image_count", len(images.images_at(shown.index, below)))
         write(program, "u_eye", tuple(mirror_centre(image.mirror)))
         write(program, "u_tint", reflector_tint(shown))

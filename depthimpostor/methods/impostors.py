@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import moderngl
 
-from ..constants import MAX_DEPTH_IMAGES_PER_REFLECTOR
-from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..culling import ReachTable, reachable_targets, reaches
 from ..resolution import scene_view
@@ -65,12 +63,6 @@ class ImpostorPass(BakedImages):
         from 2 to render.max_bounces, one of every other mirror it may show, showing its bounce
         k - 1 reflections."""
         plan = per_object_plan(scene, mirrors, reflected, reach)
-        if scene.render.max_bounces > 1 and len(reflected) + len(mirrors) - 1 > MAX_DEPTH_IMAGES_PER_REFLECTOR:
-            raise SceneError(
-                scene.source, "render.max_bounces",
-                f"expected 1 with {len(reflected)} reflected objects and {len(mirrors)} mirrors: a mirror's images of "
-                f"the others would pass the {MAX_DEPTH_IMAGES_PER_REFLECTOR} one mirror may hold",
-            )
         if scene.render.max_bounces == 1:
             return plan
         view = scene_view(scene)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..constants import MAX_DEPTH_IMAGES_PER_REFLECTOR, MAX_NAMED_TRIANGLES, Algorithm, Method
+from ..constants import MAX_TRACED_OBJECTS, MAX_NAMED_TRIANGLES, Algorithm, Method
 from .baked_images import BakedImages
 from .billboards import BillboardPass
 from .cubemaps import CubeMapPass
@@ -90,12 +90,12 @@ METHODS: dict[Method, MethodSpec] = {spec.method: spec for spec in (
     MethodSpec(Method.CUBEMAP_PARALLAX, CubeMapPass, "cube map, parallax-corrected", ("cube_map.glsl",)),
     MethodSpec(Method.BILLBOARD, BillboardPass, "billboards", ("billboard.glsl",)),
     MethodSpec(Method.SIMPLIFIED, SimplifiedPass, "simplified triangles", ("triangles.glsl",),
-               reflected_limit=MAX_DEPTH_IMAGES_PER_REFLECTOR, traces=SimplifiedPass),
+               reflected_limit=MAX_TRACED_OBJECTS, traces=SimplifiedPass),
     MethodSpec(Method.RAYTRACE, TrianglePass, "ray-traced triangles", ("triangles.glsl",),
-               reflected_limit=MAX_DEPTH_IMAGES_PER_REFLECTOR, traces=TrianglePass),
+               reflected_limit=MAX_TRACED_OBJECTS, traces=TrianglePass),
     MethodSpec(Method.HYBRID, HybridPass, "depth images, uncertain rays ray-traced",
                ("depth_image.glsl", "triangles.glsl"), marches_depth_images=True,
-               reflected_limit=MAX_DEPTH_IMAGES_PER_REFLECTOR, triangle_limit=MAX_NAMED_TRIANGLES, traces=TrianglePass),
+               reflected_limit=MAX_TRACED_OBJECTS, triangle_limit=MAX_NAMED_TRIANGLES, traces=TrianglePass),
     MethodSpec(Method.PLANAR, PlanarPass, "planar reflections (flat mirrors)", ("planar.glsl",), flat_mirrors=True),
     MethodSpec(Method.SSR, ScreenSpacePass, "screen-space reflections", ("screen_space.glsl",)),
 )}

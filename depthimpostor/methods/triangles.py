@@ -17,7 +17,7 @@ from .bvh import build_bvh
 from ..constants import (
     BVH_TEXTURE_WIDTH,
     BVH_TRIANGLE_TEXELS,
-    MAX_DEPTH_IMAGES_PER_REFLECTOR,
+    MAX_TRACED_OBJECTS,
     TRIANGLE_OBJECT_DTYPE,
 )
 from ..errors import SceneError
@@ -43,7 +43,7 @@ def _texture(ctx: moderngl.Context, texels: np.ndarray, source: str) -> moderngl
 
 
 def object_records(scene: Scene, objects: list[ObjectGeometry]) -> np.ndarray:
-    records = np.zeros(MAX_DEPTH_IMAGES_PER_REFLECTOR, TRIANGLE_OBJECT_DTYPE)
+    records = np.zeros(MAX_TRACED_OBJECTS, TRIANGLE_OBJECT_DTYPE)
     for slot, item in enumerate(objects):
         kind, color_a, color_b, scale = material_fields(item.object.material)
         texture, uv_scale = texture_fields(scene, item.object.material)

@@ -17,10 +17,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..gpu.gl_state import NO_DEPTH_TEST, raster_state
-from ..gpu.bindings import TextureUnit, UniformBlock
-from ..constants import DEPTH_IMAGE_DTYPE, MAX_DEPTH_IMAGES_PER_REFLECTOR, Algorithm, Method
+from ..gpu.bindings import TextureUnit
+from ..constants import DEPTH_IMAGE_DTYPE, Algorithm, Method, depth_image_capacity, depth_image_defines
 from ..gpu.context import bind_default_framebuffer
-from ..methods.atlas import ImpostorAtlas, bind_impostors
+from ..methods.atlas import ImpostorAtlas, bind_image_records, bind_impostors
 from ..passes.reflectors import reflection_defines
 from ..methods.pyramid import DepthPyramid
 from ..methods.registry import METHODS
@@ -55,15 +55,17 @@ class RayQuery:
     ) -> None:
         """`images` are the atlas's depth images to intersect. The hierarchical algorithm builds
         their depth pyramids here, from the atlas as it is now."""
-        if not 0 < len(images) <= MAX_DEPTH_IMAGES_PER_REFLECTOR:
-            raise ValueError(f"a ray query takes 1 to {MAX_DEPTH_IMAGES_PER_REFLECTOR} depth images, got {len(images)}")
+        if not images:
+            raise ValueError("a ray query takes at least one depth image")
+        self.capacity = depth_image_capacity(len(images))
         self.ctx = ctx
         self.atlas = atlas
         self.image_count = len(images)
         # TRACK_UNSEEN: the query reports what each answer rests on that the images do not hold.
-        defines = {**reflection_defines(METHODS[Method.DEPTH].defines(algorithm)), "TRACK_UNSEEN": 1}
+        defines = {**reflection_defines(METHODS[Method.DEPTH].defines(algorithm)), "TRACK_UNSEEN": 1,
+                   **depth_image_defines(self.capacity)}
         self.program = programs.get("fullscreen.vert", "ray_query.frag", defines)
-        records = np.zeros(MAX_DEPTH_IMAGES_PER_REFLECTOR, dtype=DEPTH_IMAGE_DTYPE)
+        records = np.zeros(self.capacity, dtype=DEPTH_IMAGE_DTYPE)
         for i, image in enumerate(images):
             records[i] = image.record()
         self.uniform_buffer = ctx.buffer(records.tobytes())
@@ -102,7 +104,7 @@ class RayQuery:
             write(self.program, "u_ray_origins", TextureUnit.RAY_ORIGINS)
             write(self.program, "u_ray_directions", TextureUnit.RAY_DIRECTIONS)
             write(self.program, "u_depth_image_count", self.image_count)
-            self.uniform_buffer.bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
+            bind_image_records(self.uniform_buffer, self.capacity)
             with raster_state(self.ctx, NO_DEPTH_TEST):
                 self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
             hit, color, stats = (

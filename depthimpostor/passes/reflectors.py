@@ -11,7 +11,7 @@ import numpy as np
 
 from ..gpu.bindings import TextureUnit
 from ..gpu.gl_state import NO_DEPTH_TEST, RasterState, Winding, raster_state
-from ..constants import MAX_ANALYTIC_PLANES, Algorithm, Method
+from ..constants import MAX_ANALYTIC_PLANES, Algorithm, Method, depth_image_capacity, depth_image_defines
 from ..geometry import ObjectGeometry
 from ..ppc import PPC
 from ..scene.model import GlassMaterial, MirrorMaterial, Scene
@@ -87,6 +87,7 @@ def reflector_defines(scene: Scene, defines: dict[str, int], glass: bool) -> dic
     # refused when the planes are written.
     planes = min(len(scene.analytic_planes), MAX_ANALYTIC_PLANES)
     return {**defines, **shading_defines(scene), **environment_defines(scene), "PLANE_COUNT": planes,
+            **depth_image_defines(depth_image_capacity(len(scene.objects))),
             **({"GLASS": 1} if glass else {})}
 
 

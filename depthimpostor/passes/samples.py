@@ -11,7 +11,7 @@ import moderngl
 import numpy as np
 
 from ..gpu.gl_state import RasterState, raster_state
-from ..gpu.bindings import UniformBlock
+from ..constants import DEPTH_IMAGE_BLOCK_RECORDS, depth_image_defines
 from ..ppc import PPC
 from ..gpu.shaders import ProgramCache
 from ..methods.baked_images import BakedImages
@@ -21,20 +21,29 @@ from ..gpu.uniforms import write, write_matrix
 class SamplesPass:
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache) -> None:
         self.ctx = ctx
-        self.program = programs.get("samples.vert", "samples.frag")
+        self.programs = programs
+        self._use_variant(DEPTH_IMAGE_BLOCK_RECORDS)
+
+    def _use_variant(self, capacity: int) -> None:
+        """The program reading record tables of `capacity` (lib/baked_images.glsl)."""
+        self.capacity = capacity
+        self.program = self.programs.get("samples.vert", "samples.frag", depth_image_defines(capacity))
         # Every vertex comes from gl_VertexID: the vertex array has no buffers.
-        self.vertex_array = ctx.vertex_array(self.program, [])
+        self.vertex_array = self.ctx.vertex_array(self.program, [])
 
     def draw(self, impostors: BakedImages, camera: PPC) -> int:
         """Draw the samples of every baked image (depth images, cube-map faces) into the bound
         framebuffer; returns the draw calls."""
+        if impostors.record_capacity != self.capacity:
+            self.vertex_array.release()
+            self._use_variant(impostors.record_capacity)
         impostors.bind(self.program)
         write_matrix(self.program, "u_view_projection", camera.view_projection)
         write(self.program, "u_pixel_size", float(np.linalg.norm(camera.b)))
         draws = 0
         with raster_state(self.ctx, RasterState(point_size=True)):
             for mirror_index, images in impostors.images_by_reflector.items():
-                impostors.uniform_buffers[mirror_index].bind_to_uniform_block(UniformBlock.DEPTH_IMAGES)
+                impostors.bind_records(impostors.uniform_buffers[mirror_index])
                 for index, image in enumerate(images):
                     write(self.program, "u_image_index", index)
                     self.vertex_array.render(moderngl.POINTS, vertices=image.camera.width * image.camera.height)

@@ -5,10 +5,23 @@
 #include "../generated/depth_image.glsl"
 #include "ray_hit.glsl"
 
-// One mirror's images, from its uniform buffer.
-layout(std140) uniform DepthImages {
-    DepthImage u_depth_images[MAX_DEPTH_IMAGES_PER_REFLECTOR];
+// One mirror's images: DEPTH_IMAGE_CAPACITY records (constants.depth_image_capacity, from the
+// scene's size; the mirror shader's loop bound), in a uniform block where they fit GL 3.3's
+// guaranteed 16 KiB, else in a storage buffer (GL 4.3: ARB_shader_storage_buffer_object, which
+// the program's prefix enables for STORAGE_BUFFERS). std430 lays a struct of vec4s out as std140
+// does: one numpy record type fills either.
+#ifndef DEPTH_IMAGE_CAPACITY
+#define DEPTH_IMAGE_CAPACITY DEPTH_IMAGE_BLOCK_RECORDS
+#endif
+#if DEPTH_IMAGE_CAPACITY > DEPTH_IMAGE_BLOCK_RECORDS
+layout(std430) readonly buffer DepthImages {
+    DepthImage u_depth_images[];
 };
+#else
+layout(std140) uniform DepthImages {
+    DepthImage u_depth_images[DEPTH_IMAGE_CAPACITY];
+};
+#endif
 uniform int u_depth_image_count;
 
 uniform sampler2D u_impostor_color;  // atlas of every image's colours (RGBA8; alpha 0 = nothing)

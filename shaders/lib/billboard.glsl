@@ -5,9 +5,6 @@
 // its quad's plane, and off by the object's depth everywhere else.
 #include "baked_images.glsl"
 
-// Per billboard of this mirror: the camera depth w of the quad's plane (w = const is a plane
-// parallel to the image plane).
-uniform float u_billboard_w[MAX_DEPTH_IMAGES_PER_REFLECTOR];
 
 RayHit nearest_billboard_hit(vec3 origin, vec3 direction) {
     RayHit best = no_hit(0);
@@ -16,7 +13,9 @@ RayHit nearest_billboard_hit(vec3 origin, vec3 direction) {
         DepthImage image = u_depth_images[i];
         vec3 p0 = camera_coordinates(image, origin - image.eye.xyz);
         vec3 dp = camera_coordinates(image, direction);
-        float quad_w = u_billboard_w[i];
+        // The camera depth w of the quad's plane (w = const is a plane parallel to the image
+        // plane), kept in the record's a.w (methods/billboards.py).
+        float quad_w = image.a.w;
         // A ray parallel to the quad never meets it (dividing would give +-Inf or NaN).
         if (dp.z == 0.0) continue;
         float t = (quad_w - p0.z) / dp.z;

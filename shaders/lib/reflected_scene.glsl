@@ -52,7 +52,7 @@ void next_two_images(int after, float after_t, float limit, vec3 origin, vec3 di
                      out int first, out float first_t, out int second, out float second_t) {
     first = second = u_depth_image_count;
     first_t = second_t = UNBOUNDED_RAY;
-    for (int j = 0; j < MAX_DEPTH_IMAGES_PER_REFLECTOR; ++j) {
+    for (int j = 0; j < DEPTH_IMAGE_CAPACITY; ++j) {
         if (j >= u_depth_image_count) break;
 #ifdef TRACK_UNSEEN
         float t = bound_entry(u_depth_images[j].bound, origin, direction, inverse_square_length);
@@ -98,7 +98,7 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
     next_two_images(last, last_t, t_limit, origin, direction, inverse_square_length, next, next_t, after_next,
                     after_next_t);
     bool exhausted = after_next >= u_depth_image_count;  // the scan found every image left
-    for (int visit = 0; visit < MAX_DEPTH_IMAGES_PER_REFLECTOR; ++visit) {
+    for (int visit = 0; visit < DEPTH_IMAGE_CAPACITY; ++visit) {
         float limit = best.hit ? min(best.t, t_limit) : t_limit;
         for (int scan = next >= u_depth_image_count && !exhausted ? 1 : 0; scan > 0; --scan) {
             next_two_images(last, last_t, limit, origin, direction, inverse_square_length, next, next_t, after_next,
@@ -109,7 +109,7 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
         // min(): a software rasterizer runs the body for a group as long as one of its pixels has
         // an image left (others have next == u_depth_image_count, up to the array's size): read a
         // real record.
-        RayHit candidate = intersect_depth_image(u_depth_images[min(next, MAX_DEPTH_IMAGES_PER_REFLECTOR - 1)], origin,
+        RayHit candidate = intersect_depth_image(u_depth_images[min(next, DEPTH_IMAGE_CAPACITY - 1)], origin,
                                                  direction, limit);
         samples += candidate.samples;
         if (candidate.unseen != UNSEEN_NONE && candidate.unseen_t < unseen_t) {
@@ -119,7 +119,7 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
         if (candidate.hit && candidate.t <= t_limit && (!best.hit || candidate.t < best.t)) {
             best = candidate;
 #if defined(GLOSSY) && METHOD == METHOD_DEPTH
-            best_image = min(next, MAX_DEPTH_IMAGES_PER_REFLECTOR - 1);
+            best_image = min(next, DEPTH_IMAGE_CAPACITY - 1);
 #endif
         }
         last = next;

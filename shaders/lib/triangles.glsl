@@ -9,7 +9,7 @@ uniform sampler2D u_bvh_nodes;      // 3 texels a node: (lower, first), (upper, 
 // BVH_TRIANGLE_TEXELS a triangle: p0 (w: object slot), p1, p2, n0, n1, n2, (uv0, uv1), (uv2, 0, 0)
 uniform sampler2D u_bvh_triangles;
 layout(std140) uniform TriangleObjects {
-    TriangleObject u_triangle_objects[MAX_DEPTH_IMAGES_PER_REFLECTOR];
+    TriangleObject u_triangle_objects[MAX_TRACED_OBJECTS];
 };
 
 vec4 bvh_fetch(sampler2D data, int index) {

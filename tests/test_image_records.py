@@ -1,0 +1,112 @@
+"""A mirror may own any number of depth images (issue 32): past the DEPTH_IMAGE_BLOCK_RECORDS a
+uniform block holds, its records are read from a storage buffer (lib/baked_images.glsl), and what
+the mirror shows stays right against the truth."""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+import pytest
+from conftest import scene_from_toml
+
+from depthimpostor.constants import (
+    DEPTH_IMAGE_BLOCK_RECORDS,
+    Algorithm,
+    Method,
+    depth_image_capacity,
+    depth_image_defines,
+)
+from depthimpostor.oracles.compare import compare
+from depthimpostor.plan import plan_render
+from depthimpostor.renderer import Renderer
+from depthimpostor.scene import Scene
+
+HEAD = """
+[render]
+size = [192, 108]
+impostor_resolution = 32
+[camera]
+eye = [0.0, 2.0, 9.0]
+target = [0.0, 1.4, 0.0]
+[[lights]]
+type = "directional"
+direction = [-0.4, -1.0, -0.3]
+[[objects]]
+name = "wall mirror"
+shape = { type = "plane", size = [9.0, 4.0] }
+material = { type = "mirror" }
+position = [0.0, 2.0, 0.0]
+rotation = [90.0, 0.0, 0.0]
+"""
+
+
+def checker_balls(count: int, z: float) -> str:
+    """`count` small checkered spheres on a grid in front of the wall mirror, colours varying with the
+    index, so that a ray answered by the wrong image shows the wrong object and colour."""
+    text = ""
+    for i in range(count):
+        red, blue = (i * 37 % 100) / 100.0, (i * 61 % 100) / 100.0
+        text += (f'\n[[objects]]\nname = "ball {i}"\nshape = {{ type = "sphere", radius = 0.15 }}\n'
+                 f'material = {{ type = "checker", color_a = [{red:.2f}, 0.8, {blue:.2f}], color_b = [0.1, 0.1, 0.1], '
+                 f"scale = 0.08 }}\nposition = [{-4.2 + (i % 20) * 0.44:.2f}, {0.3 + (i // 20) * 0.44:.2f}, {z}]\n")
+    return text
+
+
+def many_balls(count: int) -> Scene:
+    return scene_from_toml(HEAD + checker_balls(count, 1.5), "many_balls.toml")
+
+
+def test_capacity_is_the_uniform_block_up_to_it_then_a_power_of_two() -> None:
+    assert depth_image_capacity(1) == depth_image_capacity(DEPTH_IMAGE_BLOCK_RECORDS) == DEPTH_IMAGE_BLOCK_RECORDS
+    assert depth_image_capacity(DEPTH_IMAGE_BLOCK_RECORDS + 1) == 2 * DEPTH_IMAGE_BLOCK_RECORDS
+    assert depth_image_capacity(1000) == 1024
+    assert depth_image_defines(DEPTH_IMAGE_BLOCK_RECORDS) == {}  # small scenes keep their programs
+    assert depth_image_defines(1024) == {"DEPTH_IMAGE_CAPACITY": 1024, "NEEDS_STORAGE_BLOCKS": 1}
+
+
+@pytest.mark.parametrize(("method", "wrong_object_limit"), [(Method.DEPTH, 0.01), (Method.BILLBOARD, 0.05)])
+def test_a_mirror_showing_a_hundred_objects_reads_them_all(ctx: moderngl.Context, method: Method,
+                                                          wrong_object_limit: float) -> None:
+    scene = many_balls(100)
+    plan = plan_render(scene, method)
+    images = [image for image in plan.images if image.label.startswith("wall mirror")]
+    assert len(images) > DEPTH_IMAGE_BLOCK_RECORDS  # past what the old uniform block held
+    assert any(("DEPTH_IMAGE_CAPACITY", "128") in variant.key[1] or ("DEPTH_IMAGE_CAPACITY", 128) in variant.key[1]
+               for variant in plan.variants)
+    with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=method, reflection_data=True) as renderer:
+        renderer.render()
+        assert np.isfinite(renderer.read_color_float()).all()
+        figures = compare(renderer).figures
+    assert figures.mirror_pixels > 1000
+    # Objects are seen in the mirror, and the right ones: images past the 64th answer their rays.
+    assert figures.wrong_object_share < wrong_object_limit, figures
+
+
+def test_the_last_images_answer_their_rays(ctx: moderngl.Context) -> None:
+    """The objects listed last (past the uniform block's 64 records) are the top rows of balls:
+    where the truth sees one of them, the depth method sees the same object (a table cut short at
+    64 records would leave them out of the mirror)."""
+    scene = many_balls(100)
+    with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=Method.DEPTH, reflection_data=True) as renderer:
+        renderer.render()
+        seen = renderer.read_reflection_data().object_id
+        truth = compare(renderer).truth_frame.object_id
+    late = truth > DEPTH_IMAGE_BLOCK_RECORDS  # object 0 is the mirror: ball i is object i + 1
+    assert late.sum() > 150
+    assert (seen[late] == truth[late]).mean() > 0.97
+
+
+def test_bounces_between_two_mirrors_with_more_objects_than_a_block(ctx: moderngl.Context) -> None:
+    """max_bounces = 2 gives each mirror an image of the other besides one per object: past 64
+    (this was refused)."""
+    mirrors = "".join(
+        f'\n[[objects]]\nname = "m{i}"\nshape = {{ type = "sphere", radius = 0.5 }}\nmaterial = {{ type = "mirror" }}\n'
+        f"position = [{2.4 * i - 1.2}, 3.2, 1.5]\n" for i in range(2))
+    text = HEAD.replace("impostor_resolution = 32\n", "impostor_resolution = 16\nmax_bounces = 2\n")
+    text = text[: text.index("[[objects]]")]  # the two sphere mirrors alone (a wall fills a sphere's view)
+    scene = scene_from_toml(text + mirrors + checker_balls(70, 1.5), "bounces.toml")
+    with Renderer(ctx, scene, method=Method.DEPTH) as renderer:
+        renderer.render()
+        stand_in = renderer.graph.baked_images
+        assert stand_in is not None and stand_in.bounce_bakes > 0
+        assert np.isfinite(renderer.read_color_float()).all()
