@@ -194,6 +194,8 @@ MAX_TEXTURES = 4
 DEPTH_IMAGE_BLOCK_RECORDS = 64
 
 
+#: Storage buffers arrived with OpenGL 4.3 (GL_ARB_shader_storage_buffer_object): ctx.version_code.
+STORAGE_GL_VERSION = 430
 #: Reflected objects the traced methods' uniform block of object records holds.
 MAX_TRACED_OBJECTS = 64
 

@@ -4,6 +4,8 @@ the mirror shows stays right against the truth."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import moderngl
 import numpy as np
 import pytest
@@ -16,10 +18,15 @@ from depthimpostor.constants import (
     depth_image_capacity,
     depth_image_defines,
 )
+from depthimpostor.errors import ContextError
+from depthimpostor.gpu.meshes import GpuMeshes
+from depthimpostor.gpu.shaders import ProgramCache
+from depthimpostor.methods.impostors import ImpostorPass
 from depthimpostor.oracles.compare import compare
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene
+from depthimpostor.world import World
 
 HEAD = """
 [render]
@@ -110,3 +117,14 @@ def test_bounces_between_two_mirrors_with_more_objects_than_a_block(ctx: moderng
         stand_in = renderer.graph.baked_images
         assert stand_in is not None and stand_in.bounce_bakes > 0
         assert np.isfinite(renderer.read_color_float()).all()
+
+
+def test_a_gl_without_storage_buffers_is_told_what_the_scene_needs(ctx: moderngl.Context) -> None:
+    """More objects than a uniform block's records on a GL older than 4.3: one line naming both."""
+    scene = many_balls(DEPTH_IMAGE_BLOCK_RECORDS + 1)
+    world = World(scene)
+    mirrors = [g for g in world.geometry if g.object.is_mirror]
+    old_gl = SimpleNamespace(version_code=330, info=ctx.info)
+    with pytest.raises(ContextError, match="storage buffers, which need OpenGL 4.3; this context has 3.3"):
+        ImpostorPass(old_gl, ProgramCache(ctx), scene, GpuMeshes(ctx), mirrors,  # type: ignore[arg-type]
+                     world.reflected_objects)

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from conftest import assert_finite
-from depthimpostor.constants import DEPTH_IMAGE_DTYPE, Algorithm, Method
+from depthimpostor.constants import Algorithm, Method
 from depthimpostor.methods.atlas import image_records
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene

@@ -16,7 +16,8 @@ from numpy.typing import NDArray
 
 from ..gpu.gl_state import raster_state
 from ..gpu.bindings import TextureUnit
-from ..constants import BACKGROUND_DEPTH, depth_image_capacity
+from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_BLOCK_RECORDS, STORAGE_GL_VERSION, depth_image_capacity
+from ..errors import ContextError
 from ..geometry import ObjectGeometry, triangle_offsets
 from ..culling import Reach, ReachTable, reaches
 from ..ppc import PPC
@@ -83,6 +84,13 @@ class BakedImages:
         """`image_plans`: the plan's images (RenderPlan.image_plans), so that they are not planned
         again; planned here when not given."""
         plan = image_plans if image_plans is not None else self.plan_images(scene, mirrors, reflected)
+        # The records each mirror's table holds: as the programs of this scene declare them.
+        self.record_capacity = depth_image_capacity(len(scene.objects))
+        if self.record_capacity > DEPTH_IMAGE_BLOCK_RECORDS and ctx.version_code < STORAGE_GL_VERSION:
+            raise ContextError(
+                f"a scene of {len(scene.objects)} objects keeps its mirrors' image records in storage buffers, which need "
+                f"OpenGL 4.3; this context has {ctx.version_code // 100}.{ctx.version_code % 100 // 10}: use a newer "
+                f"driver, or at most {DEPTH_IMAGE_BLOCK_RECORDS} objects")
         self.ctx = ctx
         self.programs = programs
         self.scene = scene
@@ -110,8 +118,6 @@ class BakedImages:
                 slot += 1
             self.images_by_reflector[mirror.index] = images
         self.final_level = scene.render.max_bounces
-        # The records each mirror's table holds: as the programs of this scene declare them.
-        self.record_capacity = depth_image_capacity(len(scene.objects))
         self.uniform_buffers = {index: self.uniform_buffer(self.images_at(index, self.final_level))
                                 for index in self.images_by_reflector}
         self.bakes = 0  # images rendered so far (tests and stats check that nothing re-bakes)
