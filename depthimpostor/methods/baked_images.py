@@ -18,7 +18,7 @@ from ..gpu.gl_state import raster_state
 from ..gpu.bindings import TextureUnit
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_BLOCK_RECORDS, STORAGE_GL_VERSION, depth_image_capacity
 from ..errors import ContextError
-from ..geometry import ObjectGeometry, triangle_offsets
+from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
 from ..culling import Reach, ReachTable, reaches
 from ..ppc import PPC
 from ..resolution import MIN_AUTO_RESOLUTION, auto_resolution, scene_view
@@ -383,6 +383,7 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
     World's, which works each pair out once), its frustum fitted to the object. The images of one
     mirror share its uniform block, which has a fixed size."""
     view = scene_view(scene)
+    bounding_spheres([*mirrors, *reflected])  # objects of one mesh together: each camera fit reads them
     plan = {}
     for mirror, row in zip(mirrors, reach(mirrors, reflected), strict=True):
         shown = [target for target, why in zip(reflected, row, strict=True) if why is Reach.REACHABLE]
