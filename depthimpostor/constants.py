@@ -194,6 +194,10 @@ MAX_TEXTURES = 4
 DEPTH_IMAGE_BLOCK_RECORDS = 64
 
 
+#: The smallest side render.image_memory's budget lowers depth images to (baked_images.budgeted_side).
+MIN_BUDGETED_SIDE = 8
+
+
 #: Storage buffers arrived with OpenGL 4.3 (GL_ARB_shader_storage_buffer_object): ctx.version_code.
 STORAGE_GL_VERSION = 430
 #: Reflected objects the traced methods' uniform block of object records holds.

@@ -284,12 +284,17 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                 ("images", stand_in, scene.render),
                 lambda: stand_in.plan_images(scene, reflectors, reflected, world.reaches))
             by_index = {g.index: g for g in geometry}
+            count = sum(len(plans) for plans in planned.values())
+            asked = None if scene.render.auto_resolution else int(scene.render.impostor_resolution)
             for index, plans in planned.items():
                 for face, (targets, camera, level) in enumerate(plans):
                     label = image_label(by_index[index], targets, level, None if stand_in.per_object else face)
                     reason = (f"bounce {level}: shows its reflections of bounce {level - 1}" if level
                               else "a reflected object it may show" if stand_in.per_object
                               else f"a cube-map face showing {_names(list(targets))}")
+                    if asked is not None and camera.width < asked and stand_in.per_object:
+                        reason += (f"; {camera.width}^2, not {asked}^2: {count} images within render.image_memory = "
+                                   f"{scene.render.image_memory} MiB")
                     images.append(PlannedImage(label, level, camera.width, camera.height, reason))
                     if level:
                         shown_in_bounces.add(targets[0].object.is_glass)

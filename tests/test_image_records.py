@@ -128,3 +128,19 @@ def test_a_gl_without_storage_buffers_is_told_what_the_scene_needs(ctx: moderngl
     with pytest.raises(ContextError, match="storage buffers, which need OpenGL 4.3; this context has 3.3"):
         ImpostorPass(old_gl, ProgramCache(ctx), scene, GpuMeshes(ctx), mirrors,  # type: ignore[arg-type]
                      world.reflected_objects)
+
+
+def test_images_past_the_memory_budget_are_made_smaller_and_the_plan_says_so() -> None:
+    """A thousand objects before a mirror at 256^2 would take 1.3 GiB of images: the plan lowers
+    every image to the side that fits render.image_memory, and names the budget."""
+    text = HEAD.replace("impostor_resolution = 32", "impostor_resolution = 256")
+    plan = plan_render(scene_from_toml(text + checker_balls(1000, 1.5), "budget.toml"))
+    images = [image for image in plan.images if image.level == 0]
+    assert len(images) == 1000 and {image.width for image in images} == {228}
+    assert "228^2, not 256^2: 1000 images within render.image_memory = 1024 MiB" in images[0].reason
+    assert plan.memory["depth images"] + plan.memory["bake depth buffer"] <= 1024 * 2**20
+    smaller = plan_render(scene_from_toml(text.replace("[render]\n", "[render]\nimage_memory = 256\n")
+                                          + checker_balls(1000, 1.5), "budget.toml"))
+    assert {image.width for image in smaller.images} == {112}
+    few = plan_render(scene_from_toml(text + checker_balls(10, 1.5), "budget.toml"))  # well within: as asked
+    assert {image.width for image in few.images} == {256} and "image_memory" not in few.images[0].reason

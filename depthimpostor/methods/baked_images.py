@@ -6,6 +6,7 @@ Each method plans its own images and keeps its own second layer.
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from enum import Enum
 from typing import ClassVar, NamedTuple
@@ -16,19 +17,25 @@ from numpy.typing import NDArray
 
 from ..gpu.gl_state import raster_state
 from ..gpu.bindings import TextureUnit
-from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_BLOCK_RECORDS, STORAGE_GL_VERSION, depth_image_capacity
+from ..constants import (
+    BACKGROUND_DEPTH,
+    DEPTH_IMAGE_BLOCK_RECORDS,
+    MIN_BUDGETED_SIDE,
+    STORAGE_GL_VERSION,
+    depth_image_capacity,
+)
 from ..errors import ContextError
 from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
 from ..culling import Reach, ReachTable, reaches
 from ..ppc import PPC
-from ..resolution import MIN_AUTO_RESOLUTION, auto_resolution, scene_view
+from ..resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION, auto_resolution, scene_view
 from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
 from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import bind_texture, write
 from .colour_mips import ColourMips
-from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural
+from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural
 
 
 
@@ -175,7 +182,13 @@ class BakedImages:
     ) -> dict[int, list[ImagePlan]]:
         """The images to bake for each mirror (by its index): by default one per reflected
         object it may show (depth images, billboards); cube maps bake six faces instead."""
-        return per_object_plan(scene, mirrors, reflected, reach)
+        return per_object_plan(scene, mirrors, reflected, reach, cls.texel_bytes())
+
+    @classmethod
+    def texel_bytes(cls) -> int:
+        """GPU memory a texel of this stand-in's atlas takes, with the depth buffer it is baked with."""
+        return ImpostorAtlas.bytes_for(1, 1, cls.second_layer != SecondLayer.NONE, cls.keeps_triangle_ids,
+                                       cls.keeps_back_colors, cls.keeps_beyond)
 
     def images_at(self, mirror_index: int, bounces: int) -> list[DepthImage]:
         """The images a reflected ray of this mirror is traced against when it may make
@@ -368,25 +381,45 @@ class BakedImages:
         self.atlas.release()
 
 
-def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: ObjectGeometry) -> PPC:
+def budgeted_side(count: int, asked: int, budget: int, texel_bytes: int) -> int:
+    """The largest image side, at most `asked`, at which an atlas of `count` images of
+    `texel_bytes` a texel keeps within `budget` bytes (a multiple of 4; MIN_BUDGETED_SIDE at least)."""
+    columns, rows = atlas_grid(count)
+    fits = math.isqrt(budget // (columns * rows * texel_bytes))
+    return min(asked, max(MIN_BUDGETED_SIDE, fits - fits % 4))
+
+
+def largest_side(scene: Scene, mirrors: int, per_object: int, texel_bytes: int) -> int:
+    """The largest side the images of `mirrors` mirrors showing `per_object` objects in all may
+    have within render.image_memory, with the mirrors' images of each other (render.max_bounces)."""
+    count = per_object + mirrors * (mirrors - 1) * (scene.render.max_bounces - 1)
+    asked = MAX_AUTO_RESOLUTION if scene.render.auto_resolution else int(scene.render.impostor_resolution)
+    return budgeted_side(max(count, 1), asked, scene.render.image_memory * 2**20, texel_bytes)
+
+
+def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: ObjectGeometry, largest: int | None = None) -> PPC:
     """The camera of `target`'s image for `mirror`: fitted at render.impostor_resolution, or at
-    the resolution `view` (the scene's camera) asks for when it is "auto" (resolution.py)."""
+    the resolution `view` (the scene's camera) asks for when it is "auto" (resolution.py); at most
+    `largest` (the memory budget's side: budgeted_side)."""
+    cap = largest if largest is not None else MAX_AUTO_RESOLUTION
     if not scene.render.auto_resolution:
-        return fit_depth_image_camera(scene, mirror, target, int(scene.render.impostor_resolution))
-    probe = fit_depth_image_camera(scene, mirror, target, MIN_AUTO_RESOLUTION)
-    return fit_depth_image_camera(scene, mirror, target, auto_resolution(view, mirror, target, probe))
+        return fit_depth_image_camera(scene, mirror, target, min(int(scene.render.impostor_resolution), cap))
+    probe = fit_depth_image_camera(scene, mirror, target, min(MIN_AUTO_RESOLUTION, cap))
+    return fit_depth_image_camera(scene, mirror, target, min(auto_resolution(view, mirror, target, probe), cap))
 
 
 def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
-                    reach: ReachTable = reaches) -> dict[int, list[ImagePlan]]:
+                    reach: ReachTable = reaches, texel_bytes: int | None = None) -> dict[int, list[ImagePlan]]:
     """One image per mirror and reflected object it may show (`reach`: culling.reaches, or a
-    World's, which works each pair out once), its frustum fitted to the object. The images of one
-    mirror share its uniform block, which has a fixed size."""
+    World's, which works each pair out once), its frustum fitted to the object; with `texel_bytes`
+    (the stand-in's atlas texel: BakedImages.texel_bytes), its side lowered where the images would
+    pass render.image_memory (budgeted_side)."""
     view = scene_view(scene)
     bounding_spheres([*mirrors, *reflected])  # objects of one mesh together: each camera fit reads them
-    plan = {}
-    for mirror, row in zip(mirrors, reach(mirrors, reflected), strict=True):
-        shown = [target for target, why in zip(reflected, row, strict=True) if why is Reach.REACHABLE]
-        plan[mirror.index] = [ImagePlan((target,), image_camera(scene, view, mirror, target)) for target in shown]
-    return plan
+    shown = {mirror.index: [target for target, why in zip(reflected, row, strict=True) if why is Reach.REACHABLE]
+             for mirror, row in zip(mirrors, reach(mirrors, reflected), strict=True)}
+    largest = (None if texel_bytes is None
+               else largest_side(scene, len(mirrors), sum(len(targets) for targets in shown.values()), texel_bytes))
+    return {mirror.index: [ImagePlan((target,), image_camera(scene, view, mirror, target, largest))
+                           for target in shown[mirror.index]] for mirror in mirrors}
 

@@ -31,7 +31,7 @@ from .pyramid import DepthPyramid
 
 
 from .bounces import BounceBaker
-from .baked_images import BakedImages, ImagePlan, SecondLayer, image_camera, per_object_plan
+from .baked_images import BakedImages, ImagePlan, SecondLayer, image_camera, largest_side, per_object_plan
 
 
 class ImpostorPass(BakedImages):
@@ -62,13 +62,14 @@ class ImpostorPass(BakedImages):
         """Per mirror, one depth image per reflected object it may show and, for each bounce k
         from 2 to render.max_bounces, one of every other mirror it may show, showing its bounce
         k - 1 reflections."""
-        plan = per_object_plan(scene, mirrors, reflected, reach)
+        plan = per_object_plan(scene, mirrors, reflected, reach, cls.texel_bytes())
         if scene.render.max_bounces == 1:
             return plan
         view = scene_view(scene)
+        largest = largest_side(scene, len(mirrors), sum(len(images) for images in plan.values()), cls.texel_bytes())
         for mirror in mirrors:
             others = reachable_targets(mirror, [other for other in mirrors if other is not mirror], reach)
-            cameras = [image_camera(scene, view, mirror, other) for other in others]
+            cameras = [image_camera(scene, view, mirror, other, largest) for other in others]
             plan[mirror.index] += [
                 ImagePlan((other,), camera, level)
                 for level in range(2, scene.render.max_bounces + 1) for other, camera in zip(others, cameras, strict=False)

@@ -264,6 +264,7 @@ def _render(t: Table) -> RenderSettings:
                           impostor_resolution=t.opt("impostor_resolution", IMPOSTOR_RESOLUTION, d.impostor_resolution),
                           simplified_triangles=t.opt("simplified_triangles", TRIANGLE_TARGET, d.simplified_triangles),
                           shadow_resolution=t.opt("shadow_resolution", RESOLUTION, d.shadow_resolution),
+                          image_memory=t.opt("image_memory", f.integer(f.Bounds(1, 2**24)), d.image_memory),
                           max_bounces=t.opt("max_bounces", f.integer(f.Bounds(1, MAX_BOUNCES)), d.max_bounces),
                           ambient=t.opt("ambient", f.number(f.UNIT), d.ambient),
                           tone_mapping=t.opt("tone_mapping", TONE_MAPPING, d.tone_mapping),
@@ -355,7 +356,7 @@ def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
     scene = Scene(
         source=source,
         render=_render(top.section("render", ("size", "impostor_resolution", "ambient", "simplified_triangles",
-                                              "shadow_resolution", "max_bounces", "tone_mapping",
+                                              "shadow_resolution", "image_memory", "max_bounces", "tone_mapping",
                                               "exposure", "samples"))),
         camera=_camera(top.section("camera", ("eye", "target", "up", "fov_y"))),
         environment=top.variant("environment", _ENVIRONMENTS, default=Environment(), default_type="gradient"),

@@ -45,6 +45,11 @@ class RenderSettings:
     ambient: float = 0.15
     # The `simplified` method: each reflected object decimated to at most this many triangles.
     simplified_triangles: int = 500
+    # MiB the baked images of one frame may take (their atlas, every layer and the depth buffer
+    # they are baked with): where the per-object images at impostor_resolution would need more,
+    # every image gets the largest side that fits (methods/baked_images.py budgeted_side; `plan`
+    # says so). A thousand objects around two mirrors at 256^2 would need 2.6 GiB.
+    image_memory: int = 1024
     # Width and height of each shadow map (a depth image from a light with shadows).
     shadow_resolution: int = 512
     # Mirror bounces a camera ray may make: at 1 a mirror does not appear in another mirror;
