@@ -216,10 +216,11 @@ def depth_image_capacity(objects: int) -> int:
 def depth_image_defines(capacity: int) -> dict[str, int]:
     """The defines of a program reading image tables of `capacity` records (lib/baked_images.glsl):
     none for the uniform block's own size, so that a scene of up to DEPTH_IMAGE_BLOCK_RECORDS objects
-    keeps the programs it always had; past it the capacity, and the storage buffers' extension."""
+    keeps the programs it always had; past it the capacity, the storage buffers' extension, and
+    IMAGE_BVH: the table holds a hierarchy over the images too (methods/image_bvh.py)."""
     if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
         return {}
-    return {"DEPTH_IMAGE_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1}
+    return {"DEPTH_IMAGE_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1, "IMAGE_BVH": 1}
 #: Reflected triangles the hybrid method's depth images can name: a float32 sample holds
 #: integers below 2^24.
 MAX_NAMED_TRIANGLES = 2**24
@@ -324,7 +325,16 @@ BVH_TEXTURE_WIDTH = 1024
 BVH_TRIANGLE_TEXELS = 8
 
 
+#: One node of a mirror's hierarchy over its images (methods/image_bvh.py): a sphere holding every
+#: image under it, and (the image of a leaf or -1, the node after this one's subtree, 0, 0).
+IMAGE_NODE_FIELDS: tuple[tuple[str, str], ...] = (
+    ("sphere", "vec4"),
+    ("links", "ivec4"),
+)
+
 DEPTH_IMAGE = Struct("DepthImage", DEPTH_IMAGE_FIELDS)
+IMAGE_NODE = Struct("ImageNode", IMAGE_NODE_FIELDS)
+IMAGE_NODE_DTYPE = IMAGE_NODE.dtype
 TRIANGLE_OBJECT = Struct("TriangleObject", TRIANGLE_OBJECT_FIELDS)
 DEPTH_IMAGE_DTYPE = DEPTH_IMAGE.dtype
 TRIANGLE_OBJECT_DTYPE = TRIANGLE_OBJECT.dtype

@@ -13,6 +13,7 @@ from conftest import scene_from_toml
 
 from depthimpostor.constants import (
     DEPTH_IMAGE_BLOCK_RECORDS,
+    DEPTH_IMAGE_DTYPE,
     Algorithm,
     Method,
     depth_image_capacity,
@@ -21,8 +22,10 @@ from depthimpostor.constants import (
 from depthimpostor.errors import ContextError
 from depthimpostor.gpu.meshes import GpuMeshes
 from depthimpostor.gpu.shaders import ProgramCache
+from depthimpostor.methods.image_bvh import image_bvh
 from depthimpostor.methods.impostors import ImpostorPass
 from depthimpostor.oracles.compare import compare
+from depthimpostor.passes import reflectors
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene
@@ -68,7 +71,7 @@ def test_capacity_is_the_uniform_block_up_to_it_then_a_power_of_two() -> None:
     assert depth_image_capacity(DEPTH_IMAGE_BLOCK_RECORDS + 1) == 2 * DEPTH_IMAGE_BLOCK_RECORDS
     assert depth_image_capacity(1000) == 1024
     assert depth_image_defines(DEPTH_IMAGE_BLOCK_RECORDS) == {}  # small scenes keep their programs
-    assert depth_image_defines(1024) == {"DEPTH_IMAGE_CAPACITY": 1024, "NEEDS_STORAGE_BLOCKS": 1}
+    assert depth_image_defines(1024) == {"DEPTH_IMAGE_CAPACITY": 1024, "NEEDS_STORAGE_BLOCKS": 1, "IMAGE_BVH": 1}
 
 
 @pytest.mark.parametrize(("method", "wrong_object_limit"), [(Method.DEPTH, 0.01), (Method.BILLBOARD, 0.05)])
@@ -144,3 +147,51 @@ def test_images_past_the_memory_budget_are_made_smaller_and_the_plan_says_so() -
     assert {image.width for image in smaller.images} == {112}
     few = plan_render(scene_from_toml(text + checker_balls(10, 1.5), "budget.toml"))  # well within: as asked
     assert {image.width for image in few.images} == {256} and "image_memory" not in few.images[0].reason
+
+
+def test_the_image_hierarchy_holds_every_image_and_its_walk_reaches_each_once() -> None:
+    rng = np.random.default_rng(3)
+    records = np.zeros(37, DEPTH_IMAGE_DTYPE)
+    records["bound"] = np.c_[rng.normal(size=(37, 3)) * 5, rng.uniform(0.1, 1.0, 37)]
+    records["hit_bound"] = records["bound"] * (1, 1, 1, 0.5) + np.c_[rng.normal(size=(37, 3)) * 0.1, np.zeros(37)]
+    nodes = image_bvh(records)
+    assert len(nodes) == 2 * 37 - 1
+
+    def inside(inner: np.ndarray, outer: np.ndarray) -> bool:
+        return bool(np.linalg.norm(inner[:3] - outer[:3]) + inner[3] <= outer[3] * (1 + 1e-6))
+
+    leaves = []
+    node = 0  # the shader's walk with every sphere entered: into each inner node, past each leaf
+    while node < len(nodes):
+        image, skip = int(nodes[node]["links"][0]), int(nodes[node]["links"][1])
+        sphere = nodes[node]["sphere"].astype(np.float64)
+        # A node's subtree is the nodes up to its skip: its sphere holds every image there, so a
+        # ray that enters one of them enters it.
+        for under in nodes[node:skip]:
+            if under["links"][0] >= 0:
+                below = records[int(under["links"][0])]
+                assert inside(below["bound"], sphere) and inside(below["hit_bound"], sphere)
+        if image >= 0:
+            leaves.append(image)
+        node = skip if image >= 0 else node + 1
+    assert sorted(leaves) == list(range(37))
+    assert int(nodes[0]["links"][1]) == len(nodes)  # skipping the root ends the walk
+
+
+def test_the_hierarchy_walk_sees_what_the_scan_sees(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same 100 images found through the hierarchy (IMAGE_BVH) and by scanning every bound:
+    the same nearest hits, so the same frame."""
+    scene = many_balls(100)
+    frames = []
+    for walk in (True, False):
+        if not walk:
+            monkeypatch.setattr(reflectors, "depth_image_defines",
+                                lambda capacity: {k: v for k, v in depth_image_defines(capacity).items() if k != "IMAGE_BVH"})
+        with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=Method.DEPTH) as renderer:
+            renderer.render()
+            walked = any(("IMAGE_BVH", 1) in key[1] or ("IMAGE_BVH", "1") in key[1]
+                         for key in renderer.programs.keys)
+            assert walked == walk
+            frames.append(renderer.read_color_float())
+    assert np.isfinite(frames[0]).all()
+    np.testing.assert_allclose(frames[0], frames[1], atol=1e-6)

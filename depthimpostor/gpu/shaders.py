@@ -23,7 +23,7 @@ from pathlib import Path
 
 import moderngl
 
-from ..constants import ANALYTIC_PLANE, DEPTH_IMAGE, LIGHT, LIGHTING, MATERIAL, PLANES, TRIANGLE_OBJECT, glsl_constants
+from ..constants import ANALYTIC_PLANE, DEPTH_IMAGE, IMAGE_NODE, LIGHT, LIGHTING, MATERIAL, PLANES, TRIANGLE_OBJECT, glsl_constants
 from ..errors import ShaderError
 from ..lights import soft_shadow_disk_glsl
 from ..resources import shaders_dir
@@ -48,7 +48,7 @@ def _include_guard(name: str) -> str:
 
 def _generated_sources() -> dict[str, str]:
     return {
-        "generated/depth_image.glsl": DEPTH_IMAGE.glsl(),
+        "generated/depth_image.glsl": DEPTH_IMAGE.glsl() + IMAGE_NODE.glsl(),
         "generated/triangle_object.glsl": TRIANGLE_OBJECT.glsl(),
         "generated/material.glsl": MATERIAL.glsl(),
         # Each after the structs it holds: the preprocessor includes a generated file once.

@@ -27,6 +27,7 @@ from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
 from ..oracles.reference import DepthImageData
 from ..scene.model import Scene
+from .image_bvh import image_bvh
 from .pyramid import PyramidLayout
 from ..gpu.uniforms import bind_record_block, bind_texture
 
@@ -110,6 +111,15 @@ def image_records(images: list[DepthImage], capacity: int = DEPTH_IMAGE_BLOCK_RE
     for i, image in enumerate(images):
         records[i] = image.record()
     return records
+
+
+def record_table(records: NDArray[np.void], count: int, capacity: int) -> bytes:
+    """A mirror's record table as its buffer holds it: the `capacity` records of which the first
+    `count` are its images' and, past a uniform block's size, the hierarchy over those
+    (methods/image_bvh.py, lib/baked_images.glsl)."""
+    if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
+        return records.tobytes()
+    return records.tobytes() + image_bvh(records[:count]).tobytes()
 
 
 def bind_image_records(buffer: moderngl.Buffer, capacity: int) -> None:

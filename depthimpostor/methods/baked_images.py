@@ -6,6 +6,7 @@ Each method plans its own images and keeps its own second layer.
 
 from __future__ import annotations
 
+import builtins
 import math
 from collections import Counter
 from enum import Enum
@@ -35,7 +36,7 @@ from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import bind_texture, write
 from .colour_mips import ColourMips
-from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural
+from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural, record_table
 
 
 
@@ -162,7 +163,7 @@ class BakedImages:
                     self.stale.add(image.slot)
         self._spread_staleness()
         for index, buffer in self.uniform_buffers.items():
-            buffer.write(self.image_records(self.images_at(index, self.final_level)).tobytes())
+            buffer.write(self.record_table(self.images_at(index, self.final_level)))
         self._forget_fits()
 
     def _spread_staleness(self) -> None:
@@ -230,9 +231,13 @@ class BakedImages:
         """The record table of a mirror's `images` (a subclass may add what its shader reads)."""
         return image_records(images, self.record_capacity)
 
+    def record_table(self, images: list[DepthImage]) -> builtins.bytes:  # (`bytes` is a property here)
+        """A mirror's record table of `images`, as its buffer holds it (atlas.record_table)."""
+        return record_table(self.image_records(images), len(images), self.record_capacity)
+
     def uniform_buffer(self, images: list[DepthImage]) -> moderngl.Buffer:
         """The buffer of a mirror's record table (a uniform block's or a storage buffer's: bind_records)."""
-        return self.ctx.buffer(self.image_records(images).tobytes())
+        return self.ctx.buffer(self.record_table(images))
 
     def bind_records(self, buffer: moderngl.Buffer) -> None:
         """Bind one of uniform_buffer's buffers where this stand-in's programs read it."""

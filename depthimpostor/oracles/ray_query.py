@@ -20,7 +20,7 @@ from ..gpu.gl_state import NO_DEPTH_TEST, raster_state
 from ..gpu.bindings import TextureUnit
 from ..constants import DEPTH_IMAGE_DTYPE, Algorithm, Method, depth_image_capacity, depth_image_defines
 from ..gpu.context import bind_default_framebuffer
-from ..methods.atlas import ImpostorAtlas, bind_image_records, bind_impostors
+from ..methods.atlas import ImpostorAtlas, bind_image_records, bind_impostors, record_table
 from ..passes.reflectors import reflection_defines
 from ..methods.pyramid import DepthPyramid
 from ..methods.registry import METHODS
@@ -68,7 +68,7 @@ class RayQuery:
         records = np.zeros(self.capacity, dtype=DEPTH_IMAGE_DTYPE)
         for i, image in enumerate(images):
             records[i] = image.record()
-        self.uniform_buffer = ctx.buffer(records.tobytes())
+        self.uniform_buffer = ctx.buffer(record_table(records, len(images), self.capacity))
         self.vertex_array = ctx.vertex_array(self.program, [])
         self.pyramid: DepthPyramid | None = None
         if algorithm.builds_pyramids:

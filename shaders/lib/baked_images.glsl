@@ -8,14 +8,16 @@
 // One mirror's images: DEPTH_IMAGE_CAPACITY records (constants.depth_image_capacity, from the
 // scene's size; the mirror shader's loop bound), in a uniform block where they fit GL 3.3's
 // guaranteed 16 KiB, else in a storage buffer (GL 4.3: ARB_shader_storage_buffer_object, which
-// the program's prefix enables for STORAGE_BUFFERS). std430 lays a struct of vec4s out as std140
-// does: one numpy record type fills either.
+// the program's prefix enables for NEEDS_STORAGE_BLOCKS). std430 lays a struct of vec4s out as
+// std140 does: one numpy record type fills either.
 #ifndef DEPTH_IMAGE_CAPACITY
 #define DEPTH_IMAGE_CAPACITY DEPTH_IMAGE_BLOCK_RECORDS
 #endif
 #if DEPTH_IMAGE_CAPACITY > DEPTH_IMAGE_BLOCK_RECORDS
+// Past the records, the hierarchy over them (IMAGE_BVH: methods/image_bvh.py), 2 count - 1 nodes.
 layout(std430) readonly buffer DepthImages {
-    DepthImage u_depth_images[];
+    DepthImage u_depth_images[DEPTH_IMAGE_CAPACITY];
+    ImageNode u_image_nodes[];
 };
 #else
 layout(std140) uniform DepthImages {

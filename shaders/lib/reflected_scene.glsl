@@ -42,6 +42,82 @@
 #endif
 
 #if METHOD == METHOD_DEPTH || METHOD == METHOD_HYBRID
+// The sphere of image j the ray is tested against: the variants that track unseen space need all
+// the image can answer; the others its hits alone, in the tighter sphere around them.
+vec4 image_bound(int j) {
+#ifdef TRACK_UNSEEN
+    return u_depth_images[j].bound;
+#else
+    return u_depth_images[j].hit_bound;
+#endif
+}
+
+// A hit of image `image` kept if it is the nearest so far (and within t_limit); what it relied
+// on and does not hold (TRACK_UNSEEN) kept if it comes first.
+void take_candidate(RayHit candidate, int image, float t_limit, inout RayHit best, inout int best_image,
+                    inout int samples, inout float unseen_t, inout int unseen) {
+    samples += candidate.samples;
+    if (candidate.unseen != UNSEEN_NONE && candidate.unseen_t < unseen_t) {
+        unseen_t = candidate.unseen_t;
+        unseen = candidate.unseen;
+    }
+    if (candidate.hit && candidate.t <= t_limit && (!best.hit || candidate.t < best.t)) {
+        best = candidate;
+        best_image = image;
+    }
+}
+
+// The hit's colour from the atlas and, for a glossy mirror's cone, prefiltered at its footprint
+// (the back layer, seen from behind, keeps its texel: it has no mips; the hybrid method, whose
+// exact triangles have none either, keeps its texels too: plan.py's _builds_colour_mips).
+RayHit coloured(RayHit best, int best_image, vec3 origin, vec3 direction) {
+    if (best.hit) best.color = (best.layer == 1 ? texelFetch(u_impostor_back_color, best.texel, 0)
+                                                : texelFetch(u_impostor_color, best.texel, 0)).rgb;
+#if defined(GLOSSY) && METHOD == METHOD_DEPTH
+    if (best.hit && best.layer == 0) {
+        DepthImage image = u_depth_images[best_image];
+        best.color = cone_color(image, origin + direction * best.t - image.eye.xyz, best.t, best.color);
+    }
+#endif
+    return best;
+}
+
+#ifdef IMAGE_BVH
+// The nearest hit over all depth images of this mirror with t <= t_limit (or none), and the first
+// place along the ray where one of them relied on what it does not hold (TRACK_UNSEEN), for a
+// mirror of many images: its hierarchy of spheres (methods/image_bvh.py) is walked depth first
+// without a stack, a node's subtree skipped where the ray does not enter its sphere before the
+// nearest hit so far. Every image the scan below would visit (entered no later than the nearest
+// hit) is visited, some others too before a nearer hit is found; the nearest hit is the same, and
+// unseen space past it is not looked at (resolve_unseen). The march is in a loop, not under a
+// test, for the reason the scan's is.
+RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
+    RayHit best = no_hit(0);
+    int best_image = 0, samples = 0, unseen = UNSEEN_NONE;
+    float unseen_t = UNBOUNDED_RAY;
+    float inverse_square_length = 1.0 / dot(direction, direction);
+    int nodes = max(2 * u_depth_image_count - 1, 0);
+    int node = 0;
+    for (int step = 0; step < 2 * DEPTH_IMAGE_CAPACITY - 1; ++step) {
+        if (node >= nodes) break;
+        ImageNode current = u_image_nodes[node];
+        float limit = best.hit ? min(best.t, t_limit) : t_limit;
+        float node_t = bound_entry(current.sphere, origin, direction, inverse_square_length);
+        bool entered = node_t < UNBOUNDED_RAY && node_t <= limit;
+        int image = current.links.x;  // -1 for an inner node
+        float image_t = bound_entry(image_bound(max(image, 0)), origin, direction, inverse_square_length);
+        for (int march = entered && image >= 0 && image_t < UNBOUNDED_RAY && image_t <= limit ? 1 : 0; march > 0;
+             --march) {
+            take_candidate(intersect_depth_image(u_depth_images[image], origin, direction, limit), image, t_limit,
+                           best, best_image, samples, unseen_t, unseen);
+        }
+        node = entered && image < 0 ? node + 1 : current.links.y;  // into it, or past it
+    }
+    best = coloured(best, best_image, origin, direction);
+    best.samples = samples;
+    return with_unseen(best, unseen_t, unseen);
+}
+#else
 // The two images the ray visits after image `after`, which it entered at `after_t` (-1 before the
 // first), in the order of the visits: by where the ray enters their bounds, ties by index, among
 // the images it enters no later than `limit`. u_depth_image_count (entered at UNBOUNDED_RAY)
@@ -54,12 +130,7 @@ void next_two_images(int after, float after_t, float limit, vec3 origin, vec3 di
     first_t = second_t = UNBOUNDED_RAY;
     for (int j = 0; j < DEPTH_IMAGE_CAPACITY; ++j) {
         if (j >= u_depth_image_count) break;
-#ifdef TRACK_UNSEEN
-        float t = bound_entry(u_depth_images[j].bound, origin, direction, inverse_square_length);
-#else
-        // Hits alone are looked for: the tighter sphere around them.
-        float t = bound_entry(u_depth_images[j].hit_bound, origin, direction, inverse_square_length);
-#endif
+        float t = bound_entry(image_bound(j), origin, direction, inverse_square_length);
         bool candidate = (t > after_t || (t == after_t && j > after)) && t < UNBOUNDED_RAY && t <= limit;
         // j rises: an image entered where an earlier one is comes after it.
         bool before_first = candidate && t < first_t;
@@ -86,12 +157,8 @@ void next_two_images(int after, float after_t, float limit, vec3 origin, vec3 di
 // (tools/branch_cost.py).
 RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
     RayHit best = no_hit(0);
-#if defined(GLOSSY) && METHOD == METHOD_DEPTH
-    int best_image = 0;
-#endif
-    int samples = 0;
+    int best_image = 0, samples = 0, unseen = UNSEEN_NONE;
     float unseen_t = UNBOUNDED_RAY;
-    int unseen = UNSEEN_NONE;
     float inverse_square_length = 1.0 / dot(direction, direction);
     int next, after_next, last = -1;
     float next_t, after_next_t, last_t = -1.0;
@@ -109,19 +176,9 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
         // min(): a software rasterizer runs the body for a group as long as one of its pixels has
         // an image left (others have next == u_depth_image_count, up to the array's size): read a
         // real record.
-        RayHit candidate = intersect_depth_image(u_depth_images[min(next, DEPTH_IMAGE_CAPACITY - 1)], origin,
-                                                 direction, limit);
-        samples += candidate.samples;
-        if (candidate.unseen != UNSEEN_NONE && candidate.unseen_t < unseen_t) {
-            unseen_t = candidate.unseen_t;
-            unseen = candidate.unseen;
-        }
-        if (candidate.hit && candidate.t <= t_limit && (!best.hit || candidate.t < best.t)) {
-            best = candidate;
-#if defined(GLOSSY) && METHOD == METHOD_DEPTH
-            best_image = min(next, DEPTH_IMAGE_CAPACITY - 1);
-#endif
-        }
+        int image = min(next, DEPTH_IMAGE_CAPACITY - 1);
+        take_candidate(intersect_depth_image(u_depth_images[image], origin, direction, limit), image, t_limit, best,
+                       best_image, samples, unseen_t, unseen);
         last = next;
         last_t = next_t;
         next = after_next;
@@ -129,20 +186,11 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
         after_next = u_depth_image_count;
         after_next_t = UNBOUNDED_RAY;
     }
-    if (best.hit) best.color = (best.layer == 1 ? texelFetch(u_impostor_back_color, best.texel, 0)
-                                                : texelFetch(u_impostor_color, best.texel, 0)).rgb;
-#if defined(GLOSSY) && METHOD == METHOD_DEPTH
-    // A glossy mirror's cone: the visible surface's colour prefiltered at its footprint (the back
-    // layer, seen from behind, keeps its texel: it has no mips; the hybrid method, whose exact
-    // triangles have none either, keeps its texels too: plan.py's _builds_colour_mips).
-    if (best.hit && best.layer == 0) {
-        DepthImage image = u_depth_images[best_image];
-        best.color = cone_color(image, origin + direction * best.t - image.eye.xyz, best.t, best.color);
-    }
-#endif
+    best = coloured(best, best_image, origin, direction);
     best.samples = samples;
     return with_unseen(best, unseen_t, unseen);
 }
+#endif  // IMAGE_BVH
 #endif
 
 // The nearest reflected object; the depth-image method looks no farther than t_limit (the others
