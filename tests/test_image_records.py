@@ -22,7 +22,7 @@ from depthimpostor.constants import (
 from depthimpostor.errors import ContextError
 from depthimpostor.gpu.meshes import GpuMeshes
 from depthimpostor.gpu.shaders import ProgramCache
-from depthimpostor.methods.image_bvh import image_bvh
+from depthimpostor.methods.image_bvh import image_hierarchies
 from depthimpostor.methods.impostors import ImpostorPass
 from depthimpostor.oracles.compare import compare
 from depthimpostor.passes import reflectors
@@ -149,33 +149,30 @@ def test_images_past_the_memory_budget_are_made_smaller_and_the_plan_says_so() -
     assert {image.width for image in few.images} == {256} and "image_memory" not in few.images[0].reason
 
 
-def test_the_image_hierarchy_holds_every_image_and_its_walk_reaches_each_once() -> None:
+def test_the_image_hierarchies_hold_every_image_and_their_walk_reaches_each_once() -> None:
     rng = np.random.default_rng(3)
     records = np.zeros(37, DEPTH_IMAGE_DTYPE)
     records["bound"] = np.c_[rng.normal(size=(37, 3)) * 5, rng.uniform(0.1, 1.0, 37)]
     records["hit_bound"] = records["bound"] * (1, 1, 1, 0.5) + np.c_[rng.normal(size=(37, 3)) * 0.1, np.zeros(37)]
-    nodes = image_bvh(records)
-    assert len(nodes) == 2 * 37 - 1
-
-    def inside(inner: np.ndarray, outer: np.ndarray) -> bool:
-        return bool(np.linalg.norm(inner[:3] - outer[:3]) + inner[3] <= outer[3] * (1 + 1e-6))
-
-    leaves = []
-    node = 0  # the shader's walk with every sphere entered: into each inner node, past each leaf
-    while node < len(nodes):
-        image, skip = int(nodes[node]["links"][0]), int(nodes[node]["links"][1])
-        sphere = nodes[node]["sphere"].astype(np.float64)
-        # A node's subtree is the nodes up to its skip: its sphere holds every image there, so a
-        # ray that enters one of them enters it.
-        for under in nodes[node:skip]:
-            if under["links"][0] >= 0:
-                below = records[int(under["links"][0])]
-                assert inside(below["bound"], sphere) and inside(below["hit_bound"], sphere)
-        if image >= 0:
-            leaves.append(image)
-        node = skip if image >= 0 else node + 1
-    assert sorted(leaves) == list(range(37))
-    assert int(nodes[0]["links"][1]) == len(nodes)  # skipping the root ends the walk
+    both = image_hierarchies(records)
+    assert len(both) == 2 * (2 * 37 - 1)
+    for nodes, field in ((both[: 2 * 37 - 1], "hit_bound"), (both[2 * 37 - 1:], "bound")):
+        leaves = []
+        node = 0  # the shader's walk with every sphere entered: into each inner node, past each leaf
+        while node < len(nodes):
+            image, skip = int(nodes[node]["links"][0]), int(nodes[node]["links"][1])
+            sphere = nodes[node]["sphere"].astype(np.float64)
+            # A node's subtree is the nodes up to its skip: its sphere holds every image's there,
+            # so that a ray entering one of them enters it.
+            for under in nodes[node:skip]:
+                if under["links"][0] >= 0:
+                    inner = records[int(under["links"][0])][field].astype(np.float64)
+                    assert np.linalg.norm(inner[:3] - sphere[:3]) + inner[3] <= sphere[3] * (1 + 1e-6)
+            if image >= 0:
+                leaves.append(image)
+            node = skip if image >= 0 else node + 1
+        assert sorted(leaves) == list(range(37))
+        assert int(nodes[0]["links"][1]) == len(nodes)  # skipping the root ends the walk
 
 
 def test_the_hierarchy_walk_sees_what_the_scan_sees(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> None:

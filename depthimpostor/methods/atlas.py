@@ -27,7 +27,7 @@ from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
 from ..oracles.reference import DepthImageData
 from ..scene.model import Scene
-from .image_bvh import image_bvh
+from .image_bvh import image_hierarchies
 from .pyramid import PyramidLayout
 from ..gpu.uniforms import bind_record_block, bind_texture
 
@@ -119,7 +119,7 @@ def record_table(records: NDArray[np.void], count: int, capacity: int) -> bytes:
     (methods/image_bvh.py, lib/baked_images.glsl)."""
     if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
         return records.tobytes()
-    return records.tobytes() + image_bvh(records[:count]).tobytes()
+    return records.tobytes() + image_hierarchies(records[:count]).tobytes()
 
 
 def bind_image_records(buffer: moderngl.Buffer, capacity: int) -> None:

@@ -11,8 +11,11 @@ everything under it, so that a ray tests a few dozen spheres where it tested a t
 
 Nodes are laid out depth first, each with the index of the node after its subtree (`skip`), so
 that the walk needs no stack (as methods/bvh.py lays out the triangles' boxes). A leaf holds one
-image. A node's sphere holds its images' `bound` and `hit_bound` spheres both: the variants that
-track unseen space test the first, the others the second (constants.DEPTH_IMAGE_FIELDS).
+image. The table holds two hierarchies: one over the images' `hit_bound` spheres, which the
+variants that look for hits alone test, then one over their `bound` spheres, which the variants
+that track unseen space test (constants.DEPTH_IMAGE_FIELDS). One over both would be no use: a
+`bound` holds the image's whole frustum from the mirror's centre, so that every reflected ray
+starts inside most of them (tools/scene_size.py's 1,000 objects: a ray entered 40 % of the leaves).
 """
 
 from __future__ import annotations
@@ -37,16 +40,19 @@ def _enclosing(spheres: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.array([*centre, radius * (1.0 + 1e-5) + 1e-6 * float(np.abs(centre).max())])
 
 
-def image_bvh(records: NDArray[np.void]) -> NDArray[np.void]:
-    """The hierarchy of the images of `records` (DEPTH_IMAGE_DTYPE, the mirror's images in table
-    order): 2n - 1 IMAGE_NODE_DTYPE records, depth first; none for no image."""
-    count = len(records)
+def image_hierarchies(records: NDArray[np.void]) -> NDArray[np.void]:
+    """The two hierarchies of the images of `records` (DEPTH_IMAGE_DTYPE, the mirror's images in
+    table order), over their hit bounds and then over their bounds: 2 (2n - 1) nodes."""
+    return np.concatenate([image_bvh(np.asarray(records["hit_bound"], np.float64)),
+                           image_bvh(np.asarray(records["bound"], np.float64))])
+
+
+def image_bvh(leaves: NDArray[np.float64]) -> NDArray[np.void]:
+    """The hierarchy of n images whose spheres are `leaves` ((n, 4), in table order): 2n - 1
+    IMAGE_NODE_DTYPE records, depth first, their links counted from the first; none for no image."""
+    count = len(leaves)
     if count == 0:
         return np.zeros(0, IMAGE_NODE_DTYPE)
-    bounds = np.asarray(records["bound"], np.float64)
-    hits = np.asarray(records["hit_bound"], np.float64)
-    # Each image's leaf sphere holds both of its spheres.
-    leaves = np.stack([_enclosing(np.stack([bound, hit])) for bound, hit in zip(bounds, hits, strict=True)])
     nodes = np.zeros(2 * count - 1, IMAGE_NODE_DTYPE)
     next_free = 0
 

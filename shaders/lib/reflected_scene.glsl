@@ -97,17 +97,20 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
     float unseen_t = UNBOUNDED_RAY;
     float inverse_square_length = 1.0 / dot(direction, direction);
     int nodes = max(2 * u_depth_image_count - 1, 0);
+#ifdef TRACK_UNSEEN
+    int first_node = nodes;  // the hierarchy over the images' bounds, which image_bound tests
+#else
+    int first_node = 0;  // over their hit bounds
+#endif
     int node = 0;
     for (int step = 0; step < 2 * DEPTH_IMAGE_CAPACITY - 1; ++step) {
         if (node >= nodes) break;
-        ImageNode current = u_image_nodes[node];
+        ImageNode current = u_image_nodes[first_node + node];
         float limit = best.hit ? min(best.t, t_limit) : t_limit;
         float node_t = bound_entry(current.sphere, origin, direction, inverse_square_length);
         bool entered = node_t < UNBOUNDED_RAY && node_t <= limit;
-        int image = current.links.x;  // -1 for an inner node
-        float image_t = bound_entry(image_bound(max(image, 0)), origin, direction, inverse_square_length);
-        for (int march = entered && image >= 0 && image_t < UNBOUNDED_RAY && image_t <= limit ? 1 : 0; march > 0;
-             --march) {
+        int image = current.links.x;  // -1 for an inner node; a leaf's sphere is its image's
+        for (int march = entered && image >= 0 ? 1 : 0; march > 0; --march) {
             take_candidate(intersect_depth_image(u_depth_images[image], origin, direction, limit), image, t_limit,
                            best, best_image, samples, unseen_t, unseen);
         }
