@@ -10,8 +10,8 @@ the method or on what the mirrors can see. `render` builds its plan before any G
 | planes that are not mirrors (floors, walls) | `MAX_ANALYTIC_PLANES` (8) | load | intersected exactly from a uniform array of that size |
 | `render.max_bounces` | `MAX_BOUNCES` (4) | load | each bounce bakes an image per pair of mirrors |
 | `render.max_bounces` > 1 with two or more mirrors or glass | the depth method alone | plan (`check_method`) | only the depth method bakes reflectors into each other's images |
-| objects a mirror may show (after culling) | `MAX_DEPTH_IMAGES_PER_REFLECTOR` (64) | plan (`per_object_plan`) | the images of one mirror share a uniform block of that many records |
-| objects and other mirrors a mirror shows, with bounces | 64 | plan (`ImpostorPass.plan_images`) | the same block |
+| objects a mirror may show, and so its depth images | none: past `DEPTH_IMAGE_BLOCK_RECORDS` (64) a mirror's image records (and a hierarchy over them) are a storage buffer, GL 4.3 (`BakedImages`: a `ContextError` on an older GL) | render | a uniform block holds 64 records within GL 3.3's guaranteed 16 KiB |
+| the depth images' memory | `render.image_memory` (MiB, default 1024) | plan (`per_object_plan`): every image made smaller to fit, not refused | an atlas of a thousand images at 256^2 would take 2.6 GiB |
 | reflected objects, traced methods (`raytrace`, `simplified`, `hybrid`) | 64 | plan (`check_method`) | one uniform block of that many object records |
 | reflected triangles, `hybrid` | `MAX_NAMED_TRIANGLES` (2^24) | plan (`check_method`) | a float32 depth-image sample names a triangle |
 | an object around a mirror's centre, or a light among the shadow casters | no frustum fits | plan | a pinhole image (depth image, cube map, shadow map) must see all of it |
