@@ -108,6 +108,8 @@ def test_resolution_change_re_bakes_every_depth_image_once(ctx: moderngl.Context
 
 def test_a_resolution_this_gl_cannot_hold_changes_nothing(ctx: moderngl.Context) -> None:
     scene = load_scene(SCENES / "lecture_8x9.toml").with_overrides(size=(64, 36), impostor_resolution=16)
+    # A budget that lets the images be as large as asked (the default would make them smaller).
+    scene = dataclasses.replace(scene, render=dataclasses.replace(scene.render, image_memory=2**24))
     with Renderer(ctx, scene) as renderer:
         renderer.render()
         before = renderer.read_color_float()
