@@ -24,7 +24,9 @@ from depthimpostor.gpu.meshes import GpuMeshes
 from depthimpostor.gpu.shaders import ProgramCache
 from depthimpostor.methods.image_bvh import image_hierarchies
 from depthimpostor.methods.impostors import ImpostorPass
+from depthimpostor.oracles import reference
 from depthimpostor.oracles.compare import compare
+from depthimpostor.oracles.ray_query import RayQuery
 from depthimpostor.passes import reflectors
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
@@ -192,3 +194,35 @@ def test_the_hierarchy_walk_sees_what_the_scan_sees(ctx: moderngl.Context, monke
             frames.append(renderer.read_color_float())
     assert np.isfinite(frames[0]).all()
     np.testing.assert_allclose(frames[0], frames[1], atol=1e-6)
+
+
+def test_the_walk_tracking_unseen_space_finds_the_references_nearest_hits(ctx: moderngl.Context) -> None:
+    """The ray query (the mirror shader's GLSL with TRACK_UNSEEN: the hierarchy over the images'
+    bounds) over 100 images of one mirror, against the numpy reference's nearest hit, ray by ray."""
+    scene = many_balls(100).with_overrides(size=(32, 18), impostor_resolution=32)
+    with Renderer(ctx, scene, method=Method.DEPTH) as renderer:
+        renderer.render()
+        impostors = renderer.graph.impostors
+        assert impostors is not None
+        images = impostors.images_by_reflector[renderer.world.mirrors[0].index]
+        assert len(images) == 100
+        rng = np.random.default_rng(4)
+        targets = np.array([image.target.bounding_sphere[0] for image in images])[rng.integers(0, 100, 3000)]
+        origins = rng.uniform((-4.0, 0.5, 0.02), (4.0, 3.5, 0.1), size=(3000, 3))  # on the wall mirror's front
+        directions = targets + rng.normal(size=(3000, 3)) * 0.12 - origins
+        query = RayQuery(ctx, renderer.programs, impostors.atlas, images)
+        assert ("IMAGE_BVH", 1) in query_defines(query)
+        gpu = query.run(origins, directions)
+        query.release()
+        expected = reference.nearest_depth_image_hit([impostors.atlas.read(image) for image in images], origins,
+                                                     directions)
+    clear = (expected.texel_margin > 1e-3) & (expected.depth_margin > 1e-6)
+    assert expected.hit.sum() > 1000
+    assert (gpu.hit == expected.hit)[clear].mean() >= 0.999
+    both = clear & gpu.hit & expected.hit
+    assert (gpu.object_id[both] == expected.object_id[both]).mean() >= 0.999
+    assert np.allclose(gpu.t[both], expected.t[both], rtol=1e-3, atol=1e-4)
+
+
+def query_defines(query: RayQuery) -> set[tuple[str, int]]:
+    return {(name, int(value)) for name, value in query.defines.items()}

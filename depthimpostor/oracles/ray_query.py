@@ -64,6 +64,7 @@ class RayQuery:
         # TRACK_UNSEEN: the query reports what each answer rests on that the images do not hold.
         defines = {**reflection_defines(METHODS[Method.DEPTH].defines(algorithm)), "TRACK_UNSEEN": 1,
                    **depth_image_defines(self.capacity)}
+        self.defines = defines
         self.program = programs.get("fullscreen.vert", "ray_query.frag", defines)
         records = np.zeros(self.capacity, dtype=DEPTH_IMAGE_DTYPE)
         for i, image in enumerate(images):
