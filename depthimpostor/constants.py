@@ -200,8 +200,9 @@ MIN_BUDGETED_SIDE = 8
 
 #: Storage buffers arrived with OpenGL 4.3 (GL_ARB_shader_storage_buffer_object): ctx.version_code.
 STORAGE_GL_VERSION = 430
-#: Reflected objects the traced methods' uniform block of object records holds.
-MAX_TRACED_OBJECTS = 64
+#: Reflected objects the traced methods' uniform block of object records holds (80 bytes each);
+#: past it, their records are a storage buffer, as a mirror's image records are.
+TRIANGLE_OBJECT_BLOCK_RECORDS = 64
 
 
 def depth_image_capacity(objects: int) -> int:
@@ -214,13 +215,15 @@ def depth_image_capacity(objects: int) -> int:
 
 
 def depth_image_defines(capacity: int) -> dict[str, int]:
-    """The defines of a program reading image tables of `capacity` records (lib/baked_images.glsl):
-    none for the uniform block's own size, so that a scene of up to DEPTH_IMAGE_BLOCK_RECORDS objects
-    keeps the programs it always had; past it the capacity, the storage buffers' extension, and
-    IMAGE_BVH: the table holds a hierarchy over the images too (methods/image_bvh.py)."""
+    """The defines of a program reading record tables of `capacity` records, a mirror's images'
+    (lib/baked_images.glsl) or the traced objects' (lib/triangles.glsl): none for the uniform
+    blocks' own size, so that a scene of up to DEPTH_IMAGE_BLOCK_RECORDS objects keeps the programs
+    it always had; past it the capacities, the storage buffers' extension, and IMAGE_BVH: an image
+    table holds a hierarchy over the images too (methods/image_bvh.py)."""
     if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
         return {}
-    return {"DEPTH_IMAGE_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1, "IMAGE_BVH": 1}
+    return {"DEPTH_IMAGE_CAPACITY": capacity, "TRIANGLE_OBJECT_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1,
+            "IMAGE_BVH": 1}
 #: Reflected triangles the hybrid method's depth images can name: a float32 sample holds
 #: integers below 2^24.
 MAX_NAMED_TRIANGLES = 2**24
@@ -425,7 +428,7 @@ def glsl_constants() -> dict[str, str]:
         "MAX_ANALYTIC_PLANES": str(MAX_ANALYTIC_PLANES),
         "MAX_TEXTURES": str(MAX_TEXTURES),
         "DEPTH_IMAGE_BLOCK_RECORDS": str(DEPTH_IMAGE_BLOCK_RECORDS),
-        "MAX_TRACED_OBJECTS": str(MAX_TRACED_OBJECTS),
+        "TRIANGLE_OBJECT_BLOCK_RECORDS": str(TRIANGLE_OBJECT_BLOCK_RECORDS),
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
         "NO_OBJECT": str(NO_OBJECT),
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",

@@ -74,6 +74,7 @@ class UniformBlock(IntEnum):
 class StorageBuffer(IntEnum):
     PYRAMID_TILES = 0  # the pyramid build's tile table (methods/pyramid.py, depth_pyramid.comp)
     DEPTH_IMAGES = 1  # one reflector's image records, where they pass a uniform block (methods/atlas.py)
+    TRIANGLE_OBJECTS = 2  # the traced objects' records, where they pass a uniform block (methods/triangles.py)
 
 
 @unique

@@ -12,20 +12,22 @@ import math
 import moderngl
 import numpy as np
 
-from ..gpu.bindings import TextureUnit, UniformBlock
+from ..gpu.bindings import StorageBuffer, TextureUnit, UniformBlock
 from .bvh import build_bvh
 from ..constants import (
     BVH_TEXTURE_WIDTH,
     BVH_TRIANGLE_TEXELS,
-    MAX_TRACED_OBJECTS,
+    STORAGE_GL_VERSION,
+    TRIANGLE_OBJECT_BLOCK_RECORDS,
     TRIANGLE_OBJECT_DTYPE,
+    depth_image_capacity,
 )
-from ..errors import SceneError
+from ..errors import ContextError, SceneError
 from ..geometry import ObjectGeometry
 from ..meshes import Mesh
 from ..scene.model import Scene
 from .atlas import plural
-from ..gpu.uniforms import bind_texture, bind_uniform_block, material_fields, texture_fields
+from ..gpu.uniforms import bind_record_block, bind_texture, material_fields, texture_fields
 
 
 
@@ -42,8 +44,15 @@ def _texture(ctx: moderngl.Context, texels: np.ndarray, source: str) -> moderngl
     return texture
 
 
+def object_capacity(scene: Scene) -> int:
+    """The traced objects' records as this scene's programs declare them (constants.depth_image_defines)."""
+    return depth_image_capacity(len(scene.objects))
+
+
 def object_records(scene: Scene, objects: list[ObjectGeometry]) -> np.ndarray:
-    records = np.zeros(MAX_TRACED_OBJECTS, TRIANGLE_OBJECT_DTYPE)
+    """Each traced object's TRIANGLE_OBJECT record, padded to object_capacity (a uniform block is
+    declared with that many; a storage buffer is read by slot alone, padded as well)."""
+    records = np.zeros(object_capacity(scene), TRIANGLE_OBJECT_DTYPE)
     for slot, item in enumerate(objects):
         kind, color_a, color_b, scale = material_fields(item.object.material)
         texture, uv_scale = texture_fields(scene, item.object.material)
@@ -90,7 +99,13 @@ class TrianglePass:
         their own by default (the simplified method passes decimated ones). `places` (the hybrid
         method's) also uploads where each triangle of the list (geometry.triangle_offsets) sits in
         the BVH's order, so that a triangle a depth image names can be intersected."""
+        if object_capacity(scene) > TRIANGLE_OBJECT_BLOCK_RECORDS and ctx.version_code < STORAGE_GL_VERSION:
+            raise ContextError(
+                f"a scene of {len(scene.objects)} objects keeps its traced objects' records in a storage buffer, which "
+                f"needs OpenGL 4.3; this context has {ctx.version_code // 100}.{ctx.version_code % 100 // 10}: use a "
+                f"newer driver, or at most {TRIANGLE_OBJECT_BLOCK_RECORDS} objects")
         self.ctx = ctx
+        self.in_storage = object_capacity(scene) > TRIANGLE_OBJECT_BLOCK_RECORDS
         worlds = world_meshes if world_meshes is not None else [item.world_mesh for item in reflected]
         triangles, normals, uvs, slots = _triangle_list(worlds)
         bvh = build_bvh(triangles)
@@ -132,8 +147,11 @@ class TrianglePass:
     def bind(self, program: moderngl.Program) -> None:
         bind_texture(program, "u_bvh_nodes", self.nodes, TextureUnit.BVH_NODES)
         bind_texture(program, "u_bvh_triangles", self.triangles, TextureUnit.BVH_TRIANGLES)
-        bind_uniform_block(program, "TriangleObjects", UniformBlock.TRIANGLE_OBJECTS)
-        self.objects.bind_to_uniform_block(UniformBlock.TRIANGLE_OBJECTS)
+        bind_record_block(program, "TriangleObjects", UniformBlock.TRIANGLE_OBJECTS, StorageBuffer.TRIANGLE_OBJECTS)
+        if self.in_storage:
+            self.objects.bind_to_storage_buffer(StorageBuffer.TRIANGLE_OBJECTS)
+        else:
+            self.objects.bind_to_uniform_block(UniformBlock.TRIANGLE_OBJECTS)
         if self.places is not None:
             bind_texture(program, "u_bvh_places", self.places, TextureUnit.BVH_PLACES)
 

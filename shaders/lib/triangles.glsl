@@ -8,9 +8,21 @@
 uniform sampler2D u_bvh_nodes;      // 3 texels a node: (lower, first), (upper, count), (skip, 0, 0, 0)
 // BVH_TRIANGLE_TEXELS a triangle: p0 (w: object slot), p1, p2, n0, n1, n2, (uv0, uv1), (uv2, 0, 0)
 uniform sampler2D u_bvh_triangles;
-layout(std140) uniform TriangleObjects {
-    TriangleObject u_triangle_objects[MAX_TRACED_OBJECTS];
+// The objects' records (a triangle names its object's slot): a uniform block up to
+// TRIANGLE_OBJECT_BLOCK_RECORDS, past it a storage buffer (as lib/baked_images.glsl's images; the
+// record is vec4s and a mat4, laid out alike by std140 and std430).
+#ifndef TRIANGLE_OBJECT_CAPACITY
+#define TRIANGLE_OBJECT_CAPACITY TRIANGLE_OBJECT_BLOCK_RECORDS
+#endif
+#if TRIANGLE_OBJECT_CAPACITY > TRIANGLE_OBJECT_BLOCK_RECORDS
+layout(std430) readonly buffer TriangleObjects {
+    TriangleObject u_triangle_objects[];
 };
+#else
+layout(std140) uniform TriangleObjects {
+    TriangleObject u_triangle_objects[TRIANGLE_OBJECT_CAPACITY];
+};
+#endif
 
 vec4 bvh_fetch(sampler2D data, int index) {
     return texelFetch(data, ivec2(index % BVH_TEXTURE_WIDTH, index / BVH_TEXTURE_WIDTH), 0);
