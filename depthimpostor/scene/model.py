@@ -421,13 +421,14 @@ class Scene:
         place that decides it (world.py, plan.py, the passes and the truth read it).
 
         An exact plane is an optimisation, never a limit: it is what a floor around a mirror needs
-        (no pinhole image from the mirror's centre holds a plane it stands on) and what pays most
-        for large walls, and a uniform array costs nothing per pixel where a scene has few planes.
-        So the MAX_ANALYTIC_PLANES largest by world area are chosen, ties by object order (a
-        stable sort: the choice is the same at every load), and every other diffuse plane is an
-        ordinary mesh object: drawn, baked, traced and seen by the truth as a box is. A scene of
-        at most MAX_ANALYTIC_PLANES planes has them all exact. Computed once: the fields are
-        frozen (and an animation turns a plane without changing its area)."""
+        (no pinhole image from the mirror's centre holds a plane it stands on), and it pays most
+        where a plane is large (one exact rectangle test per reflected ray, where a depth image of
+        a large floor or wall seen at a grazing angle is coarse). So the MAX_ANALYTIC_PLANES
+        largest by world area are chosen, ties by object order (a stable sort: the choice is the
+        same at every load), and every other diffuse plane is an ordinary mesh object: drawn,
+        baked, traced and seen by the truth as a box is. A scene of at most MAX_ANALYTIC_PLANES
+        planes has them all exact. Computed once: the fields are frozen (and an animation turns
+        a plane without changing its area)."""
         planes = [i for i, o in enumerate(self.objects) if o.is_diffuse_plane]
         largest = sorted(planes, key=lambda i: -self.objects[i].plane_area)[:MAX_ANALYTIC_PLANES]
         return frozenset(largest)
