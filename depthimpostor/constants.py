@@ -180,7 +180,8 @@ SRGB_GAMMA = 2.4
 #: Narkowicz's 2015 fit of the ACES filmic tone curve ("ACES Filmic Tone Mapping Curve"):
 #: f(x) = clamp(x (A x + B) / (x (C x + D) + E), 0, 1), per channel.
 ACES_A, ACES_B, ACES_C, ACES_D, ACES_E = 2.51, 0.03, 2.43, 0.59, 0.14
-#: Analytic planes (floors, walls) a reflected ray is intersected with exactly.
+#: Analytic planes (floors, walls) a reflected ray is intersected with exactly: the scene's largest
+#: diffuse planes, up to this many (Scene.analytic_plane_indices); any others are drawn as meshes.
 MAX_ANALYTIC_PLANES = 8
 #: Distinct image textures in one scene. Each is bound for the whole frame on a texture unit of
 #: its own (bindings.TextureUnit.MATERIAL_TEXTURE_*), which the diffuse pass picks by an if-chain

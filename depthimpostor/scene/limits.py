@@ -7,7 +7,7 @@ the method or on what the mirrors can see. `render` builds its plan before any G
 | a number in a scene file, and how far an object reaches from the origin | `MAX_COORDINATE` (1e18) | load: the field (`fields.py`); the object, from its position, scale, shape and orbit (`check_scene`; a model file's when the plan loads it) | float32 geometry squares distances |
 | lights | `MAX_LIGHTS` (8) | load | the shading loops over a uniform array of that size |
 | distinct image textures | `MAX_TEXTURES` (4) | load | each is bound on a texture unit of its own for the whole frame |
-| planes that are not mirrors (floors, walls) | `MAX_ANALYTIC_PLANES` (8) | load | intersected exactly from a uniform array of that size |
+| planes that are not mirrors (floors, walls) | none: the `MAX_ANALYTIC_PLANES` (8) largest are intersected exactly, the others drawn as meshes (`Scene.analytic_plane_indices`), which count as reflected objects below | not refused | the exact ones come from a uniform array of that size, and pay most where large (a floor around a mirror); `plan` says which |
 | `render.max_bounces` | `MAX_BOUNCES` (4) | load | each bounce bakes an image per pair of mirrors |
 | `render.max_bounces` > 1 with two or more mirrors or glass | the depth method alone | plan (`check_method`) | only the depth method bakes reflectors into each other's images |
 | objects a mirror may show, and so its depth images | none: past `DEPTH_IMAGE_BLOCK_RECORDS` (64) a mirror's image records (and a hierarchy over them) are a storage buffer, GL 4.3 (`BakedImages`: a `ContextError` on an older GL) | render | a uniform block holds 64 records within GL 3.3's guaranteed 16 KiB |
@@ -28,7 +28,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from depthimpostor.constants import (
-    MAX_ANALYTIC_PLANES,
     MAX_COORDINATE,
     MAX_LIGHTS,
     MAX_TEXTURES,
@@ -94,11 +93,6 @@ def check_scene(scene: Scene) -> None:
     scenes built in code)."""
     if len(scene.lights) > MAX_LIGHTS:
         raise SceneError(scene.source, "lights", f"expected at most {MAX_LIGHTS} [[lights]] tables, got {len(scene.lights)}")
-    planes = [i for i, obj in enumerate(scene.objects) if isinstance(obj.shape, PlaneShape) and not obj.is_mirror]
-    if len(planes) > MAX_ANALYTIC_PLANES:
-        raise SceneError(scene.source, f"objects[{planes[MAX_ANALYTIC_PLANES]}]",
-                         f"expected at most {MAX_ANALYTIC_PLANES} planes that are not mirrors (floors and walls are "
-                         f"intersected exactly, from an array of {MAX_ANALYTIC_PLANES}), got {len(planes)}")
     if len(scene.textures) > MAX_TEXTURES:
         first = next(i for i, obj in enumerate(scene.objects) if scene.texture_slot(obj.material) == MAX_TEXTURES)
         raise SceneError(scene.source, f"objects[{first}].material.texture",
