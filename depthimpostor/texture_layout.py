@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -140,21 +139,33 @@ def size_groups(sizes: list[tuple[int, int]], groups: int = MATERIAL_ARRAYS) -> 
     return [layer[size] for size in sizes]
 
 
-def shelf_pack(sizes: list[tuple[int, int]]) -> tuple[np.ndarray, tuple[int, int]]:
-    """Rectangles of `sizes` (width, height) packed on shelves, tallest first, in an atlas as wide as
-    the widest or as the square root of their area: (n, 4) (x, y, width, height) and the atlas size."""
-    if not sizes:
-        return np.zeros((0, 4), np.int32), (1, 1)
-    width = max(max(w for w, _ in sizes), math.isqrt(sum(w * h for w, h in sizes) - 1) + 1)
+def _shelves(sizes: list[tuple[int, int]], order: list[int], width: int) -> tuple[np.ndarray, int]:
+    """Rectangles of `sizes` placed in `order` on shelves of `width`: (n, 4) and the height used."""
     rects = np.zeros((len(sizes), 4), np.int32)
     x = y = shelf = 0
-    for k in sorted(range(len(sizes)), key=lambda k: (-sizes[k][1], -sizes[k][0], k)):
+    for k in order:
         w, h = sizes[k]
         if x + w > width:  # the shelf is full: a new one above the tallest of this one
             x, y, shelf = 0, y + shelf, 0
         rects[k] = (x, y, w, h)
         x, shelf = x + w, max(shelf, h)
-    return rects, (width, y + shelf)
+    return rects, y + shelf
+
+
+def shelf_pack(sizes: list[tuple[int, int]]) -> tuple[np.ndarray, tuple[int, int]]:
+    """Rectangles of `sizes` (width, height) packed on shelves, tallest first: (n, 4) (x, y, width,
+    height) and the atlas size. Of the widths that end the first shelf after each image, the one
+    whose atlas has the shortest longer side (what GL_MAX_TEXTURE_SIZE limits), then the least area."""
+    if not sizes:
+        return np.zeros((0, 4), np.int32), (1, 1)
+    order = sorted(range(len(sizes)), key=lambda k: (-sizes[k][1], -sizes[k][0], k))
+    widths = sorted(set(np.cumsum([sizes[k][0] for k in order]).tolist()))
+    packings = []
+    for width in widths:
+        rects, height = _shelves(sizes, order, width)
+        packings.append((max(width, height), width * height, width, height, rects))
+    side, area, width, height, rects = min(packings, key=lambda packing: packing[:3])
+    return rects, (width, height)
 
 
 @functools.lru_cache(maxsize=8)

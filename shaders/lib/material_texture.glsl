@@ -68,15 +68,22 @@ vec3 texel_level0(int slot, ivec2 texel) {
     return vec3(u_srgb_to_linear[encoded.r], u_srgb_to_linear[encoded.g], u_srgb_to_linear[encoded.b]);
 }
 
+// i modulo n in [0, n) (numpy's np.mod). GLSL leaves % undefined for a negative operand, and
+// llvmpipe's takes it as unsigned (-1 % 12 = 3): a repeated texture's first half texel (texel -1,
+// the last one wrapped) read another row.
+int floor_mod(int i, int n) {
+    return i >= 0 ? i % n : n - 1 - (-1 - i) % n;
+}
+
 // An integer texel coordinate brought into [0, size) by a wrap mode (textures.py's wrap_texels).
 ivec2 wrap_texels(ivec2 index, ivec2 size, ivec2 mode) {
     ivec2 result;
     for (int axis = 0; axis < 2; ++axis) {
         int i = index[axis], n = size[axis];
-        int period = ((i % (2 * n)) + 2 * n) % (2 * n);  // % keeps the sign of i: made non-negative
+        int period = floor_mod(i, 2 * n);
         if (mode[axis] == WRAP_CLAMP_TO_EDGE) result[axis] = clamp(i, 0, n - 1);
         else if (mode[axis] == WRAP_MIRRORED_REPEAT) result[axis] = period < n ? period : 2 * n - 1 - period;
-        else result[axis] = ((i % n) + n) % n;
+        else result[axis] = floor_mod(i, n);
     }
     return result;
 }
