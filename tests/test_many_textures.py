@@ -7,6 +7,7 @@ each refused in one line naming the image."""
 from __future__ import annotations
 
 import colorsys
+import dataclasses
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -141,19 +142,24 @@ def test_each_of_sixty_four_textures_shows_on_its_own_object(ctx: moderngl.Conte
     error = np.abs(np.clip(frame[..., :3], 0.0, 1.0) - np.clip(truth, 0.0, 1.0)).max(axis=-1)
     mirror = next(i for i, o in enumerate(many.objects) if o.is_mirror)
     medians = {}
+    behind = next(i for i, o in enumerate(many.objects) if o.name == "back wall")  # seen in the mirror alone
     for index in range(len(many.objects)):
-        if index != mirror:
+        if index not in (mirror, behind):
             pixels = error[object_id == index]
-            assert len(pixels) >= 12, f"objects[{index}] is not in view: {len(pixels)} pixels"
+            assert len(pixels) >= 100, f"objects[{index}] is not in view: {len(pixels)} pixels"
             medians[index] = float(np.median(pixels))
+    # Measured: 0.087 at most (a small box, minified: the mips blur its quadrants' edges); two
+    # boxes' records swapped: 0.41 on each.
     worst = max(medians, key=medians.__getitem__)
-    assert medians[worst] < 0.03, (worst, medians[worst])
-    assert depth.mirror_pixels > 20000 and depth.wrong_object_share < 0.02
-    assert depth.color_rmse < 0.06, depth.color_rmse
+    assert medians[worst] < 0.15, (worst, medians[worst])
+    # Measured 0.041 and 0.005 (images of 64 texels a side for boxes of ~12 pixels).
+    assert depth.mirror_pixels > 20000 and depth.wrong_object_share < 0.01
+    assert depth.color_rmse < 0.05, depth.color_rmse
     with Renderer(ctx, many, reflection_data=True, method=Method.RAYTRACE) as renderer:
         renderer.render()
         assert_finite(renderer.read_color_float())
         traced = compare(renderer).figures
+    # Float noise (6.7e-7 measured; 0.008 with texel -1 of a repeated wall wrapped by GLSL's %).
     assert traced.wrong_object_share < 0.001
     assert traced.color_rmse < 3e-5, traced.color_rmse
 
@@ -198,18 +204,20 @@ def test_an_edge_on_mirrored_floor_has_no_seams(ctx: moderngl.Context, tmp_path:
     frames = []
     for image, scale, wrap in (("mirrored.png", 24.0, "mirrored_repeat"), ("tiled.png", 12.0, "repeat")):
         scene = edge_on_floor(tmp_path, image, scale, wrap)
-        assert "FOLDED_TEXTURES" in texture_defines(scene) if wrap != "repeat" else True
+        assert ("FOLDED_TEXTURES" in texture_defines(scene)) == (wrap != "repeat")
         with Renderer(ctx, scene) as renderer:
             renderer.render()
             frames.append(renderer.read_color_float()[..., :3])
     assert_finite(frames[0])
-    floor = frames[1].max(axis=-1) > 0.0
-    assert floor.mean() > 0.4
+    floor = np.abs(frames[1][..., 2] - frames[1][..., 0]) < 0.03  # grey: the sky is blue
+    assert 0.3 < floor.mean() < 0.9
+    # Measured: 0.0017 at most; 0.36 with the derivatives of the folded UV.
     difference = np.abs(frames[0] - frames[1])[floor]
     assert float(difference.max()) < 0.01, float(difference.max())
-    # Far away the checker is grey (a coarse level), not level 0's aliasing: the mip levels are chosen.
-    far = frames[0][floor.argmax(axis=0).min():floor.argmax(axis=0).min() + 6]
-    assert float(far[far.max(axis=-1) > 0].std()) < 0.05
+    # Far away the checker is grey (a coarse level), not level 0's black and white: the levels are chosen.
+    horizon = int(np.argmax(floor.mean(axis=1) > 0.9))
+    far = frames[0][horizon:horizon + 6][floor[horizon:horizon + 6]]
+    assert float(far.std()) < 0.05, float(far.std())
 
 
 def test_sizes_are_grouped_into_at_most_four_arrays() -> None:
@@ -254,18 +262,21 @@ def ctx_limits(ctx: moderngl.Context) -> Iterator[moderngl.Context]:
 
 
 @pytest.mark.parametrize("limit, fragments", [
-    ({"max_array_texture_layers": 40}, ("objects[41].material.texture (t45.png)", "would be layer 41",
-                                        "GL_MAX_ARRAY_TEXTURE_LAYERS of 40")),
-    ({"max_uniform_block_size": 1024}, ("the first past it: objects[33].material.texture (t32.png)",
+    ({"max_array_texture_layers": 20}, ("the image texture objects[43].material.texture (t38.png) would be layer 21",
+                                        "GL_MAX_ARRAY_TEXTURE_LAYERS of 20")),
+    ({"max_uniform_block_size": 1024}, ("the first past it: objects[33].material.texture (t28.png)",
                                         "GL_MAX_UNIFORM_BLOCK_SIZE of 1024")),
-    ({"max_texture_size": 24}, ("objects[8].material.texture (t4.png) is 32x32", "GL_MAX_TEXTURE_SIZE of 24")),
+    ({"max_texture_size": 24}, ("the image texture objects[1].material.texture (t60.png) is 32x32",
+                                "GL_MAX_TEXTURE_SIZE of 24")),
+    ({"max_texture_size": 100}, ("the atlas of the scene's 64 images that traced rays read would be 160x152",
+                                 "GL_MAX_TEXTURE_SIZE of 100")),
 ])
 def test_the_gl_limits_that_remain_are_refused_naming_the_image(ctx_limits: moderngl.Context, many: Scene,
                                                                 limit: dict[str, int], fragments: tuple[str, ...]) -> None:
-    """Refused before anything is made (the plan's figures against the context's limits)."""
-    limits = GpuLimits(16384, 16384, (16384, 16384))
-    use_limits(ctx_limits, GpuLimits(**{**limits.__dict__, **limit}))
+    """Refused before anything is made (the plan's figures against the context's limits), in one
+    line. (--method raytrace: the depth method's atlas of baked images would be refused first.)"""
+    use_limits(ctx_limits, dataclasses.replace(GpuLimits(16384, 16384, (16384, 16384)), **limit))
     with pytest.raises(GpuLimitError) as refused:
-        Renderer(ctx_limits, many).release()
+        Renderer(ctx_limits, many, method=Method.RAYTRACE).release()
     message = str(refused.value)
     assert "\n" not in message and all(fragment in message for fragment in fragments), message
