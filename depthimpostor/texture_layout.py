@@ -98,6 +98,17 @@ class TextureLayout:
         """GPU memory of it all: the arrays with their mipmaps, the atlas and the records."""
         return sum(array.bytes for array in self.arrays) + self.atlas_bytes + self.records_bytes
 
+    def summary(self) -> str:
+        """One line for `plan`: the arrays, what was resampled, the atlas, and the GL limits that apply."""
+        def count(n: int, noun: str) -> str:
+            return f"{n} {noun}{'s' * (n != 1)}"
+        arrays = ", ".join(f"{len(a.images)} of {a.size[0]}x{a.size[1]}" for a in self.arrays)
+        resampled = f", {len(self.resampled)} resampled up to their array's size" if self.resampled else ""
+        return (f"textures: {count(len(self.textures), 'texture')} of {count(len(self.images), 'distinct image')} in "
+                f"{count(len(self.arrays), 'array')} ({arrays}){resampled}; their level 0 in a "
+                f"{self.atlas_size[0]}x{self.atlas_size[1]} atlas for traced rays; checked against GL_MAX_TEXTURE_SIZE, "
+                "GL_MAX_ARRAY_TEXTURE_LAYERS and GL_MAX_UNIFORM_BLOCK_SIZE")
+
     def slot_of_image(self, image: int) -> int:
         """The first texture slot that shows `image` (messages name a texture by its slot)."""
         return self.image_of.index(image)

@@ -22,6 +22,7 @@ from depthimpostor.errors import GpuLimitError
 from depthimpostor.gpu.limits import GpuLimits, context_limits, use_limits
 from depthimpostor.oracles.compare import compare
 from depthimpostor.oracles.truth import TruthTracer
+from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
 from depthimpostor.texture_layout import shelf_pack, size_groups, texture_defines, texture_layout
@@ -113,6 +114,8 @@ def test_sixty_four_textures_are_laid_out_in_a_few_arrays(many: Scene) -> None:
     assert [tuple(r) for r in records["sampling"][:3, 2:]] == [(0x8370, 0x8370), (0x812F, 0x812F), (0x2901, 0x2901)]
     assert texture_defines(many) == {"TEXTURE_COUNT": 64, "TEXTURE_ARRAYS": 4, "REPEATING_TEXTURES": 1,
                                      "FOLDED_TEXTURES": 1}
+    line = plan_render(many, Method.RAYTRACE).format().splitlines()[-1]
+    assert line.startswith("  textures: 64 textures of 64 distinct images in 4 arrays (") and "resampled up" in line
 
 
 def eye_truth(renderer: Renderer) -> tuple[np.ndarray, np.ndarray]:
