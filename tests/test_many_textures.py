@@ -24,7 +24,7 @@ from depthimpostor.oracles.compare import compare
 from depthimpostor.oracles.truth import TruthTracer
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
-from depthimpostor.scene import Scene, load_scene
+from depthimpostor.scene import DiffuseMaterial, Scene, load_scene
 from depthimpostor.texture_layout import shelf_pack, size_groups, texture_defines, texture_layout
 from depthimpostor.textures import SRGB_TABLE, resample
 
@@ -307,8 +307,8 @@ material = { type = "diffuse", texture = { path = "q.png", scale = [2.5, 1.6] } 
 """, encoding="utf-8")
     scene = load_scene(tmp_path / "mixed.toml")
     card = scene.objects[0]
-    texture = card.material.texture  # type: ignore[union-attr]
-    assert texture is not None
+    assert isinstance(card.material, DiffuseMaterial) and card.material.texture is not None
+    texture = card.material.texture
     mixed = dataclasses.replace(texture, sampler={"wrapS": int(Wrap.REPEAT), "wrapT": int(Wrap.CLAMP_TO_EDGE)})
     scene = dataclasses.replace(scene, objects=(dataclasses.replace(card, material=dataclasses.replace(
         card.material, texture=mixed)),))
