@@ -183,11 +183,13 @@ ACES_A, ACES_B, ACES_C, ACES_D, ACES_E = 2.51, 0.03, 2.43, 0.59, 0.14
 #: Analytic planes (floors, walls) a reflected ray is intersected with exactly: the scene's largest
 #: diffuse planes, up to this many (Scene.analytic_plane_indices); any others are drawn as meshes.
 MAX_ANALYTIC_PLANES = 8
-#: Distinct image textures in one scene. Each is bound for the whole frame on a texture unit of
-#: its own (bindings.TextureUnit.MATERIAL_TEXTURE_*), which the diffuse pass picks by an if-chain
-#: (GLSL 3.30 indexes an array of samplers only with constants); traced rays read all of them from
-#: one stacked texture (MATERIAL_TEXELS) through this many rectangles. Kept small: units are few.
-MAX_TEXTURES = 4
+#: Texture arrays the rasterized passes sample the scene's image textures from, whatever their
+#: number (texture_layout.py): textures are grouped by size into at most this many arrays, each
+#: bound on two units (a repeating and a clamping sampler: bindings.TextureUnit.MATERIAL_ARRAY_*),
+#: which the diffuse pass picks by an if-chain (GLSL 3.30 indexes an array of samplers only with
+#: constants). 4 arrays spend 8 of a fragment shader's 16 samplers; a scene with more distinct
+#: sizes has some of its images resampled to a larger size of its group (texture_layout.py).
+MATERIAL_ARRAYS = 4
 #: The depth-image records a mirror's uniform block holds: 64 x 208 bytes = 13 KiB, under the
 #: 16 KiB every GL 3.3 guarantees a uniform block. A mirror may own any number of images (one per
 #: reflected object): where a scene may give one more than this, its programs read the records
@@ -354,6 +356,15 @@ TRIANGLE_OBJECT = Struct("TriangleObject", TRIANGLE_OBJECT_FIELDS)
 DEPTH_IMAGE_DTYPE = DEPTH_IMAGE.dtype
 TRIANGLE_OBJECT_DTYPE = TRIANGLE_OBJECT.dtype
 
+#: One image texture of the scene (texture slot k is record k of lib/material_texture.glsl's
+#: TextureRecords block, gpu/textures.py): `sampling` is (texture array, layer, wrap s, wrap t),
+#: the wrap modes GL enums (Wrap); `texels` where its level 0 lies in the traced rays' 8-bit atlas,
+#: (x, y, width, height) (texture_layout.py).
+TEXTURE_RECORD = Struct("TextureRecord", (
+    ("sampling", "ivec4"),
+    ("texels", "ivec4"),
+))
+
 #: A surface's material as lib/shading.glsl's material_albedo reads it: MATERIAL_DIFFUSE or
 #: MATERIAL_CHECKER, the two colours (a diffuse material's is color_a), the checker's cell size,
 #: a diffuse material's texture slot (or -1) and that texture's UV multipliers.
@@ -438,7 +449,6 @@ def glsl_constants() -> dict[str, str]:
     defines: dict[str, str] = {
         "MAX_LIGHTS": str(MAX_LIGHTS),
         "MAX_ANALYTIC_PLANES": str(MAX_ANALYTIC_PLANES),
-        "MAX_TEXTURES": str(MAX_TEXTURES),
         "DEPTH_IMAGE_BLOCK_RECORDS": str(DEPTH_IMAGE_BLOCK_RECORDS),
         "TRIANGLE_OBJECT_BLOCK_RECORDS": str(TRIANGLE_OBJECT_BLOCK_RECORDS),
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",

@@ -33,6 +33,7 @@ from .methods.seen_from_eye import SeenFromEye
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
 from .gpu.textures import GpuTextures
+from .texture_layout import texture_layout
 from .passes.reflectors import (
     DEFERRED,
     DEFERRED_REFLECTOR_PROGRAM,
@@ -133,6 +134,8 @@ class RenderPlan:
     graph: tuple[RenderNode, ...] = ()
     # render.samples: the eye's passes run this many times per frame (at sub-pixel positions), the bakes once.
     samples: int = 1
+    # Where the scene's image textures go (texture_layout.py), for `plan`'s memory lines; "" without any.
+    textures: str = ""
     # The diffuse planes' names: those intersected exactly, and those drawn as meshes
     # (Scene.analytic_plane_indices chooses).
     analytic_planes: tuple[str, ...] = ()
@@ -216,6 +219,8 @@ class RenderPlan:
         if BAKE_DEPTH_BUFFER in self.memory:
             lines.append(f"  the {BAKE_DEPTH_BUFFER} is let go at the first frame that bakes nothing (a still scene's "
                          "second) and made again for the next bake")
+        if self.textures:
+            lines.append(f"  {self.textures}")
         return "\n".join(lines)
 
 
@@ -403,8 +408,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                         _builds_pyramids(method, algorithm, images), (eye_reads, frame_surface(method, bool(reflectors))))
     return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
                       tuple(PlannedVariant(k, r) for k, (r, _) in variants.items()), memory, image_plans, graph,
-                      scene.render.samples, tuple(o.name for o in scene.analytic_planes),
-                      tuple(o.name for o in scene.mesh_planes))
+                      scene.render.samples, texture_layout(scene).summary() if scene.textures else "",
+                      tuple(o.name for o in scene.analytic_planes), tuple(o.name for o in scene.mesh_planes))
 
 
 def frame_surface(method: Method, reflectors: bool) -> bool:

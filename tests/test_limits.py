@@ -154,10 +154,11 @@ RAISES = {
     "passes/shadows.py": 1,  # light among its casters
     "methods/triangles.py": 1,  # BVH texture past GL_MAX_TEXTURE_SIZE (GL)
     "gpu/scene_blocks.py": 1,  # lights: the loader and the plan refuse them first
-    # lights, reach, bounces per method, named triangles; textures past MAX_TEXTURES and a texture
-    # on a shape without UVs (at load: tests/test_textures.py); a texture on a model file without
-    # UVs (once loaded). (Planes past 8 and traced objects past 64 are no longer refused.)
-    "scene/limits.py": 7,
+    # lights, reach, bounces per method, named triangles; a texture on a shape without UVs (at load:
+    # tests/test_textures.py); a texture on a model file without UVs (once loaded). Planes past 8,
+    # traced objects past 64 and image textures have no limit of their own (tests/test_many_planes.py,
+    # tests/test_image_records.py, tests/test_many_textures.py)
+    "scene/limits.py": 6,
     # render --video's arguments, refused before any work as cli.py's are: walked in tests/test_video.py
     "video.py": 3,
 }

@@ -6,7 +6,7 @@ the method or on what the mirrors can see. `render` builds its plan before any G
 |---|---|---|---|
 | a number in a scene file, and how far an object reaches from the origin | `MAX_COORDINATE` (1e18) | load: the field (`fields.py`); the object, from its position, scale, shape and orbit (`check_scene`; a model file's when the plan loads it) | float32 geometry squares distances |
 | lights | `MAX_LIGHTS` (8) | load | the shading loops over a uniform array of that size |
-| distinct image textures | `MAX_TEXTURES` (4) | load | each is bound on a texture unit of its own for the whole frame |
+| image textures | none of their own: memory, `GL_MAX_TEXTURE_SIZE` (an image's side; the traced rays' atlas of them all), `GL_MAX_ARRAY_TEXTURE_LAYERS` (images grouped in one array), `GL_MAX_UNIFORM_BLOCK_SIZE` (their records: 32 bytes each, 512 at GL's least) | plan (`gpu/limits.py`, against the context) | they are sampled from `MATERIAL_ARRAYS` (4) texture arrays and one atlas (`texture_layout.py`) |
 | planes that are not mirrors (floors, walls) | none: the `MAX_ANALYTIC_PLANES` (8) largest are intersected exactly, the others drawn as meshes (`Scene.analytic_plane_indices`), which count as reflected objects below | not refused | the exact ones come from a uniform array of that size, and pay most where large (a floor around a mirror); `plan` says which |
 | `render.max_bounces` | `MAX_BOUNCES` (4) | load | each bounce bakes an image per pair of mirrors |
 | `render.max_bounces` > 1 with two or more mirrors or glass | the depth method alone | plan (`check_method`) | only the depth method bakes reflectors into each other's images |
@@ -30,7 +30,6 @@ import numpy as np
 from depthimpostor.constants import (
     MAX_COORDINATE,
     MAX_LIGHTS,
-    MAX_TEXTURES,
 )
 from depthimpostor.errors import SceneError
 from depthimpostor.meshes import Mesh
@@ -93,11 +92,6 @@ def check_scene(scene: Scene) -> None:
     scenes built in code)."""
     if len(scene.lights) > MAX_LIGHTS:
         raise SceneError(scene.source, "lights", f"expected at most {MAX_LIGHTS} [[lights]] tables, got {len(scene.lights)}")
-    if len(scene.textures) > MAX_TEXTURES:
-        first = next(i for i, obj in enumerate(scene.objects) if scene.texture_slot(obj.material) == MAX_TEXTURES)
-        raise SceneError(scene.source, f"objects[{first}].material.texture",
-                         f"expected at most {MAX_TEXTURES} distinct image textures in a scene (each is bound on a "
-                         f"texture unit of its own for the whole frame), got {len(scene.textures)}")
     _check_textured_shapes(scene)
     for index, obj in enumerate(scene.objects):
         local_reach = shape_reach(obj.shape)

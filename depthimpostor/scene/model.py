@@ -271,6 +271,7 @@ class Texture:
     sampler: dict[str, int]  # the glTF sampler: magFilter, minFilter, wrapS, wrapT where given
     mean_color: Vec3  # the mean of the image's RGB decoded to linear
     scale: tuple[float, float] = (1.0, 1.0)  # UV multipliers: how many times the image repeats across u and v
+    name: str = ""  # what messages call it: the image file's name, or the glTF file's image
 
     @property
     def wrap(self) -> tuple[int, int]:
@@ -468,7 +469,7 @@ class Scene:
     @functools.cached_property
     def textures(self) -> tuple[Texture, ...]:
         """The distinct image textures of the objects' materials (by identity), in object order:
-        texture slot k is the k-th (gpu/textures.py binds it on MATERIAL_TEXTURE_0 + k).
+        texture slot k is the k-th (record k of gpu/textures.py's table: its array, layer, wraps).
         Computed once: the fields are frozen."""
         seen: dict[int, Texture] = {}
         for obj in self.objects:
