@@ -112,6 +112,16 @@ class PlannedVariant:
         return " + ".join(stages) + (f" [{settings}]" if settings else "")
 
 
+@dataclass(frozen=True)
+class PlannedObject:
+    """An object as messages name it: its name, and its label (Scene.object_label): for a part of a
+    glTF file (`from_gltf`), the node, mesh and material, which its name (the node's) does not all say."""
+
+    name: str
+    label: str
+    from_gltf: bool
+
+
 #: The memory entry of the baked images' depth buffer, kept only while frames bake (BakedImages.rest).
 BAKE_DEPTH_BUFFER = "bake depth buffer"
 
@@ -133,6 +143,8 @@ class RenderPlan:
     graph: tuple[RenderNode, ...] = ()
     # render.samples: the eye's passes run this many times per frame (at sub-pixel positions), the bakes once.
     samples: int = 1
+    # Each object's name, and how messages name it (Scene.object_label).
+    objects: tuple[PlannedObject, ...] = ()
 
     def samples_line(self) -> str:
         """What anti-aliasing costs: eye passes per frame, and no GPU memory (the average is host-side)."""
@@ -141,6 +153,11 @@ class RenderPlan:
         return (f"anti-aliasing: {self.samples} samples: the eye's passes (environment, diffuse, reflectors) run "
                 f"{self.samples} times per frame at jittered sub-pixel positions, bakes and glass interiors once; "
                 "no GPU memory beyond one sample's (the frames are averaged in host memory)")
+
+    def parts_lines(self) -> list[str]:
+        """The objects of glTF files, named as above and as the file names them (none without)."""
+        parts = [o for o in self.objects if o.from_gltf]
+        return [f"glTF parts ({len(parts)}):", *(f"  {o.name}: {o.label}" for o in parts)] if parts else []
 
     def runs(self, stage: Pass) -> bool:
         return any(planned.stage is stage for planned in self.passes)
@@ -178,6 +195,7 @@ class RenderPlan:
             "graph": [{"pass": n.stage.value, "reads": list(n.reads), "writes": list(n.writes)} for n in self.graph],
             "memory_bytes": dict(self.memory),
             "samples": self.samples,
+            "objects": [{"name": o.name, "label": o.label} for o in self.objects],
         }
 
     def format(self) -> str:
@@ -195,6 +213,7 @@ class RenderPlan:
         lines.append(f"shader variants ({len(self.variants)}):")
         lines += [f"  {v.name}\n      why: {v.reason}" for v in self.variants]
         lines.append(format_graph(self.graph))
+        lines += self.parts_lines()
         lines.append(self.samples_line())
         total = sum(self.memory.values())
         parts = ", ".join(f"{name} {size / 2**20:.2f}" for name, size in self.memory.items())
@@ -373,7 +392,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                         _builds_pyramids(method, algorithm, images), (eye_reads, frame_surface(method, bool(reflectors))))
     return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
                       tuple(PlannedVariant(k, r) for k, (r, _) in variants.items()), memory, image_plans, graph,
-                      scene.render.samples)
+                      scene.render.samples, tuple(PlannedObject(obj.name, scene.object_label(i), obj.origin is not None)
+                                                  for i, obj in enumerate(scene.objects)))
 
 
 def frame_surface(method: Method, reflectors: bool) -> bool:
