@@ -6,13 +6,16 @@ them even after an entry that places a glTF file of several parts."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import warnings
 from pathlib import Path
 
 import moderngl
 import numpy as np
 import pytest
+from conftest import SCENES
 
+from depthimpostor.cli import main
 from depthimpostor.constants import Method
 from depthimpostor.errors import SceneError, SceneWarning
 from depthimpostor.meshes import sphere, torus
@@ -20,6 +23,7 @@ from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import DiffuseMaterial, GltfOrigin, Scene, load_scene
 from gltf_files import GltfWriter
+from test_gltf import mirror_scene
 from test_cli import assert_one_line_error, run_in_process
 
 RING = 'node 1 "Ring.001" (mesh 1 "torus", primitive 0, material 1 "Paint")'
@@ -210,3 +214,37 @@ def test_a_name_two_parts_share_is_refused_naming_the_node(tmp_path: Path) -> No
     assert str(refused.value).endswith('objects[1].name: expected a name no other object has, got "thing/Pair (Steel)" '
                                        'for node 0 "Pair" (mesh 0 "pair", primitive 1, material 1 "Steel") '
                                        "(already used by objects[1])")
+
+
+# --- reports ----------------------------------------------------------------------------------------------
+
+
+def test_plan_lists_each_glTF_part_with_its_node_mesh_and_material(tmp_path: Path,
+                                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    path = placing(tmp_path, "far.glb", scale="0.1")
+    far_file(tmp_path / "far.glb")
+    assert main(["plan", str(path), "--size", "64x36"]) == 0
+    text = capsys.readouterr().out
+    assert ("glTF parts (2):\n"
+            '  thing/Base: objects[1] (far.glb) node 0 "Base" (mesh 0 "cube", primitive 0, material 0 "Stone")\n'
+            f"  thing/Pebble: objects[1] (far.glb) {PEBBLE}\n") in text
+    assert main(["plan", str(path), "--size", "64x36", "--json"]) == 0
+    assert [o["label"] for o in json.loads(capsys.readouterr().out)["objects"]] == [
+        "objects[0]", 'objects[1] (far.glb) node 0 "Base" (mesh 0 "cube", primitive 0, material 0 "Stone")',
+        f"objects[1] (far.glb) {PEBBLE}"]
+    assert main(["plan", str(SCENES / "default.toml"), "--size", "64x36"]) == 0
+    assert "glTF parts" not in capsys.readouterr().out  # a TOML scene's objects are its entries
+
+
+def test_compare_names_the_objects_of_its_worst_pixels(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = mirror_scene(tmp_path, glass=False)
+    assert main(["compare", str(path), "--size", "96x54", "--impostor-res", "32", "-o", str(tmp_path / "r")]) == 0
+    table = capsys.readouterr().out
+    worst = json.loads((tmp_path / "r" / "report.json").read_text())["figures"]["worst_pixels"]
+    scene = quietly(path)
+    labels = {o.name: scene.object_label(i) for i, o in enumerate(scene.objects)} | {"environment": "environment"}
+    assert worst and all(labels[p[f"{key}_name"]] == p[f"{key}_label"] for p in worst for key in ("object", "truth_object"))
+    assert any(p["truth_object_label"].startswith('node 1 "Red" (mesh 1, primitive 0, material 1 "Red")') for p in worst)
+    rows = table[table.index("worst pixels"):].splitlines()[1:]
+    assert len(rows) == len(worst) and all(f"{p['object_name']} / {p['truth_object_name']}," in row
+                                           for p, row in zip(worst, rows, strict=True))
