@@ -122,11 +122,12 @@ def test_a_part_too_far_is_refused_naming_its_node(tmp_path: Path, capsys: pytes
 
 
 def test_a_placed_part_too_far_names_the_entry_and_the_node(tmp_path: Path) -> None:
-    """The placement's scale takes the file's pebble (1.8e18 away) past the limit only as a whole."""
+    """The placement's scale takes the file's pebble past the limit; the file is named as the TOML
+    scene names it, though it was read before under another name."""
     w = GltfWriter()
     w.node(name="Base", mesh=w.mesh(w.box(material=w.material("Stone")), name="cube"))
     w.node(name="Pebble", mesh=w.mesh(w.box(0.1, material=w.material("Slate")), name="pebble"), translation=[1e9, 0, 0])
-    w.write(tmp_path / "far.glb")
+    assert len(load_scene(w.write(tmp_path / "far.glb")).objects) == 2  # read (and cached) under its full path first
     with pytest.raises(SceneError) as refused:
         load_scene(placing(tmp_path, "far.glb", scale="1e10"))
     assert refused.value.path == 'objects[1] (far.glb) node 1 "Pebble" (mesh 1 "pebble", primitive 0, material 1 "Slate")'

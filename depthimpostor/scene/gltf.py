@@ -104,7 +104,8 @@ def read_gltf(path: Path, source: str) -> GltfFile:
         resolved, modified = path, -1  # read_json says what is wrong with it
     cached = _CACHE.get(resolved)
     if cached is not None and cached[0] == modified:
-        return cached[1]
+        # Named as this reader names it (a TOML scene's path, or the command line's): messages say it.
+        return cached[1] if cached[1].source == source else dataclasses.replace(cached[1], source=source)
     header = read_json(path, source)
     check_header(header, source, resolved.parent)
     primitives = decode_primitives(resolved, header, source)
@@ -409,7 +410,7 @@ def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str
             tint = np.clip(np.multiply(material.color, material.texture.mean_color), 0.0, 1.0)
             material = DiffuseMaterial((float(tint[0]), float(tint[1]), float(tint[2])))
             no_uvs.append(part.origin.describe())
-        origin = dataclasses.replace(part.origin, placed_by=placed_by)
+        origin = dataclasses.replace(part.origin, file=model.source, placed_by=placed_by)
         plane = _as_plane(part, material, position, rotation, scale, animation, scaled)
         if plane is not None:
             objects.append(dataclasses.replace(plane, name=prefix + part.name, origin=origin))
