@@ -15,7 +15,7 @@ import pytest
 from conftest import assert_finite
 from depthimpostor.cli import main
 from depthimpostor.constants import Method
-from depthimpostor.errors import SceneError, SceneWarning
+from depthimpostor.errors import SceneWarning
 from depthimpostor.geometry import scene_geometry
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
