@@ -200,8 +200,6 @@ MIN_BUDGETED_SIDE = 8
 
 #: Storage buffers arrived with OpenGL 4.3 (GL_ARB_shader_storage_buffer_object): ctx.version_code.
 STORAGE_GL_VERSION = 430
-#: Reflected objects the traced methods' uniform block of object records holds.
-MAX_TRACED_OBJECTS = 64
 
 
 def depth_image_capacity(objects: int) -> int:
@@ -306,22 +304,26 @@ DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
 #: ~1000 radii away from the mirror.
 BOUND_MARGIN = 1e-3
 
-#: One reflected object of the ray-traced method (std140): the world-to-local transform (the
-#: checker is laid out in local coordinates), colour_a with the checker scale in w, colour_b, and
-#: (material kind, object id, texture slot or -1, 0), and the texture's UV scale in texture.xy.
-TRIANGLE_OBJECT_FIELDS: tuple[tuple[str, str], ...] = (
+#: One reflected object of the traced methods, an instance of a mesh in their two-level BVH
+#: (methods/triangles.py), stored as texels of the BVH's node texture (gpu/texel_records.py): the
+#: world-to-local transform (the ray goes through it into the mesh's space, and the checker is
+#: laid out in local coordinates), colour_a with the checker scale in w, colour_b, (material kind,
+#: object id, texture slot or -1, 0), the texture's UV scale in texture.xy, and in mesh.x the node
+#: where its mesh's bottom-level hierarchy starts.
+TRIANGLE_INSTANCE_FIELDS: tuple[tuple[str, str], ...] = (
     ("world_to_local", "mat4"),
     ("color_a", "vec4"),
     ("color_b", "vec4"),
     ("kind_and_id", "ivec4"),
     ("texture", "vec4"),
+    ("mesh", "ivec4"),
 )
 #: Width of the float textures holding BVH nodes and triangles: element i is texel
 #: (i % width, i / width). 1024 is the smallest GL_MAX_TEXTURE_SIZE GL 3.3 allows; the height
 #: grows with the count and is checked against the driver's own limit.
 BVH_TEXTURE_WIDTH = 1024
-#: Texels one triangle takes in the BVH's triangle texture: its corners p0 p1 p2 (p0.w: its
-#: object's slot), its corner normals n0 n1 n2, and its corner UVs (u0 v0 u1 v1), (u2 v2 0 0).
+#: Texels one triangle takes in the BVH's triangle texture, in its mesh's space: its corners p0 p1
+#: p2, its corner normals n0 n1 n2, and its corner UVs (u0 v0 u1 v1), (u2 v2 0 0).
 BVH_TRIANGLE_TEXELS = 8
 
 
@@ -335,9 +337,9 @@ IMAGE_NODE_FIELDS: tuple[tuple[str, str], ...] = (
 DEPTH_IMAGE = Struct("DepthImage", DEPTH_IMAGE_FIELDS)
 IMAGE_NODE = Struct("ImageNode", IMAGE_NODE_FIELDS)
 IMAGE_NODE_DTYPE = IMAGE_NODE.dtype
-TRIANGLE_OBJECT = Struct("TriangleObject", TRIANGLE_OBJECT_FIELDS)
+TRIANGLE_INSTANCE = Struct("TriangleInstance", TRIANGLE_INSTANCE_FIELDS)
 DEPTH_IMAGE_DTYPE = DEPTH_IMAGE.dtype
-TRIANGLE_OBJECT_DTYPE = TRIANGLE_OBJECT.dtype
+TRIANGLE_INSTANCE_DTYPE = TRIANGLE_INSTANCE.dtype
 
 #: A surface's material as lib/shading.glsl's material_albedo reads it: MATERIAL_DIFFUSE or
 #: MATERIAL_CHECKER, the two colours (a diffuse material's is color_a), the checker's cell size,
@@ -425,7 +427,6 @@ def glsl_constants() -> dict[str, str]:
         "MAX_ANALYTIC_PLANES": str(MAX_ANALYTIC_PLANES),
         "MAX_TEXTURES": str(MAX_TEXTURES),
         "DEPTH_IMAGE_BLOCK_RECORDS": str(DEPTH_IMAGE_BLOCK_RECORDS),
-        "MAX_TRACED_OBJECTS": str(MAX_TRACED_OBJECTS),
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
         "NO_OBJECT": str(NO_OBJECT),
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..constants import MAX_TRACED_OBJECTS, MAX_NAMED_TRIANGLES, Algorithm, Method
+from ..constants import MAX_NAMED_TRIANGLES, Algorithm, Method
 from .baked_images import BakedImages
 from .billboards import BillboardPass
 from .cubemaps import CubeMapPass
@@ -40,13 +40,10 @@ class MethodSpec:
     #: Can it show mirrors and glass in one another (render.max_bounces > 1)? The bounce images are
     #: depth images, marched by the mirror shader: the depth method's alone.
     bounces: bool = False
-    #: At most this many reflected objects per reflector (the shader's object table), when it has a
-    #: table of its own rather than one image per object.
-    reflected_limit: int | None = None
     #: At most this many reflected triangles (the hybrid method names each in a texture row).
     triangle_limit: int | None = None
     #: The triangles it traces through a BVH, when it does (TrianglePass or a subclass: which
-    #: triangles, and so how much memory, is its `triangle_count`).
+    #: meshes, and so how much memory, is its `traced_meshes`).
     traces: type[TrianglePass] | None = None
     #: Does it need every reflector to be a flat mirror (planar reflections)? The plan refuses
     #: another by name; `bench` and `compare --method all` leave it out of such scenes.
@@ -90,12 +87,12 @@ METHODS: dict[Method, MethodSpec] = {spec.method: spec for spec in (
     MethodSpec(Method.CUBEMAP_PARALLAX, CubeMapPass, "cube map, parallax-corrected", ("cube_map.glsl",)),
     MethodSpec(Method.BILLBOARD, BillboardPass, "billboards", ("billboard.glsl",)),
     MethodSpec(Method.SIMPLIFIED, SimplifiedPass, "simplified triangles", ("triangles.glsl",),
-               reflected_limit=MAX_TRACED_OBJECTS, traces=SimplifiedPass),
+               traces=SimplifiedPass),
     MethodSpec(Method.RAYTRACE, TrianglePass, "ray-traced triangles", ("triangles.glsl",),
-               reflected_limit=MAX_TRACED_OBJECTS, traces=TrianglePass),
+               traces=TrianglePass),
     MethodSpec(Method.HYBRID, HybridPass, "depth images, uncertain rays ray-traced",
                ("depth_image.glsl", "triangles.glsl"), marches_depth_images=True,
-               reflected_limit=MAX_TRACED_OBJECTS, triangle_limit=MAX_NAMED_TRIANGLES, traces=TrianglePass),
+               triangle_limit=MAX_NAMED_TRIANGLES, traces=TrianglePass),
     MethodSpec(Method.PLANAR, PlanarPass, "planar reflections (flat mirrors)", ("planar.glsl",), flat_mirrors=True),
     MethodSpec(Method.SSR, ScreenSpacePass, "screen-space reflections", ("screen_space.glsl",)),
 )}

@@ -12,7 +12,7 @@ the method or on what the mirrors can see. `render` builds its plan before any G
 | `render.max_bounces` > 1 with two or more mirrors or glass | the depth method alone | plan (`check_method`) | only the depth method bakes reflectors into each other's images |
 | objects a mirror may show, and so its depth images | none: past `DEPTH_IMAGE_BLOCK_RECORDS` (64) a mirror's image records (and a hierarchy over them) are a storage buffer, GL 4.3 (`BakedImages`: a `ContextError` on an older GL) | render | a uniform block holds 64 records within GL 3.3's guaranteed 16 KiB |
 | the depth images' memory | `render.image_memory` (MiB, default 1024) | plan (`per_object_plan`): every image made smaller to fit, not refused | an atlas of a thousand images at 256^2 would take 2.6 GiB |
-| reflected objects, traced methods (`raytrace`, `simplified`, `hybrid`) | 64 | plan (`check_method`) | one uniform block of that many object records |
+| reflected objects, traced methods (`raytrace`, `simplified`, `hybrid`) | none: each is an instance of its mesh in a two-level BVH, its record a few texels of the BVH's float texture (`methods/instances.py`) | render: the texture's rows against `GL_MAX_TEXTURE_SIZE` | a float texture of 1024-texel rows holds millions of records and nodes on any GL 3.3 |
 | reflected triangles, `hybrid` | `MAX_NAMED_TRIANGLES` (2^24) | plan (`check_method`) | a float32 depth-image sample names a triangle |
 | an object around a mirror's centre, or a light among the shadow casters | no frustum fits | plan | a pinhole image (depth image, cube map, shadow map) must see all of it |
 
@@ -146,24 +146,13 @@ def check_model_reach(scene: Scene, index: int, model: Mesh) -> None:
     _check_reach(scene, index, float(np.linalg.norm(centre)) + radius)
 
 
-def objects_note(scene: Scene) -> str:
-    """What a refusal that counts objects adds for a scene with glTF parts, whose objects the file
-    does not list one by one."""
-    if any(isinstance(obj.shape, GltfShape) for obj in scene.objects):
-        return " (a glTF file's objects are its mesh nodes, one per node and material)"
-    return ""
-
-
-def check_method(scene: Scene, method: MethodSpec, reflectors: int, reflected: int, reflected_triangles: int) -> None:
+def check_method(scene: Scene, method: MethodSpec, reflectors: int, reflected_triangles: int) -> None:
     """The limits that depend on the method (methods/registry.py): `reflectors` mirrors and glass,
-    `reflected` objects they may show, of `reflected_triangles` triangles in all."""
+    and the `reflected_triangles` of the objects they may show."""
     if scene.render.max_bounces > 1 and not method.bounces and reflectors > 1:
         raise SceneError(scene.source, "render.max_bounces",
                          f"expected 1 with --method {method.option}: mirrors and glass in one another are baked "
                          f"by the depth method alone, got {scene.render.max_bounces}")
-    if method.reflected_limit is not None and reflectors and reflected > method.reflected_limit:
-        raise SceneError(scene.source, "objects", f"expected at most {method.reflected_limit} reflected objects "
-                         f"with --method {method.option}, got {reflected}{objects_note(scene)}")
     if method.triangle_limit is not None and reflectors and reflected_triangles > method.triangle_limit:
         raise SceneError(scene.source, "objects", f"expected at most {method.triangle_limit} reflected triangles "
                          f"with --method {method.option}, got {reflected_triangles}")
