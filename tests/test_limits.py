@@ -19,7 +19,6 @@ from conftest import PROJECT_ROOT, SCENES, scene_from_toml
 from depthimpostor import culling
 from depthimpostor.constants import (
     MAX_ANALYTIC_PLANES,
-    MAX_TRACED_OBJECTS,
     MAX_LIGHTS,
     Method,
 )
@@ -116,11 +115,6 @@ LIMITS = [
     ("texture on a model without UVs", untextured_model_scene, Method.DEPTH, "got the mesh file"),
     ("bounces with cube maps", lambda _: scene(BOUNCES), Method.CUBEMAP, "render.max_bounces: expected 1 with --method cubemap"),
     ("bounces with billboards", lambda _: scene(BOUNCES), Method.BILLBOARD, "expected 1 with --method billboard"),
-    # Behind the mirror: no depth image is planned for any, but the traced methods keep them all.
-    ("traced objects", lambda _: scene(HEAD + WALL_MIRROR + balls(MAX_TRACED_OBJECTS + 1, -2.0)),
-     Method.RAYTRACE, f"expected at most {MAX_TRACED_OBJECTS} reflected objects with --method raytrace, got 65"),
-    ("simplified objects", lambda _: scene(HEAD + WALL_MIRROR + balls(MAX_TRACED_OBJECTS + 1, -2.0)),
-     Method.SIMPLIFIED, "reflected objects with --method simplified, got 65"),
     ("object around a mirror's centre", lambda _: load_scene(SCENES / "hard" / "surrounds.toml"), Method.DEPTH,
      'object "ring" surrounds or touches the centre of mirror "mirror"'),
     ("object around a cube map's centre", lambda _: load_scene(SCENES / "hard" / "surrounds.toml"), Method.CUBEMAP,
@@ -166,10 +160,10 @@ RAISES = {
     "passes/shadows.py": 1,  # light among its casters
     "methods/triangles.py": 1,  # BVH texture past GL_MAX_TEXTURE_SIZE (GL)
     "gpu/scene_blocks.py": 2,  # lights, analytic planes: the loader and the plan refuse them first
-    # lights, analytic planes, reach, bounces per method, traced objects, named triangles; textures
+    # lights, analytic planes, reach, bounces per method, named triangles; textures
     # past MAX_TEXTURES and a texture on a shape without UVs (at load: tests/test_textures.py); a
     # texture on a model file without UVs (once loaded)
-    "scene/limits.py": 9,
+    "scene/limits.py": 8,
     # render --video's arguments, refused before any work as cli.py's are: walked in tests/test_video.py
     "video.py": 3,
 }

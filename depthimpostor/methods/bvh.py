@@ -88,8 +88,16 @@ def build_box_bvh(lows: np.ndarray, highs: np.ndarray, centroids: np.ndarray, le
     for parents in parents_by_level:
         skip[first[parents]] = first[parents] + 1
         skip[first[parents] + 1] = skip[parents]
-    return Bvh(lower[:used].astype(np.float32), upper[:used].astype(np.float32), first[:used], count[:used],
-               order.copy(), len(parents_by_level), skip)
+    return Bvh(_float32_outward(lower[:used], -np.inf), _float32_outward(upper[:used], np.inf), first[:used],
+               count[:used], order.copy(), len(parents_by_level), skip)
+
+
+def _float32_outward(bound: np.ndarray, toward: float) -> np.ndarray:
+    """`bound` in float32, rounded toward `toward` where float32 cannot hold it, so that a box still
+    holds what it bounds (a triangle's float32 corners are exact; an instance's float64 box is not)."""
+    rounded = bound.astype(np.float32)
+    inward = rounded > bound if toward < 0 else rounded < bound
+    return np.where(inward, np.nextafter(rounded, np.float32(toward)), rounded)
 
 
 def _bound(lows: np.ndarray, highs: np.ndarray, order: np.ndarray, first: np.ndarray, count: np.ndarray,
