@@ -14,7 +14,7 @@ from conftest import SCENES, assert_finite, scene_from_toml
 
 from depthimpostor.constants import Algorithm, Method
 from depthimpostor.methods import triangles as triangles_module
-from depthimpostor.methods.bvh import build_box_bvh, node_count
+from depthimpostor.methods.bvh import build_box_bvh, build_bvh, build_triangle_forest, node_count
 from depthimpostor.methods.instances import NODE_TEXELS, world_boxes
 from depthimpostor.methods.triangles import TrianglePass
 from depthimpostor.oracles.compare import compare
@@ -92,6 +92,32 @@ def test_a_top_level_holds_each_instance_once_in_nested_boxes() -> None:
                 assert (bvh.lower[child] >= bvh.lower[node]).all() and (bvh.upper[child] <= bvh.upper[node]).all()
 
 
+def test_a_forest_holds_each_mesh_tree_as_if_built_alone() -> None:
+    """Every distinct mesh's hierarchy is built in one call: tree j (root j) walks to its own
+    triangles alone, leaf for leaf the ones its mesh's tree built alone holds, in the same boxes."""
+    rng = np.random.default_rng(3)
+    meshes = [rng.normal(size=(count, 3, 3)) * (j + 1) for j, count in enumerate((1, 4, 5, 37, 300))]
+    forest = build_triangle_forest(np.concatenate(meshes), [len(mesh) for mesh in meshes])
+    assert forest.node_count == sum(node_count(len(mesh)) for mesh in meshes)
+    start = 0
+    for root, mesh in enumerate(meshes):
+        alone = build_bvh(mesh)
+        walked, node = [], root
+        while node >= 0:
+            if forest.count[node]:
+                walked.append((forest.lower[node].tobytes(), forest.upper[node].tobytes(),
+                               tuple(forest.order[forest.first[node]: forest.first[node] + forest.count[node]] - start)))
+            node = forest.first[node] if forest.count[node] == 0 else forest.skip[node]
+        expected, node = [], 0
+        while node >= 0:
+            if alone.count[node]:
+                expected.append((alone.lower[node].tobytes(), alone.upper[node].tobytes(),
+                                 tuple(alone.order[alone.first[node]: alone.first[node] + alone.count[node]])))
+            node = alone.first[node] if alone.count[node] == 0 else alone.skip[node]
+        assert walked == expected
+        start += len(mesh)
+
+
 def test_an_instance_box_holds_its_transformed_mesh() -> None:
     """A turned, unevenly scaled, mirrored box: the world box holds every transformed corner."""
     rng = np.random.default_rng(9)
@@ -140,7 +166,7 @@ def test_a_move_rewrites_the_instances_and_keeps_the_meshes_hierarchies(ctx: mod
         nodes, triangles = traced.nodes, traced.triangles
         texels = np.frombuffer(nodes.read(), np.float32).reshape(-1, 4)
         builds: list[int] = []
-        monkeypatch.setattr(triangles_module, "build_bvh", lambda *args: builds.append(1))
+        monkeypatch.setattr(triangles_module, "build_triangle_forest", lambda *args: builds.append(1))
         renderer.set_time(2.0)
         renderer.render()
         moved = renderer.read_color_float()

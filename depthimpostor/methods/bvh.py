@@ -1,5 +1,6 @@
-"""Bounding-volume hierarchies built on the CPU for GPU traversal: over one mesh's triangles (a
-bottom level, in the mesh's own space) and over instances' world boxes (the top level).
+"""Bounding-volume hierarchies built on the CPU for GPU traversal: over each mesh's triangles (the
+bottom level, in the mesh's own space: every distinct mesh's at once, a forest) and over the
+instances' world boxes (the top level).
 
 Median splits along the longest axis of the items' centroids: no SAH, but a balanced tree of
 depth about log2(n / leaf size), whose shape depends on the item count alone (`node_count`, which
@@ -16,6 +17,7 @@ all three (a stable partition), so that a median is a position and no level sort
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cache
 
@@ -42,29 +44,50 @@ class Bvh:
 
 def build_bvh(triangles: np.ndarray) -> Bvh:
     """The hierarchy of (n, 3, 3) triangles (n >= 1), LEAF_TRIANGLES a leaf."""
+    return build_triangle_forest(triangles, [len(triangles)])
+
+
+def build_triangle_forest(triangles: np.ndarray, sizes: Sequence[int]) -> Bvh:
+    """One hierarchy per run of `sizes` consecutive triangles of (n, 3, 3) `triangles` (each
+    run >= 1): a forest in one set of arrays, the root of run j at node j (build_forest)."""
     triangles = np.asarray(triangles, dtype=np.float64)
     if triangles.ndim != 3 or triangles.shape[1:] != (3, 3) or len(triangles) == 0:
         raise ValueError(f"build_bvh: expected (n >= 1, 3, 3) triangles, got {triangles.shape}")
-    return build_box_bvh(triangles.min(axis=1), triangles.max(axis=1), triangles.mean(axis=1), LEAF_TRIANGLES)
+    p0, p1, p2 = triangles[:, 0], triangles[:, 1], triangles[:, 2]  # (a corner at a time: 5x numpy's min over an axis)
+    return build_forest(np.minimum(np.minimum(p0, p1), p2), np.maximum(np.maximum(p0, p1), p2), (p0 + p1 + p2) / 3.0,
+                        sizes, LEAF_TRIANGLES)
 
 
 def build_box_bvh(lows: np.ndarray, highs: np.ndarray, centroids: np.ndarray, leaf_size: int) -> Bvh:
     """The hierarchy of n >= 1 items given by their (n, 3) boxes and the (n, 3) points they are
     split by, at most `leaf_size` a leaf."""
+    return build_forest(lows, highs, centroids, [len(lows)], leaf_size)
+
+
+def build_forest(lows: np.ndarray, highs: np.ndarray, centroids: np.ndarray, sizes: Sequence[int],
+                 leaf_size: int) -> Bvh:
+    """One hierarchy per run of `sizes` consecutive items (given by their (n, 3) boxes and the
+    (n, 3) points they are split by), at most `leaf_size` a leaf, all built at once: the root of
+    run j is node j, and its items stay in its run of `order`. A thousand small meshes cost one
+    build's few dozen numpy calls, not a thousand builds'."""
     items = len(lows)
-    if items == 0 or leaf_size < 1:
-        raise ValueError(f"build_box_bvh: expected items and a leaf size >= 1, got {items} and {leaf_size}")
-    capacity = node_count(items, leaf_size)
+    runs = np.asarray(sizes, np.int64)
+    if items == 0 or leaf_size < 1 or (runs < 1).any() or runs.sum() != items:
+        raise ValueError(f"build_forest: expected runs of >= 1 of the {items} items and a leaf size >= 1, "
+                         f"got {runs.tolist()[:8]} and {leaf_size}")
+    capacity = sum(node_count(int(run), leaf_size) for run in runs)
     lower, upper = np.zeros((capacity, 3)), np.zeros((capacity, 3))
     first, count = np.zeros(capacity, np.int64), np.zeros(capacity, np.int64)
-    # The items sorted by their centroid on each axis (ties by index); every split keeps each
-    # range of the three sorted (_split), so that a range's median on any axis is at its middle.
-    by_axis = np.stack([np.argsort(centroids[:, axis], kind="stable") for axis in range(3)])
+    # The items sorted by their centroid on each axis (ties by index) within their run; every split
+    # keeps each range of the three sorted (_split), so that a range's median on any axis is at its
+    # middle.
+    by_axis = np.stack([_sorted_in_runs(centroids[:, axis], runs) for axis in range(3)])
     # One level's ranges of by_axis: their nodes, starts and ends. A level's nodes are numbered
     # after every earlier level's, the two children of a parent side by side.
-    nodes, starts, ends = np.zeros(1, np.int64), np.zeros(1, np.int64), np.full(1, items, np.int64)
+    ends = np.cumsum(runs)
+    nodes, starts = np.arange(len(runs)), ends - runs
     parents_by_level: list[np.ndarray] = []
-    used = 1
+    used = len(runs)
     while len(nodes):
         leaf = ends - starts <= leaf_size
         first[nodes[leaf]], count[nodes[leaf]] = starts[leaf], (ends - starts)[leaf]
@@ -82,8 +105,8 @@ def build_box_bvh(lows: np.ndarray, highs: np.ndarray, centroids: np.ndarray, le
     order = by_axis[0]
     _bound(lows, highs, order, first[:used], count[:used], parents_by_level, lower, upper)
     # Depth-first, left child first: the right child follows the left's subtree, and the node
-    # after a right child's subtree is the one after its parent's. Level by level, every parent's
-    # skip is known before its children's.
+    # after a right child's subtree is the one after its parent's (a root's: -1, the walk's end).
+    # Level by level, every parent's skip is known before its children's.
     skip = np.full(used, -1, np.int64)
     for parents in parents_by_level:
         skip[first[parents]] = first[parents] + 1
@@ -98,6 +121,16 @@ def _float32_outward(bound: np.ndarray, toward: float) -> np.ndarray:
     rounded = bound.astype(np.float32)
     inward = rounded > bound if toward < 0 else rounded < bound
     return np.where(inward, np.nextafter(rounded, np.float32(toward)), rounded)
+
+
+def _sorted_in_runs(keys: np.ndarray, runs: np.ndarray) -> np.ndarray:
+    """The indices of `keys` sorted within each run of consecutive ones (ties by index), runs kept in
+    order: a stable sort by key, then a stable one by run (np.lexsort's two keys take a third longer)."""
+    order = np.argsort(keys, kind="stable")
+    if len(runs) == 1:
+        return order
+    run_of = np.repeat(np.arange(len(runs), dtype=np.int32), runs)
+    return order[np.argsort(run_of[order], kind="stable")]
 
 
 def _bound(lows: np.ndarray, highs: np.ndarray, order: np.ndarray, first: np.ndarray, count: np.ndarray,

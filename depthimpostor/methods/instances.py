@@ -9,7 +9,7 @@ split over the instances' boxes, which for a thousand instances costs less than 
 bookkeeping), and the meshes' hierarchies stay.
 
 The node texture (methods/triangles.py) holds, in order: the top level's nodes from node 0, the
-instance records from texel `records_start`, then from node `mesh_base` every mesh's bottom level.
+instance records from texel `records_start`, then from node `mesh_base` the meshes' bottom levels.
 The first two are the texture's front, rewritten when objects move (`front_texels`).
 """
 
@@ -41,11 +41,12 @@ BOX_MARGIN = 1e-6
 @dataclass(frozen=True)
 class BvhLayout:
     """Where the parts of the two-level BVH sit in the node and triangle textures: `instances`
-    records (at least one: a mirror that reflects nothing still traces a degenerate triangle),
-    and per distinct mesh its node and triangle counts."""
+    records (at least one: a mirror that reflects nothing still traces a degenerate triangle), and
+    the distinct meshes' hierarchies, a forest of `mesh_nodes` nodes whose root j is mesh j's, over
+    their triangles (`mesh_triangles` a mesh), mesh after mesh."""
 
     instances: int
-    mesh_nodes: tuple[int, ...]
+    mesh_nodes: int
     mesh_triangles: tuple[int, ...]
 
     @cached_property
@@ -64,13 +65,9 @@ class BvhLayout:
 
     @property
     def mesh_base(self) -> int:
-        """The node where the first mesh's bottom level starts (after the front, on a node's texel)."""
+        """The node where the meshes' hierarchies start (after the front, on a node's first texel):
+        mesh j's root is node mesh_base + j."""
         return math.ceil(self.front_texels / NODE_TEXELS)
-
-    @cached_property
-    def mesh_roots(self) -> tuple[int, ...]:
-        """Each mesh's root node."""
-        return tuple(self.mesh_base + int(start) for start in np.cumsum((0, *self.mesh_nodes[:-1])))
 
     @cached_property
     def mesh_first_triangles(self) -> tuple[int, ...]:
@@ -79,7 +76,7 @@ class BvhLayout:
 
     @property
     def node_texels(self) -> int:
-        return NODE_TEXELS * (self.mesh_base + sum(self.mesh_nodes))
+        return NODE_TEXELS * (self.mesh_base + self.mesh_nodes)
 
 
 def node_texels(bvh: Bvh, first_offset: int, node_offset: int) -> np.ndarray:

@@ -24,8 +24,8 @@ from ..gpu.uniforms import bind_texture, write
 from ..meshes import Mesh
 from ..scene.model import Scene
 from .atlas import plural
-from .bvh import Bvh, build_bvh, node_count
-from .instances import BvhLayout, front_texels, instance_records, node_texels, nothing_record
+from .bvh import build_triangle_forest, node_count
+from .instances import NODE_TEXELS, BvhLayout, front_texels, instance_records, node_texels, nothing_record
 
 #: What a mirror that reflects nothing traces, so that its shader still has a BVH to walk: one
 #: degenerate triangle (its corners at the origin), which no ray meets (ray_triangle's determinant
@@ -58,15 +58,21 @@ def distinct_meshes(meshes: list[Mesh]) -> dict[Mesh, int]:
     return distinct
 
 
-def mesh_triangle_texels(mesh: Mesh, bvh: Bvh) -> np.ndarray:
-    """(triangles * BVH_TRIANGLE_TEXELS, 4) texels of `mesh`'s triangles in its hierarchy's leaf order."""
-    indices = mesh.indices[bvh.order]
-    uvs = mesh.uvs[indices] if mesh.uvs is not None else np.zeros((len(indices), 3, 2), np.float32)
+def triangle_texels(meshes: list[Mesh], order: np.ndarray) -> np.ndarray:
+    """(triangles * BVH_TRIANGLE_TEXELS, 4) texels of every triangle of `meshes`, mesh after mesh, in
+    the `order` of their hierarchies' leaves."""
+    indices = np.concatenate([mesh.indices for mesh in meshes])[order]
+    starts = np.cumsum([0] + [len(mesh.positions) for mesh in meshes[:-1]])
+    indices = indices + np.repeat(starts, [len(mesh.indices) for mesh in meshes])[order, None]
+    positions = np.concatenate([mesh.positions for mesh in meshes])
+    normals = np.concatenate([mesh.normals for mesh in meshes])
+    uvs = np.concatenate([mesh.uvs if mesh.uvs is not None else np.zeros((len(mesh.positions), 2), np.float32)
+                          for mesh in meshes])
     ordered = np.zeros((len(indices), BVH_TRIANGLE_TEXELS, 4), np.float32)
-    ordered[:, :3, :3] = mesh.positions[indices]
-    ordered[:, 3:6, :3] = mesh.normals[indices]
-    ordered[:, 6, :] = uvs[:, :2].reshape(-1, 4)
-    ordered[:, 7, :2] = uvs[:, 2]
+    ordered[:, :3, :3] = positions[indices]
+    ordered[:, 3:6, :3] = normals[indices]
+    ordered[:, 6, :] = uvs[indices[:, :2]].reshape(-1, 4)
+    ordered[:, 7, :2] = uvs[indices[:, 2]]
     return ordered.reshape(-1, 4)
 
 
@@ -86,7 +92,7 @@ class TrianglePass:
         place texture too), without building it: the hierarchies' sizes depend on counts alone."""
         meshes = cls.traced_meshes(scene, reflected) or [NOTHING]
         distinct = list(distinct_meshes(meshes))
-        layout = BvhLayout(len(meshes), tuple(node_count(len(m.indices)) for m in distinct),
+        layout = BvhLayout(len(meshes), sum(node_count(len(m.indices)) for m in distinct),
                            tuple(len(m.indices) for m in distinct))
         return cls._bytes(layout, sum(len(m.indices) for m in meshes) if named else None)
 
@@ -105,22 +111,21 @@ class TrianglePass:
         meshes = self.traced_meshes(scene, self.reflected) or [NOTHING]
         self.distinct = distinct_meshes(meshes)
         self.mesh_of = [self.distinct[mesh] for mesh in meshes]  # per instance
-        self.bottom = [build_bvh(mesh.positions[mesh.indices]) for mesh in self.distinct]
-        self.layout = BvhLayout(len(meshes), tuple(bvh.node_count for bvh in self.bottom),
-                                tuple(len(mesh.indices) for mesh in self.distinct))
+        # Every distinct mesh's hierarchy, built at once: a forest whose root j is mesh j's.
+        self.bottom = build_triangle_forest(np.concatenate([mesh.positions[mesh.indices] for mesh in self.distinct]),
+                                            [len(mesh.indices) for mesh in self.distinct])
+        self.layout = BvhLayout(len(meshes), self.bottom.node_count, tuple(len(mesh.indices) for mesh in self.distinct))
         self.triangle_count = sum(len(mesh.indices) for mesh in meshes) if self.reflected else 0
         layout = self.layout
         nodes = np.zeros((layout.node_texels, 4), np.float32)
         nodes[: layout.front_texels] = self._front()
-        for bvh, root, first_triangle in zip(self.bottom, layout.mesh_roots, layout.mesh_first_triangles, strict=True):
-            nodes[3 * root: 3 * (root + bvh.node_count)] = node_texels(bvh, first_triangle, root)
+        nodes[NODE_TEXELS * layout.mesh_base:] = node_texels(self.bottom, 0, layout.mesh_base)
         self.nodes = _texture(ctx, nodes, scene.source)
         # The rows a move rewrites: the front, and the rest of its last row as it is.
         self._front_rows = nodes[: _rows(layout.front_texels) * BVH_TEXTURE_WIDTH].copy()
         made = [self.nodes]
         try:
-            self.triangles = _texture(ctx, np.concatenate([mesh_triangle_texels(mesh, bvh) for mesh, bvh in
-                                                           zip(self.distinct, self.bottom, strict=True)]), scene.source)
+            self.triangles = _texture(ctx, triangle_texels(list(self.distinct), self.bottom.order), scene.source)
             made.append(self.triangles)
             self.places = self._places_texture(meshes) if places else None
         except BaseException:
@@ -130,29 +135,27 @@ class TrianglePass:
 
     def _front(self) -> np.ndarray:
         """The top level and the instance records, from where the objects are now."""
-        roots = [self.layout.mesh_roots[mesh] for mesh in self.mesh_of]
+        roots = [self.layout.mesh_base + mesh for mesh in self.mesh_of]
         if self.reflected:
             records = instance_records(self.scene, self.reflected, roots)
             models = np.stack([item.model_matrix for item in self.reflected])
         else:
             records, models = nothing_record(roots[0]), np.eye(4)[None]
-        lower = np.stack([self.bottom[mesh].lower[0] for mesh in self.mesh_of]).astype(np.float64)
-        upper = np.stack([self.bottom[mesh].upper[0] for mesh in self.mesh_of]).astype(np.float64)
+        lower = self.bottom.lower[self.mesh_of].astype(np.float64)
+        upper = self.bottom.upper[self.mesh_of].astype(np.float64)
         return front_texels(self.layout, records, models, lower, upper)
 
     def _places_texture(self, meshes: list[Mesh]) -> moderngl.Texture:
         """Per listed triangle (at most MAX_NAMED_TRIANGLES: scene/limits.py, checked in the plan):
         (its place in the triangle texture, its instance's slot)."""
-        placed = []
-        for mesh, bvh in zip(self.distinct, self.bottom, strict=True):
-            where = np.empty(len(mesh.indices), np.int64)
-            where[bvh.order] = np.arange(len(mesh.indices))
-            placed.append(where)
+        where = np.empty(len(self.bottom.order), np.int64)  # by a triangle's place among the distinct meshes'
+        where[self.bottom.order] = np.arange(len(self.bottom.order))
+        firsts = self.layout.mesh_first_triangles
         place = np.zeros((sum(len(mesh.indices) for mesh in meshes), 4), np.float32)
         start = 0
-        for slot, kind in enumerate(self.mesh_of):
-            count = len(placed[kind])
-            place[start: start + count, 0] = self.layout.mesh_first_triangles[kind] + placed[kind]
+        for slot, (mesh, kind) in enumerate(zip(meshes, self.mesh_of, strict=True)):
+            count = len(mesh.indices)
+            place[start: start + count, 0] = where[firsts[kind]: firsts[kind] + count]
             place[start: start + count, 1] = slot
             start += count
         return _texture(self.ctx, place, self.scene.source)
