@@ -184,6 +184,31 @@ def test_a_move_rewrites_the_instances_and_keeps_the_meshes_hierarchies(ctx: mod
     assert np.abs(moved - before).max() > 0.1  # the orbits show in the mirror
 
 
+def test_a_lone_moving_box_is_drawn_where_it_moved(ctx: moderngl.Context) -> None:
+    """One box: the whole node texture is shorter than the row a move rewrites."""
+    scene = scene_from_toml(HEAD + """
+[[objects]]
+name = "box"
+shape = { type = "box", size = [0.6, 0.6, 0.6] }
+material = { type = "checker", color_a = [0.9, 0.3, 0.2], color_b = [0.1, 0.1, 0.1], scale = 0.2 }
+position = [0.0, 1.0, 2.0]
+animation = { type = "orbit", centre = [0.0, 1.5, 2.0], axis = [0, 0, 1], degrees_per_second = 90 }
+""", "box.toml")
+    with Renderer(ctx, scene, method=Method.RAYTRACE) as renderer:
+        traced = renderer.graph.triangles
+        assert traced is not None and traced.layout.node_texels < traced.nodes.width
+        renderer.render()
+        before = renderer.read_color_float()
+        renderer.set_time(1.0)
+        renderer.render()
+        moved = renderer.read_color_float()
+    with Renderer(ctx, scene, method=Method.RAYTRACE) as fresh:
+        fresh.set_time(1.0)
+        fresh.render()
+        np.testing.assert_allclose(moved, fresh.read_color_float(), atol=1e-6)
+    assert np.abs(moved - before).max() > 0.1
+
+
 def uneven_and_mirrored() -> Scene:
     """A wall mirror before a ball stretched along x and flattened along y, a textured box and a
     torus knot mirrored by a negative scale (which the scene format refuses, but glTF node matrices

@@ -121,8 +121,9 @@ class TrianglePass:
         nodes[: layout.front_texels] = self._front()
         nodes[NODE_TEXELS * layout.mesh_base:] = node_texels(self.bottom, 0, layout.mesh_base)
         self.nodes = _texture(ctx, nodes, scene.source)
-        # The rows a move rewrites: the front, and the rest of its last row as it is.
-        self._front_rows = nodes[: _rows(layout.front_texels) * BVH_TEXTURE_WIDTH].copy()
+        # The rows a move rewrites: the front, and the rest of its last row as it is (or as padded).
+        self._front_rows = np.zeros((_rows(layout.front_texels) * BVH_TEXTURE_WIDTH, 4), np.float32)
+        self._front_rows[: len(nodes)] = nodes[: len(self._front_rows)]
         made = [self.nodes]
         try:
             self.triangles = _texture(ctx, triangle_texels(list(self.distinct), self.bottom.order), scene.source)
