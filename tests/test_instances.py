@@ -265,3 +265,13 @@ def test_the_plan_counts_each_mesh_once() -> None:
     BVH, as before, would take 103 MiB)."""
     plan = plan_render(mixed_scene(210), Method.RAYTRACE)
     assert plan.memory["BVH"] < 3 * 2**20
+
+
+@pytest.mark.parametrize("method", [Method.RAYTRACE, Method.HYBRID, Method.SIMPLIFIED], ids=lambda m: m.option)
+def test_a_mirror_that_reflects_nothing_traces_one_degenerate_instance(ctx: moderngl.Context, method: Method) -> None:
+    scene = scene_from_toml(HEAD, "empty.toml")
+    with Renderer(ctx, scene, method=method, reflection_data=True) as renderer:
+        renderer.render()
+        assert_finite(renderer.read_color_float())
+        data = renderer.read_reflection_data()
+    assert data.mirror_mask.sum() > 1000 and (data.object_id[data.mirror_mask] < 0).all()

@@ -91,7 +91,8 @@ def node_texels(bvh: Bvh, first_offset: int, node_offset: int) -> np.ndarray:
 
 
 def instance_records(scene: Scene, reflected: list[ObjectGeometry], roots: list[int]) -> np.ndarray:
-    """The records of `reflected`, whose meshes' bottom levels start at `roots`."""
+    """The records of `reflected`, whose meshes' bottom levels start at `roots`, without their
+    transforms (what a move leaves as it is: `with_transforms` fills them in)."""
     records = np.zeros(len(reflected), TRIANGLE_INSTANCE_DTYPE)
     for slot, item in enumerate(reflected):
         kind, color_a, color_b, scale = material_fields(item.object.material)
@@ -100,17 +101,22 @@ def instance_records(scene: Scene, reflected: list[ObjectGeometry], roots: list[
         records[slot]["color_b"] = (*color_b, 0.0)
         records[slot]["kind_and_id"] = (int(kind), item.index, texture, 0)
         records[slot]["texture"] = (*uv_scale, 0.0, 0.0)
-    if reflected:
-        # std140 mat4 is column-major: the numpy row holds a column.
-        records["world_to_local"] = np.linalg.inv(np.stack([item.model_matrix for item in reflected])).transpose(0, 2, 1)
     records["mesh"][:, 0] = roots
     return records
 
 
+def with_transforms(records: np.ndarray, models: np.ndarray) -> np.ndarray:
+    """`records` with the world-to-local transforms of their (n, 4, 4) `models`."""
+    placed = records.copy()
+    # std140 mat4 is column-major: the numpy row holds a column.
+    placed["world_to_local"] = np.linalg.inv(models).transpose(0, 2, 1)
+    return placed
+
+
 def nothing_record(root: int) -> np.ndarray:
-    """The one instance of a mirror that reflects nothing: its degenerate triangle, untransformed."""
+    """The one instance of a mirror that reflects nothing: its degenerate triangle (untransformed:
+    with_transforms of the identity)."""
     records = np.zeros(1, TRIANGLE_INSTANCE_DTYPE)
-    records["world_to_local"] = np.eye(4)
     records["kind_and_id"] = (0, NO_OBJECT, -1, 0)
     records["mesh"] = (root, 0, 0, 0)
     return records

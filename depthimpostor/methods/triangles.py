@@ -25,7 +25,8 @@ from ..meshes import Mesh
 from ..scene.model import Scene
 from .atlas import plural
 from .bvh import build_triangle_forest, node_count
-from .instances import NODE_TEXELS, BvhLayout, front_texels, instance_records, node_texels, nothing_record
+from .instances import (NODE_TEXELS, BvhLayout, front_texels, instance_records, node_texels, nothing_record,
+                        with_transforms)
 
 #: What a mirror that reflects nothing traces, so that its shader still has a BVH to walk: one
 #: degenerate triangle (its corners at the origin), which no ray meets (ray_triangle's determinant
@@ -117,6 +118,9 @@ class TrianglePass:
         self.layout = BvhLayout(len(meshes), self.bottom.node_count, tuple(len(mesh.indices) for mesh in self.distinct))
         self.triangle_count = sum(len(mesh.indices) for mesh in meshes) if self.reflected else 0
         layout = self.layout
+        roots = [layout.mesh_base + mesh for mesh in self.mesh_of]
+        # Materials, ids and meshes: what a move keeps.
+        self._records = instance_records(scene, self.reflected, roots) if self.reflected else nothing_record(roots[0])
         nodes = np.zeros((layout.node_texels, 4), np.float32)
         nodes[: layout.front_texels] = self._front()
         nodes[NODE_TEXELS * layout.mesh_base:] = node_texels(self.bottom, 0, layout.mesh_base)
@@ -136,15 +140,11 @@ class TrianglePass:
 
     def _front(self) -> np.ndarray:
         """The top level and the instance records, from where the objects are now."""
-        roots = [self.layout.mesh_base + mesh for mesh in self.mesh_of]
-        if self.reflected:
-            records = instance_records(self.scene, self.reflected, roots)
-            models = np.stack([item.model_matrix for item in self.reflected])
-        else:
-            records, models = nothing_record(roots[0]), np.eye(4)[None]
+        # (A mirror that reflects nothing: its one degenerate instance, untransformed.)
+        models = np.stack([item.model_matrix for item in self.reflected]) if self.reflected else np.eye(4)[None]
         lower = self.bottom.lower[self.mesh_of].astype(np.float64)
         upper = self.bottom.upper[self.mesh_of].astype(np.float64)
-        return front_texels(self.layout, records, models, lower, upper)
+        return front_texels(self.layout, with_transforms(self._records, models), models, lower, upper)
 
     def _places_texture(self, meshes: list[Mesh]) -> moderngl.Texture:
         """Per listed triangle (at most MAX_NAMED_TRIANGLES: scene/limits.py, checked in the plan):
