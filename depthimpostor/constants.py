@@ -180,13 +180,16 @@ SRGB_GAMMA = 2.4
 #: Narkowicz's 2015 fit of the ACES filmic tone curve ("ACES Filmic Tone Mapping Curve"):
 #: f(x) = clamp(x (A x + B) / (x (C x + D) + E), 0, 1), per channel.
 ACES_A, ACES_B, ACES_C, ACES_D, ACES_E = 2.51, 0.03, 2.43, 0.59, 0.14
-#: Analytic planes (floors, walls) a reflected ray is intersected with exactly.
+#: Analytic planes (floors, walls) a reflected ray is intersected with exactly: the scene's largest
+#: diffuse planes, up to this many (Scene.analytic_plane_indices); any others are drawn as meshes.
 MAX_ANALYTIC_PLANES = 8
-#: Distinct image textures in one scene. Each is bound for the whole frame on a texture unit of
-#: its own (bindings.TextureUnit.MATERIAL_TEXTURE_*), which the diffuse pass picks by an if-chain
-#: (GLSL 3.30 indexes an array of samplers only with constants); traced rays read all of them from
-#: one stacked texture (MATERIAL_TEXELS) through this many rectangles. Kept small: units are few.
-MAX_TEXTURES = 4
+#: Texture arrays the rasterized passes sample the scene's image textures from, whatever their
+#: number (texture_layout.py): textures are grouped by size into at most this many arrays, each
+#: bound on two units (a repeating and a clamping sampler: bindings.TextureUnit.MATERIAL_ARRAY_*),
+#: which the diffuse pass picks by an if-chain (GLSL 3.30 indexes an array of samplers only with
+#: constants). 4 arrays spend 8 of a fragment shader's 16 samplers; a scene with more distinct
+#: sizes has some of its images resampled to a larger size of its group (texture_layout.py).
+MATERIAL_ARRAYS = 4
 #: The depth-image records a mirror's uniform block holds: 64 x 208 bytes = 13 KiB, under the
 #: 16 KiB every GL 3.3 guarantees a uniform block. A mirror may own any number of images (one per
 #: reflected object): where a scene may give one more than this, its programs read the records
@@ -211,14 +214,27 @@ def depth_image_capacity(objects: int) -> int:
     return max(DEPTH_IMAGE_BLOCK_RECORDS, 1 << max(0, objects - 1).bit_length())
 
 
+#: The record tables from which a mirror's images are found through their hierarchy (IMAGE_BVH,
+#: methods/image_bvh.py) rather than by scanning every bound. The walk visits images in a fixed
+#: order where the scan visits them nearest first and stops at the first beyond its hit, so it
+#: marches more images a ray: measured at 960x540 (tools/scene_size.py's family), the mirror pass
+#: at 100 images was 58 ms walking and 62 ms scanning, at 1,000 images 110 and 271 ms; and on
+#: scenes/images_per_mirror/boxes_64.toml the walk no longer skipped the boxes behind a hit
+#: (tests/test_images_per_mirror.py). From 512 records the walk wins whatever the order.
+IMAGE_BVH_MIN_CAPACITY = 512
+
+
 def depth_image_defines(capacity: int) -> dict[str, int]:
-    """The defines of a program reading image tables of `capacity` records (lib/baked_images.glsl):
-    none for the uniform block's own size, so that a scene of up to DEPTH_IMAGE_BLOCK_RECORDS objects
-    keeps the programs it always had; past it the capacity, the storage buffers' extension, and
-    IMAGE_BVH: the table holds a hierarchy over the images too (methods/image_bvh.py)."""
+    """The defines of a program reading a mirror's image tables of `capacity` records
+    (lib/baked_images.glsl): none for the uniform block's own size, so that a scene of up to
+    DEPTH_IMAGE_BLOCK_RECORDS objects keeps the programs it always had; past it the capacity, the
+    storage buffers' extension, and from
+    IMAGE_BVH_MIN_CAPACITY IMAGE_BVH: the images found through the hierarchy their table holds
+    past the records (methods/image_bvh.py)."""
     if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
         return {}
-    return {"DEPTH_IMAGE_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1, "IMAGE_BVH": 1}
+    walk = {"IMAGE_BVH": 1} if capacity >= IMAGE_BVH_MIN_CAPACITY else {}
+    return {"DEPTH_IMAGE_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1, **walk}
 #: Reflected triangles the hybrid method's depth images can name: a float32 sample holds
 #: integers below 2^24.
 MAX_NAMED_TRIANGLES = 2**24
@@ -341,6 +357,15 @@ TRIANGLE_INSTANCE = Struct("TriangleInstance", TRIANGLE_INSTANCE_FIELDS)
 DEPTH_IMAGE_DTYPE = DEPTH_IMAGE.dtype
 TRIANGLE_INSTANCE_DTYPE = TRIANGLE_INSTANCE.dtype
 
+#: One image texture of the scene (texture slot k is record k of lib/material_texture.glsl's
+#: TextureRecords block, gpu/textures.py): `sampling` is (texture array, layer, wrap s, wrap t),
+#: the wrap modes GL enums (Wrap); `texels` where its level 0 lies in the traced rays' 8-bit atlas,
+#: (x, y, width, height) (texture_layout.py).
+TEXTURE_RECORD = Struct("TextureRecord", (
+    ("sampling", "ivec4"),
+    ("texels", "ivec4"),
+))
+
 #: A surface's material as lib/shading.glsl's material_albedo reads it: MATERIAL_DIFFUSE or
 #: MATERIAL_CHECKER, the two colours (a diffuse material's is color_a), the checker's cell size,
 #: a diffuse material's texture slot (or -1) and that texture's UV multipliers.
@@ -425,7 +450,6 @@ def glsl_constants() -> dict[str, str]:
     defines: dict[str, str] = {
         "MAX_LIGHTS": str(MAX_LIGHTS),
         "MAX_ANALYTIC_PLANES": str(MAX_ANALYTIC_PLANES),
-        "MAX_TEXTURES": str(MAX_TEXTURES),
         "DEPTH_IMAGE_BLOCK_RECORDS": str(DEPTH_IMAGE_BLOCK_RECORDS),
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
         "NO_OBJECT": str(NO_OBJECT),

@@ -118,11 +118,6 @@ class ObjectGeometry:
     def bounding_sphere(self) -> tuple[np.ndarray, float]:
         return self.world_mesh.bounding_sphere()
 
-    @property
-    def is_analytic_plane(self) -> bool:
-        """Planes that are not mirrors (floors, walls) are intersected exactly, not through impostors."""
-        return self.object.is_analytic_plane
-
 
 #: Objects sharing a local mesh whose bounding spheres bounding_spheres works out together, and
 #: the points it transforms at once (float64: 48 MB).

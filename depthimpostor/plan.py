@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .constants import (
-    depth_image_capacity, DEPTH_IMAGE_DTYPE, MAX_LIGHTS, HIERARCHICAL_MIN_SIDE, Algorithm, Method,
+    depth_image_capacity, DEPTH_IMAGE_DTYPE, MAX_ANALYTIC_PLANES, MAX_LIGHTS, HIERARCHICAL_MIN_SIDE, Algorithm, Method,
     image_algorithm,
 )
 from .culling import Reach
@@ -31,6 +31,7 @@ from .methods.seen_from_eye import SeenFromEye
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
 from .gpu.textures import GpuTextures
+from .texture_layout import texture_layout
 from .passes.reflectors import (
     DEFERRED,
     DEFERRED_REFLECTOR_PROGRAM,
@@ -131,6 +132,20 @@ class RenderPlan:
     graph: tuple[RenderNode, ...] = ()
     # render.samples: the eye's passes run this many times per frame (at sub-pixel positions), the bakes once.
     samples: int = 1
+    # Where the scene's image textures go (texture_layout.py), for `plan`'s memory lines; "" without any.
+    textures: str = ""
+    # The diffuse planes' names: those intersected exactly, and those drawn as meshes
+    # (Scene.analytic_plane_indices chooses).
+    analytic_planes: tuple[str, ...] = ()
+    mesh_planes: tuple[str, ...] = ()
+
+    def planes_lines(self) -> list[str]:
+        """Which diffuse planes are intersected exactly and which are drawn as meshes (none where
+        the scene has no diffuse plane)."""
+        if not self.mesh_planes:
+            return [f"planes intersected exactly: {_listed(self.analytic_planes)}"] if self.analytic_planes else []
+        return [f"planes intersected exactly: {_listed(self.analytic_planes)} (the {MAX_ANALYTIC_PLANES} largest)",
+                f"planes drawn as meshes: {_listed(self.mesh_planes)} (reflected as any object is)"]
 
     def samples_line(self) -> str:
         """What anti-aliasing costs: eye passes per frame, and no GPU memory (the average is host-side)."""
@@ -176,11 +191,13 @@ class RenderPlan:
             "graph": [{"pass": n.stage.value, "reads": list(n.reads), "writes": list(n.writes)} for n in self.graph],
             "memory_bytes": dict(self.memory),
             "samples": self.samples,
+            "planes": {"analytic": list(self.analytic_planes), "meshes": list(self.mesh_planes)},
         }
 
     def format(self) -> str:
         lines = [f"plan of {self.scene} ({self.method.option}"
                  + (f", {self.algorithm.name.lower()} algorithm" if METHODS[self.method].marches_depth_images else "") + ")"]
+        lines += self.planes_lines()
         lines.append(f"passes ({len(self.passes)}):")
         lines += [f"  {p.stage.value:<28} {p.when}\n  {'':<28} why: {p.reason}" for p in self.passes]
         lines.append(f"images ({len(self.images)}):")
@@ -200,11 +217,24 @@ class RenderPlan:
         if BAKE_DEPTH_BUFFER in self.memory:
             lines.append(f"  the {BAKE_DEPTH_BUFFER} is let go at the first frame that bakes nothing (a still scene's "
                          "second) and made again for the next bake")
+        if self.textures:
+            lines.append(f"  {self.textures}")
         return "\n".join(lines)
 
 
 def _names(items: list[ObjectGeometry]) -> str:
     return ", ".join(f'"{item.object.name}"' for item in items)
+
+
+#: The names a plan line lists before it says how many more there are.
+LISTED_NAMES = 4
+
+
+def _listed(names: Sequence[str]) -> str:
+    """`count` ("a", "b", ... and k more): a line stays a line in a scene of a hundred planes."""
+    shown = ", ".join(f'"{name}"' for name in names[:LISTED_NAMES])
+    more = f" and {len(names) - LISTED_NAMES} more" if len(names) > LISTED_NAMES else ""
+    return f"{len(names)} ({shown}{more})"
 
 
 def check_stand_in(scene: Scene, method: Method, reflectors: list[ObjectGeometry],
@@ -248,7 +278,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     glass = [g for g in geometry if g.object.is_glass]
     reflectors = [g for g in geometry if g.object.is_reflector]
     diffuse = [g for g in geometry if not g.object.is_reflector]
-    reflected = [g for g in diffuse if not g.is_analytic_plane]
+    reflected = world.reflected_objects  # the planes past the exact ones among them
     check_stand_in(scene, method, reflectors, reflected)
     passes: list[PlannedPass] = []
     variants: dict[ProgramKey, tuple[str, Pass]] = {}
@@ -376,7 +406,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                         _builds_pyramids(method, algorithm, images), (eye_reads, frame_surface(method, bool(reflectors))))
     return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
                       tuple(PlannedVariant(k, r) for k, (r, _) in variants.items()), memory, image_plans, graph,
-                      scene.render.samples)
+                      scene.render.samples, texture_layout(scene).summary() if scene.textures else "",
+                      tuple(o.name for o in scene.analytic_planes), tuple(o.name for o in scene.mesh_planes))
 
 
 def frame_surface(method: Method, reflectors: bool) -> bool:
@@ -419,7 +450,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     if glass:
         memory["glass interiors"] = len(glass) * (interior_bytes(max(scene.render.size)) + DEPTH_IMAGE_DTYPE.itemsize)
     reflectors = [g for g in geometry if g.object.is_reflector]
-    reflected = [g for g in geometry if not g.object.is_reflector and not g.is_analytic_plane]
+    reflected = [g for g in geometry if not g.object.is_reflector and g.index not in scene.analytic_plane_indices]
     stand_in = METHODS[method].stand_in
     if not reflectors:
         return memory

@@ -288,13 +288,19 @@ class PPC:
         """(centre, radius) of a sphere around the frustum grown by `pixels` as clip_ray_grown
         grows it: every point a ray clipped to it can hit lies inside. The radius has a margin of
         BOUND_MARGIN for the rounding of float32 clipping in the shaders."""
-        grow = pixels / max(self.width, self.height)
-        corners = np.array([self.unproject(u, v, w) for u in (-pixels, self.width + pixels)
-                            for v in (-pixels, self.height + pixels)
-                            for w in (self.w_near * (1.0 - grow), self.w_far * (1.0 + grow))])
-        centre = corners.mean(axis=0)
-        radius = float(np.max(np.linalg.norm(corners - centre, axis=1)))
-        return centre, radius * (1.0 + BOUND_MARGIN)
+        cached: dict[float, tuple[Array, float]] = self.__dict__.setdefault("_bounds", {})
+        if pixels not in cached:  # a camera never changes: every record of its image asks again
+            grow = pixels / max(self.width, self.height)
+            # The eight corners at once (u slowest, w fastest), each as unproject makes it.
+            u, v, w = (np.array(axis).reshape(-1) for axis in np.meshgrid(
+                (-pixels, self.width + pixels), (-pixels, self.height + pixels),
+                (self.w_near * (1.0 - grow), self.w_far * (1.0 + grow)), indexing="ij"))
+            corners = self.unproject(u, v, w)
+            centre = corners.mean(axis=0)
+            radius = float(np.max(np.linalg.norm(corners - centre, axis=1)))
+            cached[pixels] = (centre, radius * (1.0 + BOUND_MARGIN))
+        centre, radius = cached[pixels]
+        return centre.copy(), radius
 
     def hit_bound(self, around: tuple[Array, float] | None, pixels: float = CLIP_TOLERANCE_PIXELS) -> tuple[Array, float]:
         """(centre, radius) of a sphere around every hit a march of this image can give, when the
@@ -310,8 +316,9 @@ class PPC:
         grow = pixels / max(self.width, self.height)
         w_far = self.w_far * (1.0 + grow)
         texel = (float(np.linalg.norm(self.a)) + float(np.linalg.norm(self.b))) * w_far
-        longest_ray = max(float(np.linalg.norm(self.ray_direction(u, v))) for u in (0.0, self.width)
-                          for v in (0.0, self.height))
+        corner_rays = self.ray_direction(np.array([0.0, 0.0, self.width, self.width]),
+                                         np.array([0.0, self.height, 0.0, self.height]))
+        longest_ray = max(float(np.linalg.norm(ray)) for ray in corner_rays)
         depth = CONTACT_DEPTH_TOLERANCE * w_far * w_far * (1.0 / self.w_near - 1.0 / self.w_far) * longest_ray
         radius = (around[1] + texel + depth) * (1.0 + BOUND_MARGIN)
         return (np.asarray(around[0], dtype=np.float64), radius) if radius < frustum[1] else frustum

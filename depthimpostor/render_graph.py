@@ -403,7 +403,7 @@ class RenderGraph:
         elif stage is Pass.DIFFUSE and self.diffuse is not None:
             sampled, drawn = self.sampled, world.diffuse_objects
             if self.show_samples and self.samples is not None and sampled is not None:
-                drawn = [g for g in world.diffuse_objects if g.is_analytic_plane]
+                drawn = world.analytic_planes  # the samples stand for the others
                 stats.draw_calls += self.samples.draw(sampled, camera)
             if isinstance(self.stand_in, SeenFromEye):  # SSR's: the eye's surface beside the colour
                 self.stand_in.diffuse_framebuffer(targets.color_framebuffer, targets.size).use()

@@ -19,9 +19,10 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
-from .constants import MAX_TEXTURES, Wrap
+from .colour import encode_srgb
+from .constants import Wrap
 from .scene.fields import At
-from .scene.model import Scene, Texture
+from .scene.model import Texture
 
 
 def srgb_to_linear(encoded: np.ndarray) -> np.ndarray:
@@ -33,13 +34,15 @@ def srgb_to_linear(encoded: np.ndarray) -> np.ndarray:
 SRGB_TABLE = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
 
 
-def texture_from_image(image: Image.Image, sampler: dict[str, int], scale: tuple[float, float] = (1.0, 1.0)) -> Texture:
-    """A Texture of a decoded image: its RGBA pixels as stored (sRGB, row 0 the top), read-only."""
+def texture_from_image(image: Image.Image, sampler: dict[str, int], scale: tuple[float, float] = (1.0, 1.0),
+                       name: str = "") -> Texture:
+    """A Texture of a decoded image: its RGBA pixels as stored (sRGB, row 0 the top), read-only;
+    `name` what messages call it."""
     pixels = np.asarray(image.convert("RGBA"), dtype=np.uint8).copy()
     pixels.flags.writeable = False
     mean = srgb_to_linear(pixels[..., :3].reshape(-1, 3) / 255.0).mean(axis=0)
     r, g, b = (float(c) for c in mean)
-    return Texture(pixels, sampler, (r, g, b), scale)
+    return Texture(pixels, sampler, (r, g, b), scale, name)
 
 
 _CACHE: dict[tuple[Path, int, tuple[float, float], tuple[int, int]], Texture] = {}
@@ -58,7 +61,7 @@ def read_texture(path: Path, at: At, scale: tuple[float, float], wrap: tuple[int
         try:
             with Image.open(resolved) as image:
                 image.load()
-                texture = texture_from_image(image, {"wrapS": wrap[0], "wrapT": wrap[1]}, scale)
+                texture = texture_from_image(image, {"wrapS": wrap[0], "wrapT": wrap[1]}, scale, resolved.name)
         except (UnidentifiedImageError, OSError, ValueError) as error:
             raise at.error(f"expected an image file Pillow can decode (PNG, JPEG, ...), got {str(path)!r}: "
                            f"{error}") from None
@@ -66,16 +69,18 @@ def read_texture(path: Path, at: At, scale: tuple[float, float], wrap: tuple[int
     return _CACHE[key]
 
 
-def texel_rects(scene: Scene) -> np.ndarray:
-    """(MAX_TEXTURES, 4) int32: where slot k's level 0 lies in the traced rays' texel stack
-    (gpu/textures.py): (x, y, width, height), the images stacked top to bottom in slot order."""
-    rects = np.zeros((MAX_TEXTURES, 4), np.int32)
-    y = 0
-    for slot, texture in enumerate(scene.textures[:MAX_TEXTURES]):
-        height, width = texture.image.shape[:2]
-        rects[slot] = (0, y, width, height)
-        y += height
-    return rects
+def resample(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """An (H, W, 4) sRGB image resampled to `size` (width, height) for a texture array's layer
+    (texture_layout.py): its colour in linear light (decoded, filtered, encoded again: filtering the
+    encoded values would darken edges between light and dark), its alpha as it is, each channel by
+    Pillow's Lanczos filter (3 lobes: sharp, little ringing; its overshoot is clipped)."""
+    linear = SRGB_TABLE[image[..., :3]]
+    channels = [linear[..., c] for c in range(3)] + [image[..., 3].astype(np.float32) / 255.0]
+    filtered = np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(channel), mode="F")
+                                    .resize(size, Image.Resampling.LANCZOS)) for channel in channels], axis=-1)
+    filtered = np.clip(filtered, 0.0, 1.0)
+    encoded = np.concatenate([encode_srgb(filtered[..., :3]), filtered[..., 3:]], axis=-1)
+    return np.asarray(np.rint(encoded * 255.0), np.uint8)
 
 
 def wrap_texels(index: np.ndarray, size: int, mode: int) -> np.ndarray:

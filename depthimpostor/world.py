@@ -53,9 +53,12 @@ class World:
         self.glass = [g for g in geometry if g.object.is_glass]
         # Mirrors and glass: drawn by the mirror pass, each with depth images of the others.
         self.reflectors = [g for g in geometry if g.object.is_reflector]
-        self.analytic_planes = [g for g in geometry if g.is_analytic_plane]
+        # The planes intersected exactly (the scene chooses them: Scene.analytic_plane_indices);
+        # every other diffuse object, planes past those included, is reflected through the stand-in.
+        analytic = scene.analytic_plane_indices
+        self.analytic_planes = [g for g in geometry if g.index in analytic]
         self.diffuse_objects = [g for g in geometry if not g.object.is_reflector]
-        self.reflected_objects = [g for g in self.diffuse_objects if not g.is_analytic_plane]
+        self.reflected_objects = [g for g in self.diffuse_objects if g.index not in analytic]
         casters = set(scene.shadow_casters)
         self.shadow_casters = [g for g in geometry if g.object in casters]
         self.__dict__.pop("bounds", None)

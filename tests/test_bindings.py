@@ -8,7 +8,8 @@ import re
 from pathlib import Path
 
 from depthimpostor.gpu.bindings import ImageUnit, StorageBuffer, TextureUnit, UniformBlock, glsl_bindings
-from depthimpostor.constants import glsl_constants
+from depthimpostor.constants import MATERIAL_ARRAYS, glsl_constants
+from depthimpostor.gpu.textures import array_unit
 
 PACKAGE = Path(__file__).resolve().parent.parent / "depthimpostor"
 SHADERS = Path(__file__).resolve().parent.parent / "shaders"
@@ -21,13 +22,12 @@ LITERAL_BINDING = re.compile(r"(\.use|bind_to_uniform_block|bind_to_storage_buff
 def test_every_unit_and_binding_fits_the_gl_minimums() -> None:
     # GL 3.3 guarantees 48 texture units in all (GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS: what a unit's
     # number must stay under), 16 samplers in one fragment shader (the mirror shader samples at most
-    # every unit but the viewer's own two, the diffuse pass's mipmapped material textures, whose
+    # every unit but the viewer's own two, the diffuse pass's mipmapped material texture arrays, whose
     # level 0 it reads from MATERIAL_TEXELS, and the ray query's rays, which its shader reads in
     # place of the deferred pass's surfaces, and the planar and SSR methods' screen textures, which
     # their variants read in place of the depth images' and the BVH's) and 12 uniform blocks; GL 4.3
     # 8 storage buffers and 8 image units a compute shader.
-    diffuse_only = (TextureUnit.MATERIAL_TEXTURE_0, TextureUnit.MATERIAL_TEXTURE_1, TextureUnit.MATERIAL_TEXTURE_2,
-                    TextureUnit.MATERIAL_TEXTURE_3)
+    diffuse_only = tuple(unit for unit in TextureUnit if unit.name.startswith("MATERIAL_ARRAY"))
     ray_query_only = (TextureUnit.RAY_ORIGINS, TextureUnit.RAY_DIRECTIONS)
     screen_only = (TextureUnit.SCREEN_COLOR, TextureUnit.SCREEN_SURFACE, TextureUnit.SSR_PYRAMID)
     shader_units = [unit for unit in TextureUnit
@@ -41,6 +41,9 @@ def test_every_unit_and_binding_fits_the_gl_minimums() -> None:
     glossy = [unit for unit in shader_units if unit not in triangles_only]
     assert max(TextureUnit) < 48 and len(sharp) <= 16 and len(glossy) <= 16
     assert max(UniformBlock) < 12
+    # The diffuse pass: every texture array on its two samplers, the shadow maps and the environment.
+    assert len(diffuse_only) == 2 * MATERIAL_ARRAYS and len(diffuse_only) + 2 <= 16
+    assert [array_unit(k, clamped) for clamped in (False, True) for k in range(MATERIAL_ARRAYS)] == list(diffuse_only)
     assert max(StorageBuffer) < 8 and max(ImageUnit) < 8
 
 

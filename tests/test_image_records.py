@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from conftest import scene_from_toml
 
+from depthimpostor import constants
 from depthimpostor.constants import (
     DEPTH_IMAGE_BLOCK_RECORDS,
     DEPTH_IMAGE_DTYPE,
@@ -27,7 +28,6 @@ from depthimpostor.methods.impostors import ImpostorPass
 from depthimpostor.oracles import reference
 from depthimpostor.oracles.compare import compare
 from depthimpostor.oracles.ray_query import RayQuery
-from depthimpostor.passes import reflectors
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene
@@ -74,6 +74,7 @@ def test_capacity_is_the_uniform_block_up_to_it_then_a_power_of_two() -> None:
     assert depth_image_capacity(1000) == 1024
     assert depth_image_defines(DEPTH_IMAGE_BLOCK_RECORDS) == {}  # small scenes keep their programs
     assert depth_image_defines(1024) == {"DEPTH_IMAGE_CAPACITY": 1024, "NEEDS_STORAGE_BLOCKS": 1, "IMAGE_BVH": 1}
+    assert "IMAGE_BVH" not in depth_image_defines(128)  # a hundred images are scanned (IMAGE_BVH_MIN_CAPACITY)
 
 
 @pytest.mark.parametrize(("method", "wrong_object_limit"), [(Method.DEPTH, 0.01), (Method.BILLBOARD, 0.05)])
@@ -182,23 +183,29 @@ def test_the_hierarchy_walk_sees_what_the_scan_sees(ctx: moderngl.Context, monke
     the same nearest hits, so the same frame."""
     scene = many_balls(100)
     frames = []
+    shipped = constants.IMAGE_BVH_MIN_CAPACITY
     for walk in (True, False):
-        if not walk:
-            monkeypatch.setattr(reflectors, "depth_image_defines",
-                                lambda capacity: {k: v for k, v in depth_image_defines(capacity).items() if k != "IMAGE_BVH"})
+        # The walk from 128 records for the first frame (it begins at IMAGE_BVH_MIN_CAPACITY).
+        monkeypatch.setattr(constants, "IMAGE_BVH_MIN_CAPACITY", 128 if walk else shipped)
         with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=Method.DEPTH) as renderer:
             renderer.render()
-            walked = any(("IMAGE_BVH", 1) in key[1] or ("IMAGE_BVH", "1") in key[1]
-                         for key in renderer.programs.keys)
-            assert walked == walk
+            # Programs are kept across renderers of one context: the variant each frame needed is there.
+            variants = [dict(key[1]) for key in renderer.programs.keys if "DEPTH_IMAGE_CAPACITY" in dict(key[1])]
+            assert any(("IMAGE_BVH" in defines) == walk for defines in variants)
             frames.append(renderer.read_color_float())
     assert np.isfinite(frames[0]).all()
     np.testing.assert_allclose(frames[0], frames[1], atol=1e-6)
 
 
-def test_the_walk_tracking_unseen_space_finds_the_references_nearest_hits(ctx: moderngl.Context) -> None:
-    """The ray query (the mirror shader's GLSL with TRACK_UNSEEN: the hierarchy over the images'
-    bounds) over 100 images of one mirror, against the numpy reference's nearest hit, ray by ray."""
+@pytest.mark.parametrize("walk", [True, False], ids=["walked", "scanned"])
+def test_many_images_tracking_unseen_space_give_the_references_nearest_hits(ctx: moderngl.Context,
+                                                                            monkeypatch: pytest.MonkeyPatch,
+                                                                            walk: bool) -> None:
+    """The ray query (the mirror shader's GLSL with TRACK_UNSEEN; walked: the hierarchy over the
+    images' bounds) over 100 images of one mirror, against the numpy reference's nearest hit, ray
+    by ray."""
+    if walk:
+        monkeypatch.setattr(constants, "IMAGE_BVH_MIN_CAPACITY", 128)
     scene = many_balls(100).with_overrides(size=(32, 18), impostor_resolution=32)
     with Renderer(ctx, scene, method=Method.DEPTH) as renderer:
         renderer.render()
@@ -211,7 +218,7 @@ def test_the_walk_tracking_unseen_space_finds_the_references_nearest_hits(ctx: m
         origins = rng.uniform((-4.0, 0.5, 0.02), (4.0, 3.5, 0.1), size=(3000, 3))  # on the wall mirror's front
         directions = targets + rng.normal(size=(3000, 3)) * 0.12 - origins
         query = RayQuery(ctx, renderer.programs, impostors.atlas, images)
-        assert ("IMAGE_BVH", 1) in query_defines(query)
+        assert (("IMAGE_BVH", 1) in query_defines(query)) == walk
         gpu = query.run(origins, directions)
         query.release()
         expected = reference.nearest_depth_image_hit([impostors.atlas.read(image) for image in images], origins,
@@ -226,3 +233,20 @@ def test_the_walk_tracking_unseen_space_finds_the_references_nearest_hits(ctx: m
 
 def query_defines(query: RayQuery) -> set[tuple[str, int]]:
     return {(name, int(value)) for name, value in query.defines.items()}
+
+
+@pytest.mark.parametrize("method", [Method.RAYTRACE, Method.HYBRID])
+def test_the_traced_methods_take_more_objects_than_a_uniform_block(ctx: moderngl.Context, method: Method) -> None:
+    """100 traced objects (past the 64 records of the uniform block they once had, which refused
+    more; now instances of a two-level BVH, tests/test_instances.py): the mirror shows each where
+    the truth does."""
+    scene = many_balls(100)
+    with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=method, reflection_data=True) as renderer:
+        renderer.render()
+        assert np.isfinite(renderer.read_color_float()).all()
+        seen = renderer.read_reflection_data().object_id
+        comparison = compare(renderer)
+    truth = comparison.truth_frame.object_id
+    late = truth > 64  # the objects past what the uniform block held
+    assert late.sum() > 150 and (seen[late] == truth[late]).mean() > 0.99
+    assert comparison.figures.wrong_object_share < 0.001

@@ -20,7 +20,7 @@ import pytest
 
 from conftest import assert_finite
 from depthimpostor.constants import Algorithm, Method
-from depthimpostor.methods.atlas import image_records
+from depthimpostor.methods.atlas import record_table
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
 
@@ -37,10 +37,12 @@ def visit_every_image(renderer: Renderer) -> None:
     baked = renderer.graph.baked_images
     assert baked is not None
     for index, buffer in baked.uniform_buffers.items():
-        records = image_records(baked.images_at(index, baked.final_level)).copy()
+        images = baked.images_at(index, baked.final_level)
+        records = baked.image_records(images).copy()
         for bound in ("bound", "hit_bound"):
             records[bound][:, 3] = 1e18  # squared, still a float32 (3.4e38 at most)
-        buffer.write(records.tobytes())
+        # As the stand-in lays its table out (past 64 records, with the hierarchies over these bounds).
+        buffer.write(record_table(records, len(images), baked.record_capacity))
 
 
 def frame_and_samples(ctx: moderngl.Context, method: Method, algorithm: Algorithm, every_image: bool

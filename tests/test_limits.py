@@ -89,12 +89,6 @@ def too_many_lights() -> Scene:
     return dataclasses.replace(written, lights=written.lights * (MAX_LIGHTS + 1))
 
 
-def too_many_planes() -> Scene:
-    written = scene(HEAD + WALL_MIRROR + balls(1, 2.0))
-    floor = SceneObject("floor", dataclasses.replace(written.objects[0].shape))  # a diffuse plane
-    return dataclasses.replace(written, objects=written.objects + (floor,) * (MAX_ANALYTIC_PLANES + 1))
-
-
 def too_far() -> Scene:
     written = scene(HEAD + WALL_MIRROR + balls(1, 2.0))
     far = SceneObject("far", SphereShape(1e18), position=(1e18, 0.0, 0.0))
@@ -109,7 +103,6 @@ BOUNCES = HEAD.replace("impostor_resolution = 16\n", "impostor_resolution = 16\n
 #: from the scene alone (also refused at load), the method, or what the mirrors can see.
 LIMITS = [
     ("lights", lambda _: too_many_lights(), Method.DEPTH, f"at most {MAX_LIGHTS} [[lights]] tables"),
-    ("analytic planes", lambda _: too_many_planes(), Method.DEPTH, f"at most {MAX_ANALYTIC_PLANES} planes that are not"),
     ("reach", lambda _: too_far(), Method.DEPTH, "expected an object within 1e+18 of the origin"),
     ("model reach", model_scene, Method.DEPTH, "got one reaching 1.41e+19"),
     ("texture on a model without UVs", untextured_model_scene, Method.DEPTH, "got the mesh file"),
@@ -159,11 +152,12 @@ RAISES = {
     "methods/planar.py": 1,  # a curved mirror or glass with --method planar (the plan: tests/test_eye_methods.py)
     "passes/shadows.py": 1,  # light among its casters
     "methods/triangles.py": 1,  # BVH texture past GL_MAX_TEXTURE_SIZE (GL)
-    "gpu/scene_blocks.py": 2,  # lights, analytic planes: the loader and the plan refuse them first
-    # lights, analytic planes, reach, bounces per method, named triangles; textures
-    # past MAX_TEXTURES and a texture on a shape without UVs (at load: tests/test_textures.py); a
-    # texture on a model file without UVs (once loaded)
-    "scene/limits.py": 8,
+    "gpu/scene_blocks.py": 1,  # lights: the loader and the plan refuse them first
+    # lights, reach, bounces per method, named triangles; a texture on a shape without UVs (at load:
+    # tests/test_textures.py); a texture on a model file without UVs (once loaded). Planes past 8,
+    # traced objects past 64 and image textures have no limit of their own (tests/test_many_planes.py,
+    # tests/test_image_records.py, tests/test_instances.py, tests/test_many_textures.py)
+    "scene/limits.py": 6,
     # render --video's arguments, refused before any work as cli.py's are: walked in tests/test_video.py
     "video.py": 3,
 }
@@ -182,16 +176,24 @@ def test_every_refusal_outside_the_loader_is_walked() -> None:
     assert found == RAISES
 
 
-def test_nine_planes_are_refused_at_load(tmp_path: Path) -> None:
-    """`plan` exited 0 and `render` 2: the check lived in the uniform writer."""
-    planes = "".join(f'\n[[objects]]\nname = "floor {i}"\nshape = {{ type = "plane", size = [1.0, 1.0] }}\n'
-                     f"position = [0.0, {-1.0 - i}, 0.0]\n" for i in range(MAX_ANALYTIC_PLANES + 1))
+def test_planes_past_the_exact_ones_are_drawn_as_meshes_not_refused(ctx: moderngl.Context, tmp_path: Path) -> None:
+    """Nine planes were refused at load ("expected at most 8 planes that are not mirrors"): now the
+    8 largest are intersected exactly and the ninth, the smallest, is a reflected object, which
+    the plan and the renderer agree on (its depth image, the 8 planes in the mirror shader)."""
+    planes = "".join(f'\n[[objects]]\nname = "floor {i}"\nshape = {{ type = "plane", size = [{4.0 - 0.1 * i}, 1.0] }}\n'
+                     f"position = [0.0, {0.01 * i}, {2.0 + i}]\n" for i in range(MAX_ANALYTIC_PLANES + 1))
     path = tmp_path / "planes.toml"
     path.write_text(HEAD + WALL_MIRROR + planes, encoding="utf-8")
-    with pytest.raises(SceneError) as refused:
-        load_scene(path)
-    assert str(refused.value) == (f"{path}: objects[9]: expected at most 8 planes that are not mirrors (floors and "
-                                  "walls are intersected exactly, from an array of 8), got 9")
+    planed = load_scene(path).with_overrides(size=(64, 36))
+    assert planed.analytic_plane_indices == frozenset(range(1, MAX_ANALYTIC_PLANES + 1))
+    plan = plan_render(planed)
+    assert [image.label for image in plan.images] == ["wall mirror -> floor 8"]
+    with Renderer(ctx, planed) as renderer:
+        assert renderer.plan == plan
+        renderer.render()
+        assert renderer.stats.depth_images_baked == 1
+        assert {stages[1]: dict(defines) for stages, defines in renderer.programs.keys
+                if stages[1] == "reflector.frag"}["reflector.frag"]["PLANE_COUNT"] == str(MAX_ANALYTIC_PLANES)
 
 
 @pytest.mark.parametrize(("field", "value", "path"), [

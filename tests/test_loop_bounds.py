@@ -52,7 +52,8 @@ def test_the_bound_without_objects_is_a_variant_of_the_mirror_program(ctx: moder
     in it: each pixel is the frame's (an object seen directly) or that of the same scene without
     its reflected objects (the mirror then shows the floor and the sky alone)."""
     scene = load_scene(SCENES / "default.toml").with_overrides(size=(160, 90), impostor_resolution=64)
-    bare = dataclasses.replace(scene, objects=tuple(o for o in scene.objects if o.is_reflector or o.is_analytic_plane))
+    bare = dataclasses.replace(scene, objects=tuple(o for i, o in enumerate(scene.objects)
+                                                      if o.is_reflector or i in scene.analytic_plane_indices))
     with Renderer(ctx, bare) as renderer:
         renderer.render()
         nothing_reflected = renderer.read_color_float()

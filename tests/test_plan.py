@@ -265,7 +265,8 @@ def test_no_pyramid_where_no_image_is_marched(ctx: moderngl.Context) -> None:
     """The hierarchical algorithm over a mirror that reflects nothing but the floor and the sky
     plans no pyramid pass, and the renderer makes no pyramid (an empty one was made before)."""
     scene = small("default.toml", 32)
-    bare = dataclasses.replace(scene, objects=tuple(o for o in scene.objects if o.is_reflector or o.is_analytic_plane))
+    bare = dataclasses.replace(scene, objects=tuple(o for i, o in enumerate(scene.objects)
+                                                      if o.is_reflector or i in scene.analytic_plane_indices))
     plan = plan_render(bare, Method.DEPTH, Algorithm.HIERARCHICAL)
     assert not plan.images and not plan.runs(Pass.PYRAMIDS) and not plan.builds_pyramids
     with Renderer(ctx, bare, Algorithm.HIERARCHICAL) as renderer:

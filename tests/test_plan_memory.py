@@ -23,7 +23,7 @@ def _bytes(item: Any, mip_levels: int) -> int:
     """GPU bytes of a texture or renderbuffer (with its mips 1..mip_levels) or a buffer."""
     if isinstance(item, moderngl.Buffer):
         return item.size
-    texel = item.components * int(item.dtype[1])
+    texel = item.components * int(item.dtype[1]) * getattr(item, "layers", 1)  # an array's level holds every layer
     # GL's chain ends at 1x1: a larger max_level (build_mipmaps' default) makes no more levels.
     last = min(mip_levels, max(item.width, item.height).bit_length() - 1)
     return sum(max(1, item.width >> m) * max(1, item.height >> m) * texel for m in range(last + 1))
@@ -56,10 +56,16 @@ def allocations(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> Itera
         levels.setdefault(id(self), [0])[0] = max_level  # GL clamps to the chain's length; _bytes stops at 1x1 anyway
         original_mipmaps(self, base, max_level)
 
+    def build_array_mipmaps(self: moderngl.TextureArray, base: int = 0, max_level: int = 1000) -> None:
+        levels.setdefault(id(self), [0])[0] = max_level
+        original_array_mipmaps(self, base, max_level)
+
     original_mipmaps = moderngl.Texture.build_mipmaps
+    original_array_mipmaps = moderngl.TextureArray.build_mipmaps
     for name in _MAKERS:
         monkeypatch.setattr(moderngl.Context, name, recording(name))
     monkeypatch.setattr(moderngl.Texture, "build_mipmaps", build_mipmaps)
+    monkeypatch.setattr(moderngl.TextureArray, "build_mipmaps", build_array_mipmaps)
     yield made
 
 
@@ -82,6 +88,8 @@ CASES = [
     ("planar_mirror.toml", Method.PLANAR, Algorithm.OPTIMIZED, {}),  # made in the frame (methods/seen_from_eye.py)
     ("default.toml", Method.SSR, Algorithm.OPTIMIZED, {"reflection_data": True}),
     ("default.toml", Method.SSR, Algorithm.OPTIMIZED, {"roughness": 0.15}),  # the frame copy's mips
+    ("textured_near_mirror.toml", Method.DEPTH, Algorithm.OPTIMIZED, {}),  # texture arrays, atlas, records
+    ("showcase.toml", Method.RAYTRACE, Algorithm.OPTIMIZED, {}),  # three images in one array
 ]
 
 

@@ -13,7 +13,7 @@ from PIL import Image, ImageDraw
 
 from conftest import assert_finite
 from depthimpostor.oracles.compare import compare
-from depthimpostor.constants import MAX_TEXTURES, Method, Wrap
+from depthimpostor.constants import Method, Wrap
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import DiffuseMaterial, Scene, load_scene
 from depthimpostor.scene.model import Texture
@@ -210,16 +210,26 @@ def test_a_shape_without_uvs_refuses_a_texture(tmp_path: Path, capsys: pytest.Ca
                           "got a torus_knot shape, which has none")
 
 
-def test_more_textures_than_the_traced_shader_samples_are_refused(tmp_path: Path,
-                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+def test_more_textures_than_four_are_planned_and_drawn(ctx: moderngl.Context, tmp_path: Path) -> None:
+    """Five distinct textures (once refused: one texture unit each, four units): planned and drawn,
+    the fifth card showing its own image (tests/test_many_textures.py draws 64)."""
     write_f(tmp_path / "f.png")
+    Image.new("RGB", (8, 8), (40, 200, 90)).save(tmp_path / "green.png")
     cards = "".join(f'[[objects]]\nname = "card {k}"\nshape = {{ type = "box", size = [1.0, 1.0, 1.0] }}\n'
-                    f'material = {{ type = "diffuse", texture = {{ path = "f.png", scale = [{k + 1}, 1] }} }}\n'
-                    f"position = [{2 * k}.0, 0.0, 0.0]\n" for k in range(MAX_TEXTURES + 1))
+                    f'material = {{ type = "diffuse", texture = {{ path = "{"green" if k == 4 else "f"}.png", '
+                    f'scale = [{k + 1}, 1] }} }}\nposition = [{1.5 * k - 3.0}, 0.0, 0.0]\n' for k in range(5))
     path = tmp_path / "many.toml"
-    path.write_text(cards, encoding="utf-8")
-    assert_one_line_error(*run_in_process(["plan", str(path)], capsys), f"objects[{MAX_TEXTURES}].material.texture",
-                          f"expected at most {MAX_TEXTURES} distinct image textures")
+    path.write_text('[render]\nsize = [160, 90]\nambient = 1.0\n[camera]\neye = [0.0, 0.0, 7.0]\n'
+                    'target = [0.0, 0.0, 0.0]\n' + cards, encoding="utf-8")
+    scene = load_scene(path)
+    assert len(scene.textures) == 5
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        frame = renderer.read_color_float()
+    assert_finite(frame)
+    green = (frame[..., 1] > 0.4) & (frame[..., 0] < 0.1)
+    columns = np.nonzero(green.any(axis=0))[0]
+    assert green.sum() > 200 and columns.min() > 110, (green.sum(), columns.min())  # the rightmost card alone
 
 
 QUAD_OBJ = """# A 2 x 2 square in the XZ plane facing +Y, its texture coordinates as a plane shape lays them out

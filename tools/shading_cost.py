@@ -96,7 +96,8 @@ def main() -> None:
     ctx = create_context()
     print(describe(ctx))
     scene: Scene = load_scene(args.scene)
-    no_planes = dataclasses.replace(scene, objects=tuple(o for o in scene.objects if not o.is_analytic_plane))
+    no_planes = dataclasses.replace(scene, objects=tuple(o for i, o in enumerate(scene.objects)
+                                                         if i not in scene.analytic_plane_indices))
     with Renderer(ctx, scene, time_mirror_pass=True) as renderer, \
             Renderer(ctx, no_planes, time_mirror_pass=True) as bare:
         renderer.render()

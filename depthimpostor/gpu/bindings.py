@@ -37,14 +37,15 @@ class TextureUnit(IntEnum):
     # shader's most is 14, with MATERIAL_TEXELS), and unit numbers run to
     # GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS (>= 48).
     ENVIRONMENT_MAP = 16
-    # The scene's image textures (gpu/textures.py), slot k on MATERIAL_TEXTURE_0 + k, read by
-    # the diffuse pass alone (constants.MAX_TEXTURES).
-    MATERIAL_TEXTURE_0 = 17
-    MATERIAL_TEXTURE_1 = 18
-    MATERIAL_TEXTURE_2 = 19
-    MATERIAL_TEXTURE_3 = 20
-    # Every one's level 0 as 8-bit integers, stacked in one texture, for traced rays: the mirror
-    # shader samples this one unit for them all (material_texture.glsl).
+    # The scene's image textures (gpu/textures.py), in constants.MATERIAL_ARRAYS texture arrays
+    # whatever their number: array k on MATERIAL_ARRAY_k with a repeating sampler (and on
+    # MATERIAL_ARRAY_CLAMPED_k with a clamping one, below), read by the diffuse pass alone.
+    MATERIAL_ARRAY_0 = 17
+    MATERIAL_ARRAY_1 = 18
+    MATERIAL_ARRAY_2 = 19
+    MATERIAL_ARRAY_3 = 20
+    # Every one's level 0 as 8-bit integers, in one atlas, for traced rays: the mirror shader
+    # samples this one unit for them all (material_texture.glsl).
     MATERIAL_TEXELS = 21
     # The frame's reflector surfaces (targets.py), read by the deferred mirror shader: with them
     # it samples at most 16 textures, GL 3.3's least GL_MAX_TEXTURE_IMAGE_UNITS.
@@ -58,6 +59,12 @@ class TextureUnit(IntEnum):
     SCREEN_COLOR = 25
     SCREEN_SURFACE = 26
     SSR_PYRAMID = 27  # SSR's min-depth pyramid of the frame (methods/screen_space.py)
+    # The same texture arrays as MATERIAL_ARRAY_k, with a clamping sampler: the textures that clamp
+    # or mirror on an axis (the diffuse pass folds their UV itself).
+    MATERIAL_ARRAY_CLAMPED_0 = 28
+    MATERIAL_ARRAY_CLAMPED_1 = 29
+    MATERIAL_ARRAY_CLAMPED_2 = 30
+    MATERIAL_ARRAY_CLAMPED_3 = 31
 
 
 @unique
@@ -67,6 +74,7 @@ class UniformBlock(IntEnum):
     GLASS_INTERIOR = 3  # a glass object's interior-image record (passes/glass.py)
     LIGHTS = 4  # ambient, lights and environment values, read by every program that shades (gpu/scene_blocks.py)
     ANALYTIC_PLANES = 5  # the floors and walls every reflected ray is intersected with (gpu/scene_blocks.py)
+    TEXTURE_RECORDS = 6  # every image texture's array, layer, wraps and atlas rectangle (gpu/textures.py)
 
 
 @unique

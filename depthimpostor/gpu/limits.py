@@ -6,8 +6,9 @@ incomplete, which moderngl reports as "the framebuffer is not complete" long aft
 that caused it. So the renderer checks its plan first (`check_fits`): every surface it will make
 against GL_MAX_TEXTURE_SIZE, GL_MAX_RENDERBUFFER_SIZE and GL_MAX_VIEWPORT_DIMS, the largest
 allocation the driver is known to make, and the whole against a memory budget (the driver's,
-or `--max-memory`). A refusal names the setting to change. (No array textures are made, so
-GL_MAX_ARRAY_TEXTURE_LAYERS does not apply.)
+or `--max-memory`). A refusal names the setting to change. The scene's image textures
+(texture_layout.py) are checked against GL_MAX_TEXTURE_SIZE, GL_MAX_ARRAY_TEXTURE_LAYERS and
+GL_MAX_UNIFORM_BLOCK_SIZE too, a refusal naming the image (`_check_textures`).
 
 The limits come from one function, `context_limits`, which reads them from the context once and
 keeps them in `ctx.extra`; `use_limits` puts others there (the CLI's `--max-memory`, and tests,
@@ -25,10 +26,12 @@ from dataclasses import dataclass
 
 import moderngl
 
+from ..constants import TEXTURE_RECORD
 from ..errors import GpuLimitError
 from ..methods.atlas import atlas_grid
 from ..plan import RenderPlan
 from ..scene.model import Scene
+from ..texture_layout import texture_layout
 
 MIB = 2**20
 
@@ -51,6 +54,8 @@ class GpuLimits:
     max_texture_size: int  # GL_MAX_TEXTURE_SIZE: a texture's side, in texels
     max_renderbuffer_size: int  # GL_MAX_RENDERBUFFER_SIZE
     max_viewport: tuple[int, int]  # GL_MAX_VIEWPORT_DIMS
+    max_array_texture_layers: int = 256  # GL_MAX_ARRAY_TEXTURE_LAYERS (GL 3.3's least)
+    max_uniform_block_size: int = 16384  # GL_MAX_UNIFORM_BLOCK_SIZE, in bytes (GL 3.3's least)
     max_texture_bytes: int | None = None  # one texture's bytes, where the driver is known to cap it
     max_renderbuffer_bytes: int | None = None
     memory: int | None = None  # bytes the renderer may allocate in all; None: unknown, not checked
@@ -80,7 +85,8 @@ def _read_limits(ctx: moderngl.Context) -> GpuLimits:
     renderer = str(info.get("GL_RENDERER", "")).lower()
     viewport = info.get("GL_MAX_VIEWPORT_DIMS", (info["GL_MAX_TEXTURE_SIZE"],) * 2)
     limits = GpuLimits(int(info["GL_MAX_TEXTURE_SIZE"]), int(info["GL_MAX_RENDERBUFFER_SIZE"]),
-                       (int(viewport[0]), int(viewport[1])))
+                       (int(viewport[0]), int(viewport[1])), int(info["GL_MAX_ARRAY_TEXTURE_LAYERS"]),
+                       int(info["GL_MAX_UNIFORM_BLOCK_SIZE"]))
     if "llvmpipe" in renderer:
         limits = dataclasses.replace(limits, max_texture_bytes=_LLVMPIPE_TEXTURE_BYTES,
                                      max_renderbuffer_bytes=_LLVMPIPE_RENDERBUFFER_BYTES)
@@ -204,6 +210,7 @@ def check_fits(ctx: moderngl.Context, scene: Scene, plan: RenderPlan) -> None:
     backend = str(ctx.info.get("GL_RENDERER", "this GL")).split(" (")[0]
     for surface in surfaces(scene, plan):
         _check_surface(surface, limits, backend)
+    _check_textures(scene, limits, backend)
     if limits.memory is None:
         return
     total = planned_bytes(plan)
@@ -214,12 +221,60 @@ def check_fits(ctx: moderngl.Context, scene: Scene, plan: RenderPlan) -> None:
                             "--max-memory")
 
 
+def texture_name(scene: Scene, slot: int) -> str:
+    """A texture as a message names it: the first object that shows it, and its image."""
+    texture = scene.textures[slot]
+    index = next(i for i, obj in enumerate(scene.objects) if getattr(obj.material, "texture", None) is texture)
+    return f"objects[{index}].material.texture ({texture.name or 'an image'})"
+
+
+def _check_textures(scene: Scene, limits: GpuLimits, backend: str) -> None:
+    """The scene's image textures against the GL's limits (they have none of their own), each
+    refusal naming the first image past the limit and what to change."""
+    if not scene.textures:
+        return
+    layout = texture_layout(scene)
+    for slot, image in enumerate(layout.image_of):
+        height, width = layout.images[image].shape[:2]
+        if max(width, height) > limits.max_texture_size:
+            raise GpuLimitError(f"the image texture {texture_name(scene, slot)} is {width}x{height}, over this GL's "
+                                f"GL_MAX_TEXTURE_SIZE of {limits.max_texture_size}; use a smaller image")
+    for array in layout.arrays:
+        width, height = array.size
+        if len(array.images) > limits.max_array_texture_layers:
+            first = texture_name(scene, layout.slot_of_image(array.images[limits.max_array_texture_layers]))
+            raise GpuLimitError(f"the image texture {first} would be layer {limits.max_array_texture_layers + 1} of "
+                                f"the texture array of the scene's {len(array.images)} images of about {width}x{height}, "
+                                f"over this GL's GL_MAX_ARRAY_TEXTURE_LAYERS of {limits.max_array_texture_layers}; "
+                                "use fewer distinct images")
+        if limits.max_texture_bytes is not None and array.bytes > limits.max_texture_bytes:
+            first = texture_name(scene, layout.slot_of_image(array.images[0]))
+            raise GpuLimitError(f"the texture array of the scene's {len(array.images)} images of {width}x{height} "
+                                f"(from {first} on) would take {_mib(array.bytes)}, over the "
+                                f"{_mib(limits.max_texture_bytes)} that {backend} allocates for one texture; use fewer "
+                                "or smaller images")
+    width, height = layout.atlas_size
+    atlas = f"the atlas of the scene's {len(layout.images)} images that traced rays read would be {width}x{height}"
+    if max(width, height) > limits.max_texture_size:
+        raise GpuLimitError(f"{atlas}, over this GL's GL_MAX_TEXTURE_SIZE of {limits.max_texture_size}; use fewer "
+                            "or smaller images")
+    if limits.max_texture_bytes is not None and layout.atlas_bytes > limits.max_texture_bytes:
+        raise GpuLimitError(f"{atlas} ({_mib(layout.atlas_bytes)}), over the {_mib(limits.max_texture_bytes)} that "
+                            f"{backend} allocates for one texture; use fewer or smaller images")
+    if layout.records_bytes > limits.max_uniform_block_size:
+        first = texture_name(scene, limits.max_uniform_block_size // TEXTURE_RECORD.dtype.itemsize)
+        raise GpuLimitError(f"the scene's {len(layout.textures)} image textures (the first past it: {first}) need "
+                            f"a record block of {layout.records_bytes} bytes, over this GL's GL_MAX_UNIFORM_BLOCK_SIZE "
+                            f"of {limits.max_uniform_block_size}; use fewer distinct textures")
+
+
 #: The setting that sizes each of the plan's memory figures (by its name in `RenderPlan.memory`);
 #: the baked images (depth images, cube-map faces, billboards, their pyramids) are sized by the
 #: impostor resolution.
 _MEMORY_SETTINGS = {"shadow maps": "render.shadow_resolution", "glass interiors": "--size",
                     "frame colour and depth": "--size", "reflection outputs": "--size", "sample counts": "--size",
-                    "meshes": "the scene's meshes (fewer or smaller objects)", "environment map": _MAP_SETTING}
+                    "meshes": "the scene's meshes (fewer or smaller objects)", "environment map": _MAP_SETTING,
+                    "textures": "the scene's image textures (fewer or smaller images)"}
 
 
 def _largest_share(plan: RenderPlan) -> tuple[str, int, str]:

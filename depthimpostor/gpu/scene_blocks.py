@@ -51,12 +51,11 @@ def lighting_record(scene: Scene) -> np.ndarray:
 
 
 def planes_record(scene: Scene, planes: Sequence[ObjectGeometry]) -> np.ndarray:
-    """lib/reflected_scene.glsl's AnalyticPlanes block: the planes that are not mirrors (floors,
-    walls) where they are now, a 0-d array of constants.PLANES."""
-    if len(planes) > MAX_ANALYTIC_PLANES:
-        raise SceneError(
-            scene.source, "objects", f"expected at most {MAX_ANALYTIC_PLANES} non-mirror planes, got {len(planes)}"
-        )
+    """lib/reflected_scene.glsl's AnalyticPlanes block: the planes the scene intersects exactly
+    (Scene.analytic_plane_indices: floors, walls) where they are now, a 0-d array of constants.PLANES."""
+    if len(planes) > MAX_ANALYTIC_PLANES:  # the scene chooses at most that many: a bug, not a scene's error
+        raise ValueError(f"{len(planes)} analytic planes for an array of {MAX_ANALYTIC_PLANES}: "
+                         "Scene.analytic_plane_indices chooses at most that many")
     record = np.zeros((), PLANES.dtype)
     record["count"] = len(planes)
     entries = record["planes"]

@@ -23,10 +23,14 @@ from pathlib import Path
 
 import moderngl
 
-from ..constants import ANALYTIC_PLANE, DEPTH_IMAGE, IMAGE_NODE, LIGHT, LIGHTING, MATERIAL, PLANES, TRIANGLE_INSTANCE, glsl_constants
+from ..constants import (
+    ANALYTIC_PLANE, DEPTH_IMAGE, IMAGE_NODE, LIGHT, LIGHTING, MATERIAL, PLANES, TEXTURE_RECORD, TRIANGLE_INSTANCE,
+    glsl_constants,
+)
 from ..errors import ShaderError
 from ..lights import soft_shadow_disk_glsl
 from ..resources import shaders_dir
+from ..texture_layout import material_arrays_glsl
 from .texel_records import glsl_reader
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
@@ -57,6 +61,8 @@ def _generated_sources() -> dict[str, str]:
         "generated/lighting.glsl": LIGHT.glsl() + LIGHTING.glsl(),
         "generated/planes.glsl": '#include "material.glsl"\n' + ANALYTIC_PLANE.glsl() + PLANES.glsl(),
         "generated/soft_shadow_disk.glsl": soft_shadow_disk_glsl(),
+        "generated/texture_record.glsl": TEXTURE_RECORD.glsl(),
+        "generated/material_arrays.glsl": material_arrays_glsl(),
     }
 
 

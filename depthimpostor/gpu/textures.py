@@ -1,126 +1,150 @@
-"""GPU copies of the scene's image textures: sRGB, mipmapped, trilinear, the sampler's wrap modes.
+"""GPU copies of the scene's image textures, in any number, where texture_layout.py puts them.
 
-Each `Texture` (by identity) is uploaded once, as GL_SRGB8_ALPHA8 so that the GPU decodes its
-texels to linear before filtering (moderngl has no sRGB flag; `ctx.texture` takes the internal
-format). Texture slot k of the scene (Scene.textures) is bound on TextureUnit.MATERIAL_TEXTURE_0
-+ k for every frame: the diffuse pass, every bake, and the traced methods' shader all read it
-there (passes/uniforms.write_textures points their samplers at those units); every slot's level 0 as
-8-bit integers, stacked in one texture on MATERIAL_TEXELS, which traced rays decode through an
-exact table (material_texture.glsl).
+- Rasterized fragments (the eye's diffuse pass, every bake) sample at most MATERIAL_ARRAYS
+  GL_SRGB8_ALPHA8 texture arrays with mipmaps, so that the GPU decodes texels to linear before it
+  filters (moderngl's texture_array takes no internal format: its storage is specified again here
+  through glTexImage3D). Array k is bound on two units: MATERIAL_ARRAY_k with a repeating sampler
+  object and MATERIAL_ARRAY_CLAMPED_k with a clamping one. A texture's wrap modes cannot be state
+  of an array it shares: one that repeats on both axes is sampled through the repeating sampler
+  with its UV as it is (GL's own wrap and filter: what a texture of its own gave, bit for bit); any
+  other through the clamping sampler, its UV folded in the shader (a mirrored repeat's fold then
+  clamping is exactly GL's mirrored repeat at every mip level: lib/material_texture.glsl).
+- Traced rays read every image's level 0 from one GL_RGBA8UI atlas on MATERIAL_TEXELS and decode
+  it through an exact table (textures.py's comparison rule).
+- One uniform buffer holds every slot's record (constants.TEXTURE_RECORD: array, layer, wraps,
+  atlas rectangle), bound on UniformBlock.TEXTURE_RECORDS: a block sized by the scene's count
+  (TEXTURE_COUNT), not a texture, because the mirror shader already samples the 16 textures a
+  fragment shader is sure to have (tests/test_bindings.py); its limit is GL_MAX_UNIFORM_BLOCK_SIZE
+  (16 KiB at least: 512 textures; gpu/limits.py checks it).
 """
 
 from __future__ import annotations
 
 import ctypes
+from dataclasses import dataclass
 
 import moderngl
 import numpy as np
 
-from .bindings import TextureUnit
-from ..constants import MAX_TEXTURES, Wrap
+from .bindings import TextureUnit, UniformBlock
 from .context import gl_function
 from ..errors import GpuLimitError
 from ..scene.model import Scene, Texture
-from ..textures import texel_rects
+from ..texture_layout import TextureLayout, texture_layout
+from ..textures import resample
 
 #: GL_SRGB8_ALPHA8: 8-bit sRGB colour, linear alpha (moderngl exports no name for it).
 GL_SRGB8_ALPHA8 = 0x8C43
-
-_REPEAT_X = {Wrap.REPEAT: True, Wrap.CLAMP_TO_EDGE: False, Wrap.MIRRORED_REPEAT: True}
-
-
-GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T = 0x0DE1, 0x2802, 0x2803
+GL_TEXTURE_2D_ARRAY, GL_RGBA, GL_UNSIGNED_BYTE = 0x8C1A, 0x1908, 0x1401
 
 
-def _set_wrap(ctx: moderngl.Context, gpu: moderngl.Texture, wrap_s: Wrap, wrap_t: Wrap) -> None:
-    """Both wrap modes set through glTexParameteri (on the texture bound to its slot-0 unit, which
-    GpuTextures.use binds again before any draw), for the mode moderngl cannot set."""
-    address = gl_function(ctx, "glTexParameteri")
+def array_unit(array: int, clamped: bool) -> int:
+    """The texture unit of texture array `array` with its repeating or its clamping sampler."""
+    first = TextureUnit.MATERIAL_ARRAY_CLAMPED_0 if clamped else TextureUnit.MATERIAL_ARRAY_0
+    return int(first) + array
+
+
+def _srgb_array(ctx: moderngl.Context, layers: np.ndarray, unit: int) -> moderngl.TextureArray:
+    """An sRGB texture array of `layers` ((n, H, W, 4) uint8, row 0 of each the top: v = 0 is the
+    image's top, glTF's convention), with mipmaps, left bound on `unit`."""
+    count, height, width = layers.shape[:3]
+    array = ctx.texture_array((width, height, count), 4, dtype="f1")
+    address = gl_function(ctx, "glTexImage3D")
     if not address:
-        raise GpuLimitError(f"{ctx.info['GL_RENDERER']}: no glTexParameteri entry point found for a mirrored-repeat "
-                            f"texture")
-    tex_parameter = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_uint, ctypes.c_int)(address)
-    gpu.use(texture_unit(0))
-    tex_parameter(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, int(wrap_s))
-    tex_parameter(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, int(wrap_t))
+        raise GpuLimitError(f"{ctx.info['GL_RENDERER']}: no glTexImage3D entry point found for an sRGB texture array")
+    tex_image_3d = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                                    ctypes.c_int, ctypes.c_int, ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)(address)
+    data = np.ascontiguousarray(layers)
+    array.use(unit)  # glTexImage3D acts on the array bound to the active unit
+    tex_image_3d(GL_TEXTURE_2D_ARRAY, 0, GL_SRGB8_ALPHA8, width, height, count, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+                 data.ctypes.data)
+    array.build_mipmaps()
+    return array
 
 
-def texture_unit(slot: int) -> int:
-    """The texture unit of the scene's texture slot `slot` (< MAX_TEXTURES: scene/limits.py)."""
-    return int(TextureUnit.MATERIAL_TEXTURE_0) + slot
+def _atlas(ctx: moderngl.Context, layout: TextureLayout) -> moderngl.Texture:
+    """Every image's level 0 in its rectangle, as GL_RGBA8UI: texelFetch alone reads it (no
+    filter; the shader wraps)."""
+    width, height = layout.atlas_size
+    atlas = np.zeros((height, width, 4), np.uint8)
+    for image, (x, y, w, h) in zip(layout.images, layout.texel_rects, strict=True):
+        atlas[y:y + h, x:x + w] = image
+    texels = ctx.texture((width, height), 4, atlas.tobytes(), dtype="u1")
+    texels.filter = (moderngl.NEAREST, moderngl.NEAREST)  # an integer texture is incomplete otherwise
+    return texels
+
+
+@dataclass
+class _Made:
+    """What one set of textures was made into."""
+
+    textures: tuple[Texture, ...]
+    arrays: list[moderngl.TextureArray]
+    atlas: moderngl.Texture
+    records: moderngl.Buffer
+
+    def release(self) -> None:
+        for array in self.arrays:
+            array.release()
+        self.atlas.release()
+        self.records.release()
 
 
 class GpuTextures:
-    """Owns the uploaded textures (made when a frame first needs them) and binds a scene's."""
+    """Owns the uploaded textures (made when a frame first needs them, again when the scene's
+    textures change) and binds them."""
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
-        # Keyed by the texture itself (identity: Texture has eq=False), which keeps it alive.
-        self._textures: dict[Texture, moderngl.Texture] = {}
-        # Every texture's level 0 as 8-bit integers, stacked (textures.texel_rects), for the
-        # textures it was made of (traced rays decode these exactly).
-        self._texels: tuple[tuple[Texture, ...], moderngl.Texture] | None = None
+        self._made: _Made | None = None
+        self._samplers: tuple[moderngl.Sampler, moderngl.Sampler] | None = None
 
-    def _upload(self, texture: Texture) -> moderngl.Texture:
-        height, width = texture.image.shape[:2]
-        # Row 0 of the image (its top) goes first: texture coordinate v = 0 is the image's top,
-        # glTF's convention, with no flip anywhere.
-        gpu = self.ctx.texture((width, height), 4, texture.image.tobytes(), internal_format=GL_SRGB8_ALPHA8)
-        gpu.build_mipmaps()
-        gpu.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)  # trilinear
-        gpu.anisotropy = 1.0
-        wrap_s, wrap_t = (Wrap(mode) for mode in texture.wrap)
-        gpu.repeat_x, gpu.repeat_y = _REPEAT_X[wrap_s], _REPEAT_X[wrap_t]
-        # moderngl's repeat flags know REPEAT and CLAMP_TO_EDGE alone: a mirrored one is set in GL.
-        if Wrap.MIRRORED_REPEAT in (wrap_s, wrap_t):
-            _set_wrap(self.ctx, gpu, wrap_s, wrap_t)
-        return gpu
+    def _sampler(self, repeat: bool) -> moderngl.Sampler:
+        sampler = self.ctx.sampler(repeat_x=repeat, repeat_y=repeat,
+                                   filter=(moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR), anisotropy=1.0)
+        return sampler
 
-    def _texel_stack(self, scene: Scene) -> moderngl.Texture:
-        """Level 0 of each of the scene's textures, stacked top to bottom as texel_rects says,
-        as GL_RGBA8UI: texelFetch alone reads it (no filter; the shader wraps)."""
-        textures = scene.textures[:MAX_TEXTURES]
-        if self._texels is not None and self._texels[0] == textures:
-            return self._texels[1]
-        if self._texels is not None:
-            self._texels[1].release()
-        rects = texel_rects(scene)
-        width, height = int(rects[:, 2].max()), int((rects[:, 1] + rects[:, 3]).max())
-        limit = self.ctx.info["GL_MAX_TEXTURE_SIZE"]
-        if height > limit:
-            raise GpuLimitError(f"the scene's textures stack to {height} texel rows for traced rays, over this GL's "
-                                f"limit of {limit} ({self.ctx.info['GL_RENDERER']}): use fewer or smaller images")
-        stack = np.zeros((height, width, 4), np.uint8)
-        for texture, (x, y, w, h) in zip(textures, rects[: len(textures)], strict=True):
-            stack[y:y + h, x:x + w] = texture.image
-        texels = self.ctx.texture((width, height), 4, stack.tobytes(), dtype="u1")
-        texels.filter = (moderngl.NEAREST, moderngl.NEAREST)  # an integer texture is incomplete otherwise
-        self._texels = (textures, texels)
-        return texels
+    def _make(self, scene: Scene) -> _Made:
+        layout = texture_layout(scene)
+        arrays = []
+        for k, array in enumerate(layout.arrays):
+            width, height = array.size
+            layers = np.stack([image if image.shape[1::-1] == (width, height) else resample(image, array.size)
+                               for image in (layout.images[i] for i in array.images)])
+            arrays.append(_srgb_array(self.ctx, layers, array_unit(k, clamped=False)))
+        records = self.ctx.buffer(layout.records().tobytes())
+        return _Made(scene.textures, arrays, _atlas(self.ctx, layout), records)
 
     def use(self, scene: Scene) -> None:
-        """Bind the scene's textures on their units, uploading those not yet on the GPU."""
-        for slot, texture in enumerate(scene.textures[:MAX_TEXTURES]):
-            if texture not in self._textures:
-                self._textures[texture] = self._upload(texture)
-            self._textures[texture].use(texture_unit(slot))
-        if scene.textures:
-            self._texel_stack(scene).use(TextureUnit.MATERIAL_TEXELS)
+        """Bind the scene's textures, their atlas and records, making them first if they are not
+        the ones made last."""
+        if not scene.textures:
+            return
+        if self._made is not None and self._made.textures != scene.textures:
+            self._made.release()
+            self._made = None
+        if self._made is None:
+            self._made = self._make(scene)
+        if self._samplers is None:
+            self._samplers = (self._sampler(repeat=True), self._sampler(repeat=False))
+        for k, array in enumerate(self._made.arrays):
+            for clamped, sampler in zip((False, True), self._samplers, strict=True):
+                array.use(array_unit(k, clamped))
+                sampler.use(array_unit(k, clamped))
+        self._made.atlas.use(TextureUnit.MATERIAL_TEXELS)
+        self._made.records.bind_to_uniform_block(UniformBlock.TEXTURE_RECORDS)
 
     @staticmethod
     def bytes_for(scene: Scene) -> int:
-        """GPU memory of the scene's textures: 4 bytes a texel, a third more for the mipmaps, and
-        the stack of level 0 copies (as wide as the widest)."""
-        if not scene.textures:
-            return 0
-        rects = texel_rects(scene)
-        stack = int(rects[:, 2].max()) * int((rects[:, 1] + rects[:, 3]).max()) * 4
-        return stack + sum(texture.image.shape[0] * texture.image.shape[1] * 4 * 4 // 3 for texture in scene.textures)
+        """GPU memory of the scene's textures: the arrays with every mip level, the atlas of
+        level-0 copies and the records (texture_layout.py)."""
+        return texture_layout(scene).bytes if scene.textures else 0
 
     def release(self) -> None:
-        for texture in self._textures.values():
-            texture.release()
-        self._textures.clear()
-        if self._texels is not None:
-            self._texels[1].release()
-            self._texels = None
+        if self._made is not None:
+            self._made.release()
+            self._made = None
+        if self._samplers is not None:
+            for sampler in self._samplers:
+                sampler.release()
+            self._samplers = None

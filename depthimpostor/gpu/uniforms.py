@@ -13,9 +13,11 @@ import moderngl
 import numpy as np
 
 from .bindings import TextureUnit, UniformBlock
-from ..constants import MAX_LIGHTS, MAX_TEXTURES, MaterialKind, Wrap
+from ..constants import MATERIAL_ARRAYS, MAX_LIGHTS, MaterialKind
 from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, Scene
-from ..textures import SRGB_TABLE, texel_rects
+from ..texture_layout import texture_defines
+from ..textures import SRGB_TABLE
+from .textures import array_unit
 
 
 def shading_defines(scene: Scene) -> dict[str, int]:
@@ -23,12 +25,13 @@ def shading_defines(scene: Scene) -> dict[str, int]:
     number of lights (more than MAX_LIGHTS is refused when the lights are written), the point
     lights' code only in scenes with one (DIRECTIONAL_LIGHTS: none), shadow rays only in scenes
     where a light casts shadows on something, texture sampling only in scenes with image textures
-    (TEXTURE_COUNT of them)."""
+    (TEXTURE_COUNT of them, in TEXTURE_ARRAYS arrays, with the samplers they need:
+    texture_layout.texture_defines)."""
     return {"LIGHT_COUNT": min(len(scene.lights), MAX_LIGHTS),  # a constant loop bound (lib/shading.glsl)
             **({"DIRECTIONAL_LIGHTS": 1} if scene.lights and all(light.type == "directional" for light in scene.lights)
                else {}),
             **({"SHADOWS": 1} if scene.has_shadows else {}),
-            **({"TEXTURE_COUNT": len(scene.textures)} if scene.textures else {})}
+            **texture_defines(scene)}
 
 
 def environment_defines(scene: Scene) -> dict[str, int]:
@@ -123,21 +126,18 @@ def write_material(program: moderngl.Program, name: str, material: Material, sce
 
 
 def write_textures(program: moderngl.Program, scene: Scene) -> None:
-    """Where the scene's texture slots are bound (gpu/textures.py binds them there), and their
-    wrap modes, for the bilinear sampling of traced rays."""
-    wraps = np.full((MAX_TEXTURES, 2), int(Wrap.REPEAT), np.int32)
-    for slot, texture in enumerate(scene.textures):
-        write(program, f"u_material_texture_{slot}", TextureUnit.MATERIAL_TEXTURE_0 + slot)
-        wraps[slot] = texture.wrap
+    """Where the scene's texture arrays (each on a repeating and a clamping sampler), the traced
+    rays' atlas and its decode table are bound (gpu/textures.py binds them there)."""
+    for array in range(MATERIAL_ARRAYS):
+        write(program, f"u_material_array_{array}", array_unit(array, clamped=False))
+        write(program, f"u_material_array_clamped_{array}", array_unit(array, clamped=True))
     write(program, "u_material_texels", TextureUnit.MATERIAL_TEXELS)
-    write(program, "u_material_texels_rect", texel_rects(scene))
-    write(program, "u_material_texture_wrap", wraps)
     write(program, "u_srgb_to_linear", SRGB_TABLE)
 
 
 def write_scene_uniforms(program: moderngl.Program, scene: Scene) -> None:
-    """Where a program finds what the renderer binds for every frame: the scene's texture slots
-    (and their wraps and texel rectangles), the shadow maps and the environment map on their units,
+    """Where a program finds what the renderer binds for every frame: the scene's textures (and
+    the TextureRecords block of their arrays, layers, wraps and texel rectangles), the shadow maps and the environment map on their units,
     and the Lights, AnalyticPlanes and ShadowMaps blocks on their bindings. None of it changes when
     the lights or objects move (those are in the blocks' buffers: gpu/scene_blocks.py), so the
     program cache writes it once, into each program as it is made."""
@@ -147,3 +147,4 @@ def write_scene_uniforms(program: moderngl.Program, scene: Scene) -> None:
     bind_uniform_block(program, "Lights", UniformBlock.LIGHTS)
     bind_uniform_block(program, "AnalyticPlanes", UniformBlock.ANALYTIC_PLANES)
     bind_uniform_block(program, "ShadowMaps", UniformBlock.SHADOW_MAPS)
+    bind_uniform_block(program, "TextureRecords", UniformBlock.TEXTURE_RECORDS)

@@ -141,11 +141,12 @@ def trace_direct(renderer: Renderer, mirror_mask: np.ndarray, camera: PPC | None
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
     origins = np.broadcast_to(camera.C, directions.shape)
     casters = renderer.world.shadow_casters
-    # Every object but the analytic planes: the casters, and the reflectors that cast no shadow
-    # (planar mirrors), whose backs are seen directly.
-    caster_ids = {g.index for g in casters}
-    seen = [*casters, *(g for g in renderer.world.reflectors if g.index not in caster_ids)]
-    hits = TruthTracer(renderer.scene, seen, renderer.world.analytic_planes, casters).trace(origins, directions)
+    # Every object but the analytic planes (intersected exactly): the casters, then the others that
+    # cast no shadow: the planes drawn as meshes and the flat mirrors, whose backs are seen directly.
+    world = renderer.world
+    apart = {g.index for g in casters} | {g.index for g in world.analytic_planes}
+    seen = [*casters, *(g for g in world.geometry if g.index not in apart)]
+    hits = TruthTracer(renderer.scene, seen, world.analytic_planes, casters).trace(origins, directions)
     reflectors = [g.index for g in renderer.world.reflectors]
     reflecting = np.isin(hits.object_id, reflectors) & ~hits.backing
     seen_mirror = reflecting.reshape(mirror_mask.shape) | mirror_mask

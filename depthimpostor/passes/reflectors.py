@@ -11,7 +11,7 @@ import numpy as np
 
 from ..gpu.bindings import TextureUnit
 from ..gpu.gl_state import NO_DEPTH_TEST, RasterState, Winding, raster_state
-from ..constants import MAX_ANALYTIC_PLANES, Algorithm, Method, depth_image_capacity, depth_image_defines
+from ..constants import Algorithm, Method, depth_image_capacity, depth_image_defines
 from ..geometry import ObjectGeometry
 from ..ppc import PPC
 from ..scene.model import GlassMaterial, MirrorMaterial, Scene
@@ -83,9 +83,9 @@ DEFERRED = {"DEFERRED": 1}
 
 def reflector_defines(scene: Scene, defines: dict[str, int], glass: bool) -> dict[str, int]:
     """The mirror shader's variant for mirrors or (GLASS) for glass, under the scene's lights and environment."""
-    # PLANE_COUNT: a constant loop bound (lib/reflected_scene.glsl); more than MAX_ANALYTIC_PLANES is
-    # refused when the planes are written.
-    planes = min(len(scene.analytic_planes), MAX_ANALYTIC_PLANES)
+    # PLANE_COUNT: a constant loop bound (lib/reflected_scene.glsl): the scene chooses at most
+    # MAX_ANALYTIC_PLANES planes to intersect exactly (Scene.analytic_plane_indices).
+    planes = len(scene.analytic_planes)
     return {**defines, **shading_defines(scene), **environment_defines(scene), "PLANE_COUNT": planes,
             **depth_image_defines(depth_image_capacity(len(scene.objects))),
             **({"GLASS": 1} if glass else {})}

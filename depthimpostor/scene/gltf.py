@@ -223,7 +223,7 @@ def _texture(header: Mapping[str, Any], info: Mapping[str, Any], image: Any, at:
             if key in sampler and sampler[key] not in {int(mode) for mode in Wrap}:
                 raise sampler_at.key(key).error(f"expected a wrap mode {', '.join(str(int(m)) for m in Wrap)}, "
                                                 f"got {show(sampler[key])}")
-    return texture_from_image(image, sampler)
+    return texture_from_image(image, sampler, name=f"{Path(source).name} images[{texture.get('source', '?')}]")
 
 
 def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], used: bool, image: Any,

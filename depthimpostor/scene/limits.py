@@ -6,8 +6,8 @@ the method or on what the mirrors can see. `render` builds its plan before any G
 |---|---|---|---|
 | a number in a scene file, and how far an object reaches from the origin | `MAX_COORDINATE` (1e18) | load: the field (`fields.py`); the object, from its position, scale, shape and orbit (`check_scene`; a model file's when the plan loads it) | float32 geometry squares distances |
 | lights | `MAX_LIGHTS` (8) | load | the shading loops over a uniform array of that size |
-| distinct image textures | `MAX_TEXTURES` (4) | load | each is bound on a texture unit of its own for the whole frame |
-| planes that are not mirrors (floors, walls) | `MAX_ANALYTIC_PLANES` (8) | load | intersected exactly from a uniform array of that size |
+| image textures | none of their own: memory, `GL_MAX_TEXTURE_SIZE` (an image's side; the traced rays' atlas of them all), `GL_MAX_ARRAY_TEXTURE_LAYERS` (images grouped in one array), `GL_MAX_UNIFORM_BLOCK_SIZE` (their records: 32 bytes each, 512 at GL's least) | plan (`gpu/limits.py`, against the context) | they are sampled from `MATERIAL_ARRAYS` (4) texture arrays and one atlas (`texture_layout.py`) |
+| planes that are not mirrors (floors, walls) | none: the `MAX_ANALYTIC_PLANES` (8) largest are intersected exactly, the others drawn as meshes (`Scene.analytic_plane_indices`), which count as reflected objects below | not refused | the exact ones come from a uniform array of that size, and pay most where large (a floor around a mirror); `plan` says which |
 | `render.max_bounces` | `MAX_BOUNCES` (4) | load | each bounce bakes an image per pair of mirrors |
 | `render.max_bounces` > 1 with two or more mirrors or glass | the depth method alone | plan (`check_method`) | only the depth method bakes reflectors into each other's images |
 | objects a mirror may show, and so its depth images | none: past `DEPTH_IMAGE_BLOCK_RECORDS` (64) a mirror's image records (and a hierarchy over them) are a storage buffer, GL 4.3 (`BakedImages`: a `ContextError` on an older GL) | render | a uniform block holds 64 records within GL 3.3's guaranteed 16 KiB |
@@ -28,10 +28,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from depthimpostor.constants import (
-    MAX_ANALYTIC_PLANES,
     MAX_COORDINATE,
     MAX_LIGHTS,
-    MAX_TEXTURES,
 )
 from depthimpostor.errors import SceneError
 from depthimpostor.meshes import Mesh
@@ -94,16 +92,6 @@ def check_scene(scene: Scene) -> None:
     scenes built in code)."""
     if len(scene.lights) > MAX_LIGHTS:
         raise SceneError(scene.source, "lights", f"expected at most {MAX_LIGHTS} [[lights]] tables, got {len(scene.lights)}")
-    planes = [i for i, obj in enumerate(scene.objects) if isinstance(obj.shape, PlaneShape) and not obj.is_mirror]
-    if len(planes) > MAX_ANALYTIC_PLANES:
-        raise SceneError(scene.source, f"objects[{planes[MAX_ANALYTIC_PLANES]}]",
-                         f"expected at most {MAX_ANALYTIC_PLANES} planes that are not mirrors (floors and walls are "
-                         f"intersected exactly, from an array of {MAX_ANALYTIC_PLANES}), got {len(planes)}")
-    if len(scene.textures) > MAX_TEXTURES:
-        first = next(i for i, obj in enumerate(scene.objects) if scene.texture_slot(obj.material) == MAX_TEXTURES)
-        raise SceneError(scene.source, f"objects[{first}].material.texture",
-                         f"expected at most {MAX_TEXTURES} distinct image textures in a scene (each is bound on a "
-                         f"texture unit of its own for the whole frame), got {len(scene.textures)}")
     _check_textured_shapes(scene)
     for index, obj in enumerate(scene.objects):
         local_reach = shape_reach(obj.shape)
@@ -148,7 +136,7 @@ def check_model_reach(scene: Scene, index: int, model: Mesh) -> None:
 
 def check_method(scene: Scene, method: MethodSpec, reflectors: int, reflected_triangles: int) -> None:
     """The limits that depend on the method (methods/registry.py): `reflectors` mirrors and glass,
-    and the `reflected_triangles` of the objects they may show."""
+    that may show `reflected_triangles` triangles in all."""
     if scene.render.max_bounces > 1 and not method.bounces and reflectors > 1:
         raise SceneError(scene.source, "render.max_bounces",
                          f"expected 1 with --method {method.option}: mirrors and glass in one another are baked "

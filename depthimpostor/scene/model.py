@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from depthimpostor.colour import TONE_MAPPINGS
-from depthimpostor.constants import SAMPLE_OFFSETS
+from depthimpostor.constants import MAX_ANALYTIC_PLANES, SAMPLE_OFFSETS
 from depthimpostor.meshes import Mesh
 from depthimpostor.scene.fields import (
     RESOLUTION, SIZE, TRIANGLE_TARGET, UNIT, At, Bounds, Reader, Vec3, choice, number, word_or,
@@ -271,6 +271,7 @@ class Texture:
     sampler: dict[str, int]  # the glTF sampler: magFilter, minFilter, wrapS, wrapT where given
     mean_color: Vec3  # the mean of the image's RGB decoded to linear
     scale: tuple[float, float] = (1.0, 1.0)  # UV multipliers: how many times the image repeats across u and v
+    name: str = ""  # what messages call it: the image file's name, or the glTF file's image
 
     @property
     def wrap(self) -> tuple[int, int]:
@@ -351,9 +352,18 @@ class SceneObject:
         return isinstance(self.material, GlassMaterial)
 
     @property
-    def is_analytic_plane(self) -> bool:
-        """Planes that are not mirrors (floors, walls) are intersected exactly, not through impostors."""
-        return isinstance(self.shape, PlaneShape) and not self.is_mirror
+    def is_diffuse_plane(self) -> bool:
+        """A plane that is neither a mirror nor glass (a floor, a wall, a glTF rectangle): one the
+        scene may intersect exactly rather than through a stand-in (Scene.analytic_plane_indices)."""
+        return isinstance(self.shape, PlaneShape) and not self.is_reflector
+
+    @property
+    def plane_area(self) -> float:
+        """The world area of a plane shape (the model matrix's scale acts before its rotation, so
+        the rectangle's sides are scaled by scale.x and scale.z alone); 0 for other shapes."""
+        if not isinstance(self.shape, PlaneShape):
+            return 0.0
+        return abs(self.shape.size[0] * self.scale[0] * self.shape.size[1] * self.scale[2])
 
     @property
     def is_reflector(self) -> bool:
@@ -410,10 +420,34 @@ class Scene:
         """Mirrors and glass: the objects whose pixels trace rays into the others."""
         return tuple(o for o in self.objects if o.is_reflector)
 
+    @functools.cached_property
+    def analytic_plane_indices(self) -> frozenset[int]:
+        """The diffuse planes every method intersects exactly (lib/reflected_scene.glsl's
+        nearest_plane_hit, from a uniform array of MAX_ANALYTIC_PLANES), by object index: the one
+        place that decides it (world.py, plan.py, the passes and the truth read it).
+
+        An exact plane is an optimisation, never a limit: it is what a floor around a mirror needs
+        (no pinhole image from the mirror's centre holds a plane it stands on), and it pays most
+        where a plane is large (one exact rectangle test per reflected ray, where a depth image of
+        a large floor or wall seen at a grazing angle is coarse). So the MAX_ANALYTIC_PLANES
+        largest by world area are chosen, ties by object order (a stable sort: the choice is the
+        same at every load), and every other diffuse plane is an ordinary mesh object: drawn,
+        baked, traced and seen by the truth as a box is. A scene of at most MAX_ANALYTIC_PLANES
+        planes has them all exact. Computed once: the fields are frozen (and an animation turns
+        a plane without changing its area)."""
+        planes = [i for i, o in enumerate(self.objects) if o.is_diffuse_plane]
+        largest = sorted(planes, key=lambda i: -self.objects[i].plane_area)[:MAX_ANALYTIC_PLANES]
+        return frozenset(largest)
+
     @property
     def analytic_planes(self) -> tuple[SceneObject, ...]:
-        """The floors and walls every method intersects exactly, in the order the shaders list them."""
-        return tuple(o for o in self.objects if o.is_analytic_plane)
+        """The planes every method intersects exactly (analytic_plane_indices), in the order the shaders list them."""
+        return tuple(o for i, o in enumerate(self.objects) if i in self.analytic_plane_indices)
+
+    @property
+    def mesh_planes(self) -> tuple[SceneObject, ...]:
+        """The diffuse planes left to be drawn as meshes (past the MAX_ANALYTIC_PLANES largest)."""
+        return tuple(o for i, o in enumerate(self.objects) if o.is_diffuse_plane and i not in self.analytic_plane_indices)
 
     @property
     def shadowed_lights(self) -> tuple[int, ...]:
@@ -422,7 +456,8 @@ class Scene:
 
     @property
     def shadow_casters(self) -> tuple[SceneObject, ...]:
-        """What casts shadows: every object but the planes (floors and walls only receive them)."""
+        """What casts shadows: every object but the planes (floors and walls only receive them),
+        exact or drawn as meshes alike, so that which planes are exact changes no shadow."""
         return tuple(o for o in self.objects if not isinstance(o.shape, PlaneShape))
 
     @property
@@ -434,7 +469,7 @@ class Scene:
     @functools.cached_property
     def textures(self) -> tuple[Texture, ...]:
         """The distinct image textures of the objects' materials (by identity), in object order:
-        texture slot k is the k-th (gpu/textures.py binds it on MATERIAL_TEXTURE_0 + k).
+        texture slot k is the k-th (record k of gpu/textures.py's table: its array, layer, wraps).
         Computed once: the fields are frozen."""
         seen: dict[int, Texture] = {}
         for obj in self.objects:

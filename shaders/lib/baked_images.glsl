@@ -14,8 +14,8 @@
 #define DEPTH_IMAGE_CAPACITY DEPTH_IMAGE_BLOCK_RECORDS
 #endif
 #if DEPTH_IMAGE_CAPACITY > DEPTH_IMAGE_BLOCK_RECORDS
-// Past the records, the two hierarchies over them (IMAGE_BVH: methods/image_bvh.py), of 2 count - 1
-// nodes each: over the images' hit bounds, then over their bounds.
+// Past the records, the two hierarchies over them (methods/image_bvh.py; walked with IMAGE_BVH), of
+// 2 count - 1 nodes each: over the images' hit bounds, then over their bounds.
 layout(std430) readonly buffer DepthImages {
     DepthImage u_depth_images[DEPTH_IMAGE_CAPACITY];
     ImageNode u_image_nodes[];
