@@ -111,6 +111,16 @@ class PlannedVariant:
         return " + ".join(stages) + (f" [{settings}]" if settings else "")
 
 
+@dataclass(frozen=True)
+class PlannedObject:
+    """An object as messages name it: its name, and its label (Scene.object_label): for a part of a
+    glTF file (`from_gltf`), the node, mesh and material, which its name (the node's) does not all say."""
+
+    name: str
+    label: str
+    from_gltf: bool
+
+
 #: The memory entry of the baked images' depth buffer, kept only while frames bake (BakedImages.rest).
 BAKE_DEPTH_BUFFER = "bake depth buffer"
 
@@ -138,6 +148,8 @@ class RenderPlan:
     # (Scene.analytic_plane_indices chooses).
     analytic_planes: tuple[str, ...] = ()
     mesh_planes: tuple[str, ...] = ()
+    # Each object's name, and how messages name it (Scene.object_label).
+    objects: tuple[PlannedObject, ...] = ()
 
     def planes_lines(self) -> list[str]:
         """Which diffuse planes are intersected exactly and which are drawn as meshes (none where
@@ -154,6 +166,11 @@ class RenderPlan:
         return (f"anti-aliasing: {self.samples} samples: the eye's passes (environment, diffuse, reflectors) run "
                 f"{self.samples} times per frame at jittered sub-pixel positions, bakes and glass interiors once; "
                 "no GPU memory beyond one sample's (the frames are averaged in host memory)")
+
+    def parts_lines(self) -> list[str]:
+        """The objects of glTF files, named as above and as the file names them (none without)."""
+        parts = [o for o in self.objects if o.from_gltf]
+        return [f"glTF parts ({len(parts)}):", *(f"  {o.name}: {o.label}" for o in parts)] if parts else []
 
     def runs(self, stage: Pass) -> bool:
         return any(planned.stage is stage for planned in self.passes)
@@ -192,6 +209,7 @@ class RenderPlan:
             "memory_bytes": dict(self.memory),
             "samples": self.samples,
             "planes": {"analytic": list(self.analytic_planes), "meshes": list(self.mesh_planes)},
+            "objects": [{"name": o.name, "label": o.label} for o in self.objects],
         }
 
     def format(self) -> str:
@@ -210,6 +228,7 @@ class RenderPlan:
         lines.append(f"shader variants ({len(self.variants)}):")
         lines += [f"  {v.name}\n      why: {v.reason}" for v in self.variants]
         lines.append(format_graph(self.graph))
+        lines += self.parts_lines()
         lines.append(self.samples_line())
         total = sum(self.memory.values())
         parts = ", ".join(f"{name} {size / 2**20:.2f}" for name, size in self.memory.items())
@@ -407,7 +426,9 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     return RenderPlan(scene.source, method, algorithm, ordered, tuple(images), tuple(skipped),
                       tuple(PlannedVariant(k, r) for k, (r, _) in variants.items()), memory, image_plans, graph,
                       scene.render.samples, texture_layout(scene).summary() if scene.textures else "",
-                      tuple(o.name for o in scene.analytic_planes), tuple(o.name for o in scene.mesh_planes))
+                      tuple(o.name for o in scene.analytic_planes), tuple(o.name for o in scene.mesh_planes),
+                      tuple(PlannedObject(obj.name, scene.object_label(i), obj.origin is not None)
+                            for i, obj in enumerate(scene.objects)))
 
 
 def frame_surface(method: Method, reflectors: bool) -> bool:

@@ -28,7 +28,7 @@ from depthimpostor.constants import NO_OBJECT, Method
 from depthimpostor.renderer import Renderer
 from depthimpostor.targets import ReflectionData
 from depthimpostor.scene import load_scene
-from depthimpostor.scene.model import RenderSettings
+from depthimpostor.scene.model import Camera, Environment, PlaneShape, RenderSettings, Scene, SceneObject, SphereShape
 
 # Small, but the checker squares of the near objects still span several pixels each.
 SIZE = (320, 180)
@@ -66,7 +66,9 @@ def _synthetic() -> tuple[Renderer, TruthFrame]:
     stand_in = SimpleNamespace(
         read_reflection_data=lambda: data, read_color_float=lambda: render_color,
         world=SimpleNamespace(glass=[], reflected_objects=[SimpleNamespace(index=OBJECT, bounding_sphere=(np.zeros(3), 1.0))]),
-        scene=SimpleNamespace(render=RenderSettings()),  # the display settings of the report's images
+        # The display settings of the report's images, and the objects its worst pixels name.
+        scene=Scene("synthetic", RenderSettings(), Camera(), Environment(), (),
+                    (SceneObject("floor", PlaneShape((4.0, 4.0))), SceneObject("ball", SphereShape(1.0)))),
     )
     return cast(Renderer, stand_in), truth
 

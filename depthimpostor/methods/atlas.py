@@ -151,7 +151,7 @@ def fit_depth_image_camera(scene: Scene, mirror: ObjectGeometry, target: ObjectG
         index = target.index
         raise SceneError(
             scene.source,
-            f"objects[{index}]",
+            scene.object_label(index),
             f'object "{target.object.name}" surrounds or touches the centre of mirror "{mirror.object.name}": '
             "no depth-image frustum can be fitted to it; move it away from the mirror's centre",
         ) from None

@@ -55,7 +55,7 @@ def cube_cameras(scene: Scene, mirror: ObjectGeometry, reflected: list[ObjectGeo
     if nearest <= 0.0:
         inside = min(reflected, key=lambda item: float(np.linalg.norm(item.bounding_sphere[0] - centre)) - item.bounding_sphere[1])
         raise SceneError(
-            scene.source, f"objects[{inside.index}]",
+            scene.source, scene.object_label(inside.index),
             f'object "{inside.object.name}" reaches the centre of mirror "{mirror.object.name}": a cube map '
             "taken from there would cut through it; move it away or use another method",
         )

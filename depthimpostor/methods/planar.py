@@ -86,7 +86,7 @@ def check_flat_mirrors(scene: Scene, reflectors: list[ObjectGeometry]) -> None:
     for item in reflectors:
         what = not_flat(item)
         if what is not None:
-            raise SceneError(scene.source, f"objects[{item.index}]",
+            raise SceneError(scene.source, scene.object_label(item.index),
                              f'--method planar needs flat mirrors; "{item.object.name}" is {what}')
 
 

@@ -39,6 +39,7 @@ from ..outputs import Outputs
 from ..colour import display_encode, quantize
 from ..ppc import PPC
 from ..renderer import Renderer
+from ..scene import Scene
 from ..supersampling import SubFrame
 from ..targets import ReflectionData
 from .truth import SpecularTruth, TruthTracer
@@ -272,7 +273,7 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None, frames: list[Su
     values = geometric[measured]
 
     color_error = np.abs(render - truth_image).max(axis=2)
-    worst = _worst_pixels(mask, wrong, geometric, color_error, data.object_id, truth_object)
+    worst = _worst_pixels(renderer.scene, mask, wrong, geometric, color_error, data.object_id, truth_object)
     shows_object = first_mask & np.isin(truth_object, list(radius))
     wrong_surface = shows_object & (wrong | (color_error > WRONG_SURFACE_COLOR_ERROR))
     object_pixels = int(shows_object.sum())
@@ -302,8 +303,16 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None, frames: list[Su
     return Comparison(render, truth_image, mask, geometric, figures, truth_frame, direct, display)
 
 
+def _object_names(scene: Scene, index: int, key: str) -> dict[str, object]:
+    """objects[index] as a report row names it: its index (`key`), its name and its label
+    (Scene.object_label: a glTF part's node, mesh and material); NO_OBJECT is the environment."""
+    if index == NO_OBJECT:
+        return {key: index, f"{key}_name": "environment", f"{key}_label": "environment"}
+    return {key: index, f"{key}_name": scene.objects[index].name, f"{key}_label": scene.object_label(index)}
+
+
 def _worst_pixels(
-    mask: np.ndarray, wrong: np.ndarray, geometric: np.ndarray, color_error: np.ndarray,
+    scene: Scene, mask: np.ndarray, wrong: np.ndarray, geometric: np.ndarray, color_error: np.ndarray,
     render_object: np.ndarray, truth_object: np.ndarray,
 ) -> list[dict[str, object]]:
     """The pixels to look at first: wrong objects, then the largest geometric and colour errors."""
@@ -315,7 +324,8 @@ def _worst_pixels(
             break
         rows.append({
             "x": int(x), "y": int(y),
-            "object": int(render_object[y, x]), "truth_object": int(truth_object[y, x]),
+            **_object_names(scene, int(render_object[y, x]), "object"),
+            **_object_names(scene, int(truth_object[y, x]), "truth_object"),
             "color_error": round(float(color_error[y, x]), 4),
             "geometric_error": None if np.isnan(geometric[y, x]) else round(float(geometric[y, x]), 4),
         })
@@ -371,7 +381,8 @@ def format_table(figures: Figures) -> str:
     lines = [f"{name:<{width}}  {value}" for name, value in rows]
     lines.append("worst pixels (x, y: object / truth object, colour error, geometric error):")
     lines += [
-        f"  {p['x']:>4}, {p['y']:>4}: {p['object']} / {p['truth_object']}, {p['color_error']}, {p['geometric_error']}"
+        f"  {p['x']:>4}, {p['y']:>4}: {p['object_name']} / {p['truth_object_name']}, {p['color_error']}, "
+        f"{p['geometric_error']}"
         for p in figures.worst_pixels
     ]
     return "\n".join(lines)

@@ -23,6 +23,7 @@ from depthimpostor.scene.model import (
     DiffuseMaterial,
     Environment,
     GlassMaterial,
+    GltfOrigin,
     Light,
     Material,
     MeshShape,
@@ -39,7 +40,7 @@ from depthimpostor.scene.model import (
 
 __all__ = [
     "AUTO_RESOLUTION", "MODEL_PATH_VARIABLE", "MODEL_SUFFIXES", "Animation", "BoxShape", "Camera",
-    "CheckerMaterial", "CylinderShape", "DiffuseMaterial", "Environment", "GlassMaterial", "Light", "Material",
+    "CheckerMaterial", "CylinderShape", "DiffuseMaterial", "Environment", "GlassMaterial", "GltfOrigin", "Light", "Material",
     "MeshShape", "MirrorMaterial", "PlaneShape", "RenderSettings", "Scene", "SceneObject", "Shape", "SphereShape",
     "TorusKnotShape", "TorusShape", "Vec3", "load_scene", "model_folders", "parse_scene",
 ]

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,7 +32,7 @@ from depthimpostor.scene.gltf_planes import Rectangle, find_rectangle, plane_pla
 from depthimpostor.scene.limits import check_scene
 from depthimpostor.textures import texture_from_image
 from depthimpostor.scene.model import (
-    Animation, Camera, DiffuseMaterial, Environment, GlassMaterial, GltfShape, Light, Material, MirrorMaterial,
+    Animation, Camera, DiffuseMaterial, Environment, GlassMaterial, GltfOrigin, GltfShape, Light, Material, MirrorMaterial,
     PlaneShape, RenderSettings, Scene, SceneObject, Texture,
 )
 
@@ -55,7 +56,7 @@ class GltfMaterial:
 @dataclass(frozen=True, eq=False)
 class GltfPart:
     name: str  # the node's name (or "nodes[i]"), with the material's label where a node has several
-    part: str  # for messages: 'nodes[3] "Chair", material "Wood"'
+    origin: GltfOrigin  # for messages: the node, mesh, primitives and material, by index and name
     material: int | None  # index into the file's materials; None: glTF's default (white, diffuse)
     mesh: Mesh  # in the file's world space
     rectangle: Rectangle | None  # where the mesh is one flat rectangle: placed as a plane (gltf_planes.py)
@@ -103,7 +104,8 @@ def read_gltf(path: Path, source: str) -> GltfFile:
         resolved, modified = path, -1  # read_json says what is wrong with it
     cached = _CACHE.get(resolved)
     if cached is not None and cached[0] == modified:
-        return cached[1]
+        # Named as this reader names it (a TOML scene's path, or the command line's): messages say it.
+        return cached[1] if cached[1].source == source else dataclasses.replace(cached[1], source=source)
     header = read_json(path, source)
     check_header(header, source, resolved.parent)
     primitives = decode_primitives(resolved, header, source)
@@ -148,31 +150,38 @@ def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, i
         first = next(iter(by_mode.values()))[0]
         warnings.warn(SceneWarning(f"{source}: {skipped} primitive(s) that are not triangles ({kinds}; the first "
                                    f"{first}) have no surface to shade or reflect: left out"), stacklevel=3)
-    names = [str(node.get("name", "")) for node in nodes]
+    names = [_name(node) for node in nodes]
+    named = Counter(names)
     parts = []
     for i, world in scene_nodes(header, source):
         if "mesh" not in nodes[i]:
             continue
         m = index(nodes[i]["mesh"], len(meshes), At(source, f"nodes[{i}].mesh"))
-        groups: dict[int | None, list[Primitive]] = {}
+        groups: dict[int | None, list[tuple[int, Primitive]]] = {}
         for p, value in enumerate(meshes[m].get("primitives", [])):
             if (m, p) in primitives and len(primitives[m, p].faces):
-                groups.setdefault(value.get("material"), []).append(primitives[m, p])
+                groups.setdefault(value.get("material"), []).append((p, primitives[m, p]))
         if abs(np.linalg.det(world[:3, :3])) <= 1e-12 * float(np.linalg.norm(world[:3, :3])) ** 3:
             continue  # scaled to nothing: glTF's way to hide a node, which has no surface to draw
-        node = names[i] if names[i] and names.count(names[i]) == 1 else f"nodes[{i}]"
+        node = names[i] if names[i] and named[names[i]] == 1 else f"nodes[{i}]"
         for material, group in groups.items():
             label = "default" if material is None else _label(header, material)
             name = node if len(groups) == 1 else f"{node} ({label})"
-            part = f'nodes[{i}]' + (f' "{names[i]}"' if names[i] else "") + f', material "{label}"'
-            mesh = _local_mesh(group).transformed(world)
-            parts.append(GltfPart(name, part, material, mesh, find_rectangle(mesh)))
+            origin = GltfOrigin(source, i, names[i], m, _name(meshes[m]), tuple(p for p, _ in group), material,
+                                "" if material is None else _name(header["materials"][material]))
+            mesh = _local_mesh([primitive for _, primitive in group]).transformed(world)
+            parts.append(GltfPart(name, origin, material, mesh, find_rectangle(mesh)))
     return parts
 
 
+def _name(value: Mapping[str, Any]) -> str:
+    """An item's `name`, "" where it has none (or one that is not a string)."""
+    name = value.get("name")
+    return name if isinstance(name, str) else ""
+
+
 def _label(header: Mapping[str, Any], k: int) -> str:
-    name = header["materials"][k].get("name")
-    return name if isinstance(name, str) and name else f"materials[{k}]"
+    return _name(header["materials"][k]) or f"materials[{k}]"
 
 
 def _flat_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -383,11 +392,12 @@ def _as_plane(part: GltfPart, material: Material, position: Vec3, rotation: Vec3
 
 def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str = "",
                  position: Vec3 = (0.0, 0.0, 0.0), rotation: Vec3 = (0.0, 0.0, 0.0), scale: Vec3 = (1.0, 1.0, 1.0),
-                 animation: Animation | None = None) -> list[SceneObject]:
+                 animation: Animation | None = None, placed_by: int | None = None) -> list[SceneObject]:
     """The file's parts as objects named `prefix` + part name, each placed by the position, rotation,
     scale and animation given (on top of the file's node transforms), with `overrides` (by material
-    label) replacing the file's materials. Warns once for the textured mirrors and glass, whose
-    tint takes the texture's mean colour."""
+    label) replacing the file's materials; `placed_by` the TOML scene's [[objects]] entry that
+    places the file (its objects' origins say so). Warns once for the textured mirrors and glass,
+    whose tint takes the texture's mean colour."""
     objects, textured, no_uvs = [], [], []
     scaled: dict[tuple[int, float, float], Texture] = {}
     for part in model.parts:
@@ -399,17 +409,18 @@ def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str
             # A textured material on a part without TEXCOORD_0: nothing says where the image goes.
             tint = np.clip(np.multiply(material.color, material.texture.mean_color), 0.0, 1.0)
             material = DiffuseMaterial((float(tint[0]), float(tint[1]), float(tint[2])))
-            no_uvs.append(part.name)
+            no_uvs.append(part.origin.describe())
+        origin = dataclasses.replace(part.origin, file=model.source, placed_by=placed_by)
         plane = _as_plane(part, material, position, rotation, scale, animation, scaled)
         if plane is not None:
-            objects.append(dataclasses.replace(plane, name=prefix + part.name))
+            objects.append(dataclasses.replace(plane, name=prefix + part.name, origin=origin))
             continue
-        objects.append(SceneObject(name=prefix + part.name, shape=GltfShape(model.path, part.part, part.mesh),
+        objects.append(SceneObject(name=prefix + part.name, shape=GltfShape(model.path, part.mesh),
                                    material=material, position=position, rotation=rotation, scale=scale,
-                                   animation=animation))
+                                   animation=animation, origin=origin))
     if no_uvs:
         warnings.warn(SceneWarning(f"{model.source}: {len(no_uvs)} textured part(s) without TEXCOORD_0 (the first "
-                                   f'"{no_uvs[0]}") drawn in the mean colour of their texture'), stacklevel=3)
+                                   f"{no_uvs[0]}) drawn in the mean colour of their texture"), stacklevel=3)
     if textured:
         names = ", ".join(f'"{label}"' for label in textured)
         warnings.warn(SceneWarning(f"{model.source}: textures are not drawn on mirrors and glass: material(s) {names} "

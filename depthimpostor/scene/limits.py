@@ -82,7 +82,7 @@ def _check_reach(scene: Scene, index: int, local_reach: float) -> None:
     centre = position if orbit is None else np.asarray(orbit, np.float64)
     reach = float(np.linalg.norm(centre) + np.linalg.norm(position - centre)) + stretch
     if not reach <= MAX_COORDINATE:
-        raise SceneError(scene.source, f"objects[{index}]",
+        raise SceneError(scene.source, scene.object_label(index),
                          f"expected an object within {MAX_COORDINATE:g} of the origin (float32 geometry squares "
                          f"distances), got one reaching {reach:.3g} (its position, scale and shape together)")
 
@@ -115,7 +115,7 @@ def _check_textured_shapes(scene: Scene) -> None:
             continue
         name = re.sub(r"(?<!^)(?=[A-Z])", "_", type(obj.shape).__name__.removesuffix("Shape")).lower()
         kind = "a glTF part without TEXCOORD_0" if isinstance(obj.shape, GltfShape) else f"a {name} shape"
-        raise SceneError(scene.source, f"objects[{index}].material.texture", "expected a shape with texture coordinates "
+        raise SceneError(scene.source, scene.object_label(index, "material.texture"), "expected a shape with texture coordinates "
                          f"(a plane, box, sphere, cylinder, torus, or a glTF part with TEXCOORD_0), got {kind}, which has none")
 
 
@@ -124,7 +124,7 @@ def check_model_uvs(scene: Scene, index: int, model: Mesh) -> None:
     obj = scene.objects[index]
     if scene.texture_slot(obj.material) >= 0 and model.uvs is None:
         path = obj.shape.path if isinstance(obj.shape, MeshShape) else obj.name
-        raise SceneError(scene.source, f"objects[{index}].material.texture", "expected a shape with texture "
+        raise SceneError(scene.source, scene.object_label(index, "material.texture"), "expected a shape with texture "
                          f"coordinates, got the mesh file {path}, which has none (no `vt` lines in an OBJ)")
 
 

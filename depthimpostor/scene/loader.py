@@ -314,10 +314,11 @@ def _placement(t: Table) -> tuple[Vec3, Vec3, Vec3, Animation | None]:
 _PLACEMENT = ("position", "rotation", "scale", "animation")
 
 
-def _placed_gltf(t: Table) -> list[SceneObject]:
-    """`shape = { type = "gltf", path = ... }`: the file's parts, named `name/part`, placed by the
-    object's position, rotation, scale and animation on top of the file's node transforms, with
-    `materials` overriding the file's by name. The file's lights and cameras are not placed."""
+def _placed_gltf(t: Table, entry: int) -> list[SceneObject]:
+    """`shape = { type = "gltf", path = ... }` of [[objects]] entry `entry`: the file's parts, named
+    `name/part`, placed by the object's position, rotation, scale and animation on top of the file's
+    node transforms, with `materials` overriding the file's by name. The file's lights and cameras
+    are not placed."""
     shape = Table(t.data["shape"], t.at.key("shape"), ("type", "path"))
     path, written = _model_file(shape, GLTF_SUFFIXES)
     model = read_gltf(path, written)
@@ -325,7 +326,7 @@ def _placed_gltf(t: Table) -> list[SceneObject]:
     overrides: dict[str, Material] = {}
     for label, value in Table(t.data.get("materials", {}), t.at.key("materials"), labels or ("(none)",)).data.items():
         overrides[label] = read_variant(value, t.at.key("materials").key(label), _MATERIALS)
-    return gltf_objects(model, overrides, f"{t.req('name', NAME)}/", *_placement(t))
+    return gltf_objects(model, overrides, f"{t.req('name', NAME)}/", *_placement(t), placed_by=entry)
 
 
 def _is_gltf(value: Any) -> bool:
@@ -338,12 +339,13 @@ def _objects(top: Table) -> tuple[SceneObject, ...]:
     index_of: dict[str, int] = {}
     for i, (value, at) in enumerate(top.array("objects", at_least=1)):
         if _is_gltf(value):
-            placed = _placed_gltf(Table(value, at, ("name", "shape", "materials", *_PLACEMENT)))
+            placed = _placed_gltf(Table(value, at, ("name", "shape", "materials", *_PLACEMENT)), i)
         else:
             placed = [_object(Table(value, at, ("name", "shape", "material", *_PLACEMENT)))]
         for obj in placed:
             if obj.name in index_of:
-                raise at.key("name").error(f"expected a name no other object has, got {json.dumps(obj.name)} "
+                part = f" for {obj.origin.describe()}" if obj.origin is not None else ""
+                raise at.key("name").error(f"expected a name no other object has, got {json.dumps(obj.name)}{part} "
                                            f"(already used by objects[{index_of[obj.name]}])")
             index_of[obj.name] = i
             objects.append(obj)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import json
 import math
 from fractions import Fraction
 from collections.abc import Sequence
@@ -251,11 +252,39 @@ class MeshShape:
 class GltfShape:
     """One part of a glTF file: the triangles of one mesh node drawn with one of the file's
     materials (scene/gltf.py). `mesh` is in the file's world space, the node's transforms (and its
-    parents') already applied, so that the object's own position, rotation and scale act on top."""
+    parents') already applied, so that the object's own position, rotation and scale act on top.
+    Which node, mesh and material it is: the object's `origin`."""
 
     path: Path  # the file, resolved and absolute
-    part: str  # which node and material, for messages: 'nodes[3] "Chair", material "Wood"'
     mesh: Mesh  # compared and hashed by identity (Mesh has eq=False): one part, one mesh
+
+
+@dataclass(frozen=True)
+class GltfOrigin:
+    """Where in a glTF file an object comes from: the triangles of node `node`'s mesh drawn with
+    one material (a node whose mesh has several materials makes one object of each). Names are ""
+    where the file gives none. Messages name the object by it (`Scene.object_label`), as the file's
+    author knows it, rather than by its place in the scene's list of objects."""
+
+    file: str  # as the scene names it: the path given on the command line, or in the TOML scene
+    node: int
+    node_name: str
+    mesh: int
+    mesh_name: str
+    primitives: tuple[int, ...]  # those of the mesh drawn with `material`, in the file's order
+    material: int | None  # None: glTF's default material (primitives without one)
+    material_name: str
+    placed_by: int | None = None  # the TOML scene's [[objects]] entry that places the file; None: the file is the scene
+
+    def describe(self) -> str:
+        """`node 12 "Cylinder.003" (mesh 5 "piston", primitive 0, material 2 "steel")`."""
+        def named(kind: str, index: int, name: str) -> str:
+            return f"{kind} {index}" + (f" {json.dumps(name)}" if name else "")
+
+        primitives = (f"primitive {self.primitives[0]}" if len(self.primitives) == 1
+                      else f"primitives {', '.join(str(p) for p in self.primitives)}")
+        material = "the default material" if self.material is None else named("material", self.material, self.material_name)
+        return f"{named('node', self.node, self.node_name)} ({named('mesh', self.mesh, self.mesh_name)}, {primitives}, {material})"
 
 
 Shape = PlaneShape | BoxShape | SphereShape | CylinderShape | TorusShape | TorusKnotShape | MeshShape | GltfShape
@@ -338,6 +367,7 @@ class SceneObject:
     rotation: Vec3 = ZERO  # degrees about X, then Y, then Z
     scale: Vec3 = (1.0, 1.0, 1.0)
     animation: Animation | None = None
+    origin: GltfOrigin | None = None  # the node, mesh and material of a glTF file it is; None: written in TOML or code
 
     @property
     def moves(self) -> bool:
@@ -465,6 +495,29 @@ class Scene:
         """Does any light cast a shadow on anything? Only then do shadow maps and the shaders'
         SHADOWS variant exist."""
         return bool(self.shadowed_lights and self.shadow_casters)
+
+    @functools.cached_property
+    def _entries(self) -> tuple[int, ...]:
+        """Each object's [[objects]] entry in a TOML scene: a glTF file placed by one entry makes
+        several objects, so that the entries after it are numbered apart from the objects."""
+        entries, entry = [], -1
+        for obj in self.objects:
+            placed_by = obj.origin.placed_by if obj.origin is not None else None
+            entry = placed_by if placed_by is not None else entry + 1
+            entries.append(entry)
+        return tuple(entries)
+
+    def object_label(self, index: int, field: str = "") -> str:
+        """How a message names objects[index] (and its `field`, a dotted path of the TOML format):
+        `objects[3].material` for an object written in TOML; a glTF file's node, mesh, primitives
+        and material for one of its parts (GltfOrigin.describe), after the TOML entry that places
+        the file where one does: `objects[0] (room.glb) node 12 "Cylinder.003" (mesh 5 ...)`."""
+        origin = self.objects[index].origin
+        suffix = f".{field}" if field else ""
+        if origin is None:
+            return f"objects[{self._entries[index]}]{suffix}"
+        part = origin.describe() + (f" {field}" if field else "")
+        return part if origin.placed_by is None else f"objects[{origin.placed_by}] ({origin.file}) {part}"
 
     @functools.cached_property
     def textures(self) -> tuple[Texture, ...]:
