@@ -203,9 +203,6 @@ MIN_BUDGETED_SIDE = 8
 
 #: Storage buffers arrived with OpenGL 4.3 (GL_ARB_shader_storage_buffer_object): ctx.version_code.
 STORAGE_GL_VERSION = 430
-#: Reflected objects the traced methods' uniform block of object records holds (80 bytes each);
-#: past it, their records are a storage buffer, as a mirror's image records are.
-TRIANGLE_OBJECT_BLOCK_RECORDS = 64
 
 
 def depth_image_capacity(objects: int) -> int:
@@ -228,16 +225,16 @@ IMAGE_BVH_MIN_CAPACITY = 512
 
 
 def depth_image_defines(capacity: int) -> dict[str, int]:
-    """The defines of a program reading record tables of `capacity` records, a mirror's images'
-    (lib/baked_images.glsl) or the traced objects' (lib/triangles.glsl): none for the uniform
-    blocks' own size, so that a scene of up to DEPTH_IMAGE_BLOCK_RECORDS objects keeps the programs
-    it always had; past it the capacities, the storage buffers' extension, and from
+    """The defines of a program reading a mirror's image tables of `capacity` records
+    (lib/baked_images.glsl): none for the uniform block's own size, so that a scene of up to
+    DEPTH_IMAGE_BLOCK_RECORDS objects keeps the programs it always had; past it the capacity, the
+    storage buffers' extension, and from
     IMAGE_BVH_MIN_CAPACITY IMAGE_BVH: the images found through the hierarchy their table holds
     past the records (methods/image_bvh.py)."""
     if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
         return {}
     walk = {"IMAGE_BVH": 1} if capacity >= IMAGE_BVH_MIN_CAPACITY else {}
-    return {"DEPTH_IMAGE_CAPACITY": capacity, "TRIANGLE_OBJECT_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1, **walk}
+    return {"DEPTH_IMAGE_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1, **walk}
 #: Reflected triangles the hybrid method's depth images can name: a float32 sample holds
 #: integers below 2^24.
 MAX_NAMED_TRIANGLES = 2**24
@@ -323,22 +320,26 @@ DEPTH_IMAGE_FIELDS: tuple[tuple[str, str], ...] = (
 #: ~1000 radii away from the mirror.
 BOUND_MARGIN = 1e-3
 
-#: One reflected object of the ray-traced method (std140): the world-to-local transform (the
-#: checker is laid out in local coordinates), colour_a with the checker scale in w, colour_b, and
-#: (material kind, object id, texture slot or -1, 0), and the texture's UV scale in texture.xy.
-TRIANGLE_OBJECT_FIELDS: tuple[tuple[str, str], ...] = (
+#: One reflected object of the traced methods, an instance of a mesh in their two-level BVH
+#: (methods/triangles.py), stored as texels of the BVH's node texture (gpu/texel_records.py): the
+#: world-to-local transform (the ray goes through it into the mesh's space, and the checker is
+#: laid out in local coordinates), colour_a with the checker scale in w, colour_b, (material kind,
+#: object id, texture slot or -1, 0), the texture's UV scale in texture.xy, and in mesh.x the node
+#: where its mesh's bottom-level hierarchy starts.
+TRIANGLE_INSTANCE_FIELDS: tuple[tuple[str, str], ...] = (
     ("world_to_local", "mat4"),
     ("color_a", "vec4"),
     ("color_b", "vec4"),
     ("kind_and_id", "ivec4"),
     ("texture", "vec4"),
+    ("mesh", "ivec4"),
 )
 #: Width of the float textures holding BVH nodes and triangles: element i is texel
 #: (i % width, i / width). 1024 is the smallest GL_MAX_TEXTURE_SIZE GL 3.3 allows; the height
 #: grows with the count and is checked against the driver's own limit.
 BVH_TEXTURE_WIDTH = 1024
-#: Texels one triangle takes in the BVH's triangle texture: its corners p0 p1 p2 (p0.w: its
-#: object's slot), its corner normals n0 n1 n2, and its corner UVs (u0 v0 u1 v1), (u2 v2 0 0).
+#: Texels one triangle takes in the BVH's triangle texture, in its mesh's space: its corners p0 p1
+#: p2, its corner normals n0 n1 n2, and its corner UVs (u0 v0 u1 v1), (u2 v2 0 0).
 BVH_TRIANGLE_TEXELS = 8
 
 
@@ -352,9 +353,9 @@ IMAGE_NODE_FIELDS: tuple[tuple[str, str], ...] = (
 DEPTH_IMAGE = Struct("DepthImage", DEPTH_IMAGE_FIELDS)
 IMAGE_NODE = Struct("ImageNode", IMAGE_NODE_FIELDS)
 IMAGE_NODE_DTYPE = IMAGE_NODE.dtype
-TRIANGLE_OBJECT = Struct("TriangleObject", TRIANGLE_OBJECT_FIELDS)
+TRIANGLE_INSTANCE = Struct("TriangleInstance", TRIANGLE_INSTANCE_FIELDS)
 DEPTH_IMAGE_DTYPE = DEPTH_IMAGE.dtype
-TRIANGLE_OBJECT_DTYPE = TRIANGLE_OBJECT.dtype
+TRIANGLE_INSTANCE_DTYPE = TRIANGLE_INSTANCE.dtype
 
 #: One image texture of the scene (texture slot k is record k of lib/material_texture.glsl's
 #: TextureRecords block, gpu/textures.py): `sampling` is (texture array, layer, wrap s, wrap t),
@@ -450,7 +451,6 @@ def glsl_constants() -> dict[str, str]:
         "MAX_LIGHTS": str(MAX_LIGHTS),
         "MAX_ANALYTIC_PLANES": str(MAX_ANALYTIC_PLANES),
         "DEPTH_IMAGE_BLOCK_RECORDS": str(DEPTH_IMAGE_BLOCK_RECORDS),
-        "TRIANGLE_OBJECT_BLOCK_RECORDS": str(TRIANGLE_OBJECT_BLOCK_RECORDS),
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
         "NO_OBJECT": str(NO_OBJECT),
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",

@@ -178,8 +178,8 @@ def _spheres_of_one_mesh(items: Sequence[ObjectGeometry]) -> list[tuple[np.ndarr
 
 def triangle_offsets(objects: list[ObjectGeometry]) -> dict[int, int]:
     """Where each object's triangles start (by object index) in the list of all their triangles,
-    in this order: the list the ray-traced method's BVH is built from (methods/triangles.py), whose
-    places the hybrid method's depth images record."""
+    in this order: the hybrid method's depth images name a triangle by its place in this list, and
+    its BVH's place texture maps that place to the triangle's mesh and instance (methods/triangles.py)."""
     offsets, start = {}, 0
     for item in objects:
         offsets[item.index] = start

@@ -10,14 +10,12 @@ algorithm reads it, no GLOSSY variant nor colour mips without a rough mirror.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from .methods.bvh import node_count
 from .constants import (
-    BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, depth_image_capacity, DEPTH_IMAGE_DTYPE, MAX_ANALYTIC_PLANES, MAX_LIGHTS, TRIANGLE_OBJECT_DTYPE, HIERARCHICAL_MIN_SIDE, Algorithm, Method,
+    depth_image_capacity, DEPTH_IMAGE_DTYPE, MAX_ANALYTIC_PLANES, MAX_LIGHTS, HIERARCHICAL_MIN_SIDE, Algorithm, Method,
     image_algorithm,
 )
 from .culling import Reach
@@ -439,16 +437,6 @@ def frame_surface(method: Method, reflectors: bool) -> bool:
     return reflectors and eye is not None and eye.reads_frame
 
 
-def _bvh_bytes(triangles: int, named: bool, records: int) -> int:
-    """GPU memory of methods/triangles.py's BVH of `triangles`: node, triangle and (`named`, the
-    hybrid method's) place textures in rows of BVH_TEXTURE_WIDTH RGBA32F texels, and the
-    table of `records` object records."""
-    def rows(texels: int) -> int:
-        return max(1, math.ceil(texels / BVH_TEXTURE_WIDTH))
-    textures = rows(3 * node_count(triangles)) + rows(BVH_TRIANGLE_TEXELS * triangles) + (rows(triangles) if named else 0)
-    return textures * BVH_TEXTURE_WIDTH * 16 + records * TRIANGLE_OBJECT_DTYPE.itemsize
-
-
 def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: list[ObjectGeometry],
                 images: Sequence[PlannedImage], bounce_glass: bool = False, reflection_data: bool = False,
                 count_samples: bool = False) -> dict[str, int]:
@@ -508,7 +496,6 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
         memory[eye.image_plural] = eye.bytes_for((width, height), len(reflectors), scene.has_rough_mirrors)
     traced = METHODS[method].traces
     if traced is not None:
-        memory["BVH"] = _bvh_bytes(traced.traced_triangles(scene, reflected), named=METHODS[method].names_triangles,
-                                   records=depth_image_capacity(len(scene.objects)))
+        memory["BVH"] = traced.bytes_for(scene, reflected, named=METHODS[method].names_triangles)
     return memory
 

@@ -262,10 +262,10 @@ class RenderGraph:
         if isinstance(self.stand_in, SeenFromEye):  # made every frame from where everything is
             return
         baked = self.baked_images
-        if baked is None:  # the triangle methods' BVH: built again around the moved objects
-            if any(g.index in moved for g in world.reflected_objects):
-                self._make_stand_in(self.plan)
-                self.reflector_pass = self._reflector_pass()
+        if baked is None:  # the triangle methods' BVH: its instances moved, its meshes' hierarchies kept
+            triangles = self.triangles
+            if triangles is not None and any(g.index in moved for g in world.reflected_objects):
+                triangles.move({g.index: g for g in world.geometry})
             return
         lights, before = world.lit_scene.lights, {g.index: g for g in earlier.geometry}
         relit = {g.index for g in world.reflected_objects} if moved_lights else set()

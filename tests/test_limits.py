@@ -108,7 +108,6 @@ LIMITS = [
     ("texture on a model without UVs", untextured_model_scene, Method.DEPTH, "got the mesh file"),
     ("bounces with cube maps", lambda _: scene(BOUNCES), Method.CUBEMAP, "render.max_bounces: expected 1 with --method cubemap"),
     ("bounces with billboards", lambda _: scene(BOUNCES), Method.BILLBOARD, "expected 1 with --method billboard"),
-    # Behind the mirror: no depth image is planned for any, but the traced methods keep them all.
     ("object around a mirror's centre", lambda _: load_scene(SCENES / "hard" / "surrounds.toml"), Method.DEPTH,
      'object "ring" surrounds or touches the centre of mirror "mirror"'),
     ("object around a cube map's centre", lambda _: load_scene(SCENES / "hard" / "surrounds.toml"), Method.CUBEMAP,
@@ -157,7 +156,7 @@ RAISES = {
     # lights, reach, bounces per method, named triangles; a texture on a shape without UVs (at load:
     # tests/test_textures.py); a texture on a model file without UVs (once loaded). Planes past 8,
     # traced objects past 64 and image textures have no limit of their own (tests/test_many_planes.py,
-    # tests/test_image_records.py, tests/test_many_textures.py)
+    # tests/test_image_records.py, tests/test_instances.py, tests/test_many_textures.py)
     "scene/limits.py": 6,
     # render --video's arguments, refused before any work as cli.py's are: walked in tests/test_video.py
     "video.py": 3,

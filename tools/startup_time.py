@@ -4,6 +4,7 @@ compiled (the cache is per renderer) and without (a second renderer on the same 
 nothing but the context).
 
     python3 tools/startup_time.py scenes/lecture_8x9.toml --size 320x180 --resolution 128
+    python3 tools/startup_time.py --objects 1000 --method raytrace   # tools/scene_size.py's scene of 1,000
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import statistics
 import time
 from pathlib import Path
 
-from depthimpostor.constants import Algorithm
+from depthimpostor.constants import Algorithm, Method
 from depthimpostor.gpu.context import create_context
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
@@ -21,18 +22,29 @@ from depthimpostor.scene import load_scene
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("scene", type=Path)
+    parser.add_argument("scene", type=Path, nargs="?", help="a scene file, or --objects")
+    parser.add_argument("--objects", type=int, help="tools/scene_size.py's scene of that many objects around two mirrors")
+    parser.add_argument("--method", default="depth")
     parser.add_argument("--size", default="320x180")
     parser.add_argument("--resolution", type=int, default=128)
     parser.add_argument("--runs", type=int, default=5)
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.split("x"))
-    scene = load_scene(args.scene).with_overrides(size=(width, height), impostor_resolution=args.resolution)
+    if (args.scene is None) == (args.objects is None):
+        parser.error("give a scene file or --objects, not both")
+    if args.objects is not None:
+        from scene_size import family_scene  # beside this file
+
+        written, name = family_scene(args.objects), f"{args.objects} objects"
+    else:
+        written, name = load_scene(args.scene), str(args.scene)
+    scene = written.with_overrides(size=(width, height), impostor_resolution=args.resolution)
+    method = Method.from_option(args.method)
     ctx = create_context()
     made, switched, first_frame = [], [], []
     for _ in range(args.runs):
         start = time.perf_counter()
-        renderer = Renderer(ctx, scene)
+        renderer = Renderer(ctx, scene, method=method)
         ctx.finish()
         made.append(time.perf_counter() - start)
         start = time.perf_counter()
@@ -43,7 +55,7 @@ def main() -> None:
         ctx.finish()
         switched.append(time.perf_counter() - start)
         renderer.release()
-    print(f"{args.scene}: Renderer() {1000 * statistics.median(made):.0f} ms, first frame (bakes, compiles) "
+    print(f"{name}, --method {method.option}: Renderer() {1000 * statistics.median(made):.0f} ms, first frame (bakes, compiles) "
           f"{1000 * statistics.median(first_frame):.0f} ms, set_algorithm {1000 * statistics.median(switched):.0f} ms "
           f"(medians of {args.runs})")
 

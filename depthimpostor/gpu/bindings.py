@@ -23,9 +23,9 @@ class TextureUnit(IntEnum):
     SHADOW_MAPS = 5  # every light's shadow map (passes/shadows.py)
     GLASS_FRONT = 6  # a glass object's interior image: front faces (passes/glass.py)
     GLASS_BACK = 7  # and back faces
-    BVH_NODES = 8  # the ray-traced methods' BVH (methods/triangles.py)
+    BVH_NODES = 8  # the traced methods' BVH, both levels, and their instance records (methods/triangles.py)
     BVH_TRIANGLES = 9
-    BVH_PLACES = 10  # the hybrid method's: each listed triangle's place in the BVH's order
+    BVH_PLACES = 10  # the hybrid method's: each listed triangle's place in its mesh's BVH, and its instance
     TRIANGLE_IDS = 11  # the hybrid method's: the triangle each depth-image sample shows
     RAY_ORIGINS = 12  # the GPU ray query's rays (oracles/ray_query.py)
     RAY_DIRECTIONS = 13
@@ -70,7 +70,6 @@ class TextureUnit(IntEnum):
 @unique
 class UniformBlock(IntEnum):
     DEPTH_IMAGES = 0  # one reflector's image records (methods/impostors.py)
-    TRIANGLE_OBJECTS = 1  # the ray-traced objects' materials and transforms (methods/triangles.py)
     SHADOW_MAPS = 2  # the lights' shadow-map records (passes/shadows.py)
     GLASS_INTERIOR = 3  # a glass object's interior-image record (passes/glass.py)
     LIGHTS = 4  # ambient, lights and environment values, read by every program that shades (gpu/scene_blocks.py)
@@ -82,7 +81,6 @@ class UniformBlock(IntEnum):
 class StorageBuffer(IntEnum):
     PYRAMID_TILES = 0  # the pyramid build's tile table (methods/pyramid.py, depth_pyramid.comp)
     DEPTH_IMAGES = 1  # one reflector's image records, where they pass a uniform block (methods/atlas.py)
-    TRIANGLE_OBJECTS = 2  # the traced objects' records, where they pass a uniform block (methods/triangles.py)
 
 
 @unique

@@ -24,13 +24,14 @@ from pathlib import Path
 import moderngl
 
 from ..constants import (
-    ANALYTIC_PLANE, DEPTH_IMAGE, IMAGE_NODE, LIGHT, LIGHTING, MATERIAL, PLANES, TEXTURE_RECORD, TRIANGLE_OBJECT,
+    ANALYTIC_PLANE, DEPTH_IMAGE, IMAGE_NODE, LIGHT, LIGHTING, MATERIAL, PLANES, TEXTURE_RECORD, TRIANGLE_INSTANCE,
     glsl_constants,
 )
 from ..errors import ShaderError
 from ..lights import soft_shadow_disk_glsl
 from ..resources import shaders_dir
 from ..texture_layout import material_arrays_glsl
+from .texel_records import glsl_reader
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 #: Some drivers (Mesa among them) report source-string 0 whatever `#line L N` said, so the file
@@ -53,7 +54,8 @@ def _include_guard(name: str) -> str:
 def _generated_sources() -> dict[str, str]:
     return {
         "generated/depth_image.glsl": DEPTH_IMAGE.glsl() + IMAGE_NODE.glsl(),
-        "generated/triangle_object.glsl": TRIANGLE_OBJECT.glsl(),
+        # The traced methods' instance records, read from the BVH's node texture.
+        "generated/triangle_instance.glsl": TRIANGLE_INSTANCE.glsl() + glsl_reader(TRIANGLE_INSTANCE, "BVH_TEXTURE_WIDTH"),
         "generated/material.glsl": MATERIAL.glsl(),
         # Each after the structs it holds: the preprocessor includes a generated file once.
         "generated/lighting.glsl": LIGHT.glsl() + LIGHTING.glsl(),

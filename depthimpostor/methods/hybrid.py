@@ -36,9 +36,8 @@ class HybridPass(ImpostorPass):
                  mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
                  image_plans: dict[int, list[ImagePlan]] | None = None) -> None:
         super().__init__(ctx, programs, scene, meshes, mirrors, reflected, image_plans)
-        self.reflected = list(reflected)
         try:
-            self.triangles = TrianglePass(ctx, scene, self.reflected, places=True)
+            self.triangles = TrianglePass(ctx, scene, reflected, places=True)
         except BaseException:
             super().release()
             raise
@@ -51,13 +50,9 @@ class HybridPass(ImpostorPass):
         return f"{super().describe()}, and {self.triangles.describe()} for the rays they cannot answer"
 
     def move(self, geometry: dict[int, ObjectGeometry], moved: set[int], stale_targets: set[int]) -> None:
-        """Images as the depth method moves them; the BVH built again when a reflected object moved."""
+        """Images as the depth method moves them; the BVH's instances as the ray-traced method moves them."""
         super().move(geometry, moved, stale_targets)
-        if any(item.index in moved for item in self.reflected):
-            self.reflected = [geometry[item.index] for item in self.reflected]
-            triangles = TrianglePass(self.ctx, self.scene, self.reflected, places=True)
-            self.triangles.release()
-            self.triangles = triangles
+        self.triangles.move(geometry)
 
     def bind(self, program: moderngl.Program) -> None:
         super().bind(program)

@@ -43,7 +43,7 @@ class MethodSpec:
     #: At most this many reflected triangles (the hybrid method names each in a texture row).
     triangle_limit: int | None = None
     #: The triangles it traces through a BVH, when it does (TrianglePass or a subclass: which
-    #: triangles, and so how much memory, is its `triangle_count`).
+    #: meshes, and so how much memory, is its `traced_meshes`).
     traces: type[TrianglePass] | None = None
     #: Does it need every reflector to be a flat mirror (planar reflections)? The plan refuses
     #: another by name; `bench` and `compare --method all` leave it out of such scenes.

@@ -1,5 +1,6 @@
-"""The simplified-geometry method: every reflected object's mesh decimated, and the reflected rays
-traced against the fewer triangles with the ray-traced method's BVH and traversal.
+"""The simplified-geometry method: every reflected object's mesh decimated (in its own space, once
+per distinct mesh), and the reflected rays traced against the fewer triangles with the ray-traced
+method's two-level BVH and traversal.
 
 Decimation is fast-simplification's quadric edge collapse (a well-kept wrapper of Sven Forstmann's
 Fast-Quadric-Mesh-Simplification), to at most `render.simplified_triangles` triangles per object.
@@ -13,6 +14,7 @@ scipy or networkx for its graph search, a heavy dependency for twenty lines of n
 from __future__ import annotations
 
 import math
+from weakref import WeakKeyDictionary
 
 import moderngl
 import numpy as np
@@ -98,11 +100,26 @@ class SimplifiedPass(TrianglePass):
     noun = "simplified triangle"
 
     @classmethod
-    def traced_triangles(cls, scene: Scene, reflected: list[ObjectGeometry]) -> int:
-        """What the simplifier keeps is only known by running it."""
-        return sum(len(simplified_mesh(g.world_mesh, scene.render.simplified_triangles).indices) for g in reflected)
+    def traced_meshes(cls, scene: Scene, reflected: list[ObjectGeometry]) -> list[Mesh]:
+        """Each object's mesh decimated in its own space, once per distinct mesh (objects sharing a
+        mesh share its decimation, and so its bottom-level hierarchy)."""
+        return [_simplified_once(item.local_mesh, scene.render.simplified_triangles) for item in reflected]
 
     def __init__(self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry]) -> None:
-        target = scene.render.simplified_triangles
-        self.original_triangle_count = sum(len(item.world_mesh.indices) for item in reflected)
-        super().__init__(ctx, scene, reflected, [simplified_mesh(item.world_mesh, target) for item in reflected])
+        self.original_triangle_count = sum(len(item.local_mesh.indices) for item in reflected)
+        super().__init__(ctx, scene, reflected)
+
+
+#: Decimations made, by mesh and target: the plan counts the memory of the simplified meshes and the
+#: pass then traces them, and a mesh's decimation takes seconds. Weak: a mesh no scene holds any
+#: more takes its decimations with it.
+_DECIMATED: WeakKeyDictionary[Mesh, dict[int, Mesh]] = WeakKeyDictionary()
+
+
+def _simplified_once(mesh: Mesh, target_triangles: int) -> Mesh:
+    if len(mesh.indices) <= target_triangles:
+        return mesh  # (not kept: a value that holds its key would keep it alive)
+    by_target = _DECIMATED.setdefault(mesh, {})
+    if target_triangles not in by_target:
+        by_target[target_triangles] = simplified_mesh(mesh, target_triangles)
+    return by_target[target_triangles]

@@ -1,8 +1,12 @@
-"""The ray-traced method's data: every reflected object's world-space triangles in one BVH.
+"""The ray-traced method's data: every reflected object's triangles through a two-level BVH.
 
-Nothing is baked: the mirror shader traverses the BVH per reflected ray (shaders/lib/triangles.glsl).
-The hierarchy is built once on the CPU (depthimpostor/methods/bvh.py) and uploaded as two float textures
-and a uniform buffer of per-object materials and transforms.
+Nothing is baked: the mirror shader walks the BVH per reflected ray (shaders/lib/triangles.glsl).
+Each distinct mesh (objects of one shape share theirs: geometry.scene_geometry) gets one bottom-level
+hierarchy over its triangles in its own space (methods/bvh.py), built once; each reflected object is
+an instance of its mesh under its transform, with its material, under a top-level hierarchy over the
+instances' world boxes (methods/instances.py), which is all an object that moves changes (`move`).
+Both levels and the instance records share one float texture, the triangles another (GL 3.3 has no
+storage buffers, and the mirror shader has no sampler unit to spare: gpu/bindings.py).
 """
 
 from __future__ import annotations
@@ -12,28 +16,31 @@ import math
 import moderngl
 import numpy as np
 
-from ..gpu.bindings import StorageBuffer, TextureUnit, UniformBlock
-from .bvh import build_bvh
-from ..constants import (
-    BVH_TEXTURE_WIDTH,
-    BVH_TRIANGLE_TEXELS,
-    STORAGE_GL_VERSION,
-    TRIANGLE_OBJECT_BLOCK_RECORDS,
-    TRIANGLE_OBJECT_DTYPE,
-    depth_image_capacity,
-)
-from ..errors import ContextError, SceneError
+from ..constants import BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS
+from ..errors import SceneError
 from ..geometry import ObjectGeometry
+from ..gpu.bindings import TextureUnit
+from ..gpu.uniforms import bind_texture, write
 from ..meshes import Mesh
 from ..scene.model import Scene
 from .atlas import plural
-from ..gpu.uniforms import bind_record_block, bind_texture, material_fields, texture_fields
+from .bvh import build_triangle_forest, node_count
+from .instances import (NODE_TEXELS, BvhLayout, front_texels, instance_records, node_texels, nothing_record,
+                        with_transforms)
 
+#: What a mirror that reflects nothing traces, so that its shader still has a BVH to walk: one
+#: degenerate triangle (its corners at the origin), which no ray meets (ray_triangle's determinant
+#: is exactly 0).
+NOTHING = Mesh(np.zeros((3, 3)), np.zeros((3, 3)), np.array([[0, 1, 2]]))
+
+
+def _rows(texels: int) -> int:
+    return max(1, math.ceil(texels / BVH_TEXTURE_WIDTH))
 
 
 def _texture(ctx: moderngl.Context, texels: np.ndarray, source: str) -> moderngl.Texture:
     """(n, 4) float32 texels laid out in rows of BVH_TEXTURE_WIDTH; `source` names the scene."""
-    rows = max(1, math.ceil(len(texels) / BVH_TEXTURE_WIDTH))
+    rows = _rows(len(texels))
     limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
     if rows > limit:
         raise SceneError(source, "objects", f"{len(texels)} BVH texels need {rows} rows, over this GL's limit of {limit}")
@@ -44,90 +51,126 @@ def _texture(ctx: moderngl.Context, texels: np.ndarray, source: str) -> moderngl
     return texture
 
 
-def object_capacity(scene: Scene) -> int:
-    """The traced objects' records as this scene's programs declare them (constants.depth_image_defines)."""
-    return depth_image_capacity(len(scene.objects))
+def distinct_meshes(meshes: list[Mesh]) -> dict[Mesh, int]:
+    """Each distinct mesh (by identity) and its place among them, in first-use order."""
+    distinct: dict[Mesh, int] = {}
+    for mesh in meshes:
+        distinct.setdefault(mesh, len(distinct))
+    return distinct
 
 
-def object_records(scene: Scene, objects: list[ObjectGeometry]) -> np.ndarray:
-    """Each traced object's TRIANGLE_OBJECT record, padded to object_capacity (a uniform block is
-    declared with that many; a storage buffer is read by slot alone, padded as well)."""
-    records = np.zeros(object_capacity(scene), TRIANGLE_OBJECT_DTYPE)
-    for slot, item in enumerate(objects):
-        kind, color_a, color_b, scale = material_fields(item.object.material)
-        texture, uv_scale = texture_fields(scene, item.object.material)
-        # std140 mat4 is column-major: the numpy row holds a column.
-        records[slot]["world_to_local"] = np.linalg.inv(item.model_matrix).T
-        records[slot]["color_a"] = (*color_a, scale)
-        records[slot]["color_b"] = (*color_b, 0.0)
-        records[slot]["kind_and_id"] = (int(kind), item.index, texture, 0)
-        records[slot]["texture"] = (*uv_scale, 0.0, 0.0)
-    return records
-
-
-def _triangle_list(worlds: list[Mesh]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Every triangle's corners, corner normals and corner UVs (zero without), and its object's
-    slot. A mirror that reflects nothing still gets a BVH for its shader to walk: one degenerate
-    triangle (its three corners at the origin), which no ray meets (ray_triangle's determinant is
-    exactly 0)."""
-    if not worlds:
-        return (np.zeros((1, 3, 3), np.float32), np.zeros((1, 3, 3), np.float32), np.zeros((1, 3, 2), np.float32),
-                np.zeros(1, np.int64))
-    triangles = np.concatenate([mesh.positions[mesh.indices] for mesh in worlds])
-    normals = np.concatenate([mesh.normals[mesh.indices] for mesh in worlds])
-    uvs = np.concatenate([mesh.uvs[mesh.indices] if mesh.uvs is not None else np.zeros((len(mesh.indices), 3, 2))
-                          for mesh in worlds])
-    slots = np.concatenate([np.full(len(mesh.indices), slot) for slot, mesh in enumerate(worlds)])
-    return triangles, normals, uvs, slots
+def triangle_texels(meshes: list[Mesh], order: np.ndarray) -> np.ndarray:
+    """(triangles * BVH_TRIANGLE_TEXELS, 4) texels of every triangle of `meshes`, mesh after mesh, in
+    the `order` of their hierarchies' leaves."""
+    indices = np.concatenate([mesh.indices for mesh in meshes])[order]
+    starts = np.cumsum([0] + [len(mesh.positions) for mesh in meshes[:-1]])
+    indices = indices + np.repeat(starts, [len(mesh.indices) for mesh in meshes])[order, None]
+    positions = np.concatenate([mesh.positions for mesh in meshes])
+    normals = np.concatenate([mesh.normals for mesh in meshes])
+    uvs = np.concatenate([mesh.uvs if mesh.uvs is not None else np.zeros((len(mesh.positions), 2), np.float32)
+                          for mesh in meshes])
+    ordered = np.zeros((len(indices), BVH_TRIANGLE_TEXELS, 4), np.float32)
+    ordered[:, :3, :3] = positions[indices]
+    ordered[:, 3:6, :3] = normals[indices]
+    ordered[:, 6, :] = uvs[indices[:, :2]].reshape(-1, 4)
+    ordered[:, 7, :2] = uvs[indices[:, 2]]
+    return ordered.reshape(-1, 4)
 
 
 class TrianglePass:
-    """Owns the BVH textures and the per-object uniform buffer of the ray-traced method."""
+    """Owns the BVH's node and triangle textures (and the hybrid method's place texture)."""
 
     noun = "triangle"
 
     @classmethod
-    def traced_triangles(cls, scene: Scene, reflected: list[ObjectGeometry]) -> int:
-        """How many triangles the BVH of `reflected` holds (the plan's memory count)."""
-        return sum(len(g.local_mesh.indices) for g in reflected)
+    def traced_meshes(cls, scene: Scene, reflected: list[ObjectGeometry]) -> list[Mesh]:
+        """The mesh each of `reflected` is traced as, in its own space (objects sharing a mesh share it)."""
+        return [item.local_mesh for item in reflected]
 
-    def __init__(
-        self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry], world_meshes: list[Mesh] | None = None,
-        places: bool = False,
-    ) -> None:
-        """`world_meshes` are the triangles to trace, one per reflected object, in world space:
-        their own by default (the simplified method passes decimated ones). `places` (the hybrid
-        method's) also uploads where each triangle of the list (geometry.triangle_offsets) sits in
-        the BVH's order, so that a triangle a depth image names can be intersected."""
-        if object_capacity(scene) > TRIANGLE_OBJECT_BLOCK_RECORDS and ctx.version_code < STORAGE_GL_VERSION:
-            raise ContextError(
-                f"a scene of {len(scene.objects)} objects keeps its traced objects' records in a storage buffer, which "
-                f"needs OpenGL 4.3; this context has {ctx.version_code // 100}.{ctx.version_code % 100 // 10}: use a "
-                f"newer driver, or at most {TRIANGLE_OBJECT_BLOCK_RECORDS} objects")
+    @classmethod
+    def bytes_for(cls, scene: Scene, reflected: list[ObjectGeometry], named: bool) -> int:
+        """GPU memory of the pass for `reflected` (the plan's figure; `named`: the hybrid method's
+        place texture too), without building it: the hierarchies' sizes depend on counts alone."""
+        meshes = cls.traced_meshes(scene, reflected) or [NOTHING]
+        distinct = list(distinct_meshes(meshes))
+        layout = BvhLayout(len(meshes), sum(node_count(len(m.indices)) for m in distinct),
+                           tuple(len(m.indices) for m in distinct))
+        return cls._bytes(layout, sum(len(m.indices) for m in meshes) if named else None)
+
+    @staticmethod
+    def _bytes(layout: BvhLayout, named: int | None) -> int:
+        rows = _rows(layout.node_texels) + _rows(BVH_TRIANGLE_TEXELS * sum(layout.mesh_triangles))
+        return (rows + (_rows(named) if named is not None else 0)) * BVH_TEXTURE_WIDTH * 16
+
+    def __init__(self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry], places: bool = False) -> None:
+        """`places` (the hybrid method's) also uploads, for each triangle of the list its depth images
+        name (geometry.triangle_offsets: every object's own triangles, in order), where it sits in its
+        mesh's hierarchy and which instance it belongs to."""
         self.ctx = ctx
-        self.in_storage = object_capacity(scene) > TRIANGLE_OBJECT_BLOCK_RECORDS
-        worlds = world_meshes if world_meshes is not None else [item.world_mesh for item in reflected]
-        triangles, normals, uvs, slots = _triangle_list(worlds)
-        bvh = build_bvh(triangles)
-        self.triangle_count = sum(len(mesh.indices) for mesh in worlds)
-        nodes = np.zeros((bvh.node_count, 3, 4), np.float32)
-        nodes[:, 0, :3], nodes[:, 0, 3] = bvh.lower, bvh.first
-        nodes[:, 1, :3], nodes[:, 1, 3] = bvh.upper, bvh.count
-        nodes[:, 2, 0] = bvh.skip
-        ordered = np.zeros((len(triangles), BVH_TRIANGLE_TEXELS, 4), np.float32)
-        ordered[:, :3, :3] = triangles[bvh.order]
-        ordered[:, 0, 3] = slots[bvh.order]
-        ordered[:, 3:6, :3] = normals[bvh.order]
-        ordered[:, 6, :] = uvs[bvh.order, :2].reshape(-1, 4)
-        ordered[:, 7, :2] = uvs[bvh.order, 2]
-        self.nodes = _texture(ctx, nodes.reshape(-1, 4), scene.source)
-        self.triangles = _texture(ctx, ordered.reshape(-1, 4), scene.source)
-        self.objects = ctx.buffer(object_records(scene, reflected).tobytes())
-        self.places: moderngl.Texture | None = None
-        if places:  # at most MAX_NAMED_TRIANGLES of them (scene/limits.py, checked in the plan)
-            place = np.zeros((len(triangles), 4), np.float32)
-            place[bvh.order, 0] = np.arange(len(triangles))
-            self.places = _texture(ctx, place, scene.source)
+        self.scene = scene
+        self.reflected = list(reflected)
+        meshes = self.traced_meshes(scene, self.reflected) or [NOTHING]
+        self.distinct = distinct_meshes(meshes)
+        self.mesh_of = [self.distinct[mesh] for mesh in meshes]  # per instance
+        # Every distinct mesh's hierarchy, built at once: a forest whose root j is mesh j's.
+        self.bottom = build_triangle_forest(np.concatenate([mesh.positions[mesh.indices] for mesh in self.distinct]),
+                                            [len(mesh.indices) for mesh in self.distinct])
+        self.layout = BvhLayout(len(meshes), self.bottom.node_count, tuple(len(mesh.indices) for mesh in self.distinct))
+        self.triangle_count = sum(len(mesh.indices) for mesh in meshes) if self.reflected else 0
+        layout = self.layout
+        roots = [layout.mesh_base + mesh for mesh in self.mesh_of]
+        # Materials, ids and meshes: what a move keeps.
+        self._records = instance_records(scene, self.reflected, roots) if self.reflected else nothing_record(roots[0])
+        nodes = np.zeros((layout.node_texels, 4), np.float32)
+        nodes[: layout.front_texels] = self._front()
+        nodes[NODE_TEXELS * layout.mesh_base:] = node_texels(self.bottom, 0, layout.mesh_base)
+        self.nodes = _texture(ctx, nodes, scene.source)
+        # The rows a move rewrites: the front, and the rest of its last row as it is (or as padded).
+        self._front_rows = np.zeros((_rows(layout.front_texels) * BVH_TEXTURE_WIDTH, 4), np.float32)
+        self._front_rows[: len(nodes)] = nodes[: len(self._front_rows)]
+        made = [self.nodes]
+        try:
+            self.triangles = _texture(ctx, triangle_texels(list(self.distinct), self.bottom.order), scene.source)
+            made.append(self.triangles)
+            self.places = self._places_texture(meshes) if places else None
+        except BaseException:
+            for texture in made:
+                texture.release()
+            raise
+
+    def _front(self) -> np.ndarray:
+        """The top level and the instance records, from where the objects are now."""
+        # (A mirror that reflects nothing: its one degenerate instance, untransformed.)
+        models = np.stack([item.model_matrix for item in self.reflected]) if self.reflected else np.eye(4)[None]
+        lower = self.bottom.lower[self.mesh_of].astype(np.float64)
+        upper = self.bottom.upper[self.mesh_of].astype(np.float64)
+        return front_texels(self.layout, with_transforms(self._records, models), models, lower, upper)
+
+    def _places_texture(self, meshes: list[Mesh]) -> moderngl.Texture:
+        """Per listed triangle (at most MAX_NAMED_TRIANGLES: scene/limits.py, checked in the plan):
+        (its place in the triangle texture, its instance's slot)."""
+        where = np.empty(len(self.bottom.order), np.int64)  # by a triangle's place among the distinct meshes'
+        where[self.bottom.order] = np.arange(len(self.bottom.order))
+        firsts = self.layout.mesh_first_triangles
+        place = np.zeros((sum(len(mesh.indices) for mesh in meshes), 4), np.float32)
+        start = 0
+        for slot, (mesh, kind) in enumerate(zip(meshes, self.mesh_of, strict=True)):
+            count = len(mesh.indices)
+            place[start: start + count, 0] = where[firsts[kind]: firsts[kind] + count]
+            place[start: start + count, 1] = slot
+            start += count
+        return _texture(self.ctx, place, self.scene.source)
+
+    def move(self, geometry: dict[int, ObjectGeometry]) -> None:
+        """The objects are now `geometry` (by object index): their records and the top level are
+        made again and written over the node texture's front; the meshes' hierarchies stay."""
+        moved = [geometry[item.index] for item in self.reflected]
+        if all(new is old for new, old in zip(moved, self.reflected, strict=True)):
+            return
+        self.reflected = moved
+        front = self._front()
+        self._front_rows[: len(front)] = front
+        self.nodes.write(self._front_rows.tobytes(), viewport=(0, 0, BVH_TEXTURE_WIDTH, _rows(len(front))))
 
     @property
     def textures(self) -> list[moderngl.Texture]:
@@ -135,10 +178,12 @@ class TrianglePass:
 
     @property
     def bytes(self) -> int:
-        return sum(texture.width * texture.height * 16 for texture in self.textures) + self.objects.size
+        return sum(texture.width * texture.height * 16 for texture in self.textures)
 
     def describe(self) -> str:
-        return f"{plural(self.triangle_count, self.noun)} in a BVH"
+        meshes = len(self.distinct) if self.reflected else 0
+        return (f"{plural(self.triangle_count, self.noun)} in a two-level BVH "
+                f"({plural(len(self.reflected), 'instance')} of {meshes} mesh{'' if meshes == 1 else 'es'})")
 
     def bake(self) -> int:
         """Nothing to bake: the BVH was built and uploaded with the pass."""
@@ -147,11 +192,7 @@ class TrianglePass:
     def bind(self, program: moderngl.Program) -> None:
         bind_texture(program, "u_bvh_nodes", self.nodes, TextureUnit.BVH_NODES)
         bind_texture(program, "u_bvh_triangles", self.triangles, TextureUnit.BVH_TRIANGLES)
-        bind_record_block(program, "TriangleObjects", UniformBlock.TRIANGLE_OBJECTS, StorageBuffer.TRIANGLE_OBJECTS)
-        if self.in_storage:
-            self.objects.bind_to_storage_buffer(StorageBuffer.TRIANGLE_OBJECTS)
-        else:
-            self.objects.bind_to_uniform_block(UniformBlock.TRIANGLE_OBJECTS)
+        write(program, "u_instance_records", self.layout.records_start)
         if self.places is not None:
             bind_texture(program, "u_bvh_places", self.places, TextureUnit.BVH_PLACES)
 
@@ -161,4 +202,3 @@ class TrianglePass:
     def release(self) -> None:
         for texture in self.textures:
             texture.release()
-        self.objects.release()

@@ -12,7 +12,7 @@ the method or on what the mirrors can see. `render` builds its plan before any G
 | `render.max_bounces` > 1 with two or more mirrors or glass | the depth method alone | plan (`check_method`) | only the depth method bakes reflectors into each other's images |
 | objects a mirror may show, and so its depth images | none: past `DEPTH_IMAGE_BLOCK_RECORDS` (64) a mirror's image records (and a hierarchy over them) are a storage buffer, GL 4.3 (`BakedImages`: a `ContextError` on an older GL) | render | a uniform block holds 64 records within GL 3.3's guaranteed 16 KiB |
 | the depth images' memory | `render.image_memory` (MiB, default 1024) | plan (`per_object_plan`): every image made smaller to fit, not refused | an atlas of a thousand images at 256^2 would take 2.6 GiB |
-| reflected objects, traced methods (`raytrace`, `simplified`, `hybrid`) | none: past `TRIANGLE_OBJECT_BLOCK_RECORDS` (64) the object records are a storage buffer, GL 4.3 (`TrianglePass`: a `ContextError` on an older GL) | render | a uniform block of 64 records of 80 bytes fits GL 3.3's 16 KiB |
+| reflected objects, traced methods (`raytrace`, `simplified`, `hybrid`) | none: each is an instance of its mesh in a two-level BVH, its record a few texels of the BVH's float texture (`methods/instances.py`) | render: the texture's rows against `GL_MAX_TEXTURE_SIZE` | a float texture of 1024-texel rows holds millions of records and nodes on any GL 3.3 |
 | reflected triangles, `hybrid` | `MAX_NAMED_TRIANGLES` (2^24) | plan (`check_method`) | a float32 depth-image sample names a triangle |
 | an object around a mirror's centre, or a light among the shadow casters | no frustum fits | plan | a pinhole image (depth image, cube map, shadow map) must see all of it |
 

@@ -248,21 +248,27 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
 }
 
 #if METHOD == METHOD_HYBRID
-uniform sampler2D u_impostor_triangles;  // per atlas sample: the triangle it shows (its place in the BVH's list)
-uniform sampler2D u_bvh_places;          // per triangle of that list: its place in the BVH's order
+uniform sampler2D u_impostor_triangles;  // per atlas sample: the triangle it shows (its place in the list of every object's)
+// per triangle of that list: (its place in the triangle texture, its instance's slot)
+uniform sampler2D u_bvh_places;
 
-// The ray against a triangle a sample shows (`listed`: its place in the BVH's list): its place in
-// the BVH's order, or -1 where the ray meets it no nearer than `best_t` or outside
-// EXACT_SURFACE_WINDOW of the hit's t.
-int listed_triangle(RayHit hit, float listed, vec3 origin, vec3 direction, inout float best_t, inout vec2 best_uv) {
-    int triangle = int(bvh_fetch(u_bvh_places, int(listed)).x);
+// The ray against a triangle a sample shows (`listed`: its place in the list): its place in the
+// triangle texture (and its instance's slot in `slot`), or -1 where the ray meets it no nearer than
+// `best_t` or outside EXACT_SURFACE_WINDOW of the hit's t.
+int listed_triangle(RayHit hit, float listed, vec3 origin, vec3 direction, inout float best_t, inout vec2 best_uv,
+                    out int slot) {
+    vec4 place = bvh_fetch(u_bvh_places, int(listed));
+    int triangle = int(place.x);
+    slot = int(place.y);
+    vec3 local_origin, local_direction;
+    ray_in_instance(triangle_instance(slot), origin, direction, local_origin, local_direction);
     vec2 uv;
-    float t = intersect_triangle(origin, direction, triangle, uv);
+    float t = intersect_triangle(local_origin, local_direction, triangle, uv);
     if (!(t > 0.0 && abs(t - hit.t) <= EXACT_SURFACE_WINDOW * hit.t && t < best_t)) return -1;
     // A ray coming from outside meets a closed surface first where it enters: a triangle met from
     // behind (the box's bottom, met from inside where the ray comes down through the box) is where
     // it leaves, and the entry is elsewhere. (An open mesh met from behind is traced instead.)
-    if (dot(triangle_normal(triangle), direction) >= 0.0) return -1;
+    if (dot(triangle_normal(triangle), local_direction) >= 0.0) return -1;
     best_t = t;
     best_uv = uv;
     return triangle;
@@ -273,11 +279,12 @@ int listed_triangle(RayHit hit, float listed, vec3 origin, vec3 direction, inout
 // layer can be on the other's triangle, where a box's faces meet), the nearest intersection within
 // EXACT_SURFACE_WINDOW of the hit's t. The nearest, not the first found: a face beyond the true one
 // (the box's bottom, on the floor) also lies within the window. The hit is then shaded as the
-// ray-traced method shades it (the true normal, the material at the true point). False when none
+// ray-traced method shades it (the true normal, the material at the true point). -1 when none
 // is there: the ray is traced instead.
-int exact_surface(RayHit hit, vec3 origin, vec3 direction, out float best_t, out vec2 best_uv) {
+int exact_surface(RayHit hit, vec3 origin, vec3 direction, out float best_t, out vec2 best_uv, out int best_slot) {
     best_t = UNBOUNDED_RAY;
     best_uv = vec2(0.0);
+    best_slot = -1;
     int best = -1;
     ivec2 size = textureSize(u_impostor_triangles, 0);
     // A loop with no iteration where no ray of a group of pixels needs it (see
@@ -287,8 +294,12 @@ int exact_surface(RayHit hit, vec3 origin, vec3 direction, out float best_t, out
         ivec2 texel = clamp(hit.texel + ivec2(k % 3 - 1, k / 3 - 1), ivec2(0), size - 1);
         vec2 listed = texelFetch(u_impostor_triangles, texel, 0).rg;
         for (int layer = 0; layer < 2; ++layer) {
-            int triangle = listed_triangle(hit, listed[layer], origin, direction, best_t, best_uv);
-            if (triangle >= 0) best = triangle;
+            int slot;
+            int triangle = listed_triangle(hit, listed[layer], origin, direction, best_t, best_uv, slot);
+            if (triangle >= 0) {
+                best = triangle;
+                best_slot = slot;
+            }
         }
     }
     return best;
@@ -310,11 +321,12 @@ RayHit resolve_unseen(RayHit hit, RayHit plane, vec3 origin, vec3 direction) {
     // of the shading code they hold, run or not).
     float t;
     vec2 uv;
-    int visited = 0;
-    int triangle = hit.unseen == UNSEEN_NONE || hit.unseen_t > answer_t ? exact_surface(hit, origin, direction, t, uv) : -1;
+    int slot = -1, visited = 0;
+    int triangle = hit.unseen == UNSEEN_NONE || hit.unseen_t > answer_t ? exact_surface(hit, origin, direction, t, uv, slot)
+                                                                        : -1;
     bool retraced = triangle < 0;
-    if (retraced) triangle = nearest_triangle(origin, direction, t, uv, visited);
-    RayHit found = triangle < 0 ? no_hit(0) : triangle_hit(origin, direction, triangle, t, uv, 0);
+    if (retraced) triangle = nearest_triangle(origin, direction, t, uv, slot, visited);
+    RayHit found = triangle < 0 ? no_hit(0) : triangle_hit(origin, direction, slot, triangle, t, uv, 0);
     found.samples = hit.samples + visited;
     found.unseen_t = hit.unseen_t;
     found.unseen = hit.unseen;

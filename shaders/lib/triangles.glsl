@@ -1,31 +1,36 @@
-// The ray-traced method: the reflected objects' real triangles, in world space, found through a
-// BVH (depthimpostor/bvh.py) and shaded as the rasterizer shades them. Nodes and triangles live
-// in float textures (GL 3.3 has no storage buffers): element i is texel (i % width, i / width).
-#include "../generated/triangle_object.glsl"
+// The traced methods: the reflected objects' real triangles, found through a two-level BVH
+// (methods/triangles.py, methods/instances.py, methods/bvh.py) and shaded as the rasterizer shades
+// them. The bottom level is one hierarchy per distinct mesh, over its triangles in its own space;
+// the top level is a hierarchy over the instances, one per reflected object (its transform,
+// material and mesh), in world space. A ray meets an instance's mesh in the mesh's space: it goes
+// through the instance's world_to_local (an affine map), its direction not made unit again, so
+// that the t found there is the world ray's t, and every t compares with every other. Everything
+// lives in float textures (GL 3.3 has no storage buffers): element i is texel (i % width, i / width).
 #include "ray_hit.glsl"
 #include "shading.glsl"
 
-uniform sampler2D u_bvh_nodes;      // 3 texels a node: (lower, first), (upper, count), (skip, 0, 0, 0)
-// BVH_TRIANGLE_TEXELS a triangle: p0 (w: object slot), p1, p2, n0, n1, n2, (uv0, uv1), (uv2, 0, 0)
+// 3 texels a node, either level: (lower, first), (upper, count), (skip, 0, 0, 0). From node 0 the
+// top level (a leaf holds one instance: `first` is its slot), from texel u_instance_records the
+// instance records, then every mesh's bottom level (a leaf's `first`: its first triangle).
+uniform sampler2D u_bvh_nodes;
+uniform int u_instance_records;
+// BVH_TRIANGLE_TEXELS a triangle, in its mesh's space: p0, p1, p2, n0, n1, n2, (uv0, uv1), (uv2, 0, 0)
 uniform sampler2D u_bvh_triangles;
-// The objects' records (a triangle names its object's slot): a uniform block up to
-// TRIANGLE_OBJECT_BLOCK_RECORDS, past it a storage buffer (as lib/baked_images.glsl's images; the
-// record is vec4s and a mat4, laid out alike by std140 and std430).
-#ifndef TRIANGLE_OBJECT_CAPACITY
-#define TRIANGLE_OBJECT_CAPACITY TRIANGLE_OBJECT_BLOCK_RECORDS
-#endif
-#if TRIANGLE_OBJECT_CAPACITY > TRIANGLE_OBJECT_BLOCK_RECORDS
-layout(std430) readonly buffer TriangleObjects {
-    TriangleObject u_triangle_objects[];
-};
-#else
-layout(std140) uniform TriangleObjects {
-    TriangleObject u_triangle_objects[TRIANGLE_OBJECT_CAPACITY];
-};
-#endif
+#include "../generated/triangle_instance.glsl"
 
 vec4 bvh_fetch(sampler2D data, int index) {
     return texelFetch(data, ivec2(index % BVH_TEXTURE_WIDTH, index / BVH_TEXTURE_WIDTH), 0);
+}
+
+TriangleInstance triangle_instance(int slot) {
+    return read_triangle_instance(u_bvh_nodes, u_instance_records + TRIANGLE_INSTANCE_TEXELS * slot);
+}
+
+// The world ray in the instance's mesh space (the same t on both).
+void ray_in_instance(TriangleInstance instance, vec3 origin, vec3 direction, out vec3 local_origin,
+                     out vec3 local_direction) {
+    local_origin = (instance.world_to_local * vec4(origin, 1.0)).xyz;
+    local_direction = mat3(instance.world_to_local) * direction;
 }
 
 // Slab test against [lower, upper]; t_near is where the ray enters. An axis the ray is parallel to
@@ -62,30 +67,36 @@ float ray_triangle(vec3 origin, vec3 direction, vec3 p0, vec3 p1, vec3 p2, out v
     return dot(edge2, q) * inverse;
 }
 
-// The ray against triangle i (of the BVH's order): t (or -1) and the barycentrics.
+// The ray (in the triangle's mesh space) against triangle i of the triangle texture: t (or -1) and
+// the barycentrics.
 float intersect_triangle(vec3 origin, vec3 direction, int i, out vec2 uv) {
     int base = BVH_TRIANGLE_TEXELS * i;
     return ray_triangle(origin, direction, bvh_fetch(u_bvh_triangles, base).xyz, bvh_fetch(u_bvh_triangles, base + 1).xyz,
                         bvh_fetch(u_bvh_triangles, base + 2).xyz, uv);
 }
 
-// Triangle i's geometric normal, outward (meshes wind their triangles counter-clockwise seen from
-// outside, and keep that under mirroring transforms: meshes.py), not unit length.
+// Triangle i's geometric normal in its mesh's space, outward (meshes wind their triangles
+// counter-clockwise seen from outside), not unit length. Its sign against a ray's direction is the
+// same in world space: a normal maps to the world by the inverse transpose of the instance's
+// local-to-world map, so dot(world normal, world direction) = dot(normal, local direction), and a
+// mirroring transform keeps it outward.
 vec3 triangle_normal(int i) {
     int base = BVH_TRIANGLE_TEXELS * i;
     vec3 p0 = bvh_fetch(u_bvh_triangles, base).xyz;
     return cross(bvh_fetch(u_bvh_triangles, base + 1).xyz - p0, bvh_fetch(u_bvh_triangles, base + 2).xyz - p0);
 }
 
-// The hit on triangle i at t (barycentrics uv), to be shaded as the rasterizer shades the object
-// (trace_reflected does, with the interpolated normal and the material's albedo at the point).
-RayHit triangle_hit(vec3 origin, vec3 direction, int i, float t, vec2 uv, int samples) {
+// The hit on triangle i of instance `slot` at t (barycentrics uv), to be shaded as the rasterizer
+// shades the object (trace_reflected does, with the interpolated normal and the material's albedo
+// at the point).
+RayHit triangle_hit(vec3 origin, vec3 direction, int slot, int i, float t, vec2 uv, int samples) {
     int base = BVH_TRIANGLE_TEXELS * i;
-    int slot = int(bvh_fetch(u_bvh_triangles, base).w);
-    vec3 normal = safe_normalize((1.0 - uv.x - uv.y) * bvh_fetch(u_bvh_triangles, base + 3).xyz
-                                 + uv.x * bvh_fetch(u_bvh_triangles, base + 4).xyz
-                                 + uv.y * bvh_fetch(u_bvh_triangles, base + 5).xyz, -direction);
-    TriangleObject object = u_triangle_objects[slot];
+    TriangleInstance object = triangle_instance(slot);
+    vec3 local_normal = (1.0 - uv.x - uv.y) * bvh_fetch(u_bvh_triangles, base + 3).xyz
+                        + uv.x * bvh_fetch(u_bvh_triangles, base + 4).xyz + uv.y * bvh_fetch(u_bvh_triangles, base + 5).xyz;
+    // Into the world by the inverse transpose of local-to-world, which is world_to_local transposed:
+    // a row vector times the matrix.
+    vec3 normal = safe_normalize(local_normal * mat3(object.world_to_local), -direction);
     vec3 position = origin + direction * t;
     Material material = Material(object.kind_and_id.x, object.color_a.xyz, object.color_b.xyz, object.color_a.w,
                                  object.kind_and_id.z, object.texture.xy);
@@ -95,17 +106,14 @@ RayHit triangle_hit(vec3 origin, vec3 direction, int i, float t, vec2 uv, int sa
     return unlit_hit(t, uv, albedo, normal, float(object.kind_and_id.y), samples);
 }
 
-// The nearest triangle the ray meets through the BVH (-1: none), with its t and barycentrics, and
-// the nodes visited.
-int nearest_triangle(vec3 origin, vec3 direction, out float best_t, out vec2 best_uv, out int visited) {
+// The nearest triangle of one mesh that the ray (in the mesh's space) meets nearer than best_t,
+// through the mesh's hierarchy from node `root`: depth-first through the skip links (bvh.py), into
+// an inner node's left child when the ray meets its box, else past its subtree; the root's skip
+// link (-1) ends the walk. A triangle found updates best_* (best_slot: `slot`).
+void nearest_in_mesh(int root, int slot, vec3 origin, vec3 direction, inout float best_t, inout vec2 best_uv,
+                     inout int best_triangle, inout int best_slot, inout int visited) {
     vec3 inverse_direction = 1.0 / direction;
-    best_t = 3.0e38;
-    int best_triangle = -1;
-    best_uv = vec2(0.0);
-    visited = 0;
-    // Depth-first through the skip links (bvh.py): into an inner node's left child when the ray
-    // meets its box, else past its subtree. The node count bounds the walk.
-    int node = 0;
+    int node = root;
     while (node >= 0) {
         vec4 lower = bvh_fetch(u_bvh_nodes, 3 * node), upper = bvh_fetch(u_bvh_nodes, 3 * node + 1);
         int skip = int(bvh_fetch(u_bvh_nodes, 3 * node + 2).x);
@@ -127,9 +135,45 @@ int nearest_triangle(vec3 origin, vec3 direction, out float best_t, out vec2 bes
             if (t > 0.0 && t < best_t) {
                 best_t = t;
                 best_triangle = i;
+                best_slot = slot;
                 best_uv = uv;
             }
         }
+    }
+}
+
+// The nearest triangle the ray meets (-1: none), with its instance's slot, its t and barycentrics,
+// and the nodes visited (both levels): the top level walked as a mesh's is, each instance whose
+// box the ray meets walked in its own space.
+int nearest_triangle(vec3 origin, vec3 direction, out float best_t, out vec2 best_uv, out int best_slot,
+                     out int visited) {
+    vec3 inverse_direction = 1.0 / direction;
+    best_t = 3.0e38;
+    int best_triangle = -1;
+    best_slot = -1;
+    best_uv = vec2(0.0);
+    visited = 0;
+    int node = 0;
+    while (node >= 0) {
+        vec4 lower = bvh_fetch(u_bvh_nodes, 3 * node), upper = bvh_fetch(u_bvh_nodes, 3 * node + 1);
+        int skip = int(bvh_fetch(u_bvh_nodes, 3 * node + 2).x);
+        float t_near;
+        ++visited;
+        if (!ray_meets_box(origin, inverse_direction, lower.xyz, upper.xyz, best_t, t_near)) {
+            node = skip;
+            continue;
+        }
+        int first = int(lower.w), count = int(upper.w);
+        if (count == 0) {
+            node = first;
+            continue;
+        }
+        node = skip;
+        TriangleInstance instance = triangle_instance(first);
+        vec3 local_origin, local_direction;
+        ray_in_instance(instance, origin, direction, local_origin, local_direction);
+        nearest_in_mesh(instance.mesh.x, first, local_origin, local_direction, best_t, best_uv, best_triangle, best_slot,
+                        visited);
     }
     return best_triangle;
 }
@@ -137,7 +181,7 @@ int nearest_triangle(vec3 origin, vec3 direction, out float best_t, out vec2 bes
 RayHit nearest_triangle_hit(vec3 origin, vec3 direction) {
     float t;
     vec2 uv;
-    int visited;
-    int triangle = nearest_triangle(origin, direction, t, uv, visited);
-    return triangle < 0 ? no_hit(visited) : triangle_hit(origin, direction, triangle, t, uv, visited);
+    int slot, visited;
+    int triangle = nearest_triangle(origin, direction, t, uv, slot, visited);
+    return triangle < 0 ? no_hit(visited) : triangle_hit(origin, direction, slot, triangle, t, uv, visited);
 }
