@@ -228,13 +228,14 @@ def depth_image_defines(capacity: int) -> dict[str, int]:
     """The defines of a program reading a mirror's image tables of `capacity` records
     (lib/baked_images.glsl): none for the uniform block's own size, so that a scene of up to
     DEPTH_IMAGE_BLOCK_RECORDS objects keeps the programs it always had; past it the capacity, the
-    storage buffers' extension, and from
-    IMAGE_BVH_MIN_CAPACITY IMAGE_BVH: the images found through the hierarchy their table holds
-    past the records (methods/image_bvh.py)."""
+    storage buffers' extension, and from IMAGE_BVH_MIN_CAPACITY IMAGE_BVH: the images found
+    through the hierarchy their table holds past the records (methods/image_bvh.py)."""
     if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
         return {}
     walk = {"IMAGE_BVH": 1} if capacity >= IMAGE_BVH_MIN_CAPACITY else {}
     return {"DEPTH_IMAGE_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1, **walk}
+
+
 #: Reflected triangles the hybrid method's depth images can name: a float32 sample holds
 #: integers below 2^24.
 MAX_NAMED_TRIANGLES = 2**24
