@@ -224,6 +224,12 @@ def depth_image_capacity(objects: int) -> int:
 IMAGE_BVH_MIN_CAPACITY = 512
 
 
+def walks_images(capacity: int) -> bool:
+    """Are a mirror's images of a table of `capacity` records found through their hierarchy
+    (IMAGE_BVH), which the table then holds, rather than by scanning?"""
+    return capacity >= IMAGE_BVH_MIN_CAPACITY
+
+
 def depth_image_defines(capacity: int) -> dict[str, int]:
     """The defines of a program reading a mirror's image tables of `capacity` records
     (lib/baked_images.glsl): none for the uniform block's own size, so that a scene of up to
@@ -232,7 +238,7 @@ def depth_image_defines(capacity: int) -> dict[str, int]:
     through the hierarchy their table holds past the records (methods/image_bvh.py)."""
     if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
         return {}
-    walk = {"IMAGE_BVH": 1} if capacity >= IMAGE_BVH_MIN_CAPACITY else {}
+    walk = {"IMAGE_BVH": 1} if walks_images(capacity) else {}
     return {"DEPTH_IMAGE_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1, **walk}
 
 

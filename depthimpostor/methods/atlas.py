@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from ..gpu.gl_state import Face, RasterState, other_face
 from ..gpu.bindings import StorageBuffer, TextureUnit, UniformBlock
 from ..gpu.context import bind_default_framebuffer
-from ..constants import DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, NO_OBJECT
+from ..constants import DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, NO_OBJECT, walks_images
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
@@ -115,9 +115,10 @@ def image_records(images: list[DepthImage], capacity: int = DEPTH_IMAGE_BLOCK_RE
 
 def record_table(records: NDArray[np.void], count: int, capacity: int) -> bytes:
     """A mirror's record table as its buffer holds it: the `capacity` records of which the first
-    `count` are its images' and, past a uniform block's size, the hierarchy over those
-    (methods/image_bvh.py, lib/baked_images.glsl)."""
-    if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
+    `count` are its images' and, where the shader walks them (constants.walks_images), the
+    hierarchies over those (methods/image_bvh.py, lib/baked_images.glsl). Built only then: a
+    moving object's mirror writes its table again every frame."""
+    if not walks_images(capacity):
         return records.tobytes()
     return records.tobytes() + image_hierarchies(records[:count]).tobytes()
 

@@ -14,7 +14,7 @@
 #define DEPTH_IMAGE_CAPACITY DEPTH_IMAGE_BLOCK_RECORDS
 #endif
 #if DEPTH_IMAGE_CAPACITY > DEPTH_IMAGE_BLOCK_RECORDS
-// Past the records, the two hierarchies over them (methods/image_bvh.py; walked with IMAGE_BVH), of
+// Past the records, where IMAGE_BVH walks them, the two hierarchies over them (methods/image_bvh.py), of
 // 2 count - 1 nodes each: over the images' hit bounds, then over their bounds.
 layout(std430) readonly buffer DepthImages {
     DepthImage u_depth_images[DEPTH_IMAGE_CAPACITY];
