@@ -214,32 +214,30 @@ def depth_image_capacity(objects: int) -> int:
     return max(DEPTH_IMAGE_BLOCK_RECORDS, 1 << max(0, objects - 1).bit_length())
 
 
-#: The record tables from which a mirror's images are found through their hierarchy (IMAGE_BVH,
-#: methods/image_bvh.py) rather than by scanning every bound. The walk visits images in a fixed
-#: order where the scan visits them nearest first and stops at the first beyond its hit, so it
-#: marches more images a ray: measured at 960x540 (tools/scene_size.py's family), the mirror pass
-#: at 100 images was 58 ms walking and 62 ms scanning, at 1,000 images 110 and 271 ms; and on
-#: scenes/images_per_mirror/boxes_64.toml the walk no longer skipped the boxes behind a hit
-#: (tests/test_images_per_mirror.py). From 512 records the walk wins whatever the order.
-IMAGE_BVH_MIN_CAPACITY = 512
+#: The record tables from which a mirror's images are found through lists (lists_images): every
+#: table of a storage buffer (the first capacity past the uniform block's).
+IMAGE_CELLS_MIN_CAPACITY = 2 * DEPTH_IMAGE_BLOCK_RECORDS
 
 
-def walks_images(capacity: int) -> bool:
-    """Are a mirror's images of a table of `capacity` records found through their hierarchy
-    (IMAGE_BVH), which the table then holds, rather than by scanning?"""
-    return capacity >= IMAGE_BVH_MIN_CAPACITY
+def lists_images(capacity: int) -> bool:
+    """Are a mirror's images of a table of `capacity` records found through lists of candidates
+    by ray (IMAGE_CELLS, methods/image_cells.py), which the table then holds past its records,
+    rather than by scanning every bound? Wherever the table is a storage buffer: at 100 images
+    (tools/scene_size.py's family, 960x540) a ray's list holds 2 where the scan tests 100, and the
+    images visited, and their order, are the scan's."""
+    return capacity >= IMAGE_CELLS_MIN_CAPACITY
 
 
 def depth_image_defines(capacity: int) -> dict[str, int]:
     """The defines of a program reading a mirror's image tables of `capacity` records
     (lib/baked_images.glsl): none for the uniform block's own size, so that a scene of up to
     DEPTH_IMAGE_BLOCK_RECORDS objects keeps the programs it always had; past it the capacity, the
-    storage buffers' extension, and from IMAGE_BVH_MIN_CAPACITY IMAGE_BVH: the images found
-    through the hierarchy their table holds past the records (methods/image_bvh.py)."""
+    storage buffers' extension, and IMAGE_CELLS: the images found through the lists their table
+    holds past the records (methods/image_cells.py)."""
     if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
         return {}
-    walk = {"IMAGE_BVH": 1} if walks_images(capacity) else {}
-    return {"DEPTH_IMAGE_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1, **walk}
+    lists = {"IMAGE_CELLS": 1} if lists_images(capacity) else {}
+    return {"DEPTH_IMAGE_CAPACITY": capacity, "NEEDS_STORAGE_BLOCKS": 1, **lists}
 
 
 #: Reflected triangles the hybrid method's depth images can name: a float32 sample holds
@@ -350,16 +348,17 @@ BVH_TEXTURE_WIDTH = 1024
 BVH_TRIANGLE_TEXELS = 8
 
 
-#: One node of a mirror's hierarchy over its images (methods/image_bvh.py): a sphere holding every
-#: image under it, and (the image of a leaf or -1, the node after this one's subtree, 0, 0).
-IMAGE_NODE_FIELDS: tuple[tuple[str, str], ...] = (
+#: How a mirror's lists of candidate images by ray are laid out (methods/image_cells.py): the
+#: sphere its reflected rays start in, and (cells per side of a cube face's directions, of its
+#: offsets, the cell count, the image count).
+IMAGE_GRID_FIELDS: tuple[tuple[str, str], ...] = (
     ("sphere", "vec4"),
-    ("links", "ivec4"),
+    ("size", "ivec4"),
 )
 
 DEPTH_IMAGE = Struct("DepthImage", DEPTH_IMAGE_FIELDS)
-IMAGE_NODE = Struct("ImageNode", IMAGE_NODE_FIELDS)
-IMAGE_NODE_DTYPE = IMAGE_NODE.dtype
+IMAGE_GRID = Struct("ImageGrid", IMAGE_GRID_FIELDS)
+IMAGE_GRID_DTYPE = IMAGE_GRID.dtype
 TRIANGLE_INSTANCE = Struct("TriangleInstance", TRIANGLE_INSTANCE_FIELDS)
 DEPTH_IMAGE_DTYPE = DEPTH_IMAGE.dtype
 TRIANGLE_INSTANCE_DTYPE = TRIANGLE_INSTANCE.dtype

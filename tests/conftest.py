@@ -13,7 +13,9 @@ import pytest
 import trimesh
 from hypothesis import HealthCheck, settings
 
+from depthimpostor.constants import Method
 from depthimpostor.gpu.context import create_context
+from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene
 from depthimpostor.scene.loader import parse_scene
 
@@ -79,3 +81,20 @@ def scene_from_toml(text: str, source: str = "test scene", base_dir: Path = Path
     """A scene written inline in a test, validated as a scene file would be (model and texture
     paths resolved against `base_dir`)."""
     return parse_scene(tomllib.loads(text), source, base_dir)
+
+
+def assert_a_move_draws_a_fresh_frame(ctx: moderngl.Context, scene: Scene, method: Method, seconds: float) -> None:
+    """A renderer that drew `scene` at time 0 and then at `seconds` (its objects moved: what it
+    keeps, it updated) draws what a renderer made at `seconds` draws, and the move shows."""
+    with Renderer(ctx, scene, method=method) as renderer:
+        renderer.render()
+        before = renderer.read_color_float()
+        renderer.set_time(seconds)
+        renderer.render()
+        moved = renderer.read_color_float()
+    with Renderer(ctx, scene, method=method) as fresh:
+        fresh.set_time(seconds)
+        fresh.render()
+        np.testing.assert_allclose(moved, fresh.read_color_float(), atol=1e-6)
+    assert_finite(moved)
+    assert np.abs(moved - before).max() > 0.1  # the move shows in the mirror

@@ -9,12 +9,11 @@ from types import SimpleNamespace
 import moderngl
 import numpy as np
 import pytest
-from conftest import scene_from_toml
+from conftest import assert_a_move_draws_a_fresh_frame, scene_from_toml
 
 from depthimpostor import constants
 from depthimpostor.constants import (
     DEPTH_IMAGE_BLOCK_RECORDS,
-    DEPTH_IMAGE_DTYPE,
     Algorithm,
     Method,
     depth_image_capacity,
@@ -23,7 +22,7 @@ from depthimpostor.constants import (
 from depthimpostor.errors import ContextError
 from depthimpostor.gpu.meshes import GpuMeshes
 from depthimpostor.gpu.shaders import ProgramCache
-from depthimpostor.methods.image_bvh import image_hierarchies
+from depthimpostor.methods.image_cells import ORIGIN_MARGIN, GridSize, grid_size, image_cells, ray_cells
 from depthimpostor.methods.impostors import ImpostorPass
 from depthimpostor.oracles import reference
 from depthimpostor.oracles.compare import compare
@@ -73,8 +72,8 @@ def test_capacity_is_the_uniform_block_up_to_it_then_a_power_of_two() -> None:
     assert depth_image_capacity(DEPTH_IMAGE_BLOCK_RECORDS + 1) == 2 * DEPTH_IMAGE_BLOCK_RECORDS
     assert depth_image_capacity(1000) == 1024
     assert depth_image_defines(DEPTH_IMAGE_BLOCK_RECORDS) == {}  # small scenes keep their programs
-    assert depth_image_defines(1024) == {"DEPTH_IMAGE_CAPACITY": 1024, "NEEDS_STORAGE_BLOCKS": 1, "IMAGE_BVH": 1}
-    assert "IMAGE_BVH" not in depth_image_defines(128)  # a hundred images are scanned (IMAGE_BVH_MIN_CAPACITY)
+    assert depth_image_defines(1024) == {"DEPTH_IMAGE_CAPACITY": 1024, "NEEDS_STORAGE_BLOCKS": 1, "IMAGE_CELLS": 1}
+    assert "IMAGE_CELLS" in depth_image_defines(128)  # a hundred images are found through lists too
 
 
 @pytest.mark.parametrize(("method", "wrong_object_limit"), [(Method.DEPTH, 0.01), (Method.BILLBOARD, 0.05)])
@@ -152,60 +151,102 @@ def test_images_past_the_memory_budget_are_made_smaller_and_the_plan_says_so() -
     assert {image.width for image in few.images} == {256} and "image_memory" not in few.images[0].reason
 
 
-def test_the_image_hierarchies_hold_every_image_and_their_walk_reaches_each_once() -> None:
-    rng = np.random.default_rng(3)
-    records = np.zeros(37, DEPTH_IMAGE_DTYPE)
-    records["bound"] = np.c_[rng.normal(size=(37, 3)) * 5, rng.uniform(0.1, 1.0, 37)]
-    records["hit_bound"] = records["bound"] * (1, 1, 1, 0.5) + np.c_[rng.normal(size=(37, 3)) * 0.1, np.zeros(37)]
-    both = image_hierarchies(records)
-    assert len(both) == 2 * (2 * 37 - 1)
-    for nodes, field in ((both[: 2 * 37 - 1], "hit_bound"), (both[2 * 37 - 1:], "bound")):
-        leaves = []
-        node = 0  # the shader's walk with every sphere entered: into each inner node, past each leaf
-        while node < len(nodes):
-            image, skip = int(nodes[node]["links"][0]), int(nodes[node]["links"][1])
-            sphere = nodes[node]["sphere"].astype(np.float64)
-            # A node's subtree is the nodes up to its skip: its sphere holds every image's there,
-            # so that a ray entering one of them enters it.
-            for under in nodes[node:skip]:
-                if under["links"][0] >= 0:
-                    inner = records[int(under["links"][0])][field].astype(np.float64)
-                    assert np.linalg.norm(inner[:3] - sphere[:3]) + inner[3] <= sphere[3] * (1 + 1e-6)
-            if image >= 0:
-                leaves.append(image)
-            node = skip if image >= 0 else node + 1
-        assert sorted(leaves) == list(range(37))
-        assert int(nodes[0]["links"][1]) == len(nodes)  # skipping the root ends the walk
+def entered(spheres: np.ndarray, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """The spheres a ray enters at t >= 0 (lib/baked_images.glsl's bound_entry, in float64)."""
+    to_centre = spheres[:, :3] - origin
+    along = to_centre @ direction / (direction @ direction)
+    closest = to_centre - np.outer(along, direction)
+    return (np.einsum("ij,ij->i", closest, closest) <= spheres[:, 3] ** 2) & (
+        along + np.sqrt(np.maximum(spheres[:, 3] ** 2 - np.einsum("ij,ij->i", closest, closest), 0.0))
+        / np.linalg.norm(direction) >= 0.0)
 
 
-def test_the_hierarchy_walk_sees_what_the_scan_sees(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The same 100 images found through the hierarchy (IMAGE_BVH) and by scanning every bound:
-    the same nearest hits, so the same frame."""
+@pytest.mark.parametrize("count", [40, 700])
+def test_a_rays_list_holds_every_image_it_enters_in_rising_order(count: int) -> None:
+    """Spheres all around a mirror's sphere, near and far, small and large, and rays from on and
+    inside it in every direction: every sphere a ray enters is in its cell's list, the lists
+    ascend (the scan's tie order), and they are short (a list of everything would pass the rest)."""
+    rng = np.random.default_rng(count)
+    centre, radius = np.array([0.3, 1.0, -0.2]), 0.9
+    places = rng.normal(size=(count, 3))
+    places *= (rng.uniform(1.3, 8.0, count) / np.linalg.norm(places, axis=1))[:, None]
+    spheres = np.c_[centre + places, rng.uniform(0.02, 0.4, count)]
+    grown = radius * (1.0 + ORIGIN_MARGIN)  # as cells_table grows it: origins on the sphere are inside
+    lists = image_cells(spheres, centre, grown)
+    size = grid_size(count)
+    assert lists[size.cells + 1] - lists[size.cells] == count  # the fallback cell lists every image
+    origins = rng.normal(size=(4000, 3))
+    origins *= (radius * np.where(rng.random(4000) < 0.7, 1.0, rng.random(4000)) / np.linalg.norm(origins, axis=1))[:, None]
+    origins += centre
+    directions = rng.normal(size=(4000, 3))
+    cells = ray_cells(origins, directions, centre, grown, size)
+    assert (cells < size.cells).all()  # every ray starts within the sphere
+    lengths = []
+    for origin, direction, cell in zip(origins, directions, cells, strict=True):
+        listed = lists[lists[cell]:lists[cell + 1]]
+        assert (np.diff(listed) > 0).all()
+        assert set(np.flatnonzero(entered(spheres, origin, direction))) <= set(listed.tolist())
+        lengths.append(len(listed))
+    assert np.mean(lengths) < 0.25 * count
+    # A ray from outside the sphere reads the list of every image.
+    outside = ray_cells(centre + np.array([[0.0, 2 * radius, 0.0]]), np.array([[1.0, 0.0, 0.0]]), centre, grown, size)
+    assert outside[0] == size.cells
+
+
+def test_the_lists_are_laid_out_as_the_shader_reads_them() -> None:
+    """The starts of the cells (and the fallback's), then the lists: the first start is right
+    after them, each start no earlier than the one before, the last one the array's end."""
+    size = GridSize(2, 2)
+    spheres = np.array([[3.0, 0.0, 0.0, 0.5], [-3.0, 0.0, 0.0, 0.5], [0.0, 0.0, 4.0, 1.0]])
+    lists = image_cells(spheres, np.zeros(3), 1.0, size)
+    starts = lists[: size.cells + 2]
+    assert starts[0] == size.cells + 2 and starts[-1] == len(lists) and (np.diff(starts) >= 0).all()
+    # A ray along +x from the centre meets the first sphere alone; its cell lists it, not the second.
+    cell = int(ray_cells(np.zeros((1, 3)), np.array([[1.0, 0.0, 0.0]]), np.zeros(3), 1.0, size)[0])
+    listed = lists[lists[cell]:lists[cell + 1]].tolist()
+    assert 0 in listed and 1 not in listed
+
+
+def test_the_lists_see_what_the_scan_sees(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same 100 images found through the lists (IMAGE_CELLS) and by scanning every bound:
+    the same images visited in the same order, so the same frame."""
     scene = many_balls(100)
     frames = []
-    shipped = constants.IMAGE_BVH_MIN_CAPACITY
-    for walk in (True, False):
-        # The walk from 128 records for the first frame (it begins at IMAGE_BVH_MIN_CAPACITY).
-        monkeypatch.setattr(constants, "IMAGE_BVH_MIN_CAPACITY", 128 if walk else shipped)
+    for lists in (True, False):
+        if not lists:
+            monkeypatch.setattr(constants, "IMAGE_CELLS_MIN_CAPACITY", 2**30)
         with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=Method.DEPTH) as renderer:
             renderer.render()
             # Programs are kept across renderers of one context: the variant each frame needed is there.
             variants = [dict(key[1]) for key in renderer.programs.keys if "DEPTH_IMAGE_CAPACITY" in dict(key[1])]
-            assert any(("IMAGE_BVH" in defines) == walk for defines in variants)
+            assert any(("IMAGE_CELLS" in defines) == lists for defines in variants)
             frames.append(renderer.read_color_float())
     assert np.isfinite(frames[0]).all()
-    np.testing.assert_allclose(frames[0], frames[1], atol=1e-6)
+    np.testing.assert_array_equal(frames[0], frames[1])
 
 
-@pytest.mark.parametrize("walk", [True, False], ids=["walked", "scanned"])
+def test_moving_objects_list_their_images_again(ctx: moderngl.Context) -> None:
+    """A hundred objects, some orbiting far across the mirror's view: after a move each ray's list
+    is made again (and its table may outgrow its buffer), and the frame is a fresh renderer's."""
+    orbits = "".join(
+        f'\n[[objects]]\nname = "orbiter {i}"\nshape = {{ type = "box", size = [0.3, 0.3, 0.3] }}\n'
+        f'material = {{ type = "checker", color_a = [0.9, 0.2, 0.{i}], color_b = [0.1, 0.1, 0.1], scale = 0.1 }}\n'
+        f"position = [{-3.0 + 2.0 * i:.1f}, 2.5, 2.5]\n"
+        f'animation = {{ type = "orbit", centre = [0.0, 2.5, 2.5], axis = [0, 0, 1], degrees_per_second = 60 }}\n'
+        for i in range(4))
+    assert_a_move_draws_a_fresh_frame(ctx, scene_from_toml(HEAD + checker_balls(96, 1.5) + orbits, "orbits.toml"),
+                                      Method.DEPTH, 1.5)
+
+
+@pytest.mark.parametrize("lists", [True, False], ids=["listed", "scanned"])
 def test_many_images_tracking_unseen_space_give_the_references_nearest_hits(ctx: moderngl.Context,
                                                                             monkeypatch: pytest.MonkeyPatch,
-                                                                            walk: bool) -> None:
-    """The ray query (the mirror shader's GLSL with TRACK_UNSEEN; walked: the hierarchy over the
-    images' bounds) over 100 images of one mirror, against the numpy reference's nearest hit, ray
-    by ray."""
-    if walk:
-        monkeypatch.setattr(constants, "IMAGE_BVH_MIN_CAPACITY", 128)
+                                                                            lists: bool) -> None:
+    """The ray query (the mirror shader's GLSL with TRACK_UNSEEN; listed: the lists over the
+    images' bounds, for rays from the sphere about their origins) over 100 images of one mirror,
+    against the numpy reference's nearest hit, ray by ray."""
+    if not lists:
+        monkeypatch.setattr(constants, "IMAGE_CELLS_MIN_CAPACITY", 2**30)
     scene = many_balls(100).with_overrides(size=(32, 18), impostor_resolution=32)
     with Renderer(ctx, scene, method=Method.DEPTH) as renderer:
         renderer.render()
@@ -218,7 +259,7 @@ def test_many_images_tracking_unseen_space_give_the_references_nearest_hits(ctx:
         origins = rng.uniform((-4.0, 0.5, 0.02), (4.0, 3.5, 0.1), size=(3000, 3))  # on the wall mirror's front
         directions = targets + rng.normal(size=(3000, 3)) * 0.12 - origins
         query = RayQuery(ctx, renderer.programs, impostors.atlas, images)
-        assert (("IMAGE_BVH", 1) in query_defines(query)) == walk
+        assert (("IMAGE_CELLS", 1) in query_defines(query)) == lists
         gpu = query.run(origins, directions)
         query.release()
         expected = reference.nearest_depth_image_hit([impostors.atlas.read(image) for image in images], origins,

@@ -20,7 +20,7 @@ import pytest
 
 from conftest import assert_finite
 from depthimpostor.constants import Algorithm, Method
-from depthimpostor.methods.atlas import record_table
+from depthimpostor.methods.atlas import record_table, write_table
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
 
@@ -41,8 +41,9 @@ def visit_every_image(renderer: Renderer) -> None:
         records = baked.image_records(images).copy()
         for bound in ("bound", "hit_bound"):
             records[bound][:, 3] = 1e18  # squared, still a float32 (3.4e38 at most)
-        # As the stand-in lays its table out (past 64 records, with the hierarchies over these bounds).
-        buffer.write(record_table(records, len(images), baked.record_capacity))
+        # As the stand-in lays its table out (past 64 records, with the lists over these bounds).
+        write_table(buffer, record_table(records, len(images), baked.record_capacity,
+                                         images[0].mirror.bounding_sphere, baked.tracks_unseen))
 
 
 def frame_and_samples(ctx: moderngl.Context, method: Method, algorithm: Algorithm, every_image: bool

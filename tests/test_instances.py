@@ -10,7 +10,7 @@ import dataclasses
 import moderngl
 import numpy as np
 import pytest
-from conftest import SCENES, assert_finite, scene_from_toml
+from conftest import SCENES, assert_a_move_draws_a_fresh_frame, assert_finite, scene_from_toml
 
 from depthimpostor.constants import TRIANGLE_INSTANCE, TRIANGLE_INSTANCE_DTYPE, Algorithm, Method
 from depthimpostor.gpu.std140 import Struct
@@ -221,16 +221,7 @@ animation = { type = "orbit", centre = [0.0, 1.5, 2.0], axis = [0, 0, 1], degree
     with Renderer(ctx, scene, method=Method.RAYTRACE) as renderer:
         traced = renderer.graph.triangles
         assert traced is not None and traced.layout.node_texels < traced.nodes.width
-        renderer.render()
-        before = renderer.read_color_float()
-        renderer.set_time(1.0)
-        renderer.render()
-        moved = renderer.read_color_float()
-    with Renderer(ctx, scene, method=Method.RAYTRACE) as fresh:
-        fresh.set_time(1.0)
-        fresh.render()
-        np.testing.assert_allclose(moved, fresh.read_color_float(), atol=1e-6)
-    assert np.abs(moved - before).max() > 0.1
+    assert_a_move_draws_a_fresh_frame(ctx, scene, Method.RAYTRACE, 1.0)
 
 
 def uneven_and_mirrored() -> Scene:

@@ -24,7 +24,7 @@ from pathlib import Path
 import moderngl
 
 from ..constants import (
-    ANALYTIC_PLANE, DEPTH_IMAGE, IMAGE_NODE, LIGHT, LIGHTING, MATERIAL, PLANES, TEXTURE_RECORD, TRIANGLE_INSTANCE,
+    ANALYTIC_PLANE, DEPTH_IMAGE, IMAGE_GRID, LIGHT, LIGHTING, MATERIAL, PLANES, TEXTURE_RECORD, TRIANGLE_INSTANCE,
     glsl_constants,
 )
 from ..errors import ShaderError
@@ -53,7 +53,7 @@ def _include_guard(name: str) -> str:
 
 def _generated_sources() -> dict[str, str]:
     return {
-        "generated/depth_image.glsl": DEPTH_IMAGE.glsl() + IMAGE_NODE.glsl(),
+        "generated/depth_image.glsl": DEPTH_IMAGE.glsl() + IMAGE_GRID.glsl(),
         # The traced methods' instance records, read from the BVH's node texture.
         "generated/triangle_instance.glsl": TRIANGLE_INSTANCE.glsl() + glsl_reader(TRIANGLE_INSTANCE, "BVH_TEXTURE_WIDTH"),
         "generated/material.glsl": MATERIAL.glsl(),

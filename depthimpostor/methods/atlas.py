@@ -21,13 +21,13 @@ from numpy.typing import NDArray
 from ..gpu.gl_state import Face, RasterState, other_face
 from ..gpu.bindings import StorageBuffer, TextureUnit, UniformBlock
 from ..gpu.context import bind_default_framebuffer
-from ..constants import DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, NO_OBJECT, walks_images
+from ..constants import DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, NO_OBJECT, lists_images
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
 from ..oracles.reference import DepthImageData
 from ..scene.model import Scene
-from .image_bvh import image_hierarchies
+from .image_cells import cells_table
 from .pyramid import PyramidLayout
 from ..gpu.uniforms import bind_record_block, bind_texture
 
@@ -113,14 +113,26 @@ def image_records(images: list[DepthImage], capacity: int = DEPTH_IMAGE_BLOCK_RE
     return records
 
 
-def record_table(records: NDArray[np.void], count: int, capacity: int) -> bytes:
+def record_table(records: NDArray[np.void], count: int, capacity: int, rays_from: tuple[NDArray[np.float64], float],
+                 tracks_unseen: bool) -> bytes:
     """A mirror's record table as its buffer holds it: the `capacity` records of which the first
-    `count` are its images' and, where the shader walks them (constants.walks_images), the
-    hierarchies over those (methods/image_bvh.py, lib/baked_images.glsl). Built only then: a
-    moving object's mirror writes its table again every frame."""
-    if not walks_images(capacity):
+    `count` are its images' and, where the shader finds them through lists (constants.lists_images),
+    the lists of candidates for rays starting in the sphere `rays_from` (centre, radius: the
+    mirror's bounds; methods/image_cells.py), over the spheres the shader tests (lib/reflected_scene.glsl's
+    image_bound): the images' `bound` where it `tracks_unseen`, their `hit_bound` otherwise. Built
+    only then: a moving object's mirror writes its table again every frame."""
+    if not lists_images(capacity):
         return records.tobytes()
-    return records.tobytes() + image_hierarchies(records[:count]).tobytes()
+    spheres = np.asarray(records["bound" if tracks_unseen else "hit_bound"][:count], np.float64)
+    return records.tobytes() + cells_table(spheres, *rays_from)
+
+
+def write_table(buffer: moderngl.Buffer, table: bytes) -> None:
+    """Write a mirror's record table into its buffer, made larger where the table outgrew it (its
+    lists of candidates grow and shrink as objects move)."""
+    if len(table) > buffer.size:
+        buffer.orphan(len(table))
+    buffer.write(table)
 
 
 def bind_image_records(buffer: moderngl.Buffer, capacity: int) -> None:

@@ -36,7 +36,7 @@ from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import bind_texture, write
 from .colour_mips import ColourMips
-from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural, record_table
+from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural, record_table, write_table
 
 
 
@@ -72,6 +72,9 @@ class BakedImages:
     #: Is it known where a second solid run begins (the hybrid method's: space behind the first
     #: run up to there is seen empty)?
     keeps_beyond: ClassVar[bool] = False
+    #: Do its mirror programs track where an answer rests on what the images do not hold
+    #: (TRACK_UNSEEN: the hybrid method's)? They test the images' whole bounds, not their hits'.
+    tracks_unseen: ClassVar[bool] = False
     #: What one image is called in the CLI's and the viewer's summaries.
     image_noun: ClassVar[str]
     #: One image per reflected object (False: faces that show them all).
@@ -163,7 +166,7 @@ class BakedImages:
                     self.stale.add(image.slot)
         self._spread_staleness()
         for index, buffer in self.uniform_buffers.items():
-            buffer.write(self.record_table(self.images_at(index, self.final_level)))
+            write_table(buffer, self.record_table(self.images_at(index, self.final_level)))
         self._forget_fits()
 
     def _spread_staleness(self) -> None:
@@ -232,8 +235,11 @@ class BakedImages:
         return image_records(images, self.record_capacity)
 
     def record_table(self, images: list[DepthImage]) -> builtins.bytes:  # (`bytes` is a property here)
-        """A mirror's record table of `images`, as its buffer holds it (atlas.record_table)."""
-        return record_table(self.image_records(images), len(images), self.record_capacity)
+        """A mirror's record table of `images` (all of one mirror, whose reflected rays read it), as
+        its buffer holds it (atlas.record_table)."""
+        rays_from = images[0].mirror.bounding_sphere if images else (np.zeros(3), 0.0)
+        return record_table(self.image_records(images), len(images), self.record_capacity, rays_from,
+                            self.tracks_unseen)
 
     def uniform_buffer(self, images: list[DepthImage]) -> moderngl.Buffer:
         """The buffer of a mirror's record table (a uniform block's or a storage buffer's: bind_records)."""

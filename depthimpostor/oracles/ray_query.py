@@ -66,10 +66,9 @@ class RayQuery:
                    **depth_image_defines(self.capacity)}
         self.defines = defines
         self.program = programs.get("fullscreen.vert", "ray_query.frag", defines)
-        records = np.zeros(self.capacity, dtype=DEPTH_IMAGE_DTYPE)
+        self.records = np.zeros(self.capacity, dtype=DEPTH_IMAGE_DTYPE)
         for i, image in enumerate(images):
-            records[i] = image.record()
-        self.uniform_buffer = ctx.buffer(record_table(records, len(images), self.capacity))
+            self.records[i] = image.record()
         self.vertex_array = ctx.vertex_array(self.program, [])
         self.pyramid: DepthPyramid | None = None
         if algorithm.builds_pyramids:
@@ -92,6 +91,11 @@ class RayQuery:
             return result
 
         inputs = [texture(origins), texture(directions)]
+        # The table's lists of candidates by ray (where it holds them) are for rays starting in one
+        # sphere: a mirror's rays start on it; these start in the sphere around their origins.
+        centre = 0.5 * (origins.min(axis=0) + origins.max(axis=0)) if count else np.zeros(3)
+        radius = float(np.linalg.norm(origins - centre, axis=1).max()) if count else 0.0
+        records = self.ctx.buffer(record_table(self.records, self.image_count, self.capacity, (centre, radius), True))
         outputs = [self.ctx.texture((width, height), 4, dtype="f4") for _ in range(3)]
         framebuffer = self.ctx.framebuffer(outputs)
         try:
@@ -105,7 +109,7 @@ class RayQuery:
             write(self.program, "u_ray_origins", TextureUnit.RAY_ORIGINS)
             write(self.program, "u_ray_directions", TextureUnit.RAY_DIRECTIONS)
             write(self.program, "u_depth_image_count", self.image_count)
-            bind_image_records(self.uniform_buffer, self.capacity)
+            bind_image_records(records, self.capacity)
             with raster_state(self.ctx, NO_DEPTH_TEST):
                 self.vertex_array.render(moderngl.TRIANGLES, vertices=3)
             hit, color, stats = (
@@ -116,6 +120,7 @@ class RayQuery:
         finally:
             bind_default_framebuffer(self.ctx)
             framebuffer.release()
+            records.release()
             for image in (*outputs, *inputs):
                 image.release()
         return RayHits(
@@ -138,7 +143,6 @@ class RayQuery:
         if self.pyramid is not None:
             self.pyramid.release()
         self.vertex_array.release()
-        self.uniform_buffer.release()
 
 
 @dataclass(frozen=True)

@@ -14,11 +14,13 @@
 #define DEPTH_IMAGE_CAPACITY DEPTH_IMAGE_BLOCK_RECORDS
 #endif
 #if DEPTH_IMAGE_CAPACITY > DEPTH_IMAGE_BLOCK_RECORDS
-// Past the records, where IMAGE_BVH walks them, the two hierarchies over them (methods/image_bvh.py), of
-// 2 count - 1 nodes each: over the images' hit bounds, then over their bounds.
+// Past the records, where IMAGE_CELLS finds them through lists of candidates by ray
+// (methods/image_cells.py): how the lists are laid out, then the start of each cell's list (and one
+// past the last), then the lists.
 layout(std430) readonly buffer DepthImages {
     DepthImage u_depth_images[DEPTH_IMAGE_CAPACITY];
-    ImageNode u_image_nodes[];
+    ImageGrid u_image_grid;
+    int u_image_cells[];
 };
 #else
 layout(std140) uniform DepthImages {

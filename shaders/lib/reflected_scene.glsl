@@ -82,57 +82,54 @@ RayHit coloured(RayHit best, int best_image, vec3 origin, vec3 direction) {
     return best;
 }
 
-#ifdef IMAGE_BVH
-// The nearest hit over all depth images of this mirror with t <= t_limit (or none), and the first
-// place along the ray where one of them relied on what it does not hold (TRACK_UNSEEN), for a
-// mirror of many images: its hierarchy of spheres (methods/image_bvh.py) is walked depth first
-// without a stack, a node's subtree skipped where the ray does not enter its sphere before the
-// nearest hit so far. Every image the scan below would visit (entered no later than the nearest
-// hit) is visited, some others too before a nearer hit is found; the nearest hit is the same, and
-// unseen space past it is not looked at (resolve_unseen). The march is in a loop, not under a
-// test, for the reason the scan's is.
-RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
-    RayHit best = no_hit(0);
-    int best_image = 0, samples = 0, unseen = UNSEEN_NONE;
-    float unseen_t = UNBOUNDED_RAY;
-    float inverse_square_length = 1.0 / dot(direction, direction);
-    int nodes = max(2 * u_depth_image_count - 1, 0);
-#ifdef TRACK_UNSEEN
-    int first_node = nodes;  // the hierarchy over the images' bounds, which image_bound tests
-#else
-    int first_node = 0;  // over their hit bounds
-#endif
-    int node = 0;
-    for (int step = 0; step < 2 * DEPTH_IMAGE_CAPACITY - 1; ++step) {
-        if (node >= nodes) break;
-        ImageNode current = u_image_nodes[first_node + node];
-        float limit = best.hit ? min(best.t, t_limit) : t_limit;
-        float node_t = bound_entry(current.sphere, origin, direction, inverse_square_length);
-        bool entered = node_t < UNBOUNDED_RAY && node_t <= limit;
-        int image = current.links.x;  // -1 for an inner node; a leaf's sphere is its image's
-        for (int march = entered && image >= 0 ? 1 : 0; march > 0; --march) {
-            take_candidate(intersect_depth_image(u_depth_images[image], origin, direction, limit), image, t_limit,
-                           best, best_image, samples, unseen_t, unseen);
-        }
-        node = entered && image < 0 ? node + 1 : current.links.y;  // into it, or past it
-    }
-    best = coloured(best, best_image, origin, direction);
-    best.samples = samples;
-    return with_unseen(best, unseen_t, unseen);
+#ifdef IMAGE_CELLS
+// The list of the images a ray may enter, as (its start in u_image_cells, one past its end): the
+// list of the cell of lines the ray lies in (methods/image_cells.py, whose ray_cells is this in
+// numpy), or, for a ray that does not start in the sphere the lists were made for, the list of
+// every image.
+ivec2 image_list(vec3 origin, vec3 direction) {
+    vec4 sphere = u_image_grid.sphere;
+    ivec4 size = u_image_grid.size;  // cells per side of a face's directions, of its offsets; cells; images
+    vec3 p = origin - sphere.xyz;
+    vec3 m = abs(direction);
+    int axis = m.x >= m.y && m.x >= m.z ? 0 : m.y >= m.z ? 1 : 2;
+    // The face's axis first, then its u and v axes (image_cells.FACE_AXES).
+    vec3 d = axis == 0 ? direction : axis == 1 ? direction.yzx : direction.zxy;
+    vec3 o = axis == 0 ? p : axis == 1 ? p.yzx : p.zxy;
+    float s = d.x >= 0.0 ? 1.0 : -1.0;
+    vec2 uv = d.yz / (s * d.x);
+    vec2 q = o.yz - (s * o.x) * uv;  // where the ray's line crosses the plane of depth 0
+    float extent = 2.0 * sphere.w;
+    bool inside = sphere.w > 0.0 && dot(p, p) <= sphere.w * sphere.w && all(lessThanEqual(abs(q), vec2(extent)));
+    ivec2 direction_cell = clamp(ivec2(floor((uv + 1.0) * (0.5 * float(size.x)))), ivec2(0), ivec2(size.x - 1));
+    ivec2 offset_cell = clamp(ivec2(floor((q + extent) / (2.0 * extent) * float(size.y))), ivec2(0), ivec2(size.y - 1));
+    int face = 2 * axis + (s < 0.0 ? 1 : 0);
+    int cell = (((face * size.x + direction_cell.x) * size.x + direction_cell.y) * size.y + offset_cell.x) * size.y
+               + offset_cell.y;
+    cell = inside ? cell : size.z;
+    return ivec2(u_image_cells[cell], u_image_cells[cell + 1]);
 }
-#else
+#endif
+
 // The two images the ray visits after image `after`, which it entered at `after_t` (-1 before the
 // first), in the order of the visits: by where the ray enters their bounds, ties by index, among
 // the images it enters no later than `limit`. u_depth_image_count (entered at UNBOUNDED_RAY)
-// where there are fewer. The loop's bound is a constant and the count a `break`: llvmpipe unrolls
+// where there are fewer. The candidates are every image, or with IMAGE_CELLS those of the ray's
+// list (`list`: image_list's), which holds every image the ray can enter, in rising index: the
+// same two are found. The loop's bound is a constant and the count a `break`: llvmpipe unrolls
 // it and reads each record's bound from one place for all the pixels of a group, where a loop to a
 // uniform reads it lane by lane at every iteration (twice the cost).
-void next_two_images(int after, float after_t, float limit, vec3 origin, vec3 direction, float inverse_square_length,
-                     out int first, out float first_t, out int second, out float second_t) {
+void next_two_images(ivec2 list, int after, float after_t, float limit, vec3 origin, vec3 direction,
+                     float inverse_square_length, out int first, out float first_t, out int second, out float second_t) {
     first = second = u_depth_image_count;
     first_t = second_t = UNBOUNDED_RAY;
-    for (int j = 0; j < DEPTH_IMAGE_CAPACITY; ++j) {
-        if (j >= u_depth_image_count) break;
+    for (int k = 0; k < DEPTH_IMAGE_CAPACITY; ++k) {
+        if (k >= list.y - list.x) break;
+#ifdef IMAGE_CELLS
+        int j = u_image_cells[list.x + k];
+#else
+        int j = k;
+#endif
         float t = bound_entry(image_bound(j), origin, direction, inverse_square_length);
         bool candidate = (t > after_t || (t == after_t && j > after)) && t < UNBOUNDED_RAY && t <= limit;
         // j rises: an image entered where an earlier one is comes after it.
@@ -152,9 +149,9 @@ void next_two_images(int after, float after_t, float limit, vec3 origin, vec3 di
 // answer lies at or after its entry, and an answer after the nearest hit is no hit of the frame.
 // (Nor, with TRACK_UNSEEN, a reason that matters: resolve_unseen looks for unseen space before
 // the answer only; an image is skipped only when entered strictly after the hit.) A mirror with
-// many objects then marches the one or two a ray meets. One scan of the bounds finds the next
-// two (most rays visit one or none, and stop at the second's entry); another runs only where a
-// ray has visited both. The march and the scan are in loops of as many iterations as are needed,
+// many objects then marches the one or two a ray meets. One scan of the bounds (of the ray's list
+// with IMAGE_CELLS) finds the next two (most rays visit one or none, and stop at the second's
+// entry); another runs only where a ray has visited both. The march and the scan are in loops of as many iterations as are needed,
 // not under tests: a software rasterizer such as llvmpipe runs a loop's body for a group of pixels
 // as long as one of them needs it, but runs every statement of an `if` whatever the condition
 // (tools/branch_cost.py).
@@ -165,13 +162,18 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
     float inverse_square_length = 1.0 / dot(direction, direction);
     int next, after_next, last = -1;
     float next_t, after_next_t, last_t = -1.0;
-    next_two_images(last, last_t, t_limit, origin, direction, inverse_square_length, next, next_t, after_next,
+#ifdef IMAGE_CELLS
+    ivec2 list = image_list(origin, direction);
+#else
+    ivec2 list = ivec2(0, u_depth_image_count);
+#endif
+    next_two_images(list, last, last_t, t_limit, origin, direction, inverse_square_length, next, next_t, after_next,
                     after_next_t);
     bool exhausted = after_next >= u_depth_image_count;  // the scan found every image left
     for (int visit = 0; visit < DEPTH_IMAGE_CAPACITY; ++visit) {
         float limit = best.hit ? min(best.t, t_limit) : t_limit;
         for (int scan = next >= u_depth_image_count && !exhausted ? 1 : 0; scan > 0; --scan) {
-            next_two_images(last, last_t, limit, origin, direction, inverse_square_length, next, next_t, after_next,
+            next_two_images(list, last, last_t, limit, origin, direction, inverse_square_length, next, next_t, after_next,
                             after_next_t);
             exhausted = after_next >= u_depth_image_count;
         }
@@ -193,7 +195,6 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
     best.samples = samples;
     return with_unseen(best, unseen_t, unseen);
 }
-#endif  // IMAGE_BVH
 #endif
 
 // The nearest reflected object; the depth-image method looks no farther than t_limit (the others

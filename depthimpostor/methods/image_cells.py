@@ -1,0 +1,193 @@
+"""Which of a mirror's many depth images a reflected ray may enter: lists of candidates by ray.
+
+The mirror shader visits a mirror's images nearest first, by where a reflected ray enters their
+bound spheres, and stops at the first entered beyond its nearest hit (lib/reflected_scene.glsl).
+Finding that order by scanning every image's sphere is work per ray that grows with the object
+count. But a mirror's reflected rays all start on the mirror, inside its bounding sphere (centre
+c, radius R): a ray is a line of few degrees of freedom, and the images whose spheres a line can
+meet can be listed ahead of time for a cell of lines. A ray then scans the short list of its
+cell, in the same order, and finds the same images the full scan would (what a light-field
+parametrisation of rays, or clustered shading's lists of lights per cell of the view, does).
+
+The cells are those of a light field's two-plane parametrisation, once per cube face: a ray of
+direction d whose largest component is along axis e (sign s) is written with its direction on the
+face, u = d_t1 / (s d_e), v = d_t2 / (s d_e) in [-1, 1], and where its line crosses the plane
+through c perpendicular to e, q = (q1, q2) (the origin p moved along d to depth 0, the depth
+(p - c).e s); from an origin within the sphere, |q1|, |q2| <= 2R. Each face's (u, v) square is
+cut into `directions` x `directions` cells and its (q1, q2) square into `offsets` x `offsets`.
+A ray's line points at depth l are q + l (u, v), and its points lie at depth >= -R (the origin's
+depth, from inside the sphere, and d points along e): a sphere of centre depth L and radius r is
+listed in a cell when the box of those points over the cell's (u, v, q) and l in [max(L - r,
+-R), L + r] meets the sphere's box, axis by axis (a conservative test: a few extra candidates,
+never a missing one). Rays that do not start inside the sphere (a ray query's arbitrary rays)
+read the last list, which holds every image.
+
+The table (after the records, lib/baked_images.glsl's ImageCells): an ImageGrid record (the
+sphere; the cells per side of a face's directions and offsets, the cell count, the image
+count), then one int array: the start of each cell's list and one past the last (cells + 2
+entries, the fallback list's cell included), then the lists, each in rising image order (the
+order in which the scan breaks ties).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..constants import IMAGE_GRID_DTYPE
+
+#: Per cube face (axis e and its sign, as lib/reflected_scene.glsl's image_cell numbers them:
+#: 2 axis + (sign < 0)), the two other axes in the order of the face's (u, v) and (q1, q2).
+FACE_AXES = ((0, 1, 2), (1, 2, 0), (2, 0, 1))
+#: What float32 rounding in the shader may move a ray's (u, v) or q, and a sphere's test, against
+#: the float64 build: cell edges and spheres are grown by this share of their scale.
+MARGIN = 1e-5
+#: The share by which the sphere that rays start in is grown past the mirror's bounding sphere.
+ORIGIN_MARGIN = 1e-3
+
+
+@dataclass(frozen=True)
+class GridSize:
+    directions: int  # cells per side of a face's (u, v) square
+    offsets: int  # cells per side of its (q1, q2) square
+
+    @property
+    def cells(self) -> int:
+        return 6 * self.directions**2 * self.offsets**2
+
+
+def grid_size(images: int) -> GridSize:
+    """The grid of a mirror of `images` images: finer where there are more to sort among.
+    Measured on tools/scene_size.py's family (a ray's list, and the entries of all lists): 100
+    images in 8 x 4 cells, 2.3 per ray (16,000 entries); 1,000 images in 16 x 8 cells, 10 per ray
+    (1.2 million), where 8 x 4 cells leave 30 per ray."""
+    return GridSize(8, 4) if images <= 256 else GridSize(16, 8)
+
+
+def image_cells(spheres: NDArray[np.float64], centre: NDArray[np.float64], radius: float,
+                size: GridSize | None = None) -> NDArray[np.int32]:
+    """The int array of the lists (see the module's docstring) of the images whose bound spheres
+    are `spheres` ((n, 4), in table order), for rays starting within the sphere (`centre`,
+    `radius`)."""
+    size = size if size is not None else grid_size(len(spheres))
+    cells, entries = [], []
+    for face in range(6):
+        face_cells, face_images = _face_lists(spheres, centre, radius, size, face)
+        cells.append(face_cells)
+        entries.append(face_images)
+    everything = np.arange(len(spheres))
+    cell = np.concatenate([*cells, np.full(len(spheres), size.cells)])
+    image = np.concatenate([*entries, everything])
+    # Generated in rising image order within each cell: a stable sort by cell keeps it.
+    order = np.argsort(cell, kind="stable")
+    counts = np.bincount(cell, minlength=size.cells + 1)
+    header = size.cells + 2
+    starts = header + np.concatenate([[0], np.cumsum(counts)])
+    return np.concatenate([starts, image[order]]).astype(np.int32)
+
+
+def image_grid(centre: NDArray[np.float64], radius: float, size: GridSize, images: int) -> NDArray[np.void]:
+    """The ImageGrid record the shader reads the lists by."""
+    grid = np.zeros(1, IMAGE_GRID_DTYPE)
+    grid["sphere"] = (*centre, radius)
+    grid["size"] = (size.directions, size.offsets, size.cells, images)
+    return grid
+
+
+def cells_table(spheres: NDArray[np.float64], centre: NDArray[np.float64], radius: float) -> bytes:
+    """The grid record and the lists, as the table holds them past its records, for rays from a
+    mirror of bounding sphere (`centre`, `radius`). The sphere is grown by ORIGIN_MARGIN: a
+    reflected ray starts on the mirror's surface, at the sphere's radius where the mirror is a
+    sphere, and the shader's float32 test would put half of those origins outside (where they
+    read the list of every image: slower, not wrong)."""
+    size = grid_size(len(spheres))
+    grown = radius * (1.0 + ORIGIN_MARGIN)
+    return (image_grid(centre, grown, size, len(spheres)).tobytes()
+            + image_cells(spheres, centre, grown, size).tobytes())
+
+
+def _face_lists(spheres: NDArray[np.float64], centre: NDArray[np.float64], radius: float, size: GridSize,
+                face: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """(cell, image) of every listing on one cube face, in rising image order."""
+    axis, first, second = FACE_AXES[face // 2]
+    sign = -1.0 if face % 2 else 1.0
+    reach = max(radius, 1e-12) * (1.0 + MARGIN)  # rays start at depth >= -R
+    extent = 2.0 * reach  # |q1|, |q2| <= 2R
+    offset = spheres[:, :3] - centre
+    scale = np.linalg.norm(offset, axis=1) + spheres[:, 3] + reach
+    r = spheres[:, 3] + MARGIN * scale
+    depth = sign * offset[:, axis]
+    near, far = np.maximum(depth - r, -reach), depth + r
+    kept = far >= -reach
+
+    def q_ranges(along: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Per sphere and per direction cell of one axis: the first and last offset cell listing it."""
+        edges = np.linspace(-1.0, 1.0, size.directions + 1)
+        lower, upper = edges[:-1] - MARGIN, edges[1:] + MARGIN
+        corners = np.stack([near[:, None] * lower, near[:, None] * upper, far[:, None] * lower, far[:, None] * upper])
+        q_low = (along - r)[:, None] - corners.max(axis=0)
+        q_high = (along + r)[:, None] - corners.min(axis=0)
+        cell = size.offsets / (2.0 * extent)
+        first_cell = np.floor((q_low + extent) * cell - MARGIN).astype(np.int64)
+        last_cell = np.floor((q_high + extent) * cell + MARGIN).astype(np.int64)
+        return np.maximum(first_cell, 0), np.minimum(last_cell, size.offsets - 1)
+
+    low1, high1 = q_ranges(offset[:, first])
+    low2, high2 = q_ranges(offset[:, second])
+    count1 = np.where(kept[:, None], np.maximum(high1 - low1 + 1, 0), 0)  # (n, directions)
+    count2 = np.where(kept[:, None], np.maximum(high2 - low2 + 1, 0), 0)
+    # Rows of (image, u cell, q1 cell) and of (image, v cell, q2 cell), image-major ...
+    image1, u_cell, q1 = _rows(count1, low1)
+    image2, v_cell, q2 = _rows(count2, low2)
+    # ... and every row of one paired with every row of the other for the same image.
+    per_image2 = np.bincount(image2, minlength=len(spheres))
+    start2 = np.concatenate([[0], np.cumsum(per_image2)[:-1]])
+    repeats = per_image2[image1]
+    pair1 = np.repeat(np.arange(len(image1)), repeats)
+    pair2 = start2[image1[pair1]] + np.arange(len(pair1)) - np.repeat(np.cumsum(repeats) - repeats, repeats)
+    d, o = size.directions, size.offsets
+    cell = (((face * d + u_cell[pair1]) * d + v_cell[pair2]) * o + q1[pair1]) * o + q2[pair2]
+    return cell, image1[pair1]
+
+
+def _rows(counts: NDArray[np.int64], lows: NDArray[np.int64]) -> tuple[NDArray[np.int64], ...]:
+    """(image, direction cell, offset cell) of every listed range of `counts` ((n, directions),
+    starting at `lows`), image-major."""
+    flat = counts.ravel()
+    owner = np.repeat(np.arange(flat.size), flat)
+    within = np.arange(owner.size) - np.repeat(np.cumsum(flat) - flat, flat)
+    image, direction_cell = np.divmod(owner, counts.shape[1])
+    return image, direction_cell, lows.ravel()[owner] + within
+
+
+def ray_cells(origins: NDArray[np.float64], directions: NDArray[np.float64], centre: NDArray[np.float64],
+              radius: float, size: GridSize) -> NDArray[np.int64]:
+    """The cell whose list each ray reads (lib/reflected_scene.glsl's image_cell, in numpy): the
+    fallback cell `size.cells` for a ray that does not start within the sphere."""
+    magnitudes = np.abs(directions)
+    axis = np.argmax(magnitudes, axis=1)
+    cells = np.full(len(origins), size.cells, np.int64)
+    for face_axis, (a, first, second) in enumerate(FACE_AXES):
+        rows = axis == face_axis
+        d, p = directions[rows], origins[rows] - centre
+        sign = np.where(d[:, a] >= 0.0, 1.0, -1.0)
+        along = sign * d[:, a]
+        u, v = d[:, first] / along, d[:, second] / along
+        depth = sign * p[:, a]
+        q1, q2 = p[:, first] - depth * u, p[:, second] - depth * v
+        extent = 2.0 * radius
+        inside = ((radius > 0.0) & (np.einsum("ij,ij->i", p, p) <= radius * radius)
+                  & (np.abs(q1) <= extent) & (np.abs(q2) <= extent))
+        extent = max(extent, 1e-300)  # (a zero sphere: every ray is outside it)
+
+        def index(x: NDArray[np.float64], low: float, cells: int) -> NDArray[np.int64]:
+            return np.clip(np.floor((x - low) / (-2.0 * low) * cells), 0, cells - 1).astype(np.int64)
+
+        dc, oc = size.directions, size.offsets
+        face = 2 * face_axis + (sign < 0.0)
+        cell = (((face * dc + index(u, -1.0, dc)) * dc + index(v, -1.0, dc)) * oc + index(q1, -extent, oc)) * oc \
+            + index(q2, -extent, oc)
+        cells[np.flatnonzero(rows)] = np.where(inside, cell, size.cells)
+    return cells
