@@ -77,15 +77,16 @@ def image_cells(spheres: NDArray[np.float64], centre: NDArray[np.float64], radiu
         face_cells, face_images = _face_lists(spheres, centre, radius, size, face)
         cells.append(face_cells)
         entries.append(face_images)
+    count = max(len(spheres), 1)
     everything = np.arange(len(spheres))
     cell = np.concatenate([*cells, np.full(len(spheres), size.cells)])
-    image = np.concatenate([*entries, everything])
-    # Generated in rising image order within each cell: a stable sort by cell keeps it.
-    order = np.argsort(cell, kind="stable")
-    counts = np.bincount(cell, minlength=size.cells + 1)
+    # Sorted by cell, then image (the lists' rising order), as one key: sorting the keys is several
+    # times quicker than a stable argsort of the cells.
+    keys = np.sort(cell * count + np.concatenate([*entries, everything]))
+    counts = np.bincount(keys // count, minlength=size.cells + 1)
     header = size.cells + 2
     starts = header + np.concatenate([[0], np.cumsum(counts)])
-    return np.concatenate([starts, image[order]]).astype(np.int32)
+    return np.concatenate([starts, keys % count]).astype(np.int32)
 
 
 def image_grid(centre: NDArray[np.float64], radius: float, size: GridSize, images: int) -> NDArray[np.void]:
