@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .constants import (
-    depth_image_capacity, DEPTH_IMAGE_DTYPE, MAX_ANALYTIC_PLANES, MAX_LIGHTS, HIERARCHICAL_MIN_SIDE, Algorithm, Method,
-    image_algorithm,
+    depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MAX_ANALYTIC_PLANES, MAX_BOUNCES, MAX_LIGHTS,
+    MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, HIERARCHICAL_MIN_SIDE, Algorithm, Method, image_algorithm, lists_images,
 )
 from .culling import Reach
 from .geometry import ObjectGeometry
@@ -150,6 +150,8 @@ class RenderPlan:
     mesh_planes: tuple[str, ...] = ()
     # Each object's name, and how messages name it (Scene.object_label).
     objects: tuple[PlannedObject, ...] = ()
+    # What the scene uses of each limit that remains, in memory and GL terms (plan_limits).
+    limits: tuple[str, ...] = ()
 
     def planes_lines(self) -> list[str]:
         """Which diffuse planes are intersected exactly and which are drawn as meshes (none where
@@ -210,6 +212,7 @@ class RenderPlan:
             "samples": self.samples,
             "planes": {"analytic": list(self.analytic_planes), "meshes": list(self.mesh_planes)},
             "objects": [{"name": o.name, "label": o.label} for o in self.objects],
+            "limits": list(self.limits),
         }
 
     def format(self) -> str:
@@ -238,6 +241,8 @@ class RenderPlan:
                          "second) and made again for the next bake")
         if self.textures:
             lines.append(f"  {self.textures}")
+        lines.append("limits (what this scene uses of each; scene/limits.py says why each exists):")
+        lines += [f"  {line}" for line in self.limits]
         return "\n".join(lines)
 
 
@@ -428,7 +433,45 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                       scene.render.samples, texture_layout(scene).summary() if scene.textures else "",
                       tuple(o.name for o in scene.analytic_planes), tuple(o.name for o in scene.mesh_planes),
                       tuple(PlannedObject(obj.name, scene.object_label(i), obj.origin is not None)
-                            for i, obj in enumerate(scene.objects)))
+                            for i, obj in enumerate(scene.objects)),
+                      plan_limits(scene, method, image_plans, memory, reflected))
+
+
+def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImagePlan]], memory: dict[str, int],
+                reflected: list[ObjectGeometry]) -> tuple[str, ...]:
+    """One line per limit the scene meets (scene/limits.py's table): what it uses of a fixed cap,
+    or, where none is left, which memory or GL figure bounds it and where that is checked."""
+    render, spec = scene.render, METHODS[method]
+    lines = [f"lights: {len(scene.lights)} of {MAX_LIGHTS} (a uniform array)",
+             f"planes intersected exactly: {len(scene.analytic_planes)} of {MAX_ANALYTIC_PLANES} "
+             "(the largest; any others are drawn as meshes)",
+             f"render.max_bounces: {render.max_bounces} of {MAX_BOUNCES}"]
+    capacity = depth_image_capacity(len(scene.objects))
+    if issubclass(spec.stand_in, BakedImages) and image_plans:
+        most = max(len(plans) for plans in image_plans.values())
+        if capacity <= DEPTH_IMAGE_BLOCK_RECORDS:
+            table = f"up to {DEPTH_IMAGE_BLOCK_RECORDS} records in a uniform block (GL 3.3), past it a storage buffer (GL 4.3)"
+        else:
+            found = (", the images found through lists of candidates by ray (made at render, not in the memory above)"
+                     if lists_images(capacity) else "")
+            table = f"a storage buffer of {capacity} records (GL 4.3){found}"
+        lines.append(f"{spec.stand_in.image_noun}s of one mirror: {most} (any number: {table})")
+        images = memory.get(spec.stand_in.image_noun + "s", 0) + memory.get(BAKE_DEPTH_BUFFER, 0)
+        lines.append(f"{spec.stand_in.image_noun}s' memory: {images / 2**20:.2f} MiB of render.image_memory = "
+                     f"{render.image_memory} MiB (past it every image is made smaller)")
+    if "BVH" in memory:
+        rows = -(-memory["BVH"] // (16 * BVH_TEXTURE_WIDTH))
+        lines.append(f"traced objects: {len(reflected)} (any number: a two-level BVH of about {rows} float-texture rows of "
+                     f"{BVH_TEXTURE_WIDTH} texels, at most GL_MAX_TEXTURE_SIZE rows, checked at render)")
+    if spec.names_triangles:
+        triangles = sum(len(g.local_mesh.indices) for g in reflected)
+        lines.append(f"reflected triangles: {triangles} of {MAX_NAMED_TRIANGLES} (a float32 depth-image sample names one)")
+    if scene.textures:
+        lines.append(f"image textures: {len(scene.textures)} (any number: in texture arrays, within GL_MAX_TEXTURE_SIZE, "
+                     "GL_MAX_ARRAY_TEXTURE_LAYERS and GL_MAX_UNIFORM_BLOCK_SIZE, checked at render)")
+    lines.append(f"memory: {sum(memory.values()) / 2**20:.2f} MiB, against the driver's or --max-memory's budget "
+                 "(checked at render)")
+    return tuple(lines)
 
 
 def frame_surface(method: Method, reflectors: bool) -> bool:

@@ -291,3 +291,22 @@ def test_the_traced_methods_take_more_objects_than_a_uniform_block(ctx: moderngl
     late = truth > 64  # the objects past what the uniform block held
     assert late.sum() > 150 and (seen[late] == truth[late]).mean() > 0.99
     assert comparison.figures.wrong_object_share < 0.001
+
+
+def test_the_plan_states_each_limit_the_scene_meets() -> None:
+    """`plan` says, per limit, what the scene uses of it and which memory or GL figure bounds it:
+    a few objects fit the uniform block; a hundred are in a storage buffer, found through lists;
+    the hybrid method's named triangles against their cap."""
+    few, many = plan_render(many_balls(10)), plan_render(many_balls(100), Method.HYBRID)
+    for plan in (few, many):
+        assert "limits (what this scene uses of each" in plan.format()
+        assert plan.limits[0] == "lights: 1 of 8 (a uniform array)"
+        assert any(line.startswith("depth images' memory: ") and "of render.image_memory = 1024 MiB" in line
+                   for line in plan.limits)
+        assert plan.to_json()["limits"] == list(plan.limits)
+    assert "depth images of one mirror: 10 (any number: up to 64 records in a uniform block (GL 3.3)" in few.format()
+    assert ("depth images of one mirror: 100 (any number: a storage buffer of 128 records (GL 4.3), the images found "
+            "through lists of candidates by ray") in many.format()
+    triangles = sum(len(g.local_mesh.indices) for g in World(many_balls(100)).reflected_objects)
+    assert f"reflected triangles: {triangles} of {constants.MAX_NAMED_TRIANGLES}" in many.format()
+    assert not any("reflected triangles" in line for line in few.limits)
