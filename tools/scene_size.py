@@ -141,6 +141,28 @@ def images_per_ray(renderer: Renderer) -> float:
     return total / max(rays, 1)
 
 
+def interleaved_mirror_pass(ctx: object, counts: list[int], method: Method, size: tuple[int, int], resolution: int,
+                            rounds: int) -> dict[int, float]:
+    """The mirror pass's median (ms) per count, with one renderer per count alive at once and each
+    round drawing every count in turn: on a machine whose load drifts (other jobs on shared cores),
+    the drift falls on every count alike, which one count after another does not give."""
+    renderers = []
+    try:
+        for count in counts:
+            scene = family_scene(count).with_overrides(size=size, impostor_resolution=resolution)
+            renderer = Renderer(ctx, scene, method=method, time_mirror_pass=True)  # type: ignore[arg-type]
+            renderer.render()  # bakes, compiles: not timed
+            renderers.append(renderer)
+        for _ in range(rounds):
+            for renderer in renderers:
+                renderer.render()
+        return {count: 1000.0 * float(np.median(renderer.stats.mirror_seconds[1:]))
+                for count, renderer in zip(counts, renderers, strict=True)}
+    finally:
+        for renderer in renderers:
+            renderer.release()
+
+
 def exponent(counts: list[int], values: list[float]) -> float:
     """k of the least-squares fit values = a * counts^k (log-log)."""
     return float(np.polyfit(np.log(counts), np.log(values), 1)[0])
@@ -154,6 +176,9 @@ def main() -> int:
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--frames", type=int, default=5)
     parser.add_argument("-o", "--output", type=Path, default=None)
+    parser.add_argument("--interleaved", type=int, default=0, metavar="ROUNDS",
+                        help="also time the depth method's mirror pass from 10 objects up with every count's renderer "
+                             "alive and ROUNDS rounds rotating across them (the figure the exponent is fitted to)")
     args = parser.parse_args()
     counts = [int(c) for c in args.counts.split(",")]
     methods = tuple(METHODS) if args.methods == "all" else tuple(Method.from_option(m) for m in args.methods.split(","))
@@ -183,7 +208,12 @@ def main() -> int:
                   f"{row.mirror_pass_ms_median:8.1f} ms  bake {row.bake_ms_median:8.1f} ms  {row.memory_mib:7.1f} MiB  "
                   f"images/ray {visits:5.2f}  wrong object {row.wrong_object_percent:5.2f} %  wrong surface "
                   f"{row.wrong_surface_percent:5.2f} %  RMSE {row.color_rmse:.4f}", flush=True)
-    report = _report(ctx, settings, counts, rows)
+    interleaved: dict[int, float] = {}
+    if args.interleaved:
+        interleaved = interleaved_mirror_pass(ctx, [c for c in counts if c >= 10], Method.DEPTH, (width, height),
+                                              args.resolution, args.interleaved)
+        print("interleaved depth mirror pass (ms):", {c: round(v, 1) for c, v in interleaved.items()}, flush=True)
+    report = _report(ctx, settings, counts, rows, interleaved)
     print(report)
     if args.output is not None:
         args.output.mkdir(parents=True, exist_ok=True)
@@ -192,7 +222,8 @@ def main() -> int:
     return 0
 
 
-def _report(ctx: object, settings: BenchSettings, counts: list[int], rows: list[tuple[int, BenchRow | str, float]]) -> str:
+def _report(ctx: object, settings: BenchSettings, counts: list[int], rows: list[tuple[int, BenchRow | str, float]],
+            interleaved: dict[int, float]) -> str:
     lines = ["# Scene size: 1 to 1,000 reflected objects around two mirrors (tools/scene_size.py)", ""]
     lines += [f"{line}  " for line in machine_lines(ctx, settings, [family_scene(1)])]  # type: ignore[arg-type]
     lines += ["", "| objects | method | frame ms | mirror pass ms | bake ms | memory MiB | images / ray | wrong object % | "
@@ -210,6 +241,13 @@ def _report(ctx: object, settings: BenchSettings, counts: list[int], rows: list[
         k = exponent(ks, [depth[c].mirror_pass_ms_median for c in ks])
         lines += ["", f"The depth method's mirror pass grows as objects^{k:.2f} from {ks[0]} to {ks[-1]} objects "
                   "(least squares in log-log)."]
+    if len(interleaved) >= 2:
+        ks = sorted(interleaved)
+        k = exponent(ks, [interleaved[c] for c in ks])
+        figures = ", ".join(f"{c}: {interleaved[c]:.1f} ms" for c in ks)
+        lines += ["", f"Interleaved (every count's renderer alive, rounds rotating across counts, so that a drift in "
+                  f"the machine's load falls on all alike): the depth method's mirror pass {figures}; "
+                  f"objects^{k:.2f} from {ks[0]} to {ks[-1]}."]
     return "\n".join(lines) + "\n"
 
 
