@@ -1,39 +1,56 @@
 """The frame as a graph of passes: the plan's passes (plan.py) in the order a frame runs them, each
-with the named resources it reads and writes. Built from the plan, checked (every resource read has
-been written by an earlier pass, or is the frame's own cleared target), printed by
-`depthimpostor plan`, and run node by node by the renderer (renderer.py's `_run`), so that what
-runs is what the plan says. This is not a scheduler: about eight nodes in a fixed order.
+with the named resources it reads and writes, as its node class declares them (node.py). Built
+from the plan, checked (every resource read has been written by an earlier pass, or is the frame's
+own cleared target), printed by `depthimpostor plan`, and run node by node by the render graph
+(render_graph.py), so that what runs is what the plan says. This is not a scheduler: about ten
+nodes in a fixed order, the order of `NODES`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from enum import Enum
+from dataclasses import dataclass, replace
 
 from .gpu.shaders import ProgramKey
+from .methods.bounces import BouncesNode
+from .methods.colour_mips import ColourMipsNode
+from .methods.pyramid import PyramidsNode
+from .methods.seen_from_eye import EyeImagesNode
+from .methods.stand_in import StandInNode
+from .node import FRAME, GraphFacts, Node, Pass
+from .passes.diffuse import DiffuseNode
+from .passes.environment import EnvironmentNode
+from .passes.glass import GlassInteriorsNode
+from .passes.reflectors import ReflectorsNode
+from .passes.shadows import ShadowMapsNode
+
+__all__ = ["FRAME", "NODES", "GraphError", "Pass", "RenderNode", "build_graph", "check_graph", "format_graph",
+           "in_order", "node_class"]
+
+#: Every node class, in the order a frame runs them: the bakes, then the eye's passes.
+NODES: tuple[type[Node], ...] = (
+    ShadowMapsNode,  # before anything that shades: the baked images show shadows too
+    StandInNode,
+    BouncesNode,
+    PyramidsNode,
+    ColourMipsNode,
+    EnvironmentNode,
+    DiffuseNode,
+    EyeImagesNode,
+    GlassInteriorsNode,
+    ReflectorsNode,
+)
+
+_BY_STAGE: dict[Pass, type[Node]] = {node.stage: node for node in NODES}
 
 
-class Pass(Enum):
-    """The render passes, in the order a frame runs them; the value names them in plans and stats."""
-
-    SHADOW_MAPS = "shadow maps"
-    STAND_IN = "reflected objects"  # the method's bake: depth images, cube maps, billboards, triangles
-    BOUNCES = "reflections of reflections"
-    PYRAMIDS = "depth pyramids"
-    COLOUR_MIPS = "colour mips"  # the baked images' prefiltered colours: a glossy mirror's cone reads them
-    ENVIRONMENT = "environment"
-    DIFFUSE = "diffuse objects"
-    EYE_IMAGES = "images seen from the eye"  # planar reflections' renders, SSR's frame copy (methods/seen_from_eye.py)
-    GLASS_INTERIORS = "glass interiors"
-    REFLECTORS = "mirrors and glass"
+def node_class(stage: Pass) -> type[Node]:
+    return _BY_STAGE[stage]
 
 
-#: What every frame starts with: its colour and depth targets, cleared.
-FRAME = ("frame colour", "frame depth")
-
-#: The passes that bake (they run only for what is stale) and the eye's passes (every frame).
-BAKES = (Pass.SHADOW_MAPS, Pass.STAND_IN, Pass.BOUNCES, Pass.PYRAMIDS, Pass.COLOUR_MIPS)
+def in_order(stage: Pass) -> int:
+    """Where `stage` runs in a frame (a sort key)."""
+    return NODES.index(_BY_STAGE[stage])
 
 
 @dataclass(frozen=True)
@@ -54,39 +71,16 @@ def build_graph(stages: Sequence[tuple[Pass, str]], programs: Mapping[Pass, tupl
                 stand_in: tuple[str, ...], reads_pyramids: bool,
                 eye_images: tuple[tuple[str, ...], bool] = ((), False)) -> tuple[RenderNode, ...]:
     """The planned passes (`stages`: each with the plan's reason) as nodes, each with its
-    `programs` (the plan's shader variants, by the pass that runs them). `stand_in`: what the
-    method's stand-in makes for the reflectors to read ("baked images", "BVH", or what its
-    eye-images node makes: "planar images", "frame copy"); `reads_pyramids`: the reflectors'
-    variant marches with the hierarchical traversal; `eye_images`: what the eye-images node reads
-    (the shadow maps where it shades), and whether the frame's diffuse pass writes the eye's surface for it
-    (SSR). GraphError where a pass would read what nothing wrote."""
-    planned = {stage for stage, _ in stages}
-    shadows = ("shadow maps",) if Pass.SHADOW_MAPS in planned else ()
-    pyramids = ("depth pyramids",) if reads_pyramids else ()
-    bounces = ("bounce images",) if Pass.BOUNCES in planned else ()
-    colour_mips = ("colour mips",) if Pass.COLOUR_MIPS in planned else ()
-    interiors = ("glass interiors",) if Pass.GLASS_INTERIORS in planned else ()
+    `programs` (the plan's shader variants, by the pass that runs them) and the reads and writes its
+    node class declares for these facts (node.py's GraphFacts: `stand_in`, `reads_pyramids`, and
+    `eye_images`: what the eye-images node reads, and whether the frame's diffuse pass writes the
+    eye's surface for it). GraphError where a pass would read what nothing wrote."""
     eye_reads, eye_surface = eye_images
-    surface = ("eye surface",) if eye_surface else ()
-    # Made in the frame (planar renders, the frame copy): by the eye-images node, not the bake's.
-    made_in_frame = stand_in if Pass.EYE_IMAGES in planned else ()
-    baked = tuple(name for name in stand_in if name not in made_in_frame)
-    io: dict[Pass, tuple[tuple[str, ...], tuple[str, ...]]] = {
-        Pass.SHADOW_MAPS: ((), ("shadow maps",)),
-        # Baked images are shaded, shadows included; a BVH is triangles alone.
-        Pass.STAND_IN: (shadows if "baked images" in stand_in else (), baked),
-        Pass.BOUNCES: (("baked images", *shadows), bounces),
-        Pass.PYRAMIDS: (("baked images", *bounces), ("depth pyramids",)),
-        Pass.COLOUR_MIPS: (("baked images", *bounces), ("colour mips",)),
-        Pass.ENVIRONMENT: (("frame colour",), ("frame colour",)),
-        Pass.DIFFUSE: (("frame colour", "frame depth", *shadows), ("frame colour", "frame depth", *surface)),
-        Pass.EYE_IMAGES: (eye_reads, made_in_frame),
-        Pass.GLASS_INTERIORS: ((), interiors),
-        Pass.REFLECTORS: (("frame colour", "frame depth", *stand_in, *surface, *pyramids, *colour_mips, *bounces,
-                           *interiors, *shadows),
-                          ("frame colour", "frame depth")),
-    }
-    nodes = tuple(RenderNode(stage, *io[stage], why, programs.get(stage, ())) for stage, why in stages)
+    facts = GraphFacts(frozenset(stage for stage, _ in stages), stand_in, reads_pyramids, eye_reads, eye_surface)
+    writes = {stage: _BY_STAGE[stage].writes(facts) for stage, _ in stages}
+    facts = replace(facts, written=frozenset(name for names in writes.values() for name in names))
+    nodes = tuple(RenderNode(stage, _BY_STAGE[stage].reads(facts), writes[stage], why, programs.get(stage, ()))
+                  for stage, why in stages)
     check_graph(nodes)
     return nodes
 

@@ -52,23 +52,8 @@ from .gpu.uniforms import environment_defines
 from .scene.limits import check_method, check_model_reach, check_model_uvs, check_scene
 from .scene.model import MeshShape, Scene
 from .gpu.shaders import ProgramKey, program_key
-from .graph import Pass, RenderNode, build_graph, format_graph
+from .graph import Pass, RenderNode, build_graph, format_graph, in_order, node_class
 from .world import World
-
-#: When each pass runs: the passes that bake run again only for what moved.
-WHEN: dict[Pass, str] = {
-    Pass.SHADOW_MAPS: "once; a light's map again when it or a caster moves",
-    Pass.STAND_IN: "once; an image again when its reflector, its object or a light shading it moves",
-    Pass.BOUNCES: "once; again when an image it shows is re-baked",
-    Pass.PYRAMIDS: "after each bake",
-    Pass.COLOUR_MIPS: "after each bake",
-    Pass.ENVIRONMENT: "every frame",
-    Pass.DIFFUSE: "every frame",
-    Pass.EYE_IMAGES: "every frame (they depend on the eye, to the sub-pixel)",
-    Pass.GLASS_INTERIORS: "once; a glass's again when the eye or the glass moves",
-    Pass.REFLECTORS: "every frame",
-}
-
 
 @dataclass(frozen=True)
 class PlannedPass:
@@ -77,7 +62,8 @@ class PlannedPass:
 
     @property
     def when(self) -> str:
-        return WHEN[self.stage]
+        """When its node runs (the bakes run again only for what moved)."""
+        return node_class(self.stage).when
 
 
 @dataclass(frozen=True)
@@ -421,7 +407,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                     f"glass (GLASS), {method.option} method, deferred")
     memory = plan_memory(scene, method, algorithm, geometry, images, True in shown_in_bounces, reflection_data,
                          count_samples)
-    ordered = tuple(sorted(passes, key=lambda p: list(Pass).index(p.stage)))
+    ordered = tuple(sorted(passes, key=lambda p: in_order(p.stage)))
     programs = {stage: tuple(key for key, (_, of) in variants.items() if of is stage) for stage in Pass}
     eye = METHODS[method].seen_from_eye
     eye_reads = (() if eye is None else eye.reads) + (("shadow maps",) if eye is not None and eye.shades

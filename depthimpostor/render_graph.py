@@ -1,6 +1,8 @@
-"""The plan's render graph, made executable: the GL side of each node of `plan.graph` (graph.py),
-built from the plan and the world, run node by node each frame (the bakes only for what is stale),
-kept up to date as the world moves, and changed, not rebuilt, when a setting changes.
+"""The plan's render graph, made executable: the GL objects the nodes of `plan.graph` (graph.py)
+run, built from the plan and the world, and the nodes themselves (node.py: one class per pass, in
+its pass's module), run in order each frame (the bakes only for what is stale) and told when the
+world moves; changed, not rebuilt, when a setting changes. The GL objects belong to the graph, not
+to a node: the stand-in is baked by one node and read by six.
 
 A setting change (renderer.py's setters) makes a new plan; `apply` compares it with the one the
 graph was built from and rebuilds only the nodes whose part of the plan differs: another method's
@@ -15,9 +17,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 import moderngl
-import numpy as np
 
-from .culling import may_shadow
 from .eye import clear_depth, eye_depth
 from .gpu.context import bind_default_framebuffer
 from .gpu.batches import batches_supported
@@ -25,12 +25,13 @@ from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
 from .gpu.shaders import ProgramCache
 from .gpu.textures import GpuTextures
-from .graph import BAKES, Pass
+from .graph import Pass, node_class
 from .methods.baked_images import BakedImages
 from .methods.impostors import ImpostorPass
 from .methods.registry import METHODS
 from .methods.seen_from_eye import SeenFromEye
 from .methods.triangles import TrianglePass
+from .node import Frame, Node
 from .passes.diffuse import DiffusePass
 from .passes.environment import EnvironmentPass
 from .passes.glass import GlassInterior
@@ -86,6 +87,7 @@ class RenderGraph:
         self.tint_retraced = False  # the hybrid method's re-traced rays tinted (the viewer's T)
         self.diffuse: DiffusePass | None = None
         self._diffuse_key: tuple[bool, bool] | None = None  # what the diffuse pass was made for
+        self.nodes: tuple[Node, ...] = ()
         self.build()
 
     def _compile(self) -> None:
@@ -115,7 +117,12 @@ class RenderGraph:
             self.reflector_pass = self._reflector_pass()
             if self.show_samples and self.sampled is not None:
                 self.samples = SamplesPass(ctx, self.programs)
-        self._baked = False
+        self.stand_in_baked = False
+        self._make_nodes()
+
+    def _make_nodes(self) -> None:
+        """The plan's nodes, in its order, each bound to this graph."""
+        self.nodes = tuple(node_class(planned.stage)(self) for planned in self.plan.graph)
 
     def _diffuse_pass(self) -> DiffusePass | None:
         """The frame's diffuse objects: with the eye's surface beside the colour where SSR reads it.
@@ -153,6 +160,21 @@ class RenderGraph:
         """The triangles traced, when the method is `simplified` or `raytrace`."""
         return self.stand_in if isinstance(self.stand_in, TrianglePass) else None
 
+    @property
+    def seen_from_eye(self) -> SeenFromEye | None:
+        """The stand-in made in the frame from the eye (planar, SSR)."""
+        return self.stand_in if isinstance(self.stand_in, SeenFromEye) else None
+
+    def stand_in_stale(self) -> bool:
+        """Has the stand-in anything to bake (the bounce images, pyramids and colour mips follow it)?"""
+        baked = self.baked_images
+        return baked.needs_bake if baked is not None else not self.stand_in_baked
+
+    def count_images(self, new: Counter[str]) -> None:
+        """Images baked (by label) into the stats."""
+        self.stats.images_baked += new
+        self.stats.depth_images_baked += sum(new.values())
+
     def _make_stand_in(self, plan: RenderPlan) -> None:
         """The method's stand-in for the reflected objects; the old one (if any) is released only
         once the new one exists, so that a failure leaves the graph as it was."""
@@ -175,7 +197,7 @@ class RenderGraph:
         if self.stand_in is not None:  # ... before the old one goes
             self.stand_in.release()
         self.stand_in = stand_in
-        self._baked = False
+        self.stand_in_baked = False
 
     def _keep_pyramids(self, plan: RenderPlan, stand_in: ReflectedObjects | None = None) -> None:
         """Depth pyramids and colour mips exist exactly while the plan builds them (on `stand_in`,
@@ -224,6 +246,7 @@ class RenderGraph:
         self.diffuse = self._diffuse_pass()
         if self.reflector_pass is not None:
             self.reflector_pass = self._reflector_pass()
+        self._make_nodes()
         _release_other(kept_interiors, interiors)  # once no pass reads them
         if self.sampled is None:
             self.show_samples = False
@@ -246,37 +269,13 @@ class RenderGraph:
         return made
 
     def follow(self, earlier: World, world: World) -> None:
-        """The world moved from `earlier` to `world`: mark stale only what depends on what moved
-        (a shadow map when its light or a caster moved; an image when its reflector or object
-        moved, when a light moved, or when a caster moved whose shadow may fall on its object)."""
+        """The world moved from `earlier` to `world`: each node marks stale only what depends on
+        what moved (a shadow map when its light or a caster moved; an image when its reflector or
+        object moved, when a light moved, or when a caster moved whose shadow may fall on its object)."""
         self.world = world
-        moved, moved_lights = world.moved(earlier), world.moved_lights(earlier)
         self.scene_blocks.write(world.lit_scene, world.analytic_planes)
-        moved_casters = [g for g in world.shadow_casters if g.index in moved]
-        shadowed = set(world.lit_scene.shadowed_lights)
-        if self.shadow_maps is not None:
-            self.shadow_maps.move(world.lit_scene, world.shadow_casters,
-                                  (moved_lights | (shadowed if moved_casters else set())) & shadowed)
-        if self.stand_in is None or not (moved or moved_lights):
-            return
-        if isinstance(self.stand_in, SeenFromEye):  # made every frame from where everything is
-            return
-        baked = self.baked_images
-        if baked is None:  # the triangle methods' BVH: its instances moved, its meshes' hierarchies kept
-            triangles = self.triangles
-            if triangles is not None and any(g.index in moved for g in world.reflected_objects):
-                triangles.move({g.index: g for g in world.geometry})
-            return
-        lights, before = world.lit_scene.lights, {g.index: g for g in earlier.geometry}
-        relit = {g.index for g in world.reflected_objects} if moved_lights else set()
-        shadows = {
-            receiver.index for receiver in world.reflected_objects for light in shadowed
-            for caster in moved_casters if receiver is not caster
-            for sphere in (before[caster.index].bounding_sphere, caster.bounding_sphere)
-            if may_shadow(np.asarray(lights[light].position, float), lights[light].radius, sphere,
-                          receiver.bounding_sphere)
-        }
-        baked.move({g.index: g for g in world.geometry}, moved, relit | shadows)
+        for node in self.nodes:
+            node.follow(earlier, world)
 
     def rebuild(self, plan: RenderPlan, world: World) -> None:
         """Every node made again for another scene (the same context, meshes and textures)."""
@@ -297,7 +296,7 @@ class RenderGraph:
             self.baked_images.rest()
 
     def bake_again(self) -> None:
-        self._baked = False
+        self.stand_in_baked = False
         if self.baked_images is not None:
             self.baked_images.bake_again()
 
@@ -308,18 +307,18 @@ class RenderGraph:
         timed apart from the eye's passes. Times are wall-clock around `ctx.finish()`: GPU time
         queries under-report on software rasterizers, and a finish makes the time include all the
         work the frame queued."""
-        stats, graph = self.stats, self.plan.graph
+        stats, frame = self.stats, Frame(camera, unjittered, targets)
         self.environment.use()  # an equirect sky's image: bakes see it too
         self.textures.use(self.world.scene)  # the image textures: baked images show them too
         self.scene_blocks.bind()  # the lights and planes: bakes shade with them too
         if self.shadow_maps is not None:  # bound for every pass that shades, bakes included
             self.shadow_maps.use()
-        bakes = [node.stage for node in graph if node.stage in BAKES and self._stale(node.stage)]
+        bakes = [node for node in self.nodes if node.bakes and node.stale()]  # all asked before any runs
         if bakes:
             self.ctx.finish()
             start = time.perf_counter()
-            for stage in bakes:
-                self._run_bake(stage)
+            for node in bakes:
+                self._run(node, frame)
             self.ctx.finish()
             stats.bake_seconds.append(time.perf_counter() - start)
 
@@ -330,15 +329,13 @@ class RenderGraph:
         targets.color_framebuffer.use()
         mirror_start: float | None = None  # when the mirror pass began, where it is timed apart
         with eye_depth(self.ctx):
-            for node in graph:
-                if node.stage in BAKES:
+            for node in self.nodes:
+                if node.bakes:
                     continue
-                if node.stage in (Pass.EYE_IMAGES, Pass.GLASS_INTERIORS, Pass.REFLECTORS) \
-                        and self.options.time_mirror_pass \
-                        and mirror_start is None:
+                if node.mirror_time and self.options.time_mirror_pass and mirror_start is None:
                     self.ctx.finish()
                     mirror_start = time.perf_counter()
-                self._run_eye_pass(node.stage, camera, unjittered, targets)
+                self._run(node, frame)
         self.ctx.finish()
         end = time.perf_counter()
         stats.draw_seconds.append(end - start)
@@ -347,94 +344,10 @@ class RenderGraph:
         stats.frames += 1
         stats.sub_frames += 1
 
-    def _stale(self, stage: Pass) -> bool:
-        """Does a baking node have anything to do this frame?"""
-        if stage is Pass.SHADOW_MAPS:
-            return self.shadow_maps is not None and bool(self.shadow_maps.stale)
-        if stage is Pass.STAND_IN:
-            return self.stand_in is not None and self._stand_in_stale()
-        # Bounce images, pyramids and colour mips follow the stand-in's images: stale when any of them is.
-        if stage is Pass.COLOUR_MIPS:
-            return self.baked_images is not None and self._stand_in_stale()
-        return self.impostors is not None and self._stand_in_stale()
-
-    def _stand_in_stale(self) -> bool:
-        baked = self.baked_images
-        return baked.needs_bake if baked is not None else not self._baked
-
-    def _run_bake(self, stage: Pass) -> None:
-        impostors, stats = self.impostors, self.stats
-        if stage is Pass.SHADOW_MAPS and self.shadow_maps is not None:
-            before = self.shadow_maps.bakes
-            stats.draw_calls += self.shadow_maps.bake()
-            stats.shadow_maps_baked += self.shadow_maps.bakes - before
-        elif stage is Pass.STAND_IN and self.stand_in is not None:  # the images show shadows: maps first
-            # The method's stale images but those of reflectors in reflectors (the bounce node's),
-            # or its triangles uploaded.
-            baked = self.baked_images
-            before_counts = baked.bake_counts.copy() if baked is not None else Counter()
-            stats.draw_calls += self.stand_in.bake()
-            if baked is not None:
-                self._count_images(baked.bake_counts - before_counts)
-            self._baked = True
-        elif stage is Pass.BOUNCES and impostors is not None:
-            bounces_before, before_counts = impostors.bounce_bakes, impostors.bake_counts.copy()
-            stats.draw_calls += impostors.bake_bounces()
-            self._count_images(impostors.bake_counts - before_counts)
-            if impostors.bounce_bakes == bounces_before:
-                return
-        elif stage is Pass.PYRAMIDS and impostors is not None and impostors.pyramid is not None:
-            impostors.build_pyramids()
-        elif stage is Pass.COLOUR_MIPS and self.baked_images is not None and self.baked_images.colour_mips is not None:
-            self.baked_images.build_colour_mips()
-        else:
-            return
-        stats.passes[stage.value] += 1
-
-    def _count_images(self, new: Counter[str]) -> None:
-        self.stats.images_baked += new
-        self.stats.depth_images_baked += sum(new.values())
-
-    def _run_eye_pass(self, stage: Pass, camera: PPC, unjittered: PPC, targets: FrameTargets) -> None:
-        """The environment, the diffuse objects (or the samples), glass interiors, the reflectors."""
-        stats, world = self.stats, self.world
-        if stage is Pass.ENVIRONMENT:
-            self.environment.draw(camera)
-        elif stage is Pass.DIFFUSE and self.diffuse is not None:
-            sampled, drawn = self.sampled, world.diffuse_objects
-            if self.show_samples and self.samples is not None and sampled is not None:
-                drawn = world.analytic_planes  # the samples stand for the others
-                stats.draw_calls += self.samples.draw(sampled, camera)
-            if isinstance(self.stand_in, SeenFromEye):  # SSR's: the eye's surface beside the colour
-                self.stand_in.diffuse_framebuffer(targets.color_framebuffer, targets.size).use()
-            stats.draw_calls += self.diffuse.draw(drawn, camera.view_projection)
-            targets.color_framebuffer.use()
-        elif stage is Pass.EYE_IMAGES and isinstance(self.stand_in, SeenFromEye):
-            before = self.stand_in.made
-            stats.draw_calls += self.stand_in.make(camera, world.diffuse_objects, world.reflectors,
-                                                   targets.color_framebuffer)
-            stats.eye_images_made += self.stand_in.made - before
-        elif stage is Pass.GLASS_INTERIORS and self.reflector_pass is not None:
-            before = self._interiors_made()
-            # A glass interior depends on the eye's position and pixel size, not on a sub-pixel
-            # jitter: made from the frame's own camera, so that rounding in the jittered one's
-            # corner does not make it again for every sample.
-            stats.draw_calls += self.reflector_pass.make_interiors(world.reflectors, unjittered)
-            made = self._interiors_made() - before
-            if not made:
-                return
-            stats.interiors_made += made
-        elif stage is Pass.REFLECTORS and self.reflector_pass is not None:
-            if targets.surfaces is None:
-                raise RuntimeError("a frame with reflectors has their surface targets")
-            stats.draw_calls += self.reflector_pass.draw(world.reflectors, camera, targets.framebuffer,
-                                                         targets.surfaces, self.tint_retraced)
-        else:
-            return
-        stats.passes[stage.value] += 1
-
-    def _interiors_made(self) -> int:
-        return sum(interior.bakes for interior in self.glass_interiors.values())
+    def _run(self, node: Node, frame: Frame) -> None:
+        """A node run, and counted in the stats' passes where it did anything."""
+        if node.run(frame):
+            self.stats.passes[node.stage.value] += 1
 
     def release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)

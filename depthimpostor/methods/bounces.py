@@ -26,6 +26,7 @@ from .atlas import DepthImage, ImpostorAtlas, color_mask, mirror_centre
 from .baked_images import BakedImages
 from ..passes.reflectors import REFLECTORS, bounce_defines, reflector_program, reflector_tint, write_glass
 from ..gpu.uniforms import write
+from ..node import Frame, GraphFacts, Node, Pass
 
 
 class BounceBaker:
@@ -109,4 +110,30 @@ class BounceBaker:
             self.interior.release()
 
 
+class BouncesNode(Node):
+    """The graph's bounce node: the depth method's stale images of reflectors in reflectors, after
+    its other images (methods/impostors.py's `bake_bounces`)."""
 
+    stage = Pass.BOUNCES
+    when = "once; again when an image it shows is re-baked"
+    bakes = True
+
+    @staticmethod
+    def reads(facts: GraphFacts) -> tuple[str, ...]:
+        return ("baked images", *facts.made("shadow maps"))
+
+    @staticmethod
+    def writes(facts: GraphFacts) -> tuple[str, ...]:
+        return ("bounce images",)
+
+    def stale(self) -> bool:  # follows the stand-in's images: stale when any of them is
+        return self.graph.impostors is not None and self.graph.stand_in_stale()
+
+    def run(self, frame: Frame) -> bool:
+        impostors, stats = self.graph.impostors, self.graph.stats
+        if impostors is None:
+            return False
+        bounces_before, before_counts = impostors.bounce_bakes, impostors.bake_counts.copy()
+        stats.draw_calls += impostors.bake_bounces()
+        self.graph.count_images(impostors.bake_counts - before_counts)
+        return impostors.bounce_bakes != bounces_before

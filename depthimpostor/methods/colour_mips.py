@@ -21,6 +21,7 @@ from __future__ import annotations
 import moderngl
 
 from ..gpu.bindings import ImageUnit, TextureUnit
+from ..node import Frame, GraphFacts, Node, Pass
 from .pyramid import DepthPyramid
 
 COLOUR_MIPS_PROGRAM = "colour_mips.comp"
@@ -44,3 +45,30 @@ class ColourMips(DepthPyramid):
         """Level 1's source, the atlas's RGBA8 colour, on its own image unit: an image unit's
         format must match the shader's declaration, and the levels above read RGBA16F."""
         source.bind_to_image(ImageUnit.COLOUR_ATLAS, read=True, write=False, level=0, format=_RGBA8)
+
+
+class ColourMipsNode(Node):
+    """The graph's colour-mip node: the baked images' colour mips, built after each bake
+    (methods/baked_images.py's `build_colour_mips`)."""
+
+    stage = Pass.COLOUR_MIPS
+    when = "after each bake"
+    bakes = True
+
+    @staticmethod
+    def reads(facts: GraphFacts) -> tuple[str, ...]:
+        return ("baked images", *facts.made("bounce images"))
+
+    @staticmethod
+    def writes(facts: GraphFacts) -> tuple[str, ...]:
+        return ("colour mips",)
+
+    def stale(self) -> bool:  # follows the stand-in's images: stale when any of them is
+        return self.graph.baked_images is not None and self.graph.stand_in_stale()
+
+    def run(self, frame: Frame) -> bool:
+        baked = self.graph.baked_images
+        if baked is None or baked.colour_mips is None:
+            return False
+        baked.build_colour_mips()
+        return True

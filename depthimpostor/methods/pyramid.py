@@ -33,6 +33,7 @@ import numpy as np
 
 from ..gpu.bindings import ImageUnit, StorageBuffer, TextureUnit
 from ..errors import ContextError
+from ..node import Frame, GraphFacts, Node, Pass
 from ..gpu.shaders import ProgramCache
 from ..gpu.uniforms import bind_texture, write
 
@@ -175,3 +176,30 @@ class DepthPyramid:
     def release(self) -> None:
         self.tiles.release()
         self.texture.release()
+
+
+class PyramidsNode(Node):
+    """The graph's pyramid node: the depth images' min/max pyramids, built after each bake
+    (methods/impostors.py's `build_pyramids`)."""
+
+    stage = Pass.PYRAMIDS
+    when = "after each bake"
+    bakes = True
+
+    @staticmethod
+    def reads(facts: GraphFacts) -> tuple[str, ...]:
+        return ("baked images", *facts.made("bounce images"))
+
+    @staticmethod
+    def writes(facts: GraphFacts) -> tuple[str, ...]:
+        return ("depth pyramids",)
+
+    def stale(self) -> bool:  # follows the stand-in's images: stale when any of them is
+        return self.graph.impostors is not None and self.graph.stand_in_stale()
+
+    def run(self, frame: Frame) -> bool:
+        impostors = self.graph.impostors
+        if impostors is None or impostors.pyramid is None:
+            return False
+        impostors.build_pyramids()
+        return True

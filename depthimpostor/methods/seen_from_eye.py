@@ -1,6 +1,6 @@
 """The methods whose stand-in depends on the eye (planar reflections, screen-space reflections):
 what they make is made in the frame, for its camera, by the render graph's eye-images node
-(graph.py's Pass.EYE_IMAGES), after the diffuse objects and before the reflectors, every frame.
+(`EyeImagesNode` below), after the diffuse objects and before the reflectors, every frame.
 
 Every frame, and not only when the eye moves (as glass interiors are, passes/glass.py): what
 they show is the frame's own pixels (SSR) or lines up with them (planar), so a sub-pixel jitter
@@ -17,6 +17,7 @@ import moderngl
 from ..geometry import ObjectGeometry
 from ..gpu.meshes import GpuMeshes
 from ..gpu.shaders import ProgramCache
+from ..node import Frame, GraphFacts, Node, Pass
 from ..ppc import PPC
 from ..scene.model import Scene
 
@@ -29,7 +30,7 @@ class SeenFromEye:
     image_plural: ClassVar[str]
     #: One image per reflector (planar), or one for the frame (SSR)?
     per_reflector: ClassVar[bool] = False
-    #: What its eye node reads and writes (graph.py's resource names), shadows aside.
+    #: What its eye node reads and writes (the graph's resource names, node.py), shadows aside.
     reads: ClassVar[tuple[str, ...]] = ()
     writes: ClassVar[tuple[str, ...]]
     #: Does the frame's diffuse pass write the eye's surface (position, object) for it?
@@ -87,3 +88,31 @@ class SeenFromEye:
 
     def release(self) -> None:
         raise NotImplementedError
+
+
+class EyeImagesNode(Node):
+    """The graph's eye-images node: the stand-in of a method seen from the eye made for the
+    frame's camera, after the diffuse objects (SSR copies them) and before the reflectors."""
+
+    stage = Pass.EYE_IMAGES
+    when = "every frame (they depend on the eye, to the sub-pixel)"
+    mirror_time = True
+
+    @staticmethod
+    def reads(facts: GraphFacts) -> tuple[str, ...]:
+        return facts.eye_reads
+
+    @staticmethod
+    def writes(facts: GraphFacts) -> tuple[str, ...]:
+        return facts.stand_in
+
+    def run(self, frame: Frame) -> bool:
+        graph = self.graph
+        made = graph.seen_from_eye
+        if made is None:
+            return False
+        before = made.made
+        graph.stats.draw_calls += made.make(frame.camera, graph.world.diffuse_objects, graph.world.reflectors,
+                                            frame.targets.color_framebuffer)
+        graph.stats.eye_images_made += made.made - before
+        return True

@@ -23,6 +23,7 @@ from ..methods.atlas import FRONT_FACES
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import shading_defines, write, write_material, write_matrix
+from ..node import Frame, GraphFacts, Node, Pass
 
 
 DIFFUSE_PROGRAM = ("mesh.vert", "diffuse.frag")
@@ -117,3 +118,34 @@ class DiffusePass:
         if self._batch is not None:
             self._batch.release()
             self._batch = None
+
+
+class DiffuseNode(Node):
+    """The graph's diffuse node: the frame's diffuse objects (or, in the sample view, the baked
+    images' samples standing for them), with the eye's surface beside the colour where SSR reads it."""
+
+    stage = Pass.DIFFUSE
+    when = "every frame"
+
+    @staticmethod
+    def reads(facts: GraphFacts) -> tuple[str, ...]:
+        return ("frame colour", "frame depth", *facts.made("shadow maps"))
+
+    @staticmethod
+    def writes(facts: GraphFacts) -> tuple[str, ...]:
+        return ("frame colour", "frame depth", *facts.surface)
+
+    def run(self, frame: Frame) -> bool:
+        graph, targets = self.graph, frame.targets
+        if graph.diffuse is None:
+            return False
+        sampled, drawn = graph.sampled, graph.world.diffuse_objects
+        if graph.show_samples and graph.samples is not None and sampled is not None:
+            drawn = graph.world.analytic_planes  # the samples stand for the others
+            graph.stats.draw_calls += graph.samples.draw(sampled, frame.camera)
+        seen_from_eye = graph.seen_from_eye
+        if seen_from_eye is not None:  # SSR's: the eye's surface beside the colour
+            seen_from_eye.diffuse_framebuffer(targets.color_framebuffer, targets.size).use()
+        graph.stats.draw_calls += graph.diffuse.draw(drawn, frame.camera.view_projection)
+        targets.color_framebuffer.use()
+        return True

@@ -12,6 +12,7 @@ from ..ppc import PPC
 from ..scene.model import Environment, Scene
 from ..gpu.shaders import ProgramCache
 from ..gpu.uniforms import environment_defines, write
+from ..node import Frame, GraphFacts, Node, Pass
 
 ENVIRONMENT_PROGRAM = ("fullscreen.vert", "environment.frag")
 
@@ -51,3 +52,22 @@ class EnvironmentPass:
         self.vertex_array.release()
         if self.map is not None:
             self.map.release()
+
+
+class EnvironmentNode(Node):
+    """The graph's environment node: the sky behind everything, first of the eye's passes."""
+
+    stage = Pass.ENVIRONMENT
+    when = "every frame"
+
+    @staticmethod
+    def reads(facts: GraphFacts) -> tuple[str, ...]:
+        return ("frame colour",)
+
+    @staticmethod
+    def writes(facts: GraphFacts) -> tuple[str, ...]:
+        return ("frame colour",)
+
+    def run(self, frame: Frame) -> bool:
+        self.graph.environment.draw(frame.camera)
+        return True

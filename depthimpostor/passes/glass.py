@@ -33,6 +33,7 @@ from ..ppc import PPC, FrustumFitError
 from ..gpu.shaders import ProgramCache
 from ..methods.atlas import BACK_FACES, FRONT_FACES
 from ..gpu.meshes import GpuMeshes
+from ..node import Frame, GraphFacts, Node, Pass
 from ..gpu.uniforms import bind_texture, bind_uniform_block, write
 
 INTERIOR_PROGRAM = ("mesh.vert", "glass_interior.frag")
@@ -145,3 +146,32 @@ class GlassInterior:
             framebuffer.release()
         for item in (self.front, self.back, self._depth, self._record):
             item.release()
+
+
+class GlassInteriorsNode(Node):
+    """The graph's glass-interior node: each glass's interior image, made again where the eye or
+    the glass moved (passes/reflectors.py's `make_interiors`)."""
+
+    stage = Pass.GLASS_INTERIORS
+    when = "once; a glass's again when the eye or the glass moves"
+    mirror_time = True
+
+    @staticmethod
+    def writes(facts: GraphFacts) -> tuple[str, ...]:
+        return ("glass interiors",)
+
+    def run(self, frame: Frame) -> bool:
+        graph = self.graph
+        if graph.reflector_pass is None:
+            return False
+        before = self._made()
+        # A glass interior depends on the eye's position and pixel size, not on a sub-pixel
+        # jitter: made from the frame's own camera, so that rounding in the jittered one's
+        # corner does not make it again for every sample.
+        graph.stats.draw_calls += graph.reflector_pass.make_interiors(graph.world.reflectors, frame.unjittered)
+        made = self._made() - before
+        graph.stats.interiors_made += made
+        return made > 0
+
+    def _made(self) -> int:
+        return sum(interior.bakes for interior in self.graph.glass_interiors.values())

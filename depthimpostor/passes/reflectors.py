@@ -21,6 +21,7 @@ from .glass import GlassInterior, interior_camera, pixel_angle
 from ..methods.atlas import BAKE_CULLS_FRONT_FACES
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import environment_defines, shading_defines, write
+from ..node import Frame, GraphFacts, Node, Pass
 
 
 class Surfaces(Protocol):
@@ -266,3 +267,34 @@ class ReflectorPass:
     def release(self) -> None:
         for vertex_array in self.rectangles.values():
             vertex_array.release()
+
+
+class ReflectorsNode(Node):
+    """The graph's reflector node: the mirrors and glass, deferred (ReflectorPass.draw), last."""
+
+    stage = Pass.REFLECTORS
+    when = "every frame"
+    mirror_time = True
+
+    @staticmethod
+    def reads(facts: GraphFacts) -> tuple[str, ...]:
+        """What the mirror variant samples: the stand-in, the eye's surface (SSR), the pyramids
+        where it marches hierarchically, and what was made of the colour mips, bounce images,
+        glass interiors and shadow maps."""
+        pyramids = ("depth pyramids",) if facts.reads_pyramids else ()
+        return ("frame colour", "frame depth", *facts.stand_in, *facts.surface, *pyramids,
+                *facts.made("colour mips", "bounce images", "glass interiors", "shadow maps"))
+
+    @staticmethod
+    def writes(facts: GraphFacts) -> tuple[str, ...]:
+        return ("frame colour", "frame depth")
+
+    def run(self, frame: Frame) -> bool:
+        graph, targets = self.graph, frame.targets
+        if graph.reflector_pass is None:
+            return False
+        if targets.surfaces is None:
+            raise RuntimeError("a frame with reflectors has their surface targets")
+        graph.stats.draw_calls += graph.reflector_pass.draw(graph.world.reflectors, frame.camera, targets.framebuffer,
+                                                            targets.surfaces, graph.tint_retraced)
+        return True

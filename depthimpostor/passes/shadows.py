@@ -9,6 +9,8 @@ depends on the lights and the casters alone: baked once, never for a camera move
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import moderngl
 import numpy as np
 
@@ -23,6 +25,10 @@ from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
 from ..methods.atlas import BACK_FACE_PROGRAM, BACK_FACES, atlas_grid, plural
 from ..gpu.meshes import GpuMeshes
+from ..node import Frame, GraphFacts, Node, Pass
+
+if TYPE_CHECKING:
+    from ..world import World
 
 
 #: A shadow map's single float attachment takes the window depth at location 0.
@@ -150,3 +156,39 @@ class ShadowMaps:
         bind_default_framebuffer(self.ctx)
         for item in (self.framebuffer, self._depth_buffer, self.layers, self.uniform_buffer):
             item.release()
+
+
+class ShadowMapsNode(Node):
+    """The graph's shadow-map node: the stale maps baked before anything that shades."""
+
+    stage = Pass.SHADOW_MAPS
+    when = "once; a light's map again when it or a caster moves"
+    bakes = True
+
+    @staticmethod
+    def writes(facts: GraphFacts) -> tuple[str, ...]:
+        return ("shadow maps",)
+
+    def stale(self) -> bool:
+        maps = self.graph.shadow_maps
+        return maps is not None and bool(maps.stale)
+
+    def run(self, frame: Frame) -> bool:
+        maps, stats = self.graph.shadow_maps, self.graph.stats
+        if maps is None:
+            return False
+        before = maps.bakes
+        stats.draw_calls += maps.bake()
+        stats.shadow_maps_baked += maps.bakes - before
+        return True
+
+    def follow(self, earlier: World, world: World) -> None:
+        """A light's map is stale when the light moved, or when a caster moved (any shadowed light's)."""
+        maps = self.graph.shadow_maps
+        if maps is None:
+            return
+        moved = world.moved(earlier)
+        shadowed = set(world.lit_scene.shadowed_lights)
+        moved_casters = any(g.index in moved for g in world.shadow_casters)
+        maps.move(world.lit_scene, world.shadow_casters,
+                  (world.moved_lights(earlier) | (shadowed if moved_casters else set())) & shadowed)
