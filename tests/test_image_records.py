@@ -207,15 +207,18 @@ def test_the_lists_are_laid_out_as_the_shader_reads_them() -> None:
     assert 0 in listed and 1 not in listed
 
 
-def test_the_lists_see_what_the_scan_sees(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The same 100 images found through the lists (IMAGE_CELLS) and by scanning every bound:
-    the same images visited in the same order, so the same frame."""
+@pytest.mark.parametrize("method", [Method.DEPTH, Method.BILLBOARD, Method.HYBRID])
+def test_the_lists_see_what_the_scan_sees(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch,
+                                          method: Method) -> None:
+    """The same 100 images found through the lists (IMAGE_CELLS) and by scanning every bound
+    (the hybrid method's and the billboards' lists over the images' whole bounds): the same
+    images visited in the same order, so the same frame."""
     scene = many_balls(100)
     frames = []
     for lists in (True, False):
         if not lists:
             monkeypatch.setattr(constants, "IMAGE_CELLS_MIN_CAPACITY", 2**30)
-        with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=Method.DEPTH) as renderer:
+        with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=method) as renderer:
             renderer.render()
             # Programs are kept across renderers of one context: the variant each frame needed is there.
             variants = [dict(key[1]) for key in renderer.programs.keys if "DEPTH_IMAGE_CAPACITY" in dict(key[1])]

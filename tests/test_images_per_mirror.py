@@ -43,7 +43,7 @@ def visit_every_image(renderer: Renderer) -> None:
             records[bound][:, 3] = 1e18  # squared, still a float32 (3.4e38 at most)
         # As the stand-in lays its table out (past 64 records, with the lists over these bounds).
         write_table(buffer, record_table(records, len(images), baked.record_capacity,
-                                         images[0].mirror.bounding_sphere, baked.tracks_unseen))
+                                         images[0].mirror.bounding_sphere, baked.lists_over_bounds))
 
 
 def frame_and_samples(ctx: moderngl.Context, method: Method, algorithm: Algorithm, every_image: bool

@@ -114,16 +114,16 @@ def image_records(images: list[DepthImage], capacity: int = DEPTH_IMAGE_BLOCK_RE
 
 
 def record_table(records: NDArray[np.void], count: int, capacity: int, rays_from: tuple[NDArray[np.float64], float],
-                 tracks_unseen: bool) -> bytes:
+                 over_bounds: bool) -> bytes:
     """A mirror's record table as its buffer holds it: the `capacity` records of which the first
     `count` are its images' and, where the shader finds them through lists (constants.lists_images),
     the lists of candidates for rays starting in the sphere `rays_from` (centre, radius: the
     mirror's bounds; methods/image_cells.py), over the spheres the shader tests (lib/reflected_scene.glsl's
-    image_bound): the images' `bound` where it `tracks_unseen`, their `hit_bound` otherwise. Built
+    image_bound, lib/billboard.glsl): the images' `bound`s where `over_bounds`, their `hit_bound`s otherwise. Built
     only then: a moving object's mirror writes its table again every frame."""
     if not lists_images(capacity):
         return records.tobytes()
-    spheres = np.asarray(records["bound" if tracks_unseen else "hit_bound"][:count], np.float64)
+    spheres = np.asarray(records["bound" if over_bounds else "hit_bound"][:count], np.float64)
     return records.tobytes() + cells_table(spheres, *rays_from)
 
 

@@ -72,9 +72,11 @@ class BakedImages:
     #: Is it known where a second solid run begins (the hybrid method's: space behind the first
     #: run up to there is seen empty)?
     keeps_beyond: ClassVar[bool] = False
-    #: Do its mirror programs track where an answer rests on what the images do not hold
-    #: (TRACK_UNSEEN: the hybrid method's)? They test the images' whole bounds, not their hits'.
-    tracks_unseen: ClassVar[bool] = False
+    #: Are a mirror's lists of candidate images by ray (methods/image_cells.py) over the images'
+    #: whole bounds rather than their hit bounds? Where its programs look at more than the hits: the
+    #: hybrid method tracks unseen space anywhere in an image (TRACK_UNSEEN), a billboard's quad
+    #: reaches past its object's sphere.
+    lists_over_bounds: ClassVar[bool] = False
     #: What one image is called in the CLI's and the viewer's summaries.
     image_noun: ClassVar[str]
     #: One image per reflected object (False: faces that show them all).
@@ -239,7 +241,7 @@ class BakedImages:
         its buffer holds it (atlas.record_table)."""
         rays_from = images[0].mirror.bounding_sphere if images else (np.zeros(3), 0.0)
         return record_table(self.image_records(images), len(images), self.record_capacity, rays_from,
-                            self.tracks_unseen)
+                            self.lists_over_bounds)
 
     def uniform_buffer(self, images: list[DepthImage]) -> moderngl.Buffer:
         """The buffer of a mirror's record table (a uniform block's or a storage buffer's: bind_records)."""

@@ -21,6 +21,7 @@ from .baked_images import BakedImages, SecondLayer
 class BillboardPass(BakedImages):
     second_layer = SecondLayer.NONE
     image_noun = "billboard"
+    lists_over_bounds = True
 
     def image_records(self, images: list[DepthImage]) -> NDArray[np.void]:
         """The depth images' records, each with its quad's plane in `a.w` (lib/billboard.glsl):

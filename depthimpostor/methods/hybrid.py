@@ -31,7 +31,7 @@ class HybridPass(ImpostorPass):
 
     keeps_triangle_ids = True
     keeps_beyond = True
-    tracks_unseen = True
+    lists_over_bounds = True
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
                  mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],

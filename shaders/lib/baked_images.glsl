@@ -29,6 +29,35 @@ layout(std140) uniform DepthImages {
 #endif
 uniform int u_depth_image_count;
 
+#ifdef IMAGE_CELLS
+// The list of the images a ray may enter, as (its start in u_image_cells, one past its end): the
+// list of the cell of lines the ray lies in (methods/image_cells.py, whose ray_cells is this in
+// numpy), or, for a ray that does not start in the sphere the lists were made for, the list of
+// every image.
+ivec2 image_list(vec3 origin, vec3 direction) {
+    vec4 sphere = u_image_grid.sphere;
+    ivec4 size = u_image_grid.size;  // cells per side of a face's directions, of its offsets; cells; images
+    vec3 p = origin - sphere.xyz;
+    vec3 m = abs(direction);
+    int axis = m.x >= m.y && m.x >= m.z ? 0 : m.y >= m.z ? 1 : 2;
+    // The face's axis first, then its u and v axes (image_cells.FACE_AXES).
+    vec3 d = axis == 0 ? direction : axis == 1 ? direction.yzx : direction.zxy;
+    vec3 o = axis == 0 ? p : axis == 1 ? p.yzx : p.zxy;
+    float s = d.x >= 0.0 ? 1.0 : -1.0;
+    vec2 uv = d.yz / (s * d.x);
+    vec2 q = o.yz - (s * o.x) * uv;  // where the ray's line crosses the plane of depth 0
+    float extent = 2.0 * sphere.w;
+    bool inside = sphere.w > 0.0 && dot(p, p) <= sphere.w * sphere.w && all(lessThanEqual(abs(q), vec2(extent)));
+    ivec2 direction_cell = clamp(ivec2(floor((uv + 1.0) * (0.5 * float(size.x)))), ivec2(0), ivec2(size.x - 1));
+    ivec2 offset_cell = clamp(ivec2(floor((q + extent) / (2.0 * extent) * float(size.y))), ivec2(0), ivec2(size.y - 1));
+    int face = 2 * axis + (s < 0.0 ? 1 : 0);
+    int cell = (((face * size.x + direction_cell.x) * size.x + direction_cell.y) * size.y + offset_cell.x) * size.y
+               + offset_cell.y;
+    cell = inside ? cell : size.z;
+    return ivec2(u_image_cells[cell], u_image_cells[cell + 1]);
+}
+#endif
+
 uniform sampler2D u_impostor_color;  // atlas of every image's colours (RGBA8; alpha 0 = nothing)
 // Atlas of their OpenGL window depths (RG32F): R the visible surface, G the method's second layer
 // (depth images: the nearest back face; cube maps: the visible surface's object id); 1.0 = nothing.

@@ -9,7 +9,15 @@
 RayHit nearest_billboard_hit(vec3 origin, vec3 direction) {
     RayHit best = no_hit(0);
     int samples = 0;
+#ifdef IMAGE_CELLS
+    // The quads whose images' bounds the ray may enter (their frusta hold the quads), in rising
+    // index: the nearest opaque hit, ties to the lower index, as over every quad.
+    ivec2 list = image_list(origin, direction);
+    for (int k = 0; k < list.y - list.x; ++k) {
+        int i = u_image_cells[list.x + k];
+#else
     for (int i = 0; i < u_depth_image_count; ++i) {
+#endif
         DepthImage image = u_depth_images[i];
         vec3 p0 = camera_coordinates(image, origin - image.eye.xyz);
         vec3 dp = camera_coordinates(image, direction);
