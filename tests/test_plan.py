@@ -74,19 +74,9 @@ def test_every_project_scene_has_planned_counts() -> None:
 
 @pytest.mark.parametrize("name", sorted(PLAN_COUNTS))
 def test_plan_counts(name: str) -> None:
-    if name == "bunny.toml" and not _has_bunny():
-        pytest.skip("the bunny model is not beside the project (../shared/data/models)")
     plan = plan_render(load_scene(SCENES / name))
     counts = plan.counts()
     assert (counts["passes"], counts["images"], counts["skipped"], counts["variants"]) == PLAN_COUNTS[name]
-
-
-def _has_bunny() -> bool:
-    try:
-        load_scene(SCENES / "bunny.toml")
-    except Exception:
-        return False
-    return True
 
 
 @pytest.mark.parametrize("name", [n for n in sorted(PLAN_COUNTS) if n != "bunny.toml"])

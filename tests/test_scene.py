@@ -16,6 +16,7 @@ import pytest
 
 from depthimpostor.constants import MAX_LIGHTS
 from depthimpostor.errors import SceneError
+from depthimpostor.world import World
 from depthimpostor.scene import (
     MODEL_PATH_VARIABLE,
     BoxShape,
@@ -137,12 +138,19 @@ def test_lecture_scene_has_8_mirrors_and_9_reflected_objects_clear_of_them() -> 
             assert gap > bound, f"{obj.name}'s bounding sphere contains {mirror.name}'s centre"
 
 
-def test_bunny_scene_finds_the_model_on_the_model_path(model_path: Path) -> None:
+def test_the_bunny_ships_beside_its_scene_and_other_models_are_found_on_the_model_path(
+        model_path: Path, tmp_path: Path) -> None:
+    """scenes/bunny.toml reads the PLY that ships beside it (its folder comes before the model
+    path); a scene elsewhere naming a model it does not have finds it on the model path."""
     scene = load_scene(REPO / "scenes" / "bunny.toml")
     bunny = next(o for o in scene.objects if isinstance(o.shape, MeshShape))
-    assert bunny.shape.written == "stanford-bunny.obj"
-    assert bunny.shape.path == (model_path / "stanford-bunny.obj").resolve()
-    assert bunny.shape.path.is_absolute()
+    assert bunny.shape.written == "stanford-bunny.ply"
+    assert bunny.shape.path == (REPO / "scenes" / "stanford-bunny.ply").resolve()
+    assert len(World(scene).geometry[[o.name for o in scene.objects].index(bunny.name)].local_mesh.indices) == 69451
+    elsewhere = tmp_path / "elsewhere.toml"
+    elsewhere.write_text((REPO / "scenes" / "bunny.toml").read_text().replace("stanford-bunny.ply", "stanford-bunny.obj"))
+    found = next(o for o in load_scene(elsewhere).objects if isinstance(o.shape, MeshShape))
+    assert found.shape.path == (model_path / "stanford-bunny.obj").resolve() and found.shape.path.is_absolute()
 
 
 # --- Values, defaults and transforms --------------------------------------------------------------
