@@ -102,12 +102,13 @@ def check_header(header: Mapping[str, Any], source: str, folder: Path) -> None:
 
 def _extension_names(value: Any) -> Iterator[str]:
     """The name of every extension object anywhere in the JSON (files do not always list what they
-    use in `extensionsUsed`)."""
+    use in `extensionsUsed`), but in `extras`, which is the application's own data."""
     if isinstance(value, Mapping):
         for key, item in value.items():
             if key == "extensions" and isinstance(item, Mapping):
                 yield from (name for name in item if isinstance(name, str))
-            yield from _extension_names(item)
+            if key != "extras":
+                yield from _extension_names(item)
     elif isinstance(value, list):
         for item in value:
             yield from _extension_names(item)
