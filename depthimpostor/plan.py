@@ -138,6 +138,8 @@ class RenderPlan:
     objects: tuple[PlannedObject, ...] = ()
     # What the scene uses of each limit that remains, in memory and GL terms (plan_limits).
     limits: tuple[str, ...] = ()
+    # Per glTF file (as the scene names it), what it uses that the loader does not implement.
+    ignored: tuple[tuple[str, tuple[str, ...]], ...] = ()
 
     def planes_lines(self) -> list[str]:
         """Which diffuse planes are intersected exactly and which are drawn as meshes (none where
@@ -159,6 +161,11 @@ class RenderPlan:
         """The objects of glTF files, named as above and as the file names them (none without)."""
         parts = [o for o in self.objects if o.from_gltf]
         return [f"glTF parts ({len(parts)}):", *(f"  {o.name}: {o.label}" for o in parts)] if parts else []
+
+    def ignored_lines(self) -> list[str]:
+        """One line per glTF file that uses what the loader does not implement, naming it all."""
+        return [f"ignored in {file} (not implemented, drawn as if absent): {', '.join(names)}"
+                for file, names in self.ignored]
 
     def runs(self, stage: Pass) -> bool:
         return any(planned.stage is stage for planned in self.passes)
@@ -199,6 +206,7 @@ class RenderPlan:
             "planes": {"analytic": list(self.analytic_planes), "meshes": list(self.mesh_planes)},
             "objects": [{"name": o.name, "label": o.label} for o in self.objects],
             "limits": list(self.limits),
+            "ignored": {file: list(names) for file, names in self.ignored},
         }
 
     def format(self) -> str:
@@ -218,6 +226,7 @@ class RenderPlan:
         lines += [f"  {v.name}\n      why: {v.reason}" for v in self.variants]
         lines.append(format_graph(self.graph))
         lines += self.parts_lines()
+        lines += self.ignored_lines()
         lines.append(self.samples_line())
         total = sum(self.memory.values())
         parts = ", ".join(f"{name} {size / 2**20:.2f}" for name, size in self.memory.items())
@@ -420,7 +429,14 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                       tuple(o.name for o in scene.analytic_planes), tuple(o.name for o in scene.mesh_planes),
                       tuple(PlannedObject(obj.name, scene.object_label(i), obj.origin is not None)
                             for i, obj in enumerate(scene.objects)),
-                      plan_limits(scene, method, image_plans, memory, reflected))
+                      plan_limits(scene, method, image_plans, memory, reflected), ignored_in_files(scene))
+
+
+def ignored_in_files(scene: Scene) -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """(file, what it uses that the loader does not implement) for each glTF file of the scene
+    that uses some, in the order of its first object."""
+    ignored = {obj.origin.file: obj.origin.ignored for obj in scene.objects if obj.origin is not None}
+    return tuple((file, names) for file, names in ignored.items() if names)
 
 
 def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImagePlan]], memory: dict[str, int],

@@ -17,10 +17,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
+from PIL import Image
 
 from .colour import encode_srgb
 from .constants import Wrap
+from .image_files import ImageRefused, read_image
 from .scene.fields import At
 from .scene.model import Texture
 
@@ -34,12 +35,10 @@ def srgb_to_linear(encoded: np.ndarray) -> np.ndarray:
 SRGB_TABLE = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
 
 
-def texture_from_image(image: Image.Image, sampler: dict[str, int], scale: tuple[float, float] = (1.0, 1.0),
-                       name: str = "") -> Texture:
-    """A Texture of a decoded image: its RGBA pixels as stored (sRGB, row 0 the top), read-only;
+def texture_from_pixels(pixels: np.ndarray, sampler: dict[str, int], scale: tuple[float, float] = (1.0, 1.0),
+                        name: str = "") -> Texture:
+    """A Texture of decoded (H, W, 4) uint8 sRGB RGBA texels, row 0 the top (image_files.py);
     `name` what messages call it."""
-    pixels = np.asarray(image.convert("RGBA"), dtype=np.uint8).copy()
-    pixels.flags.writeable = False
     mean = srgb_to_linear(pixels[..., :3].reshape(-1, 3) / 255.0).mean(axis=0)
     r, g, b = (float(c) for c in mean)
     return Texture(pixels, sampler, (r, g, b), scale, name)
@@ -49,9 +48,10 @@ _CACHE: dict[tuple[Path, int, tuple[float, float], tuple[int, int]], Texture] = 
 
 
 def read_texture(path: Path, at: At, scale: tuple[float, float], wrap: tuple[int, int]) -> Texture:
-    """The image file at `path` (PNG, JPEG, anything Pillow reads) as a texture, one Texture per
-    (file, modification time, scale, wrap) so that objects sharing an image share a slot; a file
-    that is missing or is not an image is refused at `at`."""
+    """The image file at `path` (PNG, JPEG, anything image_files.py reads as written) as a texture,
+    one Texture per (file, modification time, scale, wrap) so that objects sharing an image share a
+    slot; a file that is missing, is not an image or holds what cannot be read as written is
+    refused at `at`."""
     try:
         resolved = path.resolve(strict=True)
         key = (resolved, resolved.stat().st_mtime_ns, scale, wrap)
@@ -59,13 +59,10 @@ def read_texture(path: Path, at: At, scale: tuple[float, float], wrap: tuple[int
         raise at.error(f"expected an existing image file, got {str(path)!r}: not found") from None
     if key not in _CACHE:
         try:
-            with Image.open(resolved) as image:
-                image.load()
-                texture = texture_from_image(image, {"wrapS": wrap[0], "wrapT": wrap[1]}, scale, resolved.name)
-        except (UnidentifiedImageError, OSError, ValueError) as error:
-            raise at.error(f"expected an image file Pillow can decode (PNG, JPEG, ...), got {str(path)!r}: "
-                           f"{error}") from None
-        _CACHE[key] = texture
+            pixels = read_image(resolved)
+        except ImageRefused as refused:
+            raise at.error(f"expected {refused.expected}, got {str(path)!r}: {refused.got}") from None
+        _CACHE[key] = texture_from_pixels(pixels, {"wrapS": wrap[0], "wrapT": wrap[1]}, scale, resolved.name)
     return _CACHE[key]
 
 

@@ -77,9 +77,30 @@ class GltfWriter:
     def texture(self, rgba: np.ndarray) -> int:
         png = io.BytesIO()
         Image.fromarray(np.asarray(rgba, np.uint8)).save(png, format="PNG")
-        image = self._append("images", {"bufferView": self.view(png.getvalue()), "mimeType": "image/png"})
+        return self.image_texture(png.getvalue())
+
+    def image_texture(self, data: bytes, mime: str = "image/png", **fields: Any) -> int:
+        """A texture of an image file's bytes, as written (any format, depth or damage)."""
+        image = self._append("images", {"bufferView": self.view(data), "mimeType": mime})
         sampler = self._append("samplers", {"magFilter": 9729, "wrapS": 10497})
-        return self._append("textures", {"source": image, "sampler": sampler})
+        return self._append("textures", {"source": image, "sampler": sampler} | fields)
+
+    def sparse(self, base: Any, indices: Any, values: Any, kind: str, count: int = 0) -> int:
+        """A sparse accessor (glTF 3.6.2.3), float (unsigned int for SCALAR: indices): `base` (zeros
+        where None: no bufferView, `count` of them) with the elements at `indices` replaced by `values`."""
+        scalar = kind == "SCALAR"
+        values = np.ascontiguousarray(values, np.uint32 if scalar else np.float32).reshape(len(indices), -1)
+        if base is not None:
+            k = self.accessor(np.asarray(base).ravel() if scalar else np.asarray(base), kind)
+        else:
+            k = self._append("accessors", {"componentType": UNSIGNED_INT if scalar else FLOAT, "count": count, "type": kind})
+        accessor = self.json["accessors"][k]
+        accessor["sparse"] = {"count": len(indices),
+                              "indices": {"bufferView": self.view(np.asarray(indices, np.uint16).tobytes()),
+                                          "componentType": 5123},
+                              "values": {"bufferView": self.view(values.tobytes())}}
+        accessor.pop("min", None), accessor.pop("max", None)
+        return k
 
     def light(self, **fields: Any) -> int:
         extensions = self.json.setdefault("extensions", {}).setdefault("KHR_lights_punctual", {"lights": []})

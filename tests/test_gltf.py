@@ -287,7 +287,7 @@ def bad_file(tmp_path: Path, case: str) -> tuple[Path, str]:
         w.json["images"] = [{"bufferView": w.view(b"not a PNG at all"), "mimeType": "image/png"}]
         w.json["textures"] = [{"source": 0}]
         w.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
-        return w.write(tmp_path / "x.glb"), "materials[0].pbrMetallicRoughness.baseColorTexture: expected an image"
+        return w.write(tmp_path / "x.glb"), "images[0]: expected an image file Pillow can decode (PNG, JPEG, ...), got data in no image format"
     if case == "required_extension":
         w.json["extensionsRequired"] = ["KHR_draco_mesh_compression"]
         return w.write(tmp_path / "x.glb"), 'extensionsRequired: expected only extensions this reader supports'

@@ -25,12 +25,13 @@ from depthimpostor.meshes import Mesh
 from depthimpostor.scene import fields as f
 from depthimpostor.scene.fields import At, Vec3, show
 from depthimpostor.scene.gltf_file import (
-    NOT_SURFACES, TRIANGLE_FAN, Primitive, check_header, decode_primitives, extension, index, items, number_at,
-    primitive_modes, read_json, scene_nodes, table,
+    NOT_SURFACES, TRIANGLE_FAN, Primitive, check_header, decode_primitives, extension, ignored_features, index, items,
+    number_at, primitive_modes, read_json, scene_nodes, table,
 )
+from depthimpostor.scene.gltf_data import GltfData
 from depthimpostor.scene.gltf_planes import Rectangle, find_rectangle, plane_placement
 from depthimpostor.scene.limits import check_scene
-from depthimpostor.textures import texture_from_image
+from depthimpostor.textures import texture_from_pixels
 from depthimpostor.scene.model import (
     Animation, Camera, DiffuseMaterial, Environment, GlassMaterial, GltfOrigin, GltfShape, Light, Material, MirrorMaterial,
     PlaneShape, RenderSettings, Scene, SceneObject, Texture,
@@ -108,31 +109,35 @@ def read_gltf(path: Path, source: str) -> GltfFile:
         return cached[1] if cached[1].source == source else dataclasses.replace(cached[1], source=source)
     header = read_json(path, source)
     check_header(header, source, resolved.parent)
-    primitives = decode_primitives(resolved, header, source)
-    parts = _parts(header, source, primitives)
+    ignored = ignored_features(header)
+    if ignored:
+        warnings.warn(SceneWarning(f"{source}: {len(ignored)} glTF feature(s) this loader does not implement, "
+                                   f"drawn as if absent: {', '.join(ignored)}"), stacklevel=2)
+    data = GltfData(resolved, header, source)
+    primitives = decode_primitives(data)
+    parts = _parts(header, source, primitives, ignored)
     if not parts:
         raise SceneError(source, "", "expected a scene with at least one mesh node holding triangles, got none")
-    images = dict(_images(header, source, primitives))  # material -> its image, for the materials drawn
-    materials = tuple(_material(header, k, value, k in images, images.get(k), source)
+    used = _used_materials(header, source, primitives)
+    materials = tuple(_material(header, k, value, data if k in used else None, source)
                       for k, value in enumerate(items(header, "materials", source)))
     model = GltfFile(resolved, source, materials, tuple(parts), _lights(header, source), _camera(header, source))
     _CACHE[resolved] = (modified, model)
     return model
 
 
-def _images(header: Mapping[str, Any], source: str,
-            primitives: dict[tuple[int, int], Primitive]) -> list[tuple[int, Any]]:
-    """(material, the baseColorTexture image trimesh read for it, or None) for every material some
-    triangle primitive is drawn with."""
-    used = []
+def _used_materials(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, int], Primitive]) -> set[int]:
+    """The materials some triangle primitive is drawn with."""
+    used = set()
     for m, p, primitive, _ in primitive_modes(header, source):
         if (m, p) in primitives and "material" in primitive:
-            used.append((index(primitive["material"], len(header.get("materials", [])),
-                               At(source, f"meshes[{m}].primitives[{p}].material")), primitives[m, p].image))
+            used.add(index(primitive["material"], len(header.get("materials", [])),
+                           At(source, f"meshes[{m}].primitives[{p}].material")))
     return used
 
 
-def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, int], Primitive]) -> list[GltfPart]:
+def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, int], Primitive],
+           ignored: tuple[str, ...]) -> list[GltfPart]:
     """One part per mesh node and material, in the order the node tree is walked."""
     meshes, nodes = items(header, "meshes", source), items(header, "nodes", source)
     by_mode: dict[int, list[str]] = {}
@@ -168,7 +173,7 @@ def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, i
             label = "default" if material is None else _label(header, material)
             name = node if len(groups) == 1 else f"{node} ({label})"
             origin = GltfOrigin(source, i, names[i], m, _name(meshes[m]), tuple(p for p, _ in group), material,
-                                "" if material is None else _name(header["materials"][material]))
+                                "" if material is None else _name(header["materials"][material]), ignored=ignored)
             mesh = _local_mesh([primitive for _, primitive in group]).transformed(world)
             parts.append(GltfPart(name, origin, material, mesh, find_rectangle(mesh)))
     return parts
@@ -217,11 +222,20 @@ def _local_mesh(group: list[Primitive]) -> Mesh:
                 np.concatenate(uvs) if any_uvs else None)
 
 
-def _texture(header: Mapping[str, Any], info: Mapping[str, Any], image: Any, at: At, source: str) -> Texture:
-    if image is None:
-        raise at.error("expected an image trimesh can decode (PNG or JPEG), got one it could not read")
+def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData, at: At, source: str) -> Texture:
+    """A baseColorTexture: its image (EXT_texture_webp's where given, else `source`), decoded as
+    written (image_files.py), and its sampler's wrap modes."""
     textures = header.get("textures", [])
-    texture = table(textures[index(info.get("index"), len(textures), at.key("index"))], at)
+    t = index(info.get("index"), len(textures), at.key("index"))
+    texture_at = At(source, f"textures[{t}]")
+    texture = table(textures[t], texture_at)
+    webp = extension(texture, "EXT_texture_webp", texture_at)
+    image = webp.get("source") if webp is not None else texture.get("source")
+    if image is None:
+        others = ", ".join(table(texture.get("extensions", {}), texture_at.key("extensions")))
+        raise texture_at.key("source").error("expected an image this loader reads (PNG, JPEG, WebP...), got none"
+                                             + (f" (only {others}'s, which it does not read)" if others else ""))
+    pixels = data.image(index(image, len(header.get("images", [])), texture_at.key("source")))
     sampler: dict[str, int] = {}
     if "sampler" in texture:
         samplers = header.get("samplers", [])
@@ -232,15 +246,16 @@ def _texture(header: Mapping[str, Any], info: Mapping[str, Any], image: Any, at:
             if key in sampler and sampler[key] not in {int(mode) for mode in Wrap}:
                 raise sampler_at.key(key).error(f"expected a wrap mode {', '.join(str(int(m)) for m in Wrap)}, "
                                                 f"got {show(sampler[key])}")
-    return texture_from_image(image, sampler, name=f"{Path(source).name} images[{texture.get('source', '?')}]")
+    return texture_from_pixels(pixels, sampler, name=f"{Path(source).name} images[{image}]")
 
 
-def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], used: bool, image: Any,
+def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], data: GltfData | None,
               source: str) -> GltfMaterial:
     """The rules of scene_format.md: transmission >= 0.5 is glass (its ior from KHR_materials_ior,
     its tint the base colour); metallic >= 0.9 with roughness <= 0.1 is a mirror tinted by the base
     colour; anything else is diffuse in the base colour, its texture drawn. A mirror's or glass's
-    tint cannot hold a texture: its mean colour joins the factor there."""
+    tint cannot hold a texture: its mean colour joins the factor there. `data` reads its texture,
+    None for a material no triangle is drawn with (its texture need not be readable)."""
     at = At(source, f"materials[{k}]")
     pbr = table(value.get("pbrMetallicRoughness", {}), at.key("pbrMetallicRoughness"))
     pbr_at = at.key("pbrMetallicRoughness")
@@ -249,9 +264,9 @@ def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], used:
     metallic = number_at(pbr, "metallicFactor", 1.0, f.number(f.UNIT), pbr_at)
     roughness = number_at(pbr, "roughnessFactor", 1.0, f.number(f.UNIT), pbr_at)
     texture = None
-    if "baseColorTexture" in pbr and used:  # a texture nothing is drawn with need not be readable
+    if "baseColorTexture" in pbr and data is not None:
         info_at = pbr_at.key("baseColorTexture")
-        texture = _texture(header, table(pbr["baseColorTexture"], info_at), image, info_at, source)
+        texture = _texture(header, table(pbr["baseColorTexture"], info_at), data, info_at, source)
     r, g, b = (float(c) for c in np.clip(base, 0.0, 1.0))
     tinted = base * np.asarray(texture.mean_color) if texture is not None else base
     tr, tg, tb = (float(c) for c in np.clip(tinted, 0.0, 1.0))

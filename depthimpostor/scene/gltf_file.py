@@ -26,11 +26,14 @@ import numpy as np
 from depthimpostor.constants import MAX_COORDINATE
 from depthimpostor.errors import SceneError
 from depthimpostor.scene.fields import At, Reader, numbers, read_file_bytes, show
+from depthimpostor.scene.gltf_data import GltfData
 
 GLTF_SUFFIXES = (".glb", ".gltf")
-#: The extensions a file may require (`extensionsRequired`): those read here. Any other required
-#: one changes what the file means in a way this reader would get wrong, so the file is refused.
-SUPPORTED_REQUIRED = ("KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior")
+#: The extensions read here. A file may require (`extensionsRequired`) these alone: any other
+#: required one changes what the file means in a way this reader would get wrong (Draco, quantized
+#: or basisu data would be misread), so the file is refused, naming it. Any other it merely uses is
+#: drawn as if absent, and `ignored_features` names it.
+SUPPORTED_REQUIRED = ("KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior", "EXT_texture_webp")
 
 # Primitive modes (glTF 2.0, 3.7.2.1): what trimesh decodes into triangles, and what has no surface.
 TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN = 4, 5, 6
@@ -88,13 +91,74 @@ def check_header(header: Mapping[str, Any], source: str, folder: Path) -> None:
     unsupported = [name for name in required if name not in SUPPORTED_REQUIRED] if isinstance(required, list) else [required]
     if unsupported:
         raise SceneError(source, "extensionsRequired", f"expected only extensions this reader supports "
-                         f"({', '.join(SUPPORTED_REQUIRED)}), got {show(unsupported[0])}")
+                         f"({', '.join(SUPPORTED_REQUIRED)}), got {', '.join(show(name) for name in unsupported)}")
     for key in ("buffers", "images"):
         for i, item in enumerate(items(header, key, source)):
             uri = item.get("uri")
             if isinstance(uri, str) and not uri.startswith("data:") and not (folder / urllib.parse.unquote(uri)).is_file():
                 raise SceneError(source, f"{key}[{i}].uri", f"expected a file next to the glTF file (in {folder}), "
                                  f"got {show(uri)}: no such file")
+
+
+def _extension_names(value: Any) -> Iterator[str]:
+    """The name of every extension object anywhere in the JSON (files do not always list what they
+    use in `extensionsUsed`), but in `extras`, which is the application's own data."""
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            if key == "extensions" and isinstance(item, Mapping):
+                yield from (name for name in item if isinstance(name, str))
+            if key != "extras":
+                yield from _extension_names(item)
+    elif isinstance(value, list):
+        for item in value:
+            yield from _extension_names(item)
+
+
+def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
+    """The core material properties a material uses that are not drawn (scene_format.md says what
+    is): every texture but baseColorTexture on TEXCOORD_0, emission and transparency."""
+    pbr = material.get("pbrMetallicRoughness", {})
+    pbr = pbr if isinstance(pbr, Mapping) else {}
+    for key in ("normalTexture", "occlusionTexture", "emissiveTexture"):
+        if key in material:
+            yield key
+    if "metallicRoughnessTexture" in pbr:
+        yield "metallicRoughnessTexture"
+    base = pbr.get("baseColorTexture")
+    if isinstance(base, Mapping) and base.get("texCoord", 0) != 0:
+        yield "baseColorTexture.texCoord"
+    emissive = material.get("emissiveFactor", [0, 0, 0])
+    if isinstance(emissive, list) and any(isinstance(c, (int, float)) and c != 0 for c in emissive):
+        yield "emissiveFactor"
+    if material.get("alphaMode", "OPAQUE") in ("MASK", "BLEND"):
+        yield f"alphaMode {material['alphaMode']}"
+
+
+def ignored_features(header: Mapping[str, Any]) -> tuple[str, ...]:
+    """What the file uses that this loader does not implement, each named once, in a stable order:
+    the extensions it uses but SUPPORTED_REQUIRED lacks (sorted), then the core features read past
+    (material properties, vertex colours, morph targets, skins, animations). Such a file is drawn as
+    if they were absent; `plan` lists them and loading warns once."""
+    used = header.get("extensionsUsed", [])
+    extensions = {name for name in used if isinstance(name, str)} if isinstance(used, list) else set()
+    extensions |= set(_extension_names(header))
+    features: dict[str, None] = {}  # ordered, each once
+    materials = header.get("materials", [])
+    for material in materials if isinstance(materials, list) else []:
+        if isinstance(material, Mapping):
+            features |= dict.fromkeys(_material_features(material))
+    meshes = header.get("meshes", [])
+    for mesh in meshes if isinstance(meshes, list) else []:
+        primitives = mesh.get("primitives", []) if isinstance(mesh, Mapping) else []
+        for primitive in primitives if isinstance(primitives, list) else []:
+            if isinstance(primitive, Mapping) and "COLOR_0" in primitive.get("attributes", {}):
+                features["COLOR_0 (vertex colours)"] = None
+            if isinstance(primitive, Mapping) and primitive.get("targets"):
+                features["morph targets"] = None
+    for key in ("skins", "animations"):
+        if header.get(key):
+            features[key] = None
+    return tuple(sorted(extensions - set(SUPPORTED_REQUIRED))) + tuple(features)
 
 
 def node_matrix(node: Mapping[str, Any], at: At) -> np.ndarray:
@@ -152,7 +216,6 @@ class Primitive:
     faces: np.ndarray  # (M, 3)
     normals: np.ndarray | None  # (N, 3) from the file's NORMAL, or None (glTF then asks for flat normals)
     uvs: np.ndarray | None  # (N, 2) TEXCOORD_0 in glTF's convention (v down from the image's top)
-    image: Any  # the PIL image of its material's baseColorTexture, where trimesh read one
 
 
 def primitive_modes(header: Mapping[str, Any], source: str) -> Iterator[tuple[int, int, Mapping[str, Any], int]]:
@@ -167,10 +230,12 @@ def primitive_modes(header: Mapping[str, Any], source: str) -> Iterator[tuple[in
             yield m, p, primitive, mode
 
 
-def decode_primitives(path: Path, header: Mapping[str, Any], source: str) -> dict[tuple[int, int], Primitive]:
+def decode_primitives(data: GltfData) -> dict[tuple[int, int], Primitive]:
     """Each triangle primitive, by (mesh, primitive). trimesh's scene keeps one geometry per
     primitive it decodes (points, lines, triangles and strips; not loops, line strips or fans), in
-    the file's order, whether a node uses it or not: that order pairs them with the JSON's."""
+    the file's order, whether a node uses it or not: that order pairs them with the JSON's. Where
+    an accessor it reads is sparse, trimesh read its base alone: `data` reads it whole."""
+    path, header, source = data.path, data.header, data.source
     import trimesh  # only glTF and model files need it
 
     try:
@@ -196,17 +261,44 @@ def decode_primitives(path: Path, header: Mapping[str, Any], source: str) -> dic
         if uvs is not None:
             uvs = np.asarray(uvs, np.float64).copy()
             uvs[:, 1] = 1.0 - uvs[:, 1]  # trimesh flips v for a lower-left origin; glTF's is the top-left
-        material = getattr(visual, "material", None)
         has_normals = "NORMAL" in primitive.get("attributes", {})
-        result[m, p] = Primitive(
+        result[m, p] = _patched(data, primitive, Primitive(
             positions=np.asarray(mesh.vertices, np.float64), faces=np.asarray(mesh.faces, np.int64),
-            normals=np.asarray(mesh.vertex_normals, np.float64) if has_normals else None,
-            uvs=uvs, image=getattr(material, "baseColorTexture", None))
+            normals=np.asarray(mesh.vertex_normals, np.float64) if has_normals else None, uvs=uvs),
+            At(source, f"meshes[{m}].primitives[{p}]"))
     largest = max((float(np.abs(p.positions).max(initial=0.0)) for p in result.values()), default=0.0)
     if not largest <= MAX_COORDINATE:  # also NaN
         raise SceneError(source, "accessors", f"expected vertex coordinates of magnitude at most {MAX_COORDINATE:g} "
                                               f"(float32 geometry squares distances), got {largest:g}")
     return result
+
+
+def _sparse(header: Mapping[str, Any], value: Any) -> bool:
+    """Is accessors[value] sparse? (A bad index is trimesh's to refuse: it read the file.)"""
+    accessors = header.get("accessors", [])
+    return isinstance(value, int) and 0 <= value < len(accessors) and "sparse" in accessors[value]
+
+
+def _patched(data: GltfData, primitive: Mapping[str, Any], decoded: Primitive, at: At) -> Primitive:
+    """The primitive with each sparse accessor it uses (POSITION, NORMAL, TEXCOORD_0, indices)
+    read whole, substitutions made (trimesh keeps the accessors' order: process=False)."""
+    attributes, header = primitive.get("attributes", {}), data.header
+    arrays = {name: data.accessor(attributes[name]).astype(np.float64) for name in ("POSITION", "NORMAL", "TEXCOORD_0")
+              if name in attributes and _sparse(header, attributes[name])}
+    faces = decoded.faces
+    if _sparse(header, primitive.get("indices")):
+        import trimesh
+
+        flat = data.accessor(primitive["indices"]).ravel()
+        faces = trimesh.util.triangle_strips_to_faces([flat]) if primitive.get("mode", TRIANGLES) == TRIANGLE_STRIP \
+            else flat[:len(flat) - len(flat) % 3].reshape(-1, 3)
+    if not arrays and faces is decoded.faces:
+        return decoded
+    positions = arrays.get("POSITION", decoded.positions)
+    if faces.size and not 0 <= int(faces.min()) <= int(faces.max()) < len(positions):
+        raise at.key("indices").error(f"expected vertex indices in [0, {len(positions)}), got {int(faces.max())}")
+    return Primitive(positions, np.asarray(faces, np.int64), arrays.get("NORMAL", decoded.normals),
+                     arrays.get("TEXCOORD_0", decoded.uvs) if decoded.uvs is not None else None)
 
 
 def number_at(value: Mapping[str, Any], key: str, default: float, reader: Reader[float], at: At) -> float:

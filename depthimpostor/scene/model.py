@@ -275,6 +275,9 @@ class GltfOrigin:
     material: int | None  # None: glTF's default material (primitives without one)
     material_name: str
     placed_by: int | None = None  # the TOML scene's [[objects]] entry that places the file; None: the file is the scene
+    # What the file uses that the loader does not implement (gltf_file.ignored_features): the same
+    # for every part of a file, for `plan` to list; not part of where the object comes from.
+    ignored: tuple[str, ...] = dataclasses.field(default=(), compare=False)
 
     def describe(self) -> str:
         """`node 12 "Cylinder.003" (mesh 5 "piston", primitive 0, material 2 "steel")`."""

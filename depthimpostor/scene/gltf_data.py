@@ -1,0 +1,204 @@
+"""The binary data of a glTF file, read here where trimesh's reading is not what the file means:
+accessors with `sparse` substitutions (trimesh reads their base and drops the substitutions, so a
+patched mesh drew unpatched), and images (trimesh swallows a decoding error, and Pillow's modes
+need image_files.py's reading).
+
+glTF 2.0, 3.6: a buffer is a GLB's BIN chunk, a data URI or a file beside the glTF file; a buffer
+view a byte range of one; an accessor `count` elements of a `type` (SCALAR, VEC2...) of a
+`componentType`, from a view at `byteOffset`, `byteStride` apart (packed where not given),
+integers scaled into [0, 1] or [-1, 1] where `normalized`; `sparse` then replaces the elements
+at `sparse.indices` by `sparse.values` (on zeros where the accessor has no view).
+
+Every problem is a SceneError at the JSON path: `x.glb: accessors[3].sparse.indices: ...`.
+"""
+
+from __future__ import annotations
+
+import base64
+import struct
+import urllib.parse
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from depthimpostor.errors import SceneError
+from depthimpostor.image_files import ImageRefused, read_image
+from depthimpostor.scene.fields import At, read_file_bytes, show
+
+#: glTF's component types (3.6.2.2), little-endian.
+COMPONENTS: dict[int, np.dtype[Any]] = {5120: np.dtype("<i1"), 5121: np.dtype("<u1"), 5122: np.dtype("<i2"), 5123: np.dtype("<u2"),
+              5125: np.dtype("<u4"), 5126: np.dtype("<f4")}
+#: The element types read here: the vertex attributes and indices a mesh needs.
+WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+#: What a sparse accessor's indices may be (3.6.2.3).
+INDEX_COMPONENTS = (5121, 5123, 5125)
+
+_GLB_BIN = 0x004E4942
+
+
+def glb_binary(data: bytes) -> bytes | None:
+    """A .glb's BIN chunk (the buffer without a `uri`), or None where it has none."""
+    json_length = struct.unpack_from("<I", data, 12)[0]
+    start = 20 + json_length
+    if start + 8 > len(data):
+        return None
+    length, kind = struct.unpack_from("<II", data, start)
+    return data[start + 8:start + 8 + length] if kind == _GLB_BIN else None
+
+
+def _data_uri(uri: str) -> bytes:
+    """The bytes of a `data:` URI (base64, or percent-encoded)."""
+    meta, _, payload = uri.partition(",")
+    return base64.b64decode(payload) if meta.endswith(";base64") else urllib.parse.unquote_to_bytes(payload)
+
+
+class GltfData:
+    """A file's buffers, views, accessors and images, each read once, when first asked for."""
+
+    def __init__(self, path: Path, header: Mapping[str, Any], source: str) -> None:
+        self.path, self.header, self.source = path, header, source
+        self._buffers: dict[int, bytes] = {}
+
+    def _item(self, key: str, value: Any, at: At) -> Mapping[str, Any]:
+        listed = self.header.get(key, [])
+        count = len(listed) if isinstance(listed, list) else 0
+        if not (isinstance(value, int) and not isinstance(value, bool) and 0 <= value < count):
+            raise at.error(f"expected an index in [0, {count}) of {key}, got {show(value)}")
+        item = listed[value]
+        if not isinstance(item, Mapping):
+            raise SceneError(self.source, f"{key}[{value}]", f"expected a JSON object, got {show(item)}")
+        return item
+
+    def _count(self, item: Mapping[str, Any], key: str, at: At, default: int | None = None) -> int:
+        value = item.get(key, default)
+        if not (isinstance(value, int) and not isinstance(value, bool) and value >= 0):
+            raise at.key(key).error(f"expected a whole number >= 0, got {show(value)}")
+        return value
+
+    def buffer(self, value: Any, at: At) -> bytes:
+        """The bytes of buffers[value]."""
+        item = self._item("buffers", value, at)
+        i: int = value
+        if i not in self._buffers:
+            at = At(self.source, f"buffers[{i}]")
+            uri = item.get("uri")
+            if uri is None:
+                data = glb_binary(read_file_bytes(self.path, self.source, "a glTF file")) \
+                    if self.path.suffix.lower() == ".glb" else None
+                if data is None:
+                    raise at.error("expected a uri, or the BIN chunk of a .glb, got neither")
+            elif isinstance(uri, str) and uri.startswith("data:"):
+                data = _data_uri(uri)
+            elif isinstance(uri, str):
+                data = read_file_bytes(self.path.parent / urllib.parse.unquote(uri), self.source, "a buffer file")
+            else:
+                raise at.key("uri").error(f"expected a string, got {show(uri)}")
+            length = self._count(item, "byteLength", at)
+            if len(data) < length:
+                raise at.error(f"expected {length} bytes (byteLength), got {len(data)}")
+            self._buffers[i] = data
+        return self._buffers[i]
+
+    def view(self, value: Any, at: At) -> tuple[bytes, int | None]:
+        """The bytes of bufferViews[value] and its byteStride (None: packed)."""
+        view = self._item("bufferViews", value, at)
+        view_at = At(self.source, f"bufferViews[{value}]")
+        data = self.buffer(view.get("buffer"), view_at.key("buffer"))
+        start, length = self._count(view, "byteOffset", view_at, 0), self._count(view, "byteLength", view_at)
+        if start + length > len(data):
+            raise view_at.error(f"expected a range within its buffer of {len(data)} bytes, got bytes {start} to "
+                                f"{start + length}")
+        stride = view.get("byteStride")
+        return data[start:start + length], None if stride is None else self._count(view, "byteStride", view_at)
+
+    def _elements(self, value: Any, offset: int, count: int, dtype: np.dtype[Any], width: int, at: At,
+                  packed: bool = False) -> np.ndarray:
+        """`count` elements of `width` components from a buffer view (packed where `packed`)."""
+        data, stride = self.view(value, at.key("bufferView"))
+        element = dtype.itemsize * width
+        stride = element if stride is None or packed else stride
+        end = offset + stride * (count - 1) + element if count else offset
+        if stride < element or end > len(data):
+            raise at.error(f"expected {count} elements of {element} bytes, {stride} apart from byte {offset}, within "
+                           f"its buffer view of {len(data)} bytes, got a view too short (or a stride too small)")
+        rows = np.lib.stride_tricks.as_strided(np.frombuffer(data, np.uint8, offset=offset, count=end - offset),
+                                               shape=(count, element), strides=(stride, 1))
+        return rows.copy().view(dtype).reshape(count, width)
+
+    def accessor(self, k: int) -> np.ndarray:
+        """accessors[k] as (count, width): float64 for floats and normalized integers (scaled as
+        glTF 3.11 says), int64 for other integers (indices; quantized positions), with any sparse
+        substitutions made."""
+        at = At(self.source, f"accessors[{k}]")
+        accessor = self._item("accessors", k, At(self.source, "accessors"))
+        dtype = COMPONENTS.get(accessor.get("componentType", -1))
+        if dtype is None:
+            raise at.key("componentType").error(f"expected one of {', '.join(map(str, COMPONENTS))}, got "
+                                                f"{show(accessor.get('componentType'))}")
+        width = WIDTHS.get(accessor.get("type", ""))
+        if width is None:
+            raise at.key("type").error(f"expected one of {', '.join(WIDTHS)} (a vertex attribute or indices), "
+                                       f"got {show(accessor.get('type'))}")
+        count = self._count(accessor, "count", at)
+        if "bufferView" in accessor:
+            values = self._elements(accessor["bufferView"], self._count(accessor, "byteOffset", at, 0), count,
+                                    dtype, width, at)
+        else:
+            values = np.zeros((count, width), dtype)
+        if "sparse" in accessor:
+            self._substitute(values, accessor["sparse"], dtype, width, at.key("sparse"))
+        return _scaled(values, dtype, accessor.get("normalized") is True)
+
+    def _substitute(self, values: np.ndarray, sparse: Any, dtype: np.dtype[Any], width: int, at: At) -> None:
+        """values[sparse.indices] = sparse.values, in place."""
+        if not isinstance(sparse, Mapping):
+            raise at.error(f"expected a JSON object, got {show(sparse)}")
+        count = self._count(sparse, "count", at)
+        indices, replacing = sparse.get("indices"), sparse.get("values")
+        if not isinstance(indices, Mapping) or not isinstance(replacing, Mapping):
+            raise at.error("expected `indices` and `values` objects, got " + ("neither" if not isinstance(indices, Mapping)
+                                                                              and not isinstance(replacing, Mapping)
+                                                                              else "one of them"))
+        index_type = indices.get("componentType")
+        if index_type not in INDEX_COMPONENTS:
+            raise at.key("indices").key("componentType").error(
+                f"expected one of {', '.join(map(str, INDEX_COMPONENTS))} (unsigned integers), got {show(index_type)}")
+        where = self._elements(indices.get("bufferView"), self._count(indices, "byteOffset", at.key("indices"), 0),
+                               count, COMPONENTS[index_type], 1, at.key("indices"), packed=True).ravel()
+        if where.size and int(where.max()) >= len(values):
+            raise at.key("indices").error(f"expected indices below the accessor's count {len(values)}, got "
+                                          f"{int(where.max())}")
+        values[where.astype(np.int64)] = self._elements(
+            replacing.get("bufferView"), self._count(replacing, "byteOffset", at.key("values"), 0), count, dtype, width,
+            at.key("values"), packed=True)
+
+    def image(self, i: int) -> np.ndarray:
+        """images[i]'s texels (image_files.py), or a SceneError at images[i] saying why not."""
+        image = self._item("images", i, At(self.source, "images"))
+        name = image.get("name")
+        at = At(self.source, f"images[{i}]" + (f" {show(name)}" if isinstance(name, str) and name else ""))
+        if "bufferView" in image:
+            data = self.view(image["bufferView"], at.key("bufferView"))[0]
+        elif isinstance(image.get("uri"), str):
+            uri = image["uri"]
+            data = _data_uri(uri) if uri.startswith("data:") else \
+                read_file_bytes(self.path.parent / urllib.parse.unquote(uri), self.source, "an image file")
+        else:
+            raise at.error("expected a uri or a bufferView, got neither")
+        try:
+            return read_image(data)
+        except ImageRefused as refused:
+            raise at.error(f"expected {refused.expected}, got {refused.got}") from None
+
+
+def _scaled(values: np.ndarray, dtype: np.dtype[Any], normalized: bool) -> np.ndarray:
+    """Floats as float64; normalized integers to [0, 1] (unsigned) or [-1, 1] (signed,
+    max(c / (2^(n-1) - 1), -1)); other integers as int64."""
+    if dtype.kind == "f":
+        return values.astype(np.float64)
+    if not normalized:
+        return values.astype(np.int64)
+    largest = float(np.iinfo(dtype).max)
+    return np.maximum(values.astype(np.float64) / largest, -1.0)
