@@ -20,7 +20,9 @@ from .gpu.context import create_context, describe
 from .errors import DepthImpostorError, SceneError, SceneWarning
 from .oracles.compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
 from .colour import TONE_MAPPINGS
-from .outputs import Outputs, check_file, check_folder, is_float_image, write_float_image, write_image
+from .outputs import (
+    Outputs, check_file, check_folder, is_float_image, is_stdout, write_float_image, write_image,
+)
 from .gpu.limits import check_fits, limit_memory, parse_memory
 from .methods.registry import METHODS
 from .plan import RenderPlan, plan_render
@@ -147,13 +149,15 @@ def _render(args: argparse.Namespace) -> int:
     finally:
         ctx.release()
     timed = stats.draw_seconds[1:]
-    print(write_float_image(output, image) if linear else write_image(output, image))
+    report = sys.stderr if is_stdout(output) else sys.stdout  # `-o /dev/stdout`: the image alone there
+    written = write_float_image(output, image) if linear else write_image(output, image)
+    print(written, file=report)
     # The first frame is a cold one (caches, lazily made programs and buffers): a time only with --frames.
     timing = (f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)})" if timed
               else f"first frame {1000 * stats.draw_seconds[0]:.1f} ms (cold; --frames N times N more)")
-    print(f"{timing}, {stand_in}, {scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}")
+    print(f"{timing}, {stand_in}, {scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}", file=report)
     if args.stats:
-        print(format_stats(stats, plan, args.time, args.fps))
+        print(format_stats(stats, plan, args.time, args.fps), file=report)
     return 0
 
 
@@ -257,7 +261,8 @@ def _truth(args: argparse.Namespace) -> int:
         comparison, _ = _compare_frame(ctx, _load(args), args, Method.RAYTRACE)
     finally:
         ctx.release()
-    print(write_image(output, comparison.image(comparison.truth)))
+    written = write_image(output, comparison.image(comparison.truth))
+    print(written, file=sys.stderr if is_stdout(output) else sys.stdout)
     return 0
 
 
