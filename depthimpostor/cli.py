@@ -6,11 +6,14 @@ import argparse
 import json
 import math
 import os
+import signal
 import statistics
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from types import FrameType
 from typing import TypeVar
 
 import moderngl
@@ -542,6 +545,19 @@ def build_parser() -> argparse.ArgumentParser:
 #: The exit status of a command whose standard output was closed early (`render ... | head`): the
 #: shell's for a process ended by SIGPIPE, as `yes | head` gives.
 BROKEN_PIPE_EXIT = 128 + 13
+#: Ctrl-C (SIGINT) and `kill` (SIGTERM) end a command quietly, with the shell's status for them;
+#: what was being written is taken away on the way out (outputs.py: no temporary file is left).
+INTERRUPTED_EXIT = 128 + signal.SIGINT
+TERMINATED_EXIT = 128 + signal.SIGTERM
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised where the command is (as SIGINT raises KeyboardInterrupt), so that every
+    `finally` and `with` block on the way out runs."""
+
+
+def _terminate(signum: int, frame: FrameType | None) -> None:
+    raise _Terminated
 
 
 _python_format_warning = warnings.formatwarning
@@ -559,8 +575,16 @@ def _format_warning(message: Warning | str, category: type[Warning], filename: s
 def main(argv: Sequence[str] | None = None) -> int:
     warnings.formatwarning = _format_warning
     args = build_parser().parse_args(argv)
+    # Signals are handled in the main thread only (a test may call main from another).
+    own_signals = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if own_signals else None
     try:
         return args.run(args)
+    except KeyboardInterrupt:
+        print(file=sys.stderr)  # after a progress bar, or the terminal's ^C
+        return INTERRUPTED_EXIT
+    except _Terminated:
+        return TERMINATED_EXIT
     except DepthImpostorError as error:
         print(f"depthimpostor: {error}", file=sys.stderr)
         return error.exit_code
@@ -571,4 +595,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         os.dup2(devnull, sys.stdout.fileno())
         os.close(devnull)
         return BROKEN_PIPE_EXIT
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
