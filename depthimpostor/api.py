@@ -17,9 +17,9 @@ import numpy as np
 
 from .constants import Algorithm, Method
 from .gpu.context import Backend, create_context
-from .gpu.limits import limit_memory
+from .gpu.limits import checked_memory, limit_memory
 from .colour import display_encode
-from .renderer import Renderer
+from .renderer import Renderer, checked_time
 from .scene import Scene, load_scene
 
 
@@ -49,20 +49,24 @@ def render_image(
 
     Raises a `DepthImpostorError` for a scene, setting or GL that cannot give the frame.
     """
-    loaded = scene if isinstance(scene, Scene) else load_scene(scene)
-    loaded = loaded.with_overrides(size=size, impostor_resolution=impostor_resolution)
+    # Every argument is checked before the scene is read or a context is made.
     chosen_method, chosen_algorithm = _method(method), _algorithm(algorithm)
     if dtype not in ("uint8", "float32"):
         raise ValueError(f'dtype: expected "uint8" or "float32", got {dtype!r}')
+    seconds = checked_time(time)
+    if max_memory is not None:
+        if ctx is not None:
+            raise ValueError("max_memory: give it with limits.limit_memory(ctx, ...) when you pass your own ctx")
+        max_memory = checked_memory(max_memory)
+    loaded = scene if isinstance(scene, Scene) else load_scene(scene)
+    loaded = loaded.with_overrides(size=size, impostor_resolution=impostor_resolution, source="render_image")
     own = ctx is None
     context = create_context(backend) if ctx is None else ctx
     try:
         if own:
             limit_memory(context, max_memory)
-        elif max_memory is not None:
-            raise ValueError("max_memory: give it with limits.limit_memory(ctx, ...) when you pass your own ctx")
         with Renderer(context, loaded, chosen_algorithm, method=chosen_method) as renderer:
-            renderer.set_time(time)
+            renderer.set_time(seconds)
             renderer.render()
             color = renderer.read_color_float()
     finally:
@@ -72,15 +76,13 @@ def render_image(
     return display_encode(color, render.tone_mapping, render.exposure) if dtype == "uint8" else color
 
 
-def _method(name: str) -> Method:
-    try:
+def _method(name: object) -> Method:
+    if isinstance(name, str) and name.upper().replace("-", "_") in Method.__members__:
         return Method.from_option(name)
-    except KeyError:
-        raise ValueError(f"method: expected one of {[m.option for m in Method]}, got {name!r}") from None
+    raise ValueError(f"method: expected one of {[m.option for m in Method]}, got {name!r}")
 
 
-def _algorithm(name: str) -> Algorithm:
-    try:
+def _algorithm(name: object) -> Algorithm:
+    if isinstance(name, str) and name.upper() in Algorithm.__members__:
         return Algorithm[name.upper()]
-    except KeyError:
-        raise ValueError(f"algorithm: expected one of {[a.name.lower() for a in Algorithm]}, got {name!r}") from None
+    raise ValueError(f"algorithm: expected one of {[a.name.lower() for a in Algorithm]}, got {name!r}")

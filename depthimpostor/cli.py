@@ -6,11 +6,14 @@ import argparse
 import json
 import math
 import os
+import signal
 import statistics
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from types import FrameType
 from typing import TypeVar
 
 import moderngl
@@ -20,7 +23,9 @@ from .gpu.context import create_context, describe
 from .errors import DepthImpostorError, SceneError, SceneWarning
 from .oracles.compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
 from .colour import TONE_MAPPINGS
-from .outputs import Outputs, check_file, check_folder, is_float_image, write_float_image, write_image
+from .outputs import (
+    Outputs, check_file, check_folder, is_float_image, is_stdout, write_float_image, write_image,
+)
 from .gpu.limits import check_fits, limit_memory, parse_memory
 from .methods.registry import METHODS
 from .plan import RenderPlan, plan_render
@@ -147,13 +152,15 @@ def _render(args: argparse.Namespace) -> int:
     finally:
         ctx.release()
     timed = stats.draw_seconds[1:]
-    print(write_float_image(output, image) if linear else write_image(output, image))
+    report = sys.stderr if is_stdout(output) else sys.stdout  # `-o /dev/stdout`: the image alone there
+    written = write_float_image(output, image) if linear else write_image(output, image)
+    print(written, file=report)
     # The first frame is a cold one (caches, lazily made programs and buffers): a time only with --frames.
     timing = (f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)})" if timed
               else f"first frame {1000 * stats.draw_seconds[0]:.1f} ms (cold; --frames N times N more)")
-    print(f"{timing}, {stand_in}, {scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}")
+    print(f"{timing}, {stand_in}, {scene.render.size[0]}x{scene.render.size[1]} on {renderer_name}", file=report)
     if args.stats:
-        print(format_stats(stats, plan, args.time, args.fps))
+        print(format_stats(stats, plan, args.time, args.fps), file=report)
     return 0
 
 
@@ -257,7 +264,8 @@ def _truth(args: argparse.Namespace) -> int:
         comparison, _ = _compare_frame(ctx, _load(args), args, Method.RAYTRACE)
     finally:
         ctx.release()
-    print(write_image(output, comparison.image(comparison.truth)))
+    written = write_image(output, comparison.image(comparison.truth))
+    print(written, file=sys.stderr if is_stdout(output) else sys.stdout)
     return 0
 
 
@@ -537,6 +545,19 @@ def build_parser() -> argparse.ArgumentParser:
 #: The exit status of a command whose standard output was closed early (`render ... | head`): the
 #: shell's for a process ended by SIGPIPE, as `yes | head` gives.
 BROKEN_PIPE_EXIT = 128 + 13
+#: Ctrl-C (SIGINT) and `kill` (SIGTERM) end a command quietly, with the shell's status for them;
+#: what was being written is taken away on the way out (outputs.py: no temporary file is left).
+INTERRUPTED_EXIT = 128 + signal.SIGINT
+TERMINATED_EXIT = 128 + signal.SIGTERM
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised where the command is (as SIGINT raises KeyboardInterrupt), so that every
+    `finally` and `with` block on the way out runs."""
+
+
+def _terminate(signum: int, frame: FrameType | None) -> None:
+    raise _Terminated
 
 
 _python_format_warning = warnings.formatwarning
@@ -554,8 +575,16 @@ def _format_warning(message: Warning | str, category: type[Warning], filename: s
 def main(argv: Sequence[str] | None = None) -> int:
     warnings.formatwarning = _format_warning
     args = build_parser().parse_args(argv)
+    # Signals are handled in the main thread only (a test may call main from another).
+    own_signals = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if own_signals else None
     try:
         return args.run(args)
+    except KeyboardInterrupt:
+        print(file=sys.stderr)  # after a progress bar, or the terminal's ^C
+        return INTERRUPTED_EXIT
+    except _Terminated:
+        return TERMINATED_EXIT
     except DepthImpostorError as error:
         print(f"depthimpostor: {error}", file=sys.stderr)
         return error.exit_code
@@ -566,4 +595,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         os.dup2(devnull, sys.stdout.fileno())
         os.close(devnull)
         return BROKEN_PIPE_EXIT
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 

@@ -13,6 +13,7 @@ leaves none of them, not half a report.
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -27,23 +28,48 @@ from .hdr import HDR_SUFFIXES, write_hdr
 Writer = Callable[[IO[bytes]], None]
 
 
+#: The image files a still frame is written as, by the file name's extension: each is written and
+#: read back by tests/test_outputs.py. (Pillow registers more; some it cannot write an RGB image as
+#: after all (.blp, .bufr, .grib, .h5, .xbm, ...), some it writes as another format whatever the
+#: name says (.pbm, .pgm, .pfm become a binary PPM).)
+IMAGE_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".bmp": "BMP", ".tif": "TIFF", ".tiff": "TIFF",
+                 ".webp": "WEBP", ".ppm": "PPM", ".tga": "TGA"}
+#: A temporary file's name is its destination's, hidden, with a random part and a suffix: the
+#: destination's name is cut to this many characters there, so that the temporary's name is no
+#: longer than the longest name a folder holds (NAME_MAX, 255 bytes on Linux) when the
+#: destination's is.
+_TEMPORARY_NAME_CHARACTERS = 100
+
+
 def _stream(path: Path) -> bool:
     """A destination that is not a file to replace: a device or a pipe (`-o /dev/null`,
-    `-o /dev/stdout`), written straight into."""
-    return path.exists() and not path.is_file() and not path.is_dir()
+    `-o /dev/stdout`), written straight into. (Through a link, as /dev/stdout is: stat follows it
+    where `Path.resolve` cannot, /proc/self/fd/1 naming "pipe:[...]".)"""
+    try:
+        mode = path.stat().st_mode
+    except OSError:
+        return False
+    return not stat.S_ISREG(mode) and not stat.S_ISDIR(mode)
+
+
+def is_stdout(path: Path) -> bool:
+    """Is `path` this process's standard output (`-o /dev/stdout`, or the file stdout goes to)?
+    Then what a command says goes to standard error, not into the image."""
+    try:
+        return os.path.samestat(path.stat(), os.fstat(1))
+    except (OSError, ValueError):
+        return False
 
 
 def image_format(path: Path, option: str) -> str:
     """The PIL format a file name asks for (`.png` -> PNG; PNG into a device or a pipe);
-    OutputError for one Pillow cannot write."""
+    OutputError for one not in IMAGE_FORMATS."""
     if _stream(path) and not path.suffix:
         return "PNG"
-    formats = Image.registered_extensions()
-    writable = sorted(ext for ext, name in formats.items() if name in Image.SAVE)
-    name = formats.get(path.suffix.lower())
-    if name is None or name not in Image.SAVE:
-        raise OutputError(f"{option} {path}: expected an image file name ending in one of .png, .jpg, .bmp, .tif "
-                          f"(any of {len(writable)} that Pillow writes), got {path.suffix or 'no extension'!r}")
+    name = IMAGE_FORMATS.get(path.suffix.lower())
+    if name is None:
+        raise OutputError(f"{option} {path}: expected an image file name ending in one of "
+                          f"{', '.join(IMAGE_FORMATS)}, got {path.suffix or 'no extension'!r}")
     return name
 
 
@@ -69,16 +95,39 @@ def is_float_image(path: Path) -> bool:
     return path.suffix.lower() in HDR_SUFFIXES
 
 
+def _link_target(path: Path, option: str) -> Path:
+    """Where writing `path` lands: itself, or the file a symbolic link (a chain of them) names,
+    whose folder must exist: a dangling link's folder is not made (it is elsewhere, and the user
+    asked for `path`)."""
+    if not path.is_symlink():
+        return path
+    try:
+        target = path.resolve(strict=False)
+    except (OSError, RuntimeError) as error:  # a loop of links
+        raise OutputError(f"{option} {path}: cannot follow the symbolic link: {error}") from None
+    if not target.parent.is_dir():
+        raise OutputError(f"{option} {path}: a symbolic link to {target}, whose folder does not exist; "
+                          "make it, or name a file that is not a link")
+    return target
+
+
 def check_file(path: Path, option: str, image: bool = True, float_image: bool = False) -> Path:
-    """Refuse, before any work, an output file that cannot be written: a folder, an image format
-    Pillow cannot write (when `image`; `float_image`: or a float .exr or .hdr), a folder one cannot
-    write in."""
+    """Refuse, before any work, an output file that cannot be written: a name the system refuses
+    (too long), a folder, an image format not in IMAGE_FORMATS (when `image`; `float_image`: or a
+    float .exr or .hdr), a link into a folder that does not exist, a folder one cannot write in."""
+    try:
+        path.lstat()
+    except FileNotFoundError:
+        pass
+    except OSError as error:  # File name too long, Not a directory, Permission denied, ...
+        shown = str(path) if len(str(path)) <= 80 else f"{str(path)[:60]}...{str(path)[-16:]}"
+        raise OutputError(f"{option} {shown}: cannot write this file: {error.strerror or error}") from None
     if path.is_dir():
         raise OutputError(f"{option} {path}: expected a file name, got an existing folder")
     if image and not (float_image and is_float_image(path)):
         image_format(path, option)
     if not _stream(path):
-        _writable_folder(path.parent, option, path)
+        _writable_folder(_link_target(path, option).parent, option, path)
     return path
 
 
@@ -134,13 +183,15 @@ class Outputs:
         """Like `write`, for a writer that opens the file itself by its name (ffmpeg): `write` is
         given the temporary file's name, which ends in `suffix` (ffmpeg reads the format there)."""
         path = Path(path)
-        target = path.resolve() if path.is_symlink() else path
         try:
-            if _stream(target):  # a device or a pipe: nothing to replace, written straight in
-                write(target)
+            if _stream(path):  # a device or a pipe: nothing to replace, written straight in
+                write(path)
                 return path
-            target.parent.mkdir(parents=True, exist_ok=True)
-            handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=suffix, dir=target.parent)
+            target = _link_target(path, "output")
+            if target is path:  # a link's folder is not made (check_file)
+                target.parent.mkdir(parents=True, exist_ok=True)
+            prefix = f".{target.name[:_TEMPORARY_NAME_CHARACTERS]}."
+            handle, name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
             os.close(handle)
             self._pending.append((Path(name), target, exclusive))
             write(Path(name))

@@ -4,12 +4,18 @@ re-plans (the plan checks every limit first) and lets the graph apply the differ
 
 from __future__ import annotations
 
+import functools
+import math
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
+
 import moderngl
 import numpy as np
 
 from .colour import display_encode
 from .constants import Algorithm, Method
 from .eye import EyeCamera, reversed_z
+from .gpu.context import check_usable
 from .gpu.embedding import kept_state, keeps_gl_state
 from .gpu.limits import allocating, check_fits
 from .gpu.shaders import ProgramCache, ShaderLibrary
@@ -22,6 +28,30 @@ from .supersampling import SubFrame, draw_supersampled
 from .targets import FrameTargets, ReflectionData
 from .world import World
 
+Method_ = TypeVar("Method_", bound=Callable[..., Any])
+
+
+def checked_time(seconds: object) -> float:
+    """A scene time from the Python API: a finite number of seconds (ValueError otherwise; NaN or
+    infinity would put every animated object nowhere)."""
+    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not math.isfinite(seconds):
+        raise ValueError(f"time: expected a finite number of seconds, got {seconds!r}")
+    return float(seconds)
+
+
+def _live(method: Method_) -> Method_:
+    """A public method that draws or reads: refused, with a message, on a released renderer or a
+    context that is released or not current in this thread (rather than a moderngl AttributeError
+    about an 'InvalidObject', or a frame silently not drawn)."""
+    @functools.wraps(method)
+    def checked(self: Renderer, *args: Any, **kwargs: Any) -> Any:
+        if self.released:
+            raise ValueError(f"Renderer.{method.__name__}: the renderer was released (Renderer.release() or the end "
+                             "of its `with` block); make a new one")
+        check_usable(self.ctx)
+        return method(self, *args, **kwargs)
+    return cast(Method_, checked)
+
 
 class Renderer:
     """A scene's frames, drawn with the GL context it is given. Every public method leaves the GL
@@ -33,6 +63,8 @@ class Renderer:
         """`method` is how reflected objects are stood in for (only its own resources are made);
         `shaders` reads the GLSL from another folder (the viewer's `--shaders`); the other flags
         are GraphOptions' (render_graph.py)."""
+        check_usable(ctx)
+        self.released = False
         self.ctx, self.scene, self.method, self.algorithm = ctx, scene, method, algorithm
         self.options = GraphOptions(reflection_data, count_samples, time_mirror_pass)
         self.stats = RenderStats()
@@ -67,16 +99,20 @@ class Renderer:
         """Use this exact camera (tests), until the next `look_at` or `resize`; nothing is re-baked."""
         self.camera = EyeCamera.of(camera) if self.reversed_z else camera
 
+    @_live
     @keeps_gl_state
     def set_time(self, seconds: float) -> None:
-        """Move the scene's animated objects and lights to where they are at `seconds`. Only what
-        depends on what moved is baked again at the next frame (RenderGraph.follow)."""
+        """Move the scene's animated objects and lights to where they are at `seconds` (a finite
+        number: ValueError otherwise). Only what depends on what moved is baked again at the next
+        frame (RenderGraph.follow)."""
+        seconds = checked_time(seconds)
         if seconds != self.time and self.scene.animated:
             earlier, self.world = self.world, self.world.at(seconds)
             self.look_at(self.view)  # the near and far planes follow the scene's bounds
             self.graph.follow(earlier, self.world)
         self.time = seconds
 
+    @_live
     @keeps_gl_state
     def _apply(self, scene: Scene, method: Method, algorithm: Algorithm, context: str, edited: bool = False) -> None:
         """Draw with other settings (or, `edited`, another version of the scene's objects): re-plan,
@@ -128,15 +164,18 @@ class Renderer:
         renderer's time and camera. One this context cannot hold raises and changes nothing."""
         self._apply(scene, self.method, self.algorithm, "--impostor-res", edited=True)
 
+    @_live
     @keeps_gl_state
     def set_show_samples(self, show: bool) -> None:
         """Reflected objects shown as their baked images' samples (the lecture's visualization)."""
         self.graph.set_show_samples(show)
 
+    @_live
     def bake_again(self) -> None:
         """Bake again at the next frame, although nothing changed (the benchmark times bakes)."""
         self.graph.bake_again()
 
+    @_live
     @keeps_gl_state
     def reload_shaders(self) -> None:
         """Compile every program again from the files, and re-bake; a file that no longer compiles
@@ -150,6 +189,7 @@ class Renderer:
         self.graph.build()
 
     # ------------------------------------------------------------------ frames
+    @_live
     def render(self, target: moderngl.Framebuffer | None = None,
                viewport: tuple[int, int, int, int] | None = None) -> RenderStats:
         """Draw one frame (baking what is stale first), and given a `target` put it upright into
@@ -177,6 +217,7 @@ class Renderer:
             return [SubFrame(self.camera, self.read_color_float(), data)]
         return list(self.last_sub_frames)
 
+    @_live
     def read_color_float(self) -> np.ndarray:
         """The last frame as (height, width, 3) float32, top row first, unclamped."""
         return self.targets.read_color_float()
@@ -186,15 +227,27 @@ class Renderer:
         render = self.scene.render
         return display_encode(self.read_color_float(), render.tone_mapping, render.exposure)
 
+    @_live
     def read_sample_counts(self) -> np.ndarray:
         return self.targets.read_sample_counts()
 
+    @_live
     def read_reflection_data(self) -> ReflectionData:
         return self.targets.read_reflection_data()
 
     # ------------------------------------------------------------------ lifetime
-    @keeps_gl_state
     def release(self) -> None:
+        """Free the renderer's GL objects (once: a second call does nothing); its context must be
+        current in this thread."""
+        if self.released or isinstance(self.ctx.mglo, moderngl.InvalidObject):  # its context freed them all
+            self.released = True
+            return
+        check_usable(self.ctx)
+        with kept_state(self.ctx):
+            self._release()
+        self.released = True
+
+    def _release(self) -> None:
         self.graph.release()
         self.programs.release()
         self.targets.release()

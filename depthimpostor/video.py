@@ -10,9 +10,11 @@ is what the video is for, and the scene's camera was placed to frame it) and a s
 The frames are drawn one after the other by one `Renderer` (only what moved is baked again) and
 read through the scene's display transform (`read_color`), as `render -o frame.png` writes them.
 MP4 (H.264, yuv420p, which every player reads) is encoded by ffmpeg through imageio (the
-imageio-ffmpeg wheel carries its own ffmpeg binary) as the frames come; GIF by Pillow, each frame
-with its own 256-colour palette, held until the end (a GIF cannot be written as it goes). Either
-is written atomically (outputs.py): a failure leaves no half video.
+imageio-ffmpeg wheel carries its own ffmpeg binary) as the frames come; GIF by Pillow's frame
+encoder, each frame with its own 256-colour palette, as the frames come too (Pillow's own
+multi-frame save holds every frame until the end). Either is written atomically (outputs.py): a
+failure, Ctrl-C or a SIGTERM leaves no half video and no temporary file. A video has at most
+MAX_VIDEO_FRAMES frames, checked before any work.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from enum import Enum
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
+from PIL import GifImagePlugin, Image
 from tqdm import tqdm
 
 from .errors import OutputError, SceneError
@@ -37,8 +39,12 @@ from .viewer.navigation import Navigation
 
 MP4, GIF = ".mp4", ".gif"
 VIDEO_SUFFIXES = (MP4, GIF)
-#: A GIF's frame times are whole centiseconds.
+#: A GIF's frame times are whole centiseconds, in 16 bits: a frame shows for at most 655.35 s.
 GIF_TICKS_PER_SECOND = 100
+GIF_MAX_TICKS = 2**16 - 1
+#: The most frames a video may have (55 minutes at 30 frames/s): a typo such as `--fps 1e9` is
+#: refused at once instead of rendering for years.
+MAX_VIDEO_FRAMES = 100_000
 #: ffmpeg's quality scale (0 to 10) for H.264; 8 keeps the checkers' edges crisp at a few
 #: hundred kB per second of 960x540.
 MP4_QUALITY = 8
@@ -76,9 +82,18 @@ def check_video_settings(settings: VideoSettings, size: tuple[int, int], path: P
     for option, value in (("--duration", settings.duration), ("--fps", settings.fps)):
         if not (math.isfinite(value) and value > 0.0):
             raise SceneError("command line", option, f"expected a positive number, got {value:g}")
+    count = settings.duration * settings.fps  # before `frames`: 1e308 x 1e308 is no integer
+    if count >= MAX_VIDEO_FRAMES + 0.5:
+        raise SceneError("command line", "--duration", f"expected at most {MAX_VIDEO_FRAMES:,} frames: "
+                         f"{settings.duration:g} s at {settings.fps:g} frames/s is {count:,.6g} frames")
     if settings.frames < 1:
         raise SceneError("command line", "--duration", f"expected at least one frame: {settings.duration:g} s at "
                          f"{settings.fps:g} frames/s is {settings.duration * settings.fps:.3g} frames")
+    if path.suffix.lower() == GIF and math.ceil(GIF_TICKS_PER_SECOND / settings.fps) > GIF_MAX_TICKS:
+        least = math.ceil(GIF_TICKS_PER_SECOND / GIF_MAX_TICKS * 1e8) / 1e8  # shown rounded up: taken itself
+        raise SceneError("command line", "--fps", f"expected at least {least:g} "
+                         f"frames/s for a GIF (a GIF frame shows for at most {GIF_MAX_TICKS / 100:g} s), "
+                         f"got {settings.fps:g}")
     if path.suffix.lower() == MP4 and (size[0] % 2 or size[1] % 2):
         raise SceneError("command line", "--size", f"expected an even width and height for an MP4 video (H.264 "
                          f"in yuv420p), got {size[0]}x{size[1]}: make it {size[0] + size[0] % 2}x"
@@ -119,23 +134,52 @@ def render_frames(renderer: Renderer, settings: VideoSettings) -> Iterator[np.nd
         yield renderer.read_color()
 
 
-def gif_durations(frames: int, fps: float) -> list[int]:
-    """Each GIF frame's time in milliseconds (whole centiseconds, as the format stores them), each
-    rounded where its frame ends so that the video keeps its frame rate on average (30 frames/s
-    alternates 30 and 40 ms instead of running 10% fast at 30 ms each)."""
-    ends = [round(GIF_TICKS_PER_SECOND * (i + 1) / fps) for i in range(frames)]
-    starts = [0, *ends[:-1]]
+def gif_duration(frame: int, fps: float) -> int:
+    """The GIF frame's time in milliseconds (whole centiseconds, as the format stores them),
+    rounded where it ends so that the video keeps its frame rate on average (30 frames/s alternates
+    30 and 40 ms instead of running 10% fast at 30 ms each)."""
+    start = 0 if frame == 0 else round(GIF_TICKS_PER_SECOND * frame / fps)
+    end = round(GIF_TICKS_PER_SECOND * (frame + 1) / fps)
     # A frame of no time would be dropped by players; at most 100 frames/s shows.
-    return [max(end - start, 1) * (1000 // GIF_TICKS_PER_SECOND) for start, end in zip(starts, ends, strict=True)]
+    return max(end - start, 1) * (1000 // GIF_TICKS_PER_SECOND)
+
+
+def gif_durations(frames: int, fps: float) -> list[int]:
+    """Each of `frames` GIF frames' times in milliseconds (gif_duration)."""
+    return [gif_duration(frame, fps) for frame in range(frames)]
 
 
 def _write_gif(name: Path, frames: Iterable[np.ndarray], fps: float) -> None:
-    # Each frame gets its own palette (median cut over its own colours): an orbit sees other
-    # colours as it turns. Held as palette images, a byte a pixel, until the file is written.
-    pictures = [Image.fromarray(frame).quantize(colors=256, method=Image.Quantize.MEDIANCUT) for frame in frames]
-    first, *rest = pictures
-    first.save(name, format="GIF", save_all=True, append_images=rest, duration=gif_durations(len(pictures), fps),
-               loop=0, optimize=False)
+    """Each frame written as it comes (memory does not grow with the video), with its own palette
+    (median cut over its own colours: an orbit sees other colours as it turns); a frame identical
+    to the one before is written once, for their time together (as Pillow's own save does)."""
+    pending: tuple[Image.Image, int] | None = None  # a frame not yet written, and its time
+    with name.open("wb") as file:
+        def put(picture: Image.Image, milliseconds: int, first: bool) -> None:
+            if first:  # the file's header and the loop block (the global palette is the first frame's)
+                header, _ = GifImagePlugin.getheader(picture, info={"loop": 0, "duration": milliseconds})
+                file.writelines(header)
+            file.writelines(GifImagePlugin.getdata(picture, duration=milliseconds, include_color_table=True))
+
+        written = 0
+        for index, frame in enumerate(frames):
+            picture = Image.fromarray(frame).quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+            milliseconds = gif_duration(index, fps)
+            if pending is not None and _same_picture(pending[0], picture) and pending[1] + milliseconds <= \
+                    GIF_MAX_TICKS * (1000 // GIF_TICKS_PER_SECOND):
+                pending = (pending[0], pending[1] + milliseconds)
+                continue
+            if pending is not None:
+                put(*pending, first=written == 0)
+                written += 1
+            pending = (picture, milliseconds)
+        if pending is not None:
+            put(*pending, first=written == 0)
+        file.write(b";")  # the trailer
+
+
+def _same_picture(a: Image.Image, b: Image.Image) -> bool:
+    return a.tobytes() == b.tobytes() and a.getpalette() == b.getpalette()
 
 
 def _write_mp4(name: Path, frames: Iterable[np.ndarray], fps: float) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import threading
 from collections.abc import Iterator
 from typing import Any
 
@@ -15,6 +16,7 @@ import pytest
 import depthimpostor
 from conftest import SCENES, assert_finite
 from depthimpostor.colour import display_encode
+from depthimpostor.errors import ContextError
 from depthimpostor.scene import load_scene
 
 SIZE = (64, 36)
@@ -41,15 +43,74 @@ def test_render_image_is_the_frame_the_renderer_draws(ctx: moderngl.Context) -> 
 @pytest.mark.parametrize(("argument", "value", "message"), [
     ("method", "mirror", "method: expected one of"), ("algorithm", "fast", "algorithm: expected one of"),
     ("dtype", "float16", "dtype: expected"),
+    ("method", None, "method: expected one of"), ("method", 3, "method: expected one of"),
+    ("algorithm", None, "algorithm: expected one of"),
+    ("time", float("nan"), "time: expected a finite number"), ("time", float("inf"), "time: expected a finite"),
+    ("time", "1", "time: expected a finite number"),
+    ("max_memory", "1G", "max_memory: expected a positive integer"),
+    ("max_memory", float("nan"), "max_memory: expected a positive integer"),
+    ("max_memory", -1, r"max_memory: expected a positive integer number of bytes .*, got -1$"),
+    ("max_memory", 0, "max_memory: expected a positive integer"),
 ])
-def test_render_image_names_a_bad_argument(argument: str, value: str, message: str) -> None:
+def test_render_image_names_a_bad_argument(argument: str, value: object, message: str) -> None:
+    """Each bad argument is a ValueError naming it (not an AttributeError, TypeError, a budget of
+    "-0.00 MiB", or a frame at time NaN), before any context is made."""
     with pytest.raises(ValueError, match=message):
         depthimpostor.render_image(SCENE, size=SIZE, **{argument: value})  # type: ignore[arg-type]
 
 
 def test_render_image_refuses_a_bad_scene_setting() -> None:
-    with pytest.raises(depthimpostor.DepthImpostorError, match="--size"):
+    with pytest.raises(depthimpostor.DepthImpostorError) as raised:
         depthimpostor.render_image(SCENE, size=(0, 10))
+    # Named as the function's argument: this is not the command line's --size.
+    assert str(raised.value) == "render_image: size: expected 2 integers in [1, 16384], got [0, 10]"
+
+
+@pytest.mark.parametrize("size", [(np.int64(64), np.int32(36)), np.array([64, 36]), [64, 36]])
+def test_render_image_takes_numpy_integers(ctx: moderngl.Context, size: object) -> None:
+    image = depthimpostor.render_image(SCENE, size=size, impostor_resolution=np.int64(32), ctx=ctx)  # type: ignore[arg-type]
+    assert image.shape == (36, 64, 3)
+
+
+def test_a_released_renderer_or_context_is_named(ctx: moderngl.Context) -> None:
+    scene = load_scene(SCENE).with_overrides(size=SIZE, impostor_resolution=32)
+    renderer = depthimpostor.Renderer(ctx, scene)
+    renderer.release()
+    renderer.release()  # a second release does nothing
+    for use in (renderer.render, renderer.read_color, lambda: renderer.set_time(1.0), lambda: renderer.resize((8, 8))):
+        with pytest.raises(ValueError, match="the renderer was released"):
+            use()
+    own = depthimpostor.create_context()
+    try:
+        renderer = depthimpostor.Renderer(own, scene)
+        own.release()
+        with pytest.raises(ContextError, match=r"the GL context was released \(ctx.release\(\)\)"):
+            renderer.render()
+        renderer.release()  # the context freed what it held: nothing to do
+        with pytest.raises(ContextError, match="the GL context was released"):
+            depthimpostor.Renderer(own, scene)
+    finally:
+        ctx.__enter__()  # EGL leaves the released context current: the session's is made current again
+
+
+def test_a_context_used_from_another_thread_is_named(ctx: moderngl.Context) -> None:
+    """GL calls in a thread where the context is not current do nothing (GL_MAX_RENDERBUFFER_SIZE
+    reads 0): the renderer says so instead."""
+    scene = load_scene(SCENE).with_overrides(size=SIZE, impostor_resolution=32)
+    errors: list[BaseException] = []
+    with depthimpostor.Renderer(ctx, scene) as renderer:
+        def other_thread() -> None:
+            for use in (renderer.render, lambda: depthimpostor.Renderer(ctx, scene)):
+                try:
+                    use()
+                except BaseException as error:  # noqa: BLE001 - the test reads it in the main thread
+                    errors.append(error)
+        thread = threading.Thread(target=other_thread)
+        thread.start()
+        thread.join()
+        renderer.render()  # still fine in its own thread
+    assert len(errors) == 2 and all(isinstance(error, ContextError) for error in errors), errors
+    assert all("not current in this thread" in str(error) for error in errors)
 
 
 class GlState:

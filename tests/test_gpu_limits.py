@@ -160,7 +160,7 @@ def test_memory_sizes(text: str, size: int) -> None:
     assert parse_memory(text) == size
 
 
-@pytest.mark.parametrize("text", ["", "0", "-1G", "lots", "1.5X", "nan"])
+@pytest.mark.parametrize("text", ["", "0", "-1G", "lots", "1.5X", "nan", "0.0000001K"])
 def test_bad_memory_sizes(text: str) -> None:
     with pytest.raises(ValueError, match="expected a positive size"):
         parse_memory(text)

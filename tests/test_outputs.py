@@ -142,3 +142,64 @@ def test_a_closed_stdout_ends_quietly(tmp_path: Path) -> None:
     assert done.returncode == BROKEN_PIPE_EXIT == 141
     assert done.stderr == ""
     assert (tmp_path / "out.png").is_file()
+
+
+@pytest.mark.parametrize("suffix", sorted(outputs.IMAGE_FORMATS))
+def test_every_image_format_taken_is_written_and_read_back(tmp_path: Path, suffix: str) -> None:
+    """Each extension `-o` takes gives a file of that format holding the frame (lossy ones close)."""
+    y, x = np.mgrid[0:36, 0:64]
+    frame = np.stack([x * 4, y * 7, (x + y) * 2], axis=-1).astype(np.uint8)  # smooth: JPEG and WebP stay close
+    path = write_image(tmp_path / f"frame{suffix}", frame)
+    with Image.open(path) as written:
+        assert written.format == outputs.IMAGE_FORMATS[suffix]
+        pixels = np.asarray(written.convert("RGB")).astype(int)
+    lossy = outputs.IMAGE_FORMATS[suffix] in ("JPEG", "WEBP")
+    assert pixels.shape == frame.shape and np.abs(pixels - frame).max() <= (24 if lossy else 0)
+
+
+@pytest.mark.parametrize("suffix", [".blp", ".bufr", ".grib", ".h5", ".hdf", ".emf", ".wmf", ".msp", ".palm", ".xbm",
+                                    ".pfm", ".pbm", ".pgm"])
+def test_formats_pillow_registers_but_that_are_not_written_are_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], suffix: str) -> None:
+    """Pillow lists these as formats it saves, but fails on an RGB frame after the rendering
+    (.blp, .bufr, ...) or writes a binary PPM whatever the name says (.pfm, .pbm, .pgm)."""
+    refused_at_once(["render", "-o", str(tmp_path / f"x{suffix}")], capsys, f"x{suffix}: expected an image file name",
+                    ".png, .jpg", f"got '{suffix}'")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_link_into_a_missing_folder_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A dangling link's folder is not made (it was: outside the folder, where the link pointed)."""
+    link = tmp_path / "link.png"
+    link.symlink_to(tmp_path / "elsewhere" / "dir" / "x.png")
+    refused_at_once(["render", "-o", str(link)], capsys, "link.png: a symbolic link to", "whose folder does not exist")
+    assert not (tmp_path / "elsewhere").exists()
+    # A link into an existing folder writes the file it names; the link stays a link.
+    (tmp_path / "elsewhere").mkdir()
+    link.unlink()
+    link.symlink_to(tmp_path / "elsewhere" / "x.png")
+    write_image(link, np.zeros((2, 2, 3), np.uint8))
+    assert link.is_symlink() and (tmp_path / "elsewhere" / "x.png").is_file()
+
+
+def test_a_name_too_long_is_refused_and_a_long_one_is_written(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    line = refused_at_once(["render", "-o", str(tmp_path / ("a" * 300 + ".png"))], capsys, "File name too long")
+    assert len(line) < 200, "the name is shortened in the message"
+    # 255 bytes, the most a folder holds: its temporary's name (a hidden, random one beside it) fits too.
+    longest = tmp_path / ("b" * 251 + ".png")
+    write_image(longest, np.zeros((2, 2, 3), np.uint8))
+    assert sorted(p.name for p in tmp_path.iterdir()) == [longest.name]
+
+
+def test_an_image_into_a_pipe_on_stdout_is_the_image_alone(tmp_path: Path) -> None:
+    """`render -o /dev/stdout | ...`: the PNG straight into the pipe (it failed after rendering:
+    /dev/stdout resolved to /proc/.../pipe:[...]); what the command says goes to stderr."""
+    env = {**os.environ, "PYTHONPATH": str(PROJECT_ROOT)}
+    done = subprocess.run([sys.executable, "-m", "depthimpostor", "render", "--size", "64x36", "--impostor-res", "32",
+                           "-o", "/dev/stdout"], capture_output=True, env=env, timeout=120, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    with Image.open(io.BytesIO(done.stdout)) as image:
+        assert image.format == "PNG" and image.size == (64, 36)
+    assert done.stderr.decode().startswith("/dev/stdout\n")
+    assert list(tmp_path.iterdir()) == []

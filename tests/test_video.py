@@ -6,6 +6,10 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
+import subprocess
+import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -13,9 +17,11 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from conftest import SCENES
+from conftest import PROJECT_ROOT, SCENES
 from depthimpostor.scene.model import Camera
-from depthimpostor.video import CameraPath, VideoSettings, gif_durations, orbit_view, view_at
+from depthimpostor.video import (
+    CameraPath, VideoSettings, gif_durations, orbit_view, view_at, write_video,
+)
 from test_cli import assert_one_line_error, run_in_process
 
 SIZE = (64, 48)
@@ -116,6 +122,16 @@ def test_gif_frame_times_keep_the_frame_rate() -> None:
     (["--video", "{out}.gif", "--duration", "1", "-o", "{out}.png"], ["-o: expected no value with --video"]),
     (["--duration", "1", "-o", "{out}.png"], ["--duration: expected only with --video"]),
     (["--video", "{tmp}", "--duration", "1"], ["--video", "expected a video file name"]),
+    # A billion frames (they were all rendered, a GIF's held in a list): refused at once.
+    (["--video", "{out}.gif", "--duration", "1", "--fps", "1e9"],
+     ["--duration: expected at most 100,000 frames: 1 s at 1e+09 frames/s is 1e+09 frames"]),
+    (["--video", "{out}.mp4", "--duration", "1e9"], ["--duration: expected at most 100,000 frames"]),
+    (["--video", "{out}.mp4", "--duration", "1e308", "--fps", "1e308"], ["is inf frames"]),
+    (["--video", "{out}.mp4", "--duration", "3334", "--fps", "30"], ["is 100,020 frames"]),
+    # A GIF frame shows for at most 655.35 s (an OverflowError after the rendering).
+    (["--video", "{out}.gif", "--duration", "1e5", "--fps", "0.00152590"], ["got 0.0015259"]),
+    (["--video", "{out}.gif", "--duration", "1000", "--fps", "0.001"],
+     ["--fps: expected at least 0.00152591 frames/s for a GIF (a GIF frame shows for at most 655.35 s), got 0.001"]),
 ])
 def test_bad_video_arguments_are_one_line(arguments: list[str], fragments: list[str], tmp_path: Path,
                                           capsys: pytest.CaptureFixture[str]) -> None:
@@ -185,4 +201,70 @@ def test_ffmpeg_is_done_when_a_frame_fails(tmp_path: Path) -> None:
         write_video(tmp_path / "never.mp4", frames(), 10.0)
     assert failed.traceback  # the failure, and whatever it holds, still alive here
     assert ffmpeg_children() == []
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_gif_is_written_as_its_frames_come(tmp_path: Path) -> None:
+    """The GIF's frames are not held until the end (they were, in a list: a billion frames ran the
+    memory out): the file grows while they are drawn (in a temporary beside it)."""
+    out = tmp_path / "v.gif"
+    rng = np.random.default_rng(3)
+    sizes = []
+
+    def frames() -> Iterator[np.ndarray]:
+        for _ in range(5):
+            sizes.append(sum(p.stat().st_size for p in tmp_path.iterdir()))  # before each frame is drawn
+            yield (rng.random((SIZE[1], SIZE[0], 3)) * 255).astype(np.uint8)
+
+    write_video(out, frames(), 10.0)
+    # A frame is written once the next shows it is not the same (then it would be written once, longer).
+    assert sizes[0] == sizes[1] == 0 and 0 < sizes[2] < sizes[3] < sizes[4], sizes
+    assert read_video(out).shape == (5, SIZE[1], SIZE[0], 3)
+    assert [p.name for p in tmp_path.iterdir()] == ["v.gif"]
+
+
+def test_a_still_gif_writes_a_repeated_frame_once() -> None:
+    from PIL import Image
+
+    from depthimpostor.video import _write_gif
+
+    frame = np.zeros((4, 6, 3), np.uint8)
+    frame[1:3, 2:4] = (200, 40, 10)
+    moved = np.roll(frame, 1, axis=1)
+    path = Path(os.environ.get("TMPDIR", "/tmp")) / f"still-{os.getpid()}.gif"
+    try:
+        _write_gif(path, [frame, frame, frame, moved], 10.0)
+        with Image.open(path) as gif:
+            times = []
+            for index in range(gif.n_frames):
+                gif.seek(index)
+                times.append(gif.info["duration"])
+        assert times == [300, 100]
+        assert np.array_equal(read_video(path), np.stack([frame, moved]))
+    finally:
+        path.unlink(missing_ok=True)
+
+
+@pytest.mark.parametrize(("suffix", "sent", "status"), [(".gif", signal.SIGINT, 130), (".mp4", signal.SIGINT, 130),
+                                                         (".gif", signal.SIGTERM, 143)])
+def test_an_interrupted_video_ends_quietly_and_leaves_no_file(tmp_path: Path, suffix: str, sent: int,
+                                                              status: int) -> None:
+    """Ctrl-C (or `kill`) while the frames are drawn: the shell's status, no traceback (it was a
+    KeyboardInterrupt's), neither the video nor its temporary."""
+    env = {**os.environ, "PYTHONPATH": str(PROJECT_ROOT)}
+    out = tmp_path / f"v{suffix}"
+    process = subprocess.Popen([sys.executable, "-m", "depthimpostor", "render", "--video", str(out), "--duration",
+                                "1000", "--fps", "30", "--size", "32x24", "--impostor-res", "32"], env=env,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not any(p.stat().st_size > 0 for p in tmp_path.glob(f".v{suffix}.*")):  # frames are being written
+            assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+            time.sleep(0.1)
+        process.send_signal(sent)
+        stdout, stderr = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == status, stderr
+    assert stdout == "" and "Traceback" not in stderr and "Error" not in stderr
     assert list(tmp_path.iterdir()) == []

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import functools
 import os
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -234,3 +235,47 @@ def bind_default_framebuffer(ctx: moderngl.Context) -> None:
     been released, the re-bind raises GL_INVALID_OPERATION. Every release path calls this first.
     """
     ctx.detect_framebuffer(0).use()
+
+
+@functools.cache
+def _current_context_queries() -> tuple[Any, ...]:
+    """EGL's and GLX's "which context is current in this thread" functions that this machine has
+    (find_library runs a program: looked up once)."""
+    found = []
+    for library, name in (("EGL", "eglGetCurrentContext"), ("GL", "glXGetCurrentContext")):
+        path = ctypes.util.find_library(library)
+        if path is None:
+            continue
+        function = getattr(ctypes.CDLL(path), name, None)
+        if function is not None:
+            function.restype = ctypes.c_void_p
+            found.append(function)
+    return tuple(found)
+
+
+def _has_current_context(ctx: moderngl.Context) -> bool | None:
+    """Whether this thread has a GL context current (`ctx`'s kind of it); None where that cannot be
+    asked. GL calls without one do nothing and read 0 (a GL_MAX_RENDERBUFFER_SIZE of 0)."""
+    extra = ctx.extra if isinstance(ctx.extra, dict) else {}
+    backend = extra.get("backend")
+    if backend == "osmesa":
+        lib = extra["loader"]._lib
+        lib.OSMesaGetCurrentContext.restype = ctypes.c_void_p
+        return bool(lib.OSMesaGetCurrentContext())
+    if backend == "glfw":
+        import glfw
+
+        return bool(glfw.get_current_context())
+    queries = _current_context_queries()
+    return any(query() for query in queries) if queries else None
+
+
+def check_usable(ctx: moderngl.Context) -> None:
+    """Raise ContextError if `ctx` was released, or if no GL context is current in this thread (a
+    context made in one thread and used in another): GL would fail later, or silently draw nothing."""
+    if isinstance(ctx.mglo, moderngl.InvalidObject):
+        raise ContextError("the GL context was released (ctx.release()); make the renderer in a live context")
+    if _has_current_context(ctx) is False:
+        raise ContextError("the GL context is not current in this thread: a moderngl context is current in the "
+                           "thread that made it; make it current here first (`with ctx:`), or make one context "
+                           "per thread")

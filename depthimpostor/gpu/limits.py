@@ -18,6 +18,7 @@ which must not allocate 16384^2 to see a refusal).
 from __future__ import annotations
 
 import dataclasses
+import numbers
 import os
 import re
 from collections.abc import Iterator
@@ -113,10 +114,20 @@ def use_limits(ctx: moderngl.Context, limits: GpuLimits) -> None:
     ctx.extra = {**(ctx.extra if isinstance(ctx.extra, dict) else {}), _EXTRA_KEY: limits}
 
 
+def checked_memory(max_memory: object, name: str = "max_memory") -> int:
+    """A memory budget given through the Python API: a positive whole number of bytes (a numpy
+    integer too). Raises ValueError naming `name` for anything else (a string, NaN, 0, -1, 1.5)."""
+    if isinstance(max_memory, bool) or not isinstance(max_memory, numbers.Integral) or int(max_memory) <= 0:
+        raise ValueError(f"{name}: expected a positive integer number of bytes (such as 2**30 for 1 GiB), "
+                         f"got {max_memory!r}")
+    return int(max_memory)
+
+
 def limit_memory(ctx: moderngl.Context, max_memory: int | None) -> None:
-    """`--max-memory`: the budget of everything the renderer allocates, instead of the driver's."""
+    """`--max-memory`: the budget of everything the renderer allocates, instead of the driver's.
+    Raises ValueError for a budget that is not a positive integer of bytes (`checked_memory`)."""
     if max_memory is not None:
-        use_limits(ctx, context_limits(ctx).with_memory(max_memory, "--max-memory"))
+        use_limits(ctx, context_limits(ctx).with_memory(checked_memory(max_memory), "--max-memory"))
 
 
 _MEMORY = re.compile(r"^\s*(?P<number>\d+(?:\.\d+)?)\s*(?P<unit>[kmgt]?)(?:i?b)?\s*$", re.IGNORECASE)
@@ -129,7 +140,10 @@ def parse_memory(text: str) -> int:
     if match is None or float(match["number"]) <= 0:
         raise ValueError(f"expected a positive size such as 512M, 1.5G or 2GiB, got {text!r}")
     power = "kmgt".index(match["unit"].lower()) + 1 if match["unit"] else 2
-    return int(float(match["number"]) * 1024**power)
+    size = int(float(match["number"]) * 1024**power)
+    if size < 1:  # 0.0001K: under a byte
+        raise ValueError(f"expected a positive size such as 512M, 1.5G or 2GiB, got {text!r} (under one byte)")
+    return size
 
 
 #: What sizes an equirect environment's texture.

@@ -10,6 +10,8 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
+import stat
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -241,14 +243,44 @@ def read_variant(value: Any, at: At, variants: Mapping[str, Variant[T]], default
     return variants[kind].build(Table(value, at, ("type", *variants[kind].fields)))
 
 
-def read_file_bytes(path: Path, source: str, expected: str) -> bytes:
+#: The largest file a scene reads whole (a glTF file, its buffers in it): past it, more likely a
+#: mistake than a model, and over what a scene's meshes can take (scene/limits.py).
+MAX_FILE_BYTES = 2 * 2**30
+
+#: What `read_file_bytes` says a file that is not a regular one is.
+_FILE_KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
+               (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def read_file_bytes(path: Path, source: str, expected: str, limit: int = MAX_FILE_BYTES) -> bytes:
     """A scene file's bytes, or one SceneError naming what went wrong (`expected`: what the file
-    should be, said when a directory is given instead)."""
+    should be, said when a directory is given instead). Only a regular file of at most `limit`
+    bytes is read: a FIFO would block until a writer came, a link to /dev/zero read until the
+    memory ran out. (Opened without blocking, then asked what it is: no window between the two.)"""
     try:
-        return path.read_bytes()
+        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
     except IsADirectoryError as err:
         raise SceneError(source, "", f"expected {expected}, got a directory") from err
     except FileNotFoundError as err:
         raise SceneError(source, "", "no such file") from err
     except OSError as err:
         raise SceneError(source, "", f"cannot read the file: {err.strerror or err}") from err
+    status = os.fstat(descriptor)
+    if not stat.S_ISREG(status.st_mode):
+        os.close(descriptor)
+        if stat.S_ISDIR(status.st_mode):
+            raise SceneError(source, "", f"expected {expected}, got a directory")
+        kind = next((name for test, name in _FILE_KINDS if test(status.st_mode)), "a special file")
+        raise SceneError(source, "", f"expected {expected} (a regular file), got {kind}")
+    with open(descriptor, "rb") as file:
+        too_large = f"expected {expected} of at most {limit / 2**20:g} MiB, got "
+        size = status.st_size
+        if size > limit:
+            raise SceneError(source, "", f"{too_large}one of {size / 2**20:.1f} MiB")
+        try:
+            data = file.read(limit + 1)  # a file whose size says 0 (in /proc) may still hold more
+        except OSError as err:
+            raise SceneError(source, "", f"cannot read the file: {err.strerror or err}") from err
+        if len(data) > limit:
+            raise SceneError(source, "", f"{too_large}more")
+        return data

@@ -5,6 +5,7 @@ the method or on what the mirrors can see. `render` builds its plan before any G
 | limit | value | checked | why |
 |---|---|---|---|
 | a number in a scene file, and how far an object reaches from the origin | `MAX_COORDINATE` (1e18) | load: the field (`fields.py`); the object, from its position, scale, shape and orbit (`check_scene`; a model file's when the plan loads it) | float32 geometry squares distances |
+| the scene file, and a glTF file read whole | a regular file (no FIFO, device or socket) of at most `MAX_SCENE_FILE_BYTES` (64 MiB, TOML; `loader.py`) or `MAX_FILE_BYTES` (2 GiB, glTF; `fields.py`) | load (`read_file_bytes`), before a byte is read | a FIFO blocked for ever, a link to /dev/zero read until the memory ran out |
 | lights | `MAX_LIGHTS` (8) | load | the shading loops over a uniform array of that size |
 | an image file's samples | 1- to 16-bit integers, or 32-bit floats in [0, 1] (linear); stored in 8 bits a channel | load (`image_files.py`'s table: other modes, and damaged files, refused) | textures are 8-bit sRGB on the GPU and in the truth (`SRGB_TABLE`) |
 | glTF extensions | a file may require those `gltf_file.SUPPORTED_REQUIRED` names alone; what else it uses is drawn as if absent, `plan` listing it as ignored | load | a required extension changes what the data means: read without it, it would be misread |

@@ -369,6 +369,10 @@ def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
     return scene
 
 
+#: The largest TOML scene read (a scene of 10,000 spheres takes about 1 MiB).
+MAX_SCENE_FILE_BYTES = 64 * 2**20
+
+
 def load_scene(path: str | os.PathLike[str]) -> Scene:
     """Read and validate a scene file (TOML, or a glTF file as a whole scene); every problem is a
     SceneError naming the file and the field."""
@@ -376,7 +380,7 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
     if Path(source).suffix.lower() in GLTF_SUFFIXES:
         return gltf_scene(Path(source), source)
     try:
-        text = read_file_bytes(Path(source), source, "a scene file").decode("utf-8")
+        text = read_file_bytes(Path(source), source, "a scene file", MAX_SCENE_FILE_BYTES).decode("utf-8")
     except UnicodeDecodeError as err:
         raise SceneError(source, "", f"expected UTF-8 text, got an undecodable byte at offset {err.start}") from err
     try:

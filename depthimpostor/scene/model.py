@@ -13,6 +13,7 @@ from fractions import Fraction
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
@@ -23,6 +24,7 @@ from depthimpostor.scene.fields import (
     RESOLUTION, SIZE, TRIANGLE_TARGET, UNIT, At, Bounds, Reader, Vec3, choice, number, word_or,
 )
 
+T = TypeVar("T")
 ZERO: Vec3 = (0.0, 0.0, 0.0)
 
 #: `impostor_resolution = "auto"`: the renderer picks each depth image's resolution itself.
@@ -558,22 +560,40 @@ class Scene:
 
     def with_overrides(self, size: tuple[int, int] | None = None, impostor_resolution: int | str | None = None,
                        simplified_triangles: int | None = None, tone_mapping: str | None = None,
-                       exposure: float | None = None, samples: int | None = None) -> Scene:
-        """This scene with render settings from the command line, checked as strictly as the file's."""
-        at = At("command line", "")
+                       exposure: float | None = None, samples: int | None = None,
+                       source: str = "command line") -> Scene:
+        """This scene with render settings from the command line, checked as strictly as the file's.
+        Another `source` (the Python API's function) names each value by its argument, not its option;
+        numpy numbers and arrays are taken as the Python numbers and lists they hold."""
+        at = At(source, "")
+
+        def read(option: str, argument: str, value: object, reader: Reader[T]) -> T:
+            return at.key(option if source == "command line" else argument).read(_plain(value), reader)
+
         render = self.render
         if size is not None:
-            render = dataclasses.replace(render, size=at.key("--size").read(size, SIZE))
+            render = dataclasses.replace(render, size=read("--size", "size", size, SIZE))
         if impostor_resolution is not None:
-            resolution = at.key("--impostor-res").read(impostor_resolution, IMPOSTOR_RESOLUTION)
+            resolution = read("--impostor-res", "impostor_resolution", impostor_resolution, IMPOSTOR_RESOLUTION)
             render = dataclasses.replace(render, impostor_resolution=resolution)
         if simplified_triangles is not None:
-            target = at.key("--simplified-triangles").read(simplified_triangles, TRIANGLE_TARGET)
+            target = read("--simplified-triangles", "simplified_triangles", simplified_triangles, TRIANGLE_TARGET)
             render = dataclasses.replace(render, simplified_triangles=target)
         if tone_mapping is not None:
-            render = dataclasses.replace(render, tone_mapping=at.key("--tone-mapping").read(tone_mapping, TONE_MAPPING))
+            render = dataclasses.replace(render, tone_mapping=read("--tone-mapping", "tone_mapping", tone_mapping,
+                                                                   TONE_MAPPING))
         if exposure is not None:
-            render = dataclasses.replace(render, exposure=at.key("--exposure").read(exposure, EXPOSURE))
+            render = dataclasses.replace(render, exposure=read("--exposure", "exposure", exposure, EXPOSURE))
         if samples is not None:
-            render = dataclasses.replace(render, samples=at.key("--samples").read(samples, SAMPLES))
+            render = dataclasses.replace(render, samples=read("--samples", "samples", samples, SAMPLES))
         return dataclasses.replace(self, render=render)
+
+
+def _plain(value: object) -> object:
+    """A numpy scalar or array as the Python number or list it holds (a size of np.int64s reads as
+    one of ints); anything else as it is."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (list, tuple)):
+        return type(value)(_plain(item) for item in value)
+    return value.item() if isinstance(value, np.generic) else value
