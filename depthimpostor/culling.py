@@ -78,7 +78,11 @@ def enclosing_spheres(items: Sequence[ObjectGeometry]) -> tuple[np.ndarray, np.n
 def swept_sphere(item: ObjectGeometry) -> tuple[np.ndarray, float]:
     """A sphere holding `item` at every time of its animation: a rotation about an axis carries
     the centre of its enclosing sphere around a circle about its foot on the axis."""
-    centre, radius = enclosing_sphere(item)
+    return _swept(item, *enclosing_sphere(item))
+
+
+def _swept(item: ObjectGeometry, centre: np.ndarray, radius: float) -> tuple[np.ndarray, float]:
+    """swept_sphere of `item` from its enclosing sphere (`centre`, `radius`)."""
     animation = item.object.animation
     if animation is None:
         return centre, radius
@@ -86,6 +90,17 @@ def swept_sphere(item: ObjectGeometry) -> tuple[np.ndarray, float]:
     axis = np.asarray(animation.axis, np.float64)
     foot = pivot + axis * float((centre - pivot) @ axis)
     return foot, float(np.linalg.norm(centre - foot)) + radius
+
+
+def swept_spheres(items: Sequence[ObjectGeometry]) -> tuple[np.ndarray, np.ndarray]:
+    """swept_sphere of every item, in arrays ((N, 3) centres, (N,) radii): the enclosing spheres
+    in one pass of numpy (enclosing_spheres), then the few animated items' sweeps one by one."""
+    centres, radii = enclosing_spheres(items)
+    for i, item in enumerate(items):
+        if item.object.animation is not None:
+            centre, radius = _swept(item, centres[i].copy(), float(radii[i]))
+            centres[i], radii[i] = centre, radius
+    return centres, radii
 
 
 def _unit(vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -172,9 +187,7 @@ def reaches(reflectors: Sequence[ObjectGeometry], targets: Sequence[ObjectGeomet
     cones = [(row, c) for row, reflector in enumerate(reflectors) if (c := _cones(reflector)) is not None]
     if not cones or not targets:
         return table
-    spheres = [swept_sphere(target) for target in targets]
-    centres = np.array([centre for centre, _ in spheres], np.float64).reshape(-1, 3)
-    radii = np.array([radius for _, radius in spheres], np.float64)
+    centres, radii = swept_spheres(targets)
     culled = _culled([c for _, c in cones], centres, radii)
     for (row, c), out in zip(cones, culled, strict=True):
         why = Reach.BEHIND if c.flat else Reach.OUTSIDE_DIRECTIONS

@@ -61,6 +61,61 @@ def orthonormal_frame(forward: Array, up_hint: Array) -> tuple[Array, Array, Arr
 
 
 @dataclass(frozen=True, eq=False)
+class FrustumFit:
+    """The tightest frustum from `eye` around some points, before a resolution is chosen: its
+    frame, the extent of the points' tangents along `right` and `down`, and their depths along
+    `forward` (PPC.fitted; fit_frusta finds many at once). `camera` makes the PPC of any size."""
+
+    eye: Array
+    right: Array
+    down: Array
+    forward: Array
+    tan_x: tuple[float, float]  # (least, greatest)
+    tan_y: tuple[float, float]
+    depth: tuple[float, float]  # (nearest, farthest) along forward
+
+    def camera(self, width: int, height: int) -> PPC:
+        # One pixel of margin on each side so that silhouette samples are rasterized in full.
+        (x0, x1), (y0, y1) = self.tan_x, self.tan_y
+        span_x = max(x1 - x0, 1e-9) * (1.0 + 2.0 / width)
+        span_y = max(y1 - y0, 1e-9) * (1.0 + 2.0 / height)
+        x0 -= span_x / width
+        y0 -= span_y / height
+        a = self.right * (span_x / width)
+        b = self.down * (span_y / height)
+        c = self.forward + self.right * x0 + self.down * y0
+        # The near/far margins keep the closest and farthest vertices off the clip planes.
+        return PPC(self.eye, a, b, c, int(width), int(height), self.depth[0] * 0.995, self.depth[1] * 1.005)
+
+
+def fit_frusta(eye: ArrayLike, points: NDArray[np.floating], centres: ArrayLike) -> list[FrustumFit | None]:
+    """The FrustumFit from `eye` around each of n point sets ((n, V, 3): sets of one size, as the
+    objects of one mesh), looking at its centre ((n, 3)); None for a set at or behind the eye's
+    plane (it surrounds or touches the eye: no pinhole frustum contains it). The same arithmetic
+    as one set alone, to the bit: numpy's stacked matmul makes each set's BLAS call as one set's
+    `@` does, and the largest of the norms is the root of the largest square (the rounded
+    square root is monotonic)."""
+    eye_point = np.asarray(eye, dtype=np.float64)
+    pts = np.asarray(points, dtype=np.float64) - eye_point
+    frames = [orthonormal_frame(np.asarray(centre, float) - eye_point, np.array([0.0, 1.0, 0.0]))
+              for centre in np.asarray(centres, dtype=np.float64).reshape(-1, 3)]
+    right, down, forward = (np.stack([frame[k] for frame in frames]).reshape(-1, 3, 1) for k in range(3))
+    z = np.matmul(pts, forward)[..., 0]
+    extent = np.sqrt(np.add.reduce(pts * pts, axis=2).max(axis=1))
+    z_min, z_max = z.min(axis=1), z.max(axis=1)
+    # Below this the tangent bounds explode (the object wraps around the eye): no image
+    # plane can hold the projection, so refuse instead of producing a degenerate camera.
+    refused = (extent == 0.0) | (z_min <= 1e-3 * extent)
+    with np.errstate(divide="ignore", invalid="ignore"):  # the refused sets' tangents are not used
+        tan_x = np.matmul(pts, right)[..., 0] / z
+        tan_y = np.matmul(pts, down)[..., 0] / z
+    bounds = [np.stack([tan.min(axis=1), tan.max(axis=1)], axis=1).tolist() for tan in (tan_x, tan_y)]
+    return [None if refused[i] else FrustumFit(eye_point, *frames[i], tuple(bounds[0][i]), tuple(bounds[1][i]),
+                                               (float(z_min[i]), float(z_max[i])))
+            for i in range(len(frames))]
+
+
+@dataclass(frozen=True, eq=False)
 class PPC:
     C: Array
     a: Array
@@ -101,29 +156,10 @@ class PPC:
         what keeps a 32-bit float OpenGL depth precise. Raises FrustumFitError when a point lies
         at or behind the eye's plane (the object surrounds or touches the eye).
         """
-        eye_point = np.asarray(eye, dtype=np.float64)
-        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3) - eye_point
-        right, down, forward = orthonormal_frame(np.asarray(center, float) - eye_point, np.array([0.0, 1.0, 0.0]))
-        z = pts @ forward
-        extent = float(np.max(np.linalg.norm(pts, axis=1)))
-        # Below this the tangent bounds explode (the object wraps around the eye): no image
-        # plane can hold the projection, so refuse instead of producing a degenerate camera.
-        if extent == 0.0 or float(z.min()) <= 1e-3 * extent:
+        fit = fit_frusta(eye, np.asarray(points, dtype=np.float64).reshape(1, -1, 3), np.asarray(center, float)[None])[0]
+        if fit is None:
             raise FrustumFitError("the points surround or touch the eye; no pinhole frustum contains them")
-        tan_x = (pts @ right) / z
-        tan_y = (pts @ down) / z
-        # One pixel of margin on each side so that silhouette samples are rasterized in full.
-        x0, x1 = float(tan_x.min()), float(tan_x.max())
-        y0, y1 = float(tan_y.min()), float(tan_y.max())
-        span_x = max(x1 - x0, 1e-9) * (1.0 + 2.0 / width)
-        span_y = max(y1 - y0, 1e-9) * (1.0 + 2.0 / height)
-        x0 -= span_x / width
-        y0 -= span_y / height
-        a = right * (span_x / width)
-        b = down * (span_y / height)
-        c = forward + right * x0 + down * y0
-        # The near/far margins keep the closest and farthest vertices off the clip planes.
-        return cls(eye_point, a, b, c, int(width), int(height), float(z.min()) * 0.995, float(z.max()) * 1.005)
+        return fit.camera(width, height)
 
     # ----------------------------------------------------------------- derived quantities
     @cached_property

@@ -28,7 +28,7 @@ from ..constants import (
 from ..errors import ContextError
 from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
 from ..culling import Reach, ReachTable, reaches
-from ..ppc import PPC
+from ..ppc import PPC, FrustumFit
 from ..resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION, auto_resolution, scene_view
 from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
@@ -36,7 +36,7 @@ from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import bind_texture, write
 from .colour_mips import ColourMips
-from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural, record_table
+from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, fit_depth_image_frusta, image_label, image_records, plural, record_table
 
 
 
@@ -402,15 +402,17 @@ def largest_side(scene: Scene, mirrors: int, per_object: int, texel_bytes: int) 
     return budgeted_side(max(count, 1), asked, scene.render.image_memory * 2**20, texel_bytes)
 
 
-def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: ObjectGeometry, largest: int | None = None) -> PPC:
+def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: ObjectGeometry, largest: int | None = None,
+                 fit: FrustumFit | None = None) -> PPC:
     """The camera of `target`'s image for `mirror`: fitted at render.impostor_resolution, or at
     the resolution `view` (the scene's camera) asks for when it is "auto" (resolution.py); at most
-    `largest` (the memory budget's side: budgeted_side)."""
+    `largest` (the memory budget's side: budgeted_side). `fit`: its frustum, found already
+    (fit_depth_image_frusta)."""
     cap = largest if largest is not None else MAX_AUTO_RESOLUTION
     if not scene.render.auto_resolution:
-        return fit_depth_image_camera(scene, mirror, target, min(int(scene.render.impostor_resolution), cap))
-    probe = fit_depth_image_camera(scene, mirror, target, min(MIN_AUTO_RESOLUTION, cap))
-    return fit_depth_image_camera(scene, mirror, target, min(auto_resolution(view, mirror, target, probe), cap))
+        return fit_depth_image_camera(scene, mirror, target, min(int(scene.render.impostor_resolution), cap), fit)
+    probe = fit_depth_image_camera(scene, mirror, target, min(MIN_AUTO_RESOLUTION, cap), fit)
+    return fit_depth_image_camera(scene, mirror, target, min(auto_resolution(view, mirror, target, probe), cap), fit)
 
 
 def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
@@ -425,6 +427,7 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
              for mirror, row in zip(mirrors, reach(mirrors, reflected), strict=True)}
     largest = (None if texel_bytes is None
                else largest_side(scene, len(mirrors), sum(len(targets) for targets in shown.values()), texel_bytes))
-    return {mirror.index: [ImagePlan((target,), image_camera(scene, view, mirror, target, largest))
+    fits = fit_depth_image_frusta(scene, [(mirror, shown[mirror.index]) for mirror in mirrors])
+    return {mirror.index: [ImagePlan((target,), image_camera(scene, view, mirror, target, largest,
+                                                             fits[(mirror.index, target.index)]))
                            for target in shown[mirror.index]] for mirror in mirrors}
-
