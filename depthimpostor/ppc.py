@@ -22,6 +22,7 @@ window depth = d(w).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -365,22 +366,90 @@ class PPC:
     ) -> NDArray[np.void]:
         """This camera packed as one `DepthImage` std140 record, a 0-d structured array (see
         constants.DEPTH_IMAGE_FIELDS); `pyramid` is (x, y, coarse levels) of its depth pyramid, where it has one."""
-        record = np.zeros((), dtype=DEPTH_IMAGE_DTYPE)
-        record["eye"] = (*self.C, float(object_id))
-        record["a"][:3] = self.a
-        record["b"][:3] = self.b
-        record["c"][:3] = self.c
-        for row in range(3):
-            record[f"inverse_row{row}"][:3] = self.inverse[row]
-        record["depth_range"] = (self.w_near, self.w_far, self.width, self.height)
-        record["tile"] = (tile_origin[0], tile_origin[1], self.width, self.height)
-        # (max relative depth step, 1/w_near, 1/w_near - 1/w_far): 1/w = y - OpenGL depth * z.
-        inverse_near, inverse_far = 1.0 / self.w_near, 1.0 / self.w_far
-        record["surface"] = (self.max_relative_depth_step, inverse_near, inverse_near - inverse_far, 0.0)
-        # w: `--algorithm auto` traverses this image hierarchically (constants.image_algorithm).
-        record["pyramid"] = (*pyramid, int(image_algorithm(Algorithm.AUTO, self.width, self.height) == Algorithm.HIERARCHICAL))
-        centre, radius = self.bound()
-        record["bound"] = (*centre, radius)
-        centre, radius = self.hit_bound(around)
-        record["hit_bound"] = (*centre, radius)
-        return record
+        return depth_image_records([self], [object_id], [tile_origin], [pyramid], [around])[0].copy()
+
+
+def _norms(vectors: Array) -> Array:
+    """The lengths of (..., 3) vectors."""
+    return np.sqrt(np.add.reduce(vectors * vectors, axis=-1))
+
+
+def depth_image_records(cameras: Sequence[PPC], object_ids: Sequence[int], tile_origins: Sequence[tuple[int, int]],
+                        pyramids: Sequence[tuple[int, int, int]], arounds: Sequence[tuple[Array, float] | None]
+                        ) -> NDArray[np.void]:
+    """PPC.depth_image_record of each camera, in one (n,) array: the same quantities (focal, w_near,
+    max_relative_depth_step, bound, hit_bound) worked out for all cameras at once, each as the
+    property of its name does, in float64 (a vector's length summed as norm(axis=-1) sums it, so
+    it may differ from the property's in the last bit of a float64, far below the float32 record)."""
+    n = len(cameras)
+    records = np.zeros(n, dtype=DEPTH_IMAGE_DTYPE)
+    if n == 0:
+        return records
+    eye, a, b, c = (np.stack([getattr(camera, name) for camera in cameras]).astype(np.float64) for name in "Cabc")
+    width = np.array([camera.width for camera in cameras], np.float64)
+    height = np.array([camera.height for camera in cameras], np.float64)
+    near = np.array([camera.near for camera in cameras], np.float64)
+    far = np.array([camera.far for camera in cameras], np.float64)
+    inverse = np.linalg.inv(np.stack([a, b, c], axis=2))
+    normal = np.cross(a, b)
+    forward = normal / _norms(normal)[:, None]
+    focal = np.add.reduce(c * forward, axis=1)
+    w_near, w_far = near / focal, far / focal
+    length_a, length_b = _norms(a), _norms(b)
+    records["eye"] = np.column_stack([eye, np.asarray(object_ids, np.float64)])
+    for name, vector in (("a", a), ("b", b), ("c", c)):
+        records[name][:, :3] = vector
+    for row in range(3):
+        records[f"inverse_row{row}"][:, :3] = inverse[:, row]
+    records["depth_range"] = np.column_stack([w_near, w_far, width, height])
+    records["tile"] = np.column_stack([np.asarray(tile_origins, np.int64).reshape(n, 2), width, height])
+    # (max relative depth step, 1/w_near, 1/w_near - 1/w_far): 1/w = y - OpenGL depth * z.
+    inverse_near, inverse_far = 1.0 / w_near, 1.0 / w_far
+    step = MAX_SURFACE_SLOPE * (np.maximum(length_a, length_b) / focal)
+    records["surface"] = np.column_stack([step, inverse_near, inverse_near - inverse_far, np.zeros(n)])
+    # w: `--algorithm auto` traverses this image hierarchically (constants.image_algorithm).
+    hierarchical = [int(image_algorithm(Algorithm.AUTO, camera.width, camera.height) == Algorithm.HIERARCHICAL)
+                    for camera in cameras]
+    records["pyramid"] = np.column_stack([np.asarray(pyramids, np.int64).reshape(n, 3), hierarchical])
+    bound_centre, bound_radius = _frustum_bounds(eye, a, b, c, width, height, w_near, w_far)
+    bound = np.column_stack([bound_centre, bound_radius])
+    records["bound"] = bound
+    records["hit_bound"] = bound
+    shown = [i for i, around in enumerate(arounds) if around is not None]
+    if shown:
+        records["hit_bound"][shown] = _hit_bounds(
+            a[shown], b[shown], c[shown], width[shown], height[shown], w_near[shown], w_far[shown],
+            length_a[shown] + length_b[shown], bound[shown], [arounds[i] for i in shown])
+    return records
+
+
+def _frustum_bounds(eye: Array, a: Array, b: Array, c: Array, width: Array, height: Array, w_near: Array,
+                    w_far: Array, pixels: float = CLIP_TOLERANCE_PIXELS) -> tuple[Array, Array]:
+    """PPC.bound of n cameras: ((n, 3) centres, (n,) radii)."""
+    grow = pixels / np.maximum(width, height)
+    # The eight corners (u slowest, w fastest), each as unproject makes it.
+    u = np.stack([np.full_like(width, -pixels), width + pixels], axis=1)[:, [0, 0, 0, 0, 1, 1, 1, 1]]
+    v = np.stack([np.full_like(height, -pixels), height + pixels], axis=1)[:, [0, 0, 1, 1, 0, 0, 1, 1]]
+    w = np.stack([w_near * (1.0 - grow), w_far * (1.0 + grow)], axis=1)[:, [0, 1, 0, 1, 0, 1, 0, 1]]
+    corners = eye[:, None] + (u[..., None] * a[:, None] + v[..., None] * b[:, None] + c[:, None]) * w[..., None]
+    centre = corners.mean(axis=1)
+    radius = _norms(corners - centre[:, None]).max(axis=1)
+    return centre, radius * (1.0 + BOUND_MARGIN)
+
+
+def _hit_bounds(a: Array, b: Array, c: Array, width: Array, height: Array, w_near: Array, w_far: Array,
+                texel_lengths: Array, frustum: Array, arounds: list[tuple[Array, float]],
+                pixels: float = CLIP_TOLERANCE_PIXELS) -> Array:
+    """PPC.hit_bound of n cameras whose images show one object each (in `arounds`), given their
+    frusta's bounds ((n, 4) spheres, where that is smaller): (n, 4) spheres."""
+    grow = pixels / np.maximum(width, height)
+    grown_far = w_far * (1.0 + grow)
+    texel = texel_lengths * grown_far
+    u = np.stack([np.zeros_like(width), np.zeros_like(width), width, width], axis=1)
+    v = np.stack([np.zeros_like(height), height, np.zeros_like(height), height], axis=1)
+    corner_rays = u[..., None] * a[:, None] + v[..., None] * b[:, None] + c[:, None]
+    longest_ray = _norms(corner_rays).max(axis=1)
+    depth = CONTACT_DEPTH_TOLERANCE * grown_far * grown_far * (1.0 / w_near - 1.0 / w_far) * longest_ray
+    around_centre = np.stack([np.asarray(centre, np.float64) for centre, _ in arounds])
+    radius = (np.array([radius for _, radius in arounds], np.float64) + texel + depth) * (1.0 + BOUND_MARGIN)
+    return np.where((radius < frustum[:, 3])[:, None], np.column_stack([around_centre, radius]), frustum)

@@ -24,7 +24,7 @@ from ..gpu.context import bind_default_framebuffer
 from ..constants import DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, NO_OBJECT, walks_images
 from ..errors import SceneError
 from ..geometry import ObjectGeometry, world_vertex_groups
-from ..ppc import PPC, FrustumFit, FrustumFitError, fit_frusta
+from ..ppc import PPC, FrustumFit, FrustumFitError, depth_image_records, fit_frusta
 from ..oracles.reference import DepthImageData
 from ..scene.model import Scene
 from .image_bvh import image_hierarchies
@@ -75,13 +75,20 @@ class DepthImage:
     def tile(self) -> tuple[int, int, int, int]:
         return (*self.tile_origin, self.camera.width, self.camera.height)
 
+    @property
+    def object_id(self) -> int:
+        """What the record's `eye.w` holds: the object of a per-object image (NO_OBJECT for a
+        cube-map face, whose texels name their own)."""
+        return self.targets[0].index if len(self.targets) == 1 else NO_OBJECT
+
+    @property
+    def hit_bound_around(self) -> tuple[np.ndarray, float] | None:
+        """The sphere that bounds the hits of a per-object image: its object's (None for a face)."""
+        return self.targets[0].bounding_sphere if len(self.targets) == 1 else None
+
     def record(self) -> NDArray[np.void]:
-        """The std140 record; `eye.w` names the object of a per-object image (NO_OBJECT for a
-        cube-map face, whose texels name their own), whose bounding sphere bounds its hits."""
-        single = len(self.targets) == 1
-        object_id = self.targets[0].index if single else NO_OBJECT
-        around = self.targets[0].bounding_sphere if single else None
-        return self.camera.depth_image_record(object_id, self.tile_origin, self.pyramid, around)
+        """The std140 record (image_records makes a mirror's all at once)."""
+        return self.camera.depth_image_record(self.object_id, self.tile_origin, self.pyramid, self.hit_bound_around)
 
 
 #: Draws the nearest back face's window depth into the second layer.
@@ -108,8 +115,10 @@ def image_records(images: list[DepthImage], capacity: int = DEPTH_IMAGE_BLOCK_RE
     if len(images) > capacity:
         raise ValueError(f"{len(images)} depth images passed a record table of {capacity}")
     records = np.zeros(capacity, dtype=DEPTH_IMAGE_DTYPE)
-    for i, image in enumerate(images):
-        records[i] = image.record()
+    records[:len(images)] = depth_image_records(
+        [image.camera for image in images], [image.object_id for image in images],
+        [image.tile_origin for image in images], [image.pyramid for image in images],
+        [image.hit_bound_around for image in images])
     return records
 
 
@@ -255,8 +264,20 @@ class ImpostorAtlas:
         # unless something changes, and bake_buffer makes it again for the next.
         self._depth_buffer: moderngl.Renderbuffer | None = None
         self._make_framebuffers(ctx.depth_renderbuffer(size))
+        # Nothing written yet (GL leaves a new texture undefined): the first bake clears every
+        # attachment whole (BakedImages.bake), so nothing is cleared here unless tiles are
+        # written otherwise first (clear_unwritten). Clearing here too was a second pass over a
+        # thousand objects' atlas of 600 MB.
+        self.unwritten = True
+
+    def clear_unwritten(self) -> None:
+        """Clear what a tile written by hand (`write`) or a bake of some tiles alone leaves as it
+        was, in an atlas nothing was written into yet: no back colour (images baked otherwise,
+        reflectors at bounce k copied in, have none) and no second run known."""
+        if not self.unwritten:
+            return
+        self.unwritten = False
         if self.back_framebuffer is not None:
-            # Images baked otherwise (reflectors at bounce k, copied in) have no back colour.
             self.back_framebuffer.color_mask = self.masks((True,) * 4)
             self.back_framebuffer.clear(1.0, 1.0, 1.0, 0.0)
             self.back_framebuffer.color_mask = self.masks(*[(True,) * 4] * len(self.textures))
@@ -376,6 +397,7 @@ class ImpostorAtlas:
 
     def write(self, tile_origin: tuple[int, int], data: DepthImageData) -> None:
         """Store a depth image made elsewhere (tests build exact ones by hand)."""
+        self.clear_unwritten()
         height, width = data.depth.shape
         viewport = (*tile_origin, width, height)
         rgba = np.concatenate([np.rint(np.clip(data.color, 0, 1) * 255), np.full((height, width, 1), 255)], axis=2)

@@ -266,6 +266,10 @@ class BakedImages:
         atlas.bake_buffer()
         # Every image of every level: those of reflectors are baked after these (the bounce node).
         whole = self.stale >= {image.slot for image in self.depth_images}
+        if whole:
+            atlas.unwritten = False  # every attachment is cleared whole below
+        else:
+            atlas.clear_unwritten()
         draws = 0
         with raster_state(self.ctx):
             draws += self._bake_surfaces(stale, whole)

@@ -29,15 +29,9 @@ from ..constants import IMAGE_NODE_DTYPE
 INNER = -1
 
 
-def _enclosing(spheres: NDArray[np.float64]) -> NDArray[np.float64]:
-    """A sphere (x, y, z, r) holding every one of `spheres` ((n, 4)): centred on their boxes' middle."""
-    lower = (spheres[:, :3] - spheres[:, 3:]).min(axis=0)
-    upper = (spheres[:, :3] + spheres[:, 3:]).max(axis=0)
-    centre = 0.5 * (lower + upper)
-    radius = float((np.linalg.norm(spheres[:, :3] - centre, axis=1) + spheres[:, 3]).max())
-    # float32 rounding of the centre and radius must not leave a member out: grown by a margin
-    # far below a texel and far above float32's relative step at these distances.
-    return np.array([*centre, radius * (1.0 + 1e-5) + 1e-6 * float(np.abs(centre).max())])
+def _norms(vectors: NDArray[np.float64]) -> NDArray[np.float64]:
+    """np.linalg.norm(vectors, axis=1), summed as it sums them."""
+    return np.sqrt(np.add.reduce(vectors * vectors, axis=1))
 
 
 def image_hierarchies(records: NDArray[np.void]) -> NDArray[np.void]:
@@ -49,30 +43,57 @@ def image_hierarchies(records: NDArray[np.void]) -> NDArray[np.void]:
 
 def image_bvh(leaves: NDArray[np.float64]) -> NDArray[np.void]:
     """The hierarchy of n images whose spheres are `leaves` ((n, 4), in table order): 2n - 1
-    IMAGE_NODE_DTYPE records, depth first, their links counted from the first; none for no image."""
+    IMAGE_NODE_DTYPE records, depth first, their links counted from the first; none for no image.
+
+    A node holds a run of images: its sphere, centred on the middle of their spheres' boxes, holds
+    every one of them; an inner node halves its run at the median along the axis its images'
+    centres spread most on (its images sorted stably along it), the first half its first child.
+    Built a level at a time, every node of a level in one pass of numpy: each node's images are
+    a slice of one permutation (its children's slices split its own), and its place in the depth-
+    first layout follows from its parent's and its sizes (a subtree of m images has 2m - 1 nodes)."""
     count = len(leaves)
-    if count == 0:
-        return np.zeros(0, IMAGE_NODE_DTYPE)
-    nodes = np.zeros(2 * count - 1, IMAGE_NODE_DTYPE)
-    next_free = 0
-
-    def build(members: NDArray[np.int64]) -> None:
-        nonlocal next_free
-        index = next_free
-        next_free += 1
-        nodes[index]["sphere"] = _enclosing(leaves[members])
-        if len(members) == 1:
-            nodes[index]["links"] = (int(members[0]), 0, 0, 0)
-        else:
-            # Halves by the median along the axis the members' centres spread most on.
-            centres = leaves[members, :3]
-            axis = int(np.argmax(centres.max(axis=0) - centres.min(axis=0)))
-            ordered = members[np.argsort(centres[:, axis], kind="stable")]
-            half = len(ordered) // 2
-            build(ordered[:half])
-            build(ordered[half:])
-            nodes[index]["links"] = (INNER, 0, 0, 0)
-        nodes[index]["links"][1] = next_free  # skip: the node after this subtree
-
-    build(np.arange(count))
+    nodes = np.zeros(max(2 * count - 1, 0), IMAGE_NODE_DTYPE)
+    order = np.arange(count)  # each node's images: a slice of this, re-sorted as it is halved
+    # The level's nodes: where their slices start, their sizes and their places in `nodes`.
+    starts, sizes, places = np.zeros(min(count, 1), np.int64), np.full(min(count, 1), count), np.zeros(min(count, 1), np.int64)
+    while len(starts):
+        firsts = np.cumsum(sizes) - sizes  # where each node's run begins in this level's arrays
+        node_of = np.repeat(np.arange(len(starts)), sizes)
+        positions = np.arange(len(node_of)) - firsts[node_of] + starts[node_of]
+        members = order[positions]
+        spheres = leaves[members]
+        centre, radius = _enclosing(spheres, firsts, node_of)
+        nodes["sphere"][places] = np.column_stack([centre, radius])
+        nodes["links"][places, 1] = places + 2 * sizes - 1  # skip: the node after this subtree
+        single = sizes == 1
+        nodes["links"][places[single], 0] = members[firsts[single]]
+        inner = ~single
+        nodes["links"][places[inner], 0] = INNER
+        if not inner.any():
+            break
+        # Each inner node's images sorted (stably) along the axis their centres spread most on.
+        centres = spheres[:, :3]
+        spread = np.maximum.reduceat(centres, firsts, axis=0) - np.minimum.reduceat(centres, firsts, axis=0)
+        axis = np.argmax(spread, axis=1)
+        keys = centres[np.arange(len(node_of)), axis[node_of]]
+        ranked = np.lexsort((keys, node_of))  # by node, then key; ties keep their order
+        order[positions] = members[ranked]
+        half = sizes[inner] // 2
+        starts = np.stack([starts[inner], starts[inner] + half], axis=1).reshape(-1)
+        places = np.stack([places[inner] + 1, places[inner] + 2 * half], axis=1).reshape(-1)
+        sizes = np.stack([half, sizes[inner] - half], axis=1).reshape(-1)
     return nodes
+
+
+def _enclosing(spheres: NDArray[np.float64], firsts: NDArray[np.int64], node_of: NDArray[np.int64]
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """For each run of `spheres` ((m, 4) x, y, z, r) beginning at `firsts` (`node_of`: each
+    sphere's run), a sphere holding every one of its spheres, centred on their boxes' middle:
+    ((runs, 3) centres, (runs,) radii)."""
+    lower = np.minimum.reduceat(spheres[:, :3] - spheres[:, 3:], firsts, axis=0)
+    upper = np.maximum.reduceat(spheres[:, :3] + spheres[:, 3:], firsts, axis=0)
+    centre = 0.5 * (lower + upper)
+    radius = np.maximum.reduceat(_norms(spheres[:, :3] - centre[node_of]) + spheres[:, 3], firsts)
+    # float32 rounding of the centre and radius must not leave a member out: grown by a margin
+    # far below a texel and far above float32's relative step at these distances.
+    return centre, radius * (1.0 + 1e-5) + 1e-6 * np.abs(centre).max(axis=1)
