@@ -369,6 +369,49 @@ class PPC:
         return depth_image_records([self], [object_id], [tile_origin], [pyramid], [around])[0].copy()
 
 
+def view_projections(cameras: Sequence[PPC]) -> Array:
+    """PPC.view_projection of each camera, (n, 4, 4): view_matrix and projection_matrix worked out
+    for all at once by the same steps (a thousand objects' depth images spent 0.6 s a bake in
+    them one by one)."""
+    a, b, c, eye = (np.stack([getattr(camera, name) for camera in cameras]).astype(np.float64).reshape(-1, 3)
+                    for name in "abcC")
+    n = len(a)
+    width, height, near, far = (np.array([getattr(camera, name) for camera in cameras], np.float64)
+                                for name in ("width", "height", "near", "far"))
+    inverse = np.linalg.inv(np.stack([a, b, c], axis=2))
+    forward = _unit_rows(np.cross(a, b))  # PPC.forward
+    focal = np.add.reduce(c * forward, axis=1)
+    # view_matrix: orthonormal_frame(forward, -b), row by row.
+    forward = _unit_rows(forward)
+    up = -b
+    steep = np.abs(np.add.reduce(_unit_rows(up) * forward, axis=1)) > 0.999
+    up[steep] = np.where((np.abs(forward[steep, 2]) < 0.9)[:, None], (0.0, 0.0, -1.0), (1.0, 0.0, 0.0))
+    right = _unit_rows(np.cross(forward, up))
+    down = np.cross(forward, right)
+    rotation = np.stack([right, -down, -forward], axis=1)
+    view = np.tile(np.eye(4), (n, 1, 1))
+    view[:, :3, :3] = rotation
+    view[:, :3, 3] = np.matmul(-rotation, eye[:, :, None])[..., 0]
+    # projection_matrix.
+    to_camera = np.matmul(inverse, rotation.transpose(0, 2, 1))
+    wn, wf = near / focal, far / focal
+    depth_scale = (wf + wn) / (wf - wn)
+    depth_offset = -2.0 * wn * wf / (wf - wn)
+    x_row, y_row, w_row = to_camera[:, 0], to_camera[:, 1], to_camera[:, 2]
+    projection = np.zeros((n, 4, 4))
+    projection[:, 0, :3] = 2.0 * x_row / width[:, None] - w_row
+    projection[:, 1, :3] = 2.0 * y_row / height[:, None] - w_row
+    projection[:, 2, :3] = depth_scale[:, None] * w_row
+    projection[:, 2, 3] = depth_offset
+    projection[:, 3, :3] = w_row
+    return np.matmul(projection, view)
+
+
+def _unit_rows(vectors: Array) -> Array:
+    """(n, 3) vectors scaled to unit length."""
+    return vectors / _norms(vectors)[:, None]
+
+
 def _norms(vectors: Array) -> Array:
     """The lengths of (..., 3) vectors."""
     return np.sqrt(np.add.reduce(vectors * vectors, axis=-1))

@@ -28,7 +28,7 @@ from ..constants import (
 from ..errors import ContextError
 from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
 from ..culling import Reach, ReachTable, reaches
-from ..ppc import PPC, FrustumFit
+from ..ppc import PPC, FrustumFit, view_projections
 from ..resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION, auto_resolution, scene_view
 from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
@@ -271,12 +271,15 @@ class BakedImages:
         else:
             atlas.clear_unwritten()
         draws = 0
+        # Each image's matrix once, all at once (ppc.view_projections), for every layer's pass.
+        matrices = dict(zip((image.slot for image in stale), view_projections([image.camera for image in stale]),
+                            strict=True))
         with raster_state(self.ctx):
-            draws += self._bake_surfaces(stale, whole)
+            draws += self._bake_surfaces(stale, whole, matrices)
             if self.back_layer is not None:
-                draws += self._bake_back_layers(stale, whole)
+                draws += self._bake_back_layers(stale, whole, matrices)
                 if atlas.beyond is not None:
-                    draws += self._bake_beyond(stale, whole)
+                    draws += self._bake_beyond(stale, whole, matrices)
             elif self.second_layer == SecondLayer.BACK_FACE:
                 try:
                     for image in stale:
@@ -299,7 +302,7 @@ class BakedImages:
         tiles' first writes, and draws a scissored one."""
         return [None] if whole else [image.tile for image in stale]
 
-    def _bake_surfaces(self, stale: list[DepthImage], whole: bool) -> int:
+    def _bake_surfaces(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray]) -> int:
         """The visible surface of each stale image: colour, R (and G where G is the object id), the
         triangle ids' R; cleared to colour alpha 0 ("nothing here") and BACKGROUND_DEPTH in both
         layers, the value the depth buffer clears to."""
@@ -318,7 +321,7 @@ class BakedImages:
             framebuffer.color_mask = surface_mask
             for image in stale:
                 framebuffer.viewport = image.tile
-                draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
+                draws += self.diffuse.draw(list(image.targets), matrices[image.slot])
         finally:
             framebuffer.color_mask = everything
         return draws
@@ -343,7 +346,7 @@ class BakedImages:
                 self.meshes.draw(back_faces, target, image.camera.view_projection)
         return len(image.targets)
 
-    def _bake_back_layers(self, stale: list[DepthImage], whole: bool) -> int:
+    def _bake_back_layers(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray]) -> int:
         """The nearest back face's colour, depth (G) and triangle (G) of each stale image, against
         a fresh depth buffer; the colour cleared to alpha 0 (none drawn)."""
         assert self.back_layer is not None and self.atlas.back_framebuffer is not None
@@ -359,12 +362,12 @@ class BakedImages:
             with raster_state(self.ctx, BACK_FACES):
                 for image in stale:
                     framebuffer.viewport = image.tile
-                    draws += self.back_layer.draw(list(image.targets), image.camera.view_projection)
+                    draws += self.back_layer.draw(list(image.targets), matrices[image.slot])
             return draws
         finally:
             framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
 
-    def _bake_beyond(self, stale: list[DepthImage], whole: bool) -> int:
+    def _bake_beyond(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray]) -> int:
         """Where a second solid run begins behind the first (beyond_run.frag), for each stale
         image: the nearest front face behind the layers just baked, which it reads (they are not
         attached here)."""
@@ -380,7 +383,7 @@ class BakedImages:
             for image in stale:
                 framebuffer.viewport = image.tile
                 for target in image.targets:
-                    self.meshes.draw(program, target, image.camera.view_projection)
+                    self.meshes.draw(program, target, matrices[image.slot])
         return sum(len(image.targets) for image in stale)
 
     def release(self) -> None:
