@@ -61,6 +61,17 @@ def orthonormal_frame(forward: Array, up_hint: Array) -> tuple[Array, Array, Arr
     return right, down, forward
 
 
+def orthonormal_frames(forward: Array, up_hint: Array) -> tuple[Array, Array, Array]:
+    """orthonormal_frame of each row of `forward` ((n, 3)) with `up_hint` ((3,) or (n, 3)): (n, 3)
+    rights, downs and forwards, by its steps."""
+    forward = _unit_rows(forward)
+    up = np.array(np.broadcast_to(up_hint, forward.shape), dtype=np.float64)
+    steep = np.abs(np.add.reduce(_unit_rows(up) * forward, axis=1)) > 0.999
+    up[steep] = np.where((np.abs(forward[steep, 2]) < 0.9)[:, None], (0.0, 0.0, -1.0), (1.0, 0.0, 0.0))
+    right = _unit_rows(np.cross(forward, up))
+    return right, np.cross(forward, right), forward
+
+
 @dataclass(frozen=True, eq=False)
 class FrustumFit:
     """The tightest frustum from `eye` around some points, before a resolution is chosen: its
@@ -98,9 +109,8 @@ def fit_frusta(eye: ArrayLike, points: NDArray[np.floating], centres: ArrayLike)
     square root is monotonic)."""
     eye_point = np.asarray(eye, dtype=np.float64)
     pts = np.asarray(points, dtype=np.float64) - eye_point
-    frames = [orthonormal_frame(np.asarray(centre, float) - eye_point, np.array([0.0, 1.0, 0.0]))
-              for centre in np.asarray(centres, dtype=np.float64).reshape(-1, 3)]
-    right, down, forward = (np.stack([frame[k] for frame in frames]).reshape(-1, 3, 1) for k in range(3))
+    frames = orthonormal_frames(np.asarray(centres, dtype=np.float64).reshape(-1, 3) - eye_point, np.array([0.0, 1.0, 0.0]))
+    right, down, forward = (frame[:, :, None] for frame in frames)
     z = np.matmul(pts, forward)[..., 0]
     extent = np.sqrt(np.add.reduce(pts * pts, axis=2).max(axis=1))
     z_min, z_max = z.min(axis=1), z.max(axis=1)
@@ -111,9 +121,9 @@ def fit_frusta(eye: ArrayLike, points: NDArray[np.floating], centres: ArrayLike)
         tan_x = np.matmul(pts, right)[..., 0] / z
         tan_y = np.matmul(pts, down)[..., 0] / z
     bounds = [np.stack([tan.min(axis=1), tan.max(axis=1)], axis=1).tolist() for tan in (tan_x, tan_y)]
-    return [None if refused[i] else FrustumFit(eye_point, *frames[i], tuple(bounds[0][i]), tuple(bounds[1][i]),
-                                               (float(z_min[i]), float(z_max[i])))
-            for i in range(len(frames))]
+    return [None if refused[i] else FrustumFit(eye_point, frames[0][i], frames[1][i], frames[2][i], tuple(bounds[0][i]),
+                                               tuple(bounds[1][i]), (float(z_min[i]), float(z_max[i])))
+            for i in range(len(pts))]
 
 
 @dataclass(frozen=True, eq=False)
@@ -381,13 +391,7 @@ def view_projections(cameras: Sequence[PPC]) -> Array:
     inverse = np.linalg.inv(np.stack([a, b, c], axis=2))
     forward = _unit_rows(np.cross(a, b))  # PPC.forward
     focal = np.add.reduce(c * forward, axis=1)
-    # view_matrix: orthonormal_frame(forward, -b), row by row.
-    forward = _unit_rows(forward)
-    up = -b
-    steep = np.abs(np.add.reduce(_unit_rows(up) * forward, axis=1)) > 0.999
-    up[steep] = np.where((np.abs(forward[steep, 2]) < 0.9)[:, None], (0.0, 0.0, -1.0), (1.0, 0.0, 0.0))
-    right = _unit_rows(np.cross(forward, up))
-    down = np.cross(forward, right)
+    right, down, forward = orthonormal_frames(forward, -b)  # view_matrix's
     rotation = np.stack([right, -down, -forward], axis=1)
     view = np.tile(np.eye(4), (n, 1, 1))
     view[:, :3, :3] = rotation
@@ -458,11 +462,12 @@ def depth_image_records(cameras: Sequence[PPC], object_ids: Sequence[int], tile_
     bound = np.column_stack([bound_centre, bound_radius])
     records["bound"] = bound
     records["hit_bound"] = bound
-    shown = [i for i, around in enumerate(arounds) if around is not None]
-    if shown:
+    objects = {i: around for i, around in enumerate(arounds) if around is not None}
+    if objects:
+        shown = list(objects)
         records["hit_bound"][shown] = _hit_bounds(
             a[shown], b[shown], c[shown], width[shown], height[shown], w_near[shown], w_far[shown],
-            length_a[shown] + length_b[shown], bound[shown], [arounds[i] for i in shown])
+            length_a[shown] + length_b[shown], bound[shown], list(objects.values()))
     return records
 
 
