@@ -17,6 +17,7 @@ from depthimpostor.constants import (
 from depthimpostor.culling import _cones, _culled, _Cones, swept_spheres
 from depthimpostor.geometry import bounding_spheres, scene_geometry, world_vertex_groups
 from depthimpostor.methods.atlas import ImpostorAtlas
+from depthimpostor.methods.cubemaps import proxy_box
 from depthimpostor.methods.image_bvh import image_bvh
 from depthimpostor.oracles.reference import DepthImageData
 from depthimpostor.ppc import (
@@ -240,3 +241,12 @@ def test_an_atlas_written_by_hand_has_no_back_colour_and_no_second_run_elsewhere
         assert not atlas.unwritten
     finally:
         atlas.release()
+
+
+def test_the_proxy_box_is_the_world_meshes_bounds() -> None:
+    geometry = scene_geometry(tuple(scattered_objects(40)))
+    lower, upper = proxy_box(geometry[0], geometry[1:])
+    fresh = scene_geometry(tuple(scattered_objects(40)))
+    points = np.concatenate([item.world_mesh.positions for item in fresh])
+    np.testing.assert_array_equal(lower, points.min(axis=0))
+    np.testing.assert_array_equal(upper, points.max(axis=0))
