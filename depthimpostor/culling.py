@@ -78,7 +78,11 @@ def enclosing_spheres(items: Sequence[ObjectGeometry]) -> tuple[np.ndarray, np.n
 def swept_sphere(item: ObjectGeometry) -> tuple[np.ndarray, float]:
     """A sphere holding `item` at every time of its animation: a rotation about an axis carries
     the centre of its enclosing sphere around a circle about its foot on the axis."""
-    centre, radius = enclosing_sphere(item)
+    return _swept(item, *enclosing_sphere(item))
+
+
+def _swept(item: ObjectGeometry, centre: np.ndarray, radius: float) -> tuple[np.ndarray, float]:
+    """swept_sphere of `item` from its enclosing sphere (`centre`, `radius`)."""
     animation = item.object.animation
     if animation is None:
         return centre, radius
@@ -86,6 +90,17 @@ def swept_sphere(item: ObjectGeometry) -> tuple[np.ndarray, float]:
     axis = np.asarray(animation.axis, np.float64)
     foot = pivot + axis * float((centre - pivot) @ axis)
     return foot, float(np.linalg.norm(centre - foot)) + radius
+
+
+def swept_spheres(items: Sequence[ObjectGeometry]) -> tuple[np.ndarray, np.ndarray]:
+    """swept_sphere of every item, in arrays ((N, 3) centres, (N,) radii): the enclosing spheres
+    in one pass of numpy (enclosing_spheres), then the few animated items' sweeps one by one."""
+    centres, radii = enclosing_spheres(items)
+    for i, item in enumerate(items):
+        if item.object.animation is not None:
+            centre, radius = _swept(item, centres[i].copy(), float(radii[i]))
+            centres[i], radii[i] = centre, radius
+    return centres, radii
 
 
 def _unit(vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -121,7 +136,13 @@ def _cones(reflector: ObjectGeometry) -> _Cones | None:
     axis, _ = _unit(normals.sum(axis=1))
     spread = np.arccos(np.clip(np.einsum("tj,tij->ti", axis, normals), -1.0, 1.0)).max(axis=1)
     reach_axis = 2.0 * np.einsum("tj,tj->t", axis, face)[:, None] * axis - face
-    return _Cones(corners, reach_axis, np.pi / 2.0 - 2.0 * spread, bool(np.all(spread < CULL_MARGIN)))
+    # Each run of _TRIANGLE_RUN triangles taken from all over the mesh (every k-th), not from one
+    # patch of it: a run that faces every way reaches nearly every sphere at once (a sphere
+    # mirror's first run, near its pole, left most of a thousand objects to the next runs). What
+    # is culled does not depend on the order: a sphere out of reach of every triangle.
+    spaced = np.argsort(np.arange(len(corners)) % -(-len(corners) // _TRIANGLE_RUN), kind="stable")
+    return _Cones(corners[spaced], reach_axis[spaced], (np.pi / 2.0 - 2.0 * spread)[spaced],
+                  bool(np.all(spread < CULL_MARGIN)))
 
 
 #: Elements of the (triangle corners x spheres) arrays culling works on at once: bounds its
@@ -131,8 +152,9 @@ _CHUNK_ELEMENTS = 2**20
 
 #: Triangles of one mirror tested at once: after each run, only the spheres that every triangle so
 #: far left out of reach are tested further (one triangle that reaches a sphere decides it). A
-#: curved mirror's first runs reach nearly everything: a thousand objects around two mirror
-#: spheres were 5.9 M corner-sphere tests at once, and are now a few runs' worth.
+#: curved mirror's first runs reach nearly everything (its triangles spaced over it: _cones): a
+#: thousand objects around two mirror spheres were 5.9 M corner-sphere tests at once, and are
+#: now a few runs' worth.
 _TRIANGLE_RUN = 64
 
 
@@ -172,9 +194,7 @@ def reaches(reflectors: Sequence[ObjectGeometry], targets: Sequence[ObjectGeomet
     cones = [(row, c) for row, reflector in enumerate(reflectors) if (c := _cones(reflector)) is not None]
     if not cones or not targets:
         return table
-    spheres = [swept_sphere(target) for target in targets]
-    centres = np.array([centre for centre, _ in spheres], np.float64).reshape(-1, 3)
-    radii = np.array([radius for _, radius in spheres], np.float64)
+    centres, radii = swept_spheres(targets)
     culled = _culled([c for _, c in cones], centres, radii)
     for (row, c), out in zip(cones, culled, strict=True):
         why = Reach.BEHIND if c.flat else Reach.OUTSIDE_DIRECTIONS

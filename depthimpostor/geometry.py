@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -119,10 +119,26 @@ class ObjectGeometry:
         return self.world_mesh.bounding_sphere()
 
 
-#: Objects sharing a local mesh whose bounding spheres bounding_spheres works out together, and
-#: the points it transforms at once (float64: 48 MB).
+#: Objects sharing a local mesh that bounding_spheres and world_vertex_groups place together, and
+#: the points placed at once (float64: 6 MB, which keeps each pass over them in cache; 48 MB ran
+#: several times slower).
 BATCHED_SPHERES = 16
-BATCH_POINTS = 2_000_000
+BATCH_POINTS = 2**18
+
+
+def _batches(items: Sequence[ObjectGeometry]) -> Iterator[list[ObjectGeometry]]:
+    """`items` in lists of one local mesh: where at least BATCHED_SPHERES share a placeable mesh,
+    up to BATCH_POINTS vertices' worth at once (placed together: _placed_vertices); otherwise one
+    item a list (each alone: its world_mesh property says what is wrong, if anything)."""
+    groups: dict[int, list[ObjectGeometry]] = {}
+    for item in items:
+        groups.setdefault(id(item.local_mesh), []).append(item)
+    for group in groups.values():
+        if len(group) < BATCHED_SPHERES or len(group[0].local_mesh.positions) == 0 or not _placeable(group):
+            yield from ([item] for item in group)
+            continue
+        chunk = max(1, BATCH_POINTS // len(group[0].local_mesh.positions))
+        yield from (group[first:first + chunk] for first in range(0, len(group), chunk))
 
 
 def bounding_spheres(items: Sequence[ObjectGeometry]) -> list[tuple[np.ndarray, float]]:
@@ -130,19 +146,26 @@ def bounding_spheres(items: Sequence[ObjectGeometry]) -> list[tuple[np.ndarray, 
     glTF scene's repeated parts) they are worked out together, by the same steps as the property
     (the world mesh's float32 vertices, Mesh.bounding_sphere's two candidates), without making
     each world mesh (results/llvmpipe/many_objects.md: a scene of 10,000 small spheres)."""
-    groups: dict[int, list[ObjectGeometry]] = {}
-    for item in items:
-        if "bounding_sphere" not in item.__dict__:
-            groups.setdefault(id(item.local_mesh), []).append(item)
-    for group in groups.values():
-        if len(group) < BATCHED_SPHERES or len(group[0].local_mesh.positions) == 0 or not _placeable(group):
-            continue  # each alone: the property (Mesh.transformed) says what is wrong, if anything
-        chunk = max(1, BATCH_POINTS // len(group[0].local_mesh.positions))
-        for first in range(0, len(group), chunk):
-            part = group[first:first + chunk]
+    for part in _batches([item for item in items if "bounding_sphere" not in item.__dict__]):
+        if len(part) > 1:
             for item, sphere in zip(part, _spheres_of_one_mesh(part), strict=True):
                 item.__dict__["bounding_sphere"] = sphere  # the cached property's slot
     return [item.bounding_sphere for item in items]
+
+
+def world_vertex_groups(items: Sequence[ObjectGeometry]) -> Iterator[tuple[list[ObjectGeometry], np.ndarray]]:
+    """Each item's world_mesh.positions, to the bit, a few items of one local mesh at a time:
+    (items, their (n, V, 3) float32 vertices). Objects of a mesh many share are placed together,
+    without making their world meshes (normals and all: a thousand small spheres' took a second);
+    the others, and those whose world mesh is made already, come one by one from it."""
+    made = [item for item in items if "world_mesh" in item.__dict__]
+    for part in _batches([item for item in items if "world_mesh" not in item.__dict__]):
+        if len(part) > 1:
+            yield part, _placed_vertices(part)
+        else:
+            made += part
+    for item in made:
+        yield [item], item.world_mesh.positions[None]
 
 
 def _placeable(items: Sequence[ObjectGeometry]) -> bool:
@@ -164,16 +187,36 @@ def _spheres_of_one_mesh(items: Sequence[ObjectGeometry]) -> list[tuple[np.ndarr
     map of the local sphere's centre is as central, exactly so under turns and uniform scales)."""
     models = np.stack([item.model_matrix for item in items])
     local = items[0].local_mesh.positions.astype(np.float64)
-    # As Mesh.transformed places the vertices, then stores them in float32.
-    points = (np.matmul(local, models[:, :3, :3].transpose(0, 2, 1)) + models[:, None, :3, 3])
-    points = points.astype(np.float32).astype(np.float64)
+    # Each coordinate apart, (items, vertices) contiguous: reductions over the vertices of
+    # (items, vertices, 3) arrays ran several times slower, and the arithmetic is the same.
+    rounded = _placed_vertices(items)
+    columns = [rounded[:, :, axis].astype(np.float64) for axis in range(3)]
     local_centre = ritter_centres(local[None])[0]
     placed = models[:, :3, :3] @ local_centre + models[:, :3, 3]
-    candidates = [placed, 0.5 * (points.min(axis=1) + points.max(axis=1))]
-    radii = [np.linalg.norm(points - centre[:, None], axis=2).max(axis=1) for centre in candidates]
+    box_centre = np.stack([0.5 * (column.min(axis=1) + column.max(axis=1)) for column in columns], axis=1)
+    candidates = [placed, box_centre]
+    radii = [_farthest(columns, centre) for centre in candidates]
     ritter_wins = radii[0] <= radii[1]  # np.argmin's choice: the first of equals
     return [(candidates[0][i].copy(), float(radii[0][i])) if ritter_wins[i] else (candidates[1][i].copy(), float(radii[1][i]))
             for i in range(len(items))]
+
+
+def _placed_vertices(items: Sequence[ObjectGeometry]) -> np.ndarray:
+    """The world-space vertices of items of one local mesh ((n, V, 3) float32), as Mesh.transformed
+    places them (numpy's stacked matmul makes each item's BLAS call as its `@` does) and Mesh stores them."""
+    models = np.stack([item.model_matrix for item in items])
+    points = np.matmul(items[0].local_mesh.positions.astype(np.float64), models[:, :3, :3].transpose(0, 2, 1))
+    points += models[:, None, :3, 3]
+    return points.astype(np.float32)
+
+
+def _farthest(columns: list[np.ndarray], centres: np.ndarray) -> np.ndarray:
+    """np.linalg.norm(points - centres[:, None], axis=2).max(axis=1) of the points whose x, y and
+    z are `columns` ((items, vertices) each), to the bit: the squares summed in norm's order, and
+    one square root an item instead of one a point (the largest root is the root of the largest
+    square: the rounded square root is monotonic)."""
+    squares = [np.square(column - centres[:, axis, None]) for axis, column in enumerate(columns)]
+    return np.sqrt((squares[0] + squares[1] + squares[2]).max(axis=1))
 
 
 def triangle_offsets(objects: list[ObjectGeometry]) -> dict[int, int]:

@@ -23,8 +23,8 @@ from ..gpu.bindings import StorageBuffer, TextureUnit, UniformBlock
 from ..gpu.context import bind_default_framebuffer
 from ..constants import DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, NO_OBJECT, lists_images
 from ..errors import SceneError
-from ..geometry import ObjectGeometry
-from ..ppc import PPC, FrustumFitError
+from ..geometry import ObjectGeometry, world_vertex_groups
+from ..ppc import PPC, FrustumFit, FrustumFitError, depth_image_records, fit_frusta
 from ..oracles.reference import DepthImageData
 from ..scene.model import Scene
 from .image_cells import cells_table
@@ -75,13 +75,20 @@ class DepthImage:
     def tile(self) -> tuple[int, int, int, int]:
         return (*self.tile_origin, self.camera.width, self.camera.height)
 
+    @property
+    def object_id(self) -> int:
+        """What the record's `eye.w` holds: the object of a per-object image (NO_OBJECT for a
+        cube-map face, whose texels name their own)."""
+        return self.targets[0].index if len(self.targets) == 1 else NO_OBJECT
+
+    @property
+    def hit_bound_around(self) -> tuple[np.ndarray, float] | None:
+        """The sphere that bounds the hits of a per-object image: its object's (None for a face)."""
+        return self.targets[0].bounding_sphere if len(self.targets) == 1 else None
+
     def record(self) -> NDArray[np.void]:
-        """The std140 record; `eye.w` names the object of a per-object image (NO_OBJECT for a
-        cube-map face, whose texels name their own), whose bounding sphere bounds its hits."""
-        single = len(self.targets) == 1
-        object_id = self.targets[0].index if single else NO_OBJECT
-        around = self.targets[0].bounding_sphere if single else None
-        return self.camera.depth_image_record(object_id, self.tile_origin, self.pyramid, around)
+        """The std140 record (image_records makes a mirror's all at once)."""
+        return self.camera.depth_image_record(self.object_id, self.tile_origin, self.pyramid, self.hit_bound_around)
 
 
 #: Draws the nearest back face's window depth into the second layer.
@@ -108,8 +115,10 @@ def image_records(images: list[DepthImage], capacity: int = DEPTH_IMAGE_BLOCK_RE
     if len(images) > capacity:
         raise ValueError(f"{len(images)} depth images passed a record table of {capacity}")
     records = np.zeros(capacity, dtype=DEPTH_IMAGE_DTYPE)
-    for i, image in enumerate(images):
-        records[i] = image.record()
+    records[:len(images)] = depth_image_records(
+        [image.camera for image in images], [image.object_id for image in images],
+        [image.tile_origin for image in images], [image.pyramid for image in images],
+        [image.hit_bound_around for image in images])
     return records
 
 
@@ -155,19 +164,52 @@ def mirror_centre(mirror: ObjectGeometry) -> np.ndarray:
     return mirror.bounding_sphere[0]
 
 
-def fit_depth_image_camera(scene: Scene, mirror: ObjectGeometry, target: ObjectGeometry, resolution: int) -> PPC:
-    """The depth image's camera: from the mirror's centre, the tightest frustum around the object."""
+def fit_depth_image_camera(scene: Scene, mirror: ObjectGeometry, target: ObjectGeometry, resolution: int,
+                           fit: FrustumFit | None = None) -> PPC:
+    """The depth image's camera: from the mirror's centre, the tightest frustum around the object
+    (`fit`: that frustum, found already by fit_depth_image_frusta)."""
+    if fit is not None:
+        return fit.camera(resolution, resolution)
     centre, _ = target.bounding_sphere
     try:
         return PPC.fitted(mirror_centre(mirror), target.world_mesh.positions, centre, resolution, resolution)
     except FrustumFitError:
-        index = target.index
-        raise SceneError(
-            scene.source,
-            scene.object_label(index),
-            f'object "{target.object.name}" surrounds or touches the centre of mirror "{mirror.object.name}": '
-            "no depth-image frustum can be fitted to it; move it away from the mirror's centre",
-        ) from None
+        raise _surrounds(scene, mirror, target) from None
+
+
+def fit_depth_image_frusta(scene: Scene, shown: list[tuple[ObjectGeometry, list[ObjectGeometry]]]
+                           ) -> dict[tuple[int, int], FrustumFit]:
+    """The frusta fit_depth_image_camera fits, by (mirror index, target index), for each mirror and
+    the targets it shows (`shown`): each target's world vertices placed once for every mirror, and
+    the objects of one mesh fitted together (geometry.world_vertex_groups, ppc.fit_frusta), the
+    same to the bit as one by one (a thousand objects' took over a second that way)."""
+    targets = list({target.index: target for _, items in shown for target in items}.values())
+    fits: dict[tuple[int, int], FrustumFit] = {}
+    for part, vertices in world_vertex_groups(targets):
+        centres = np.stack([target.bounding_sphere[0] for target in part])
+        for mirror, items in shown:
+            wanted = {target.index for target in items}
+            rows = [row for row, target in enumerate(part) if target.index in wanted]
+            if not rows:
+                continue
+            if len(rows) < len(part):
+                vertices_of, centres_of = vertices[rows], centres[rows]
+            else:
+                vertices_of, centres_of = vertices, centres
+            for row, fit in zip(rows, fit_frusta(mirror_centre(mirror), vertices_of, centres_of), strict=True):
+                if fit is None:
+                    raise _surrounds(scene, mirror, part[row])
+                fits[(mirror.index, part[row].index)] = fit
+    return fits
+
+
+def _surrounds(scene: Scene, mirror: ObjectGeometry, target: ObjectGeometry) -> SceneError:
+    return SceneError(
+        scene.source,
+        scene.object_label(target.index),
+        f'object "{target.object.name}" surrounds or touches the centre of mirror "{mirror.object.name}": '
+        "no depth-image frustum can be fitted to it; move it away from the mirror's centre",
+    )
 
 
 #: moderngl's colour mask: a 4-tuple for one attachment, a tuple of them for several (its stub
@@ -234,8 +276,20 @@ class ImpostorAtlas:
         # unless something changes, and bake_buffer makes it again for the next.
         self._depth_buffer: moderngl.Renderbuffer | None = None
         self._make_framebuffers(ctx.depth_renderbuffer(size))
+        # Nothing written yet (GL leaves a new texture undefined): the first bake clears every
+        # attachment whole (BakedImages.bake), so nothing is cleared here unless tiles are
+        # written otherwise first (clear_unwritten). Clearing here too was a second pass over a
+        # thousand objects' atlas of 600 MB.
+        self.unwritten = True
+
+    def clear_unwritten(self) -> None:
+        """Clear what a tile written by hand (`write`) or a bake of some tiles alone leaves as it
+        was, in an atlas nothing was written into yet: no back colour (images baked otherwise,
+        reflectors at bounce k copied in, have none) and no second run known."""
+        if not self.unwritten:
+            return
+        self.unwritten = False
         if self.back_framebuffer is not None:
-            # Images baked otherwise (reflectors at bounce k, copied in) have no back colour.
             self.back_framebuffer.color_mask = self.masks((True,) * 4)
             self.back_framebuffer.clear(1.0, 1.0, 1.0, 0.0)
             self.back_framebuffer.color_mask = self.masks(*[(True,) * 4] * len(self.textures))
@@ -355,6 +409,7 @@ class ImpostorAtlas:
 
     def write(self, tile_origin: tuple[int, int], data: DepthImageData) -> None:
         """Store a depth image made elsewhere (tests build exact ones by hand)."""
+        self.clear_unwritten()
         height, width = data.depth.shape
         viewport = (*tile_origin, width, height)
         rgba = np.concatenate([np.rint(np.clip(data.color, 0, 1) * 255), np.full((height, width, 1), 255)], axis=2)

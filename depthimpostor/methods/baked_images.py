@@ -28,7 +28,7 @@ from ..constants import (
 from ..errors import ContextError
 from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
 from ..culling import Reach, ReachTable, reaches
-from ..ppc import PPC
+from ..ppc import PPC, FrustumFit, view_projections
 from ..resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION, auto_resolution, scene_view
 from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
@@ -36,7 +36,7 @@ from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import bind_texture, write
 from .colour_mips import ColourMips
-from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, image_label, image_records, plural, record_table, write_table
+from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, fit_depth_image_frusta, image_label, image_records, plural, record_table, write_table
 
 
 
@@ -274,13 +274,20 @@ class BakedImages:
         atlas.bake_buffer()
         # Every image of every level: those of reflectors are baked after these (the bounce node).
         whole = self.stale >= {image.slot for image in self.depth_images}
+        if whole:
+            atlas.unwritten = False  # every attachment is cleared whole below
+        else:
+            atlas.clear_unwritten()
         draws = 0
+        # Each image's matrix once, all at once (ppc.view_projections), for every layer's pass.
+        matrices = dict(zip((image.slot for image in stale), view_projections([image.camera for image in stale]),
+                            strict=True))
         with raster_state(self.ctx):
-            draws += self._bake_surfaces(stale, whole)
+            draws += self._bake_surfaces(stale, whole, matrices)
             if self.back_layer is not None:
-                draws += self._bake_back_layers(stale, whole)
+                draws += self._bake_back_layers(stale, whole, matrices)
                 if atlas.beyond is not None:
-                    draws += self._bake_beyond(stale, whole)
+                    draws += self._bake_beyond(stale, whole, matrices)
             elif self.second_layer == SecondLayer.BACK_FACE:
                 try:
                     for image in stale:
@@ -303,7 +310,7 @@ class BakedImages:
         tiles' first writes, and draws a scissored one."""
         return [None] if whole else [image.tile for image in stale]
 
-    def _bake_surfaces(self, stale: list[DepthImage], whole: bool) -> int:
+    def _bake_surfaces(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray]) -> int:
         """The visible surface of each stale image: colour, R (and G where G is the object id), the
         triangle ids' R; cleared to colour alpha 0 ("nothing here") and BACKGROUND_DEPTH in both
         layers, the value the depth buffer clears to."""
@@ -322,7 +329,7 @@ class BakedImages:
             framebuffer.color_mask = surface_mask
             for image in stale:
                 framebuffer.viewport = image.tile
-                draws += self.diffuse.draw(list(image.targets), image.camera.view_projection)
+                draws += self.diffuse.draw(list(image.targets), matrices[image.slot])
         finally:
             framebuffer.color_mask = everything
         return draws
@@ -347,7 +354,7 @@ class BakedImages:
                 self.meshes.draw(back_faces, target, image.camera.view_projection)
         return len(image.targets)
 
-    def _bake_back_layers(self, stale: list[DepthImage], whole: bool) -> int:
+    def _bake_back_layers(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray]) -> int:
         """The nearest back face's colour, depth (G) and triangle (G) of each stale image, against
         a fresh depth buffer; the colour cleared to alpha 0 (none drawn)."""
         assert self.back_layer is not None and self.atlas.back_framebuffer is not None
@@ -363,12 +370,12 @@ class BakedImages:
             with raster_state(self.ctx, BACK_FACES):
                 for image in stale:
                     framebuffer.viewport = image.tile
-                    draws += self.back_layer.draw(list(image.targets), image.camera.view_projection)
+                    draws += self.back_layer.draw(list(image.targets), matrices[image.slot])
             return draws
         finally:
             framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
 
-    def _bake_beyond(self, stale: list[DepthImage], whole: bool) -> int:
+    def _bake_beyond(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray]) -> int:
         """Where a second solid run begins behind the first (beyond_run.frag), for each stale
         image: the nearest front face behind the layers just baked, which it reads (they are not
         attached here)."""
@@ -384,7 +391,7 @@ class BakedImages:
             for image in stale:
                 framebuffer.viewport = image.tile
                 for target in image.targets:
-                    self.meshes.draw(program, target, image.camera.view_projection)
+                    self.meshes.draw(program, target, matrices[image.slot])
         return sum(len(image.targets) for image in stale)
 
     def release(self) -> None:
@@ -410,15 +417,17 @@ def largest_side(scene: Scene, mirrors: int, per_object: int, texel_bytes: int) 
     return budgeted_side(max(count, 1), asked, scene.render.image_memory * 2**20, texel_bytes)
 
 
-def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: ObjectGeometry, largest: int | None = None) -> PPC:
+def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: ObjectGeometry, largest: int | None = None,
+                 fit: FrustumFit | None = None) -> PPC:
     """The camera of `target`'s image for `mirror`: fitted at render.impostor_resolution, or at
     the resolution `view` (the scene's camera) asks for when it is "auto" (resolution.py); at most
-    `largest` (the memory budget's side: budgeted_side)."""
+    `largest` (the memory budget's side: budgeted_side). `fit`: its frustum, found already
+    (fit_depth_image_frusta)."""
     cap = largest if largest is not None else MAX_AUTO_RESOLUTION
     if not scene.render.auto_resolution:
-        return fit_depth_image_camera(scene, mirror, target, min(int(scene.render.impostor_resolution), cap))
-    probe = fit_depth_image_camera(scene, mirror, target, min(MIN_AUTO_RESOLUTION, cap))
-    return fit_depth_image_camera(scene, mirror, target, min(auto_resolution(view, mirror, target, probe), cap))
+        return fit_depth_image_camera(scene, mirror, target, min(int(scene.render.impostor_resolution), cap), fit)
+    probe = fit_depth_image_camera(scene, mirror, target, min(MIN_AUTO_RESOLUTION, cap), fit)
+    return fit_depth_image_camera(scene, mirror, target, min(auto_resolution(view, mirror, target, probe), cap), fit)
 
 
 def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
@@ -433,6 +442,7 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
              for mirror, row in zip(mirrors, reach(mirrors, reflected), strict=True)}
     largest = (None if texel_bytes is None
                else largest_side(scene, len(mirrors), sum(len(targets) for targets in shown.values()), texel_bytes))
-    return {mirror.index: [ImagePlan((target,), image_camera(scene, view, mirror, target, largest))
+    fits = fit_depth_image_frusta(scene, [(mirror, shown[mirror.index]) for mirror in mirrors])
+    return {mirror.index: [ImagePlan((target,), image_camera(scene, view, mirror, target, largest,
+                                                             fits[(mirror.index, target.index)]))
                            for target in shown[mirror.index]] for mirror in mirrors}
-

@@ -18,7 +18,7 @@ import moderngl
 import numpy as np
 
 from ..errors import SceneError
-from ..geometry import ObjectGeometry
+from ..geometry import ObjectGeometry, world_vertex_groups
 from ..ppc import PPC
 from ..scene.model import Scene
 from ..resolution import MIN_AUTO_RESOLUTION
@@ -67,9 +67,13 @@ def cube_cameras(scene: Scene, mirror: ObjectGeometry, reflected: list[ObjectGeo
 
 
 def proxy_box(mirror: ObjectGeometry, reflected: list[ObjectGeometry]) -> tuple[np.ndarray, np.ndarray]:
-    """The parallax correction's box: world bounds of the mirror and of what it reflects."""
-    points = np.concatenate([item.world_mesh.positions for item in (mirror, *reflected)])
-    return points.min(axis=0), points.max(axis=0)
+    """The parallax correction's box: world bounds of the mirror and of what it reflects (their
+    world vertices placed a mesh's objects at a time, without making each world mesh: a thousand
+    objects' took seconds of the first frame)."""
+    corners = [[vertices[..., axis].min() for axis in range(3)] + [vertices[..., axis].max() for axis in range(3)]
+               for _, vertices in world_vertex_groups([mirror, *reflected])]
+    bounds = np.array(corners, np.float32)
+    return bounds[:, :3].min(axis=0), bounds[:, 3:].max(axis=0)
 
 
 class CubeMapPass(BakedImages):
