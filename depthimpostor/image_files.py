@@ -59,6 +59,8 @@ def read_image(file: Path | bytes) -> np.ndarray:
         image = Image.open(file if isinstance(file, Path) else io.BytesIO(file))
     except UnidentifiedImageError:
         raise ImageRefused(DECODABLE, "data in no image format Pillow knows") from None
+    except Image.DecompressionBombError as error:  # its message says the size and the limit
+        raise ImageRefused("an image Pillow agrees to open", str(error)) from None
     except Exception as error:  # a plugin's own error on a damaged header (SyntaxError, ValueError...)
         raise ImageRefused(DECODABLE, f"a damaged file: {type(error).__name__}: {error}") from error
     with image:

@@ -1,10 +1,11 @@
 """A glTF 2.0 file (.gltf or .glb) read into what the scene needs: its JSON, checked, the world
 matrix of every node of its scene, and each triangle primitive's arrays, decoded by trimesh.
 
-trimesh decodes the binary data (accessors, triangle strips, data URIs, external buffers, images):
-no glTF parsing is written here. What trimesh drops is read from the JSON, which is plain data:
-the extensions KHR_lights_punctual, KHR_materials_transmission and KHR_materials_ior, the exact
-material factors (trimesh rounds baseColorFactor to 8 bits), the primitive modes, and the node
+trimesh decodes the binary data (accessors, triangle strips, data URIs, external buffers), but
+for what it reads wrongly: sparse accessors, whose substitutions it drops, and images, whose
+errors it swallows, are read by gltf_data.py. What trimesh drops is read from the JSON, which is
+plain data: the extensions KHR_lights_punctual, KHR_materials_transmission and KHR_materials_ior
+(`ignored_features` names those used but not read), the exact material factors (trimesh rounds baseColorFactor to 8 bits), the primitive modes, and the node
 tree. The node tree's matrices are taken here too, because trimesh 5's scene graph leaves out the
 children of a node that holds a camera and places a camera by its own node's matrix alone.
 
