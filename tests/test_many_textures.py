@@ -114,8 +114,10 @@ def test_sixty_four_textures_are_laid_out_in_a_few_arrays(many: Scene) -> None:
     assert [tuple(r) for r in records["sampling"][:3, 2:]] == [(0x8370, 0x8370), (0x812F, 0x812F), (0x2901, 0x2901)]
     assert texture_defines(many) == {"TEXTURE_COUNT": 64, "TEXTURE_ARRAYS": 4, "REPEATING_TEXTURES": 1,
                                      "FOLDED_TEXTURES": 1}
-    line = plan_render(many, Method.RAYTRACE).format().splitlines()[-1]
+    lines = plan_render(many, Method.RAYTRACE).format().splitlines()
+    line = next(line for line in lines if line.startswith("  textures: "))
     assert line.startswith("  textures: 64 textures of 64 distinct images in 4 arrays (") and "resampled up" in line
+    assert "  image textures: 64 (any number: in texture arrays" in "\n".join(lines)  # the plan's limits section
 
 
 def eye_truth(renderer: Renderer) -> tuple[np.ndarray, np.ndarray]:
