@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 from collections.abc import Callable
 from typing import Any, TypeVar, cast
 
@@ -34,7 +35,8 @@ Method_ = TypeVar("Method_", bound=Callable[..., Any])
 def checked_time(seconds: object) -> float:
     """A scene time from the Python API: a finite number of seconds (ValueError otherwise; NaN or
     infinity would put every animated object nowhere)."""
-    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not math.isfinite(seconds):
+    # numbers.Real: numpy's floats and integers too (np.float32 is no float).
+    if isinstance(seconds, bool) or not isinstance(seconds, numbers.Real) or not math.isfinite(seconds):
         raise ValueError(f"time: expected a finite number of seconds, got {seconds!r}")
     return float(seconds)
 

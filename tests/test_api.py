@@ -68,7 +68,8 @@ def test_render_image_refuses_a_bad_scene_setting() -> None:
 
 @pytest.mark.parametrize("size", [(np.int64(64), np.int32(36)), np.array([64, 36]), [64, 36]])
 def test_render_image_takes_numpy_integers(ctx: moderngl.Context, size: object) -> None:
-    image = depthimpostor.render_image(SCENE, size=size, impostor_resolution=np.int64(32), ctx=ctx)  # type: ignore[arg-type]
+    image = depthimpostor.render_image(SCENE, size=size, impostor_resolution=np.int64(32), ctx=ctx,  # type: ignore[arg-type]
+                                       time=np.float32(0.5))  # type: ignore[arg-type]
     assert image.shape == (36, 64, 3)
 
 
