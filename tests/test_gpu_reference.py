@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import moderngl
 import numpy as np
@@ -29,6 +29,29 @@ def baked(ctx: moderngl.Context) -> Iterator[Renderer]:
     renderer.release()
 
 
+#: The reference's answers to an image's random rays (random_rays of image i, seed i): the image's
+#: index and whether the basic algorithm is asked (every other algorithm's hits are the optimized
+#: march's, whose margins every test takes too).
+Marched = Callable[[int, bool], tuple[np.ndarray, np.ndarray, reference.RayHits]]
+
+
+@pytest.fixture(scope="module")
+def marched(baked: Renderer) -> Marched:
+    """Each answer computed once for the module: the numpy march, not the GPU, took the time."""
+    assert baked.graph.impostors is not None
+    images = baked.graph.impostors.depth_images
+    answers: dict[tuple[int, bool], tuple[np.ndarray, np.ndarray, reference.RayHits]] = {}
+
+    def answer(index: int, basic: bool) -> tuple[np.ndarray, np.ndarray, reference.RayHits]:
+        if (index, basic) not in answers:
+            origins, directions = random_rays(images[index], index)
+            march = reference.intersect_basic if basic else reference.intersect_optimized
+            answers[index, basic] = origins, directions, march(image_data(baked, images[index]), origins, directions)
+        return answers[index, basic]
+
+    return answer
+
+
 def image_data(renderer: Renderer, image: DepthImage) -> reference.DepthImageData:
     assert renderer.graph.impostors is not None
     return renderer.graph.impostors.atlas.read(image)
@@ -52,16 +75,15 @@ def away_from_decision_boundaries(hits: reference.RayHits) -> np.ndarray:
 
 
 @pytest.mark.parametrize("algorithm", list(Algorithm), ids=lambda a: a.name.lower())
-def test_gpu_query_agrees_with_numpy_reference(ctx: moderngl.Context, baked: Renderer, algorithm: Algorithm) -> None:
+def test_gpu_query_agrees_with_numpy_reference(ctx: moderngl.Context, baked: Renderer, marched: Marched,
+                                               algorithm: Algorithm) -> None:
     assert baked.graph.impostors is not None
-    for seed, image in enumerate(baked.graph.impostors.depth_images):
-        origins, directions = random_rays(image, seed)
+    for index, image in enumerate(baked.graph.impostors.depth_images):
+        origins, directions, expected = marched(index, algorithm == Algorithm.BASIC)  # intersect_depth_image's
         query = RayQuery(ctx, baked.programs, baked.graph.impostors.atlas, [image], algorithm)
         gpu = query.run(origins, directions)
         query.release()
-        data = image_data(baked, image)
-        expected = reference.intersect_depth_image(data, origins, directions, algorithm)
-        margins = reference.intersect_optimized(data, origins, directions)
+        margins = marched(index, False)[2]
         clear = away_from_decision_boundaries(margins)
 
         name = image.target.object.name
@@ -77,15 +99,10 @@ def test_gpu_query_agrees_with_numpy_reference(ctx: moderngl.Context, baked: Ren
             assert np.isfinite(field).all()
 
 
-def test_basic_and_optimized_find_the_same_hits(baked: Renderer) -> None:
+def test_basic_and_optimized_find_the_same_hits(marched: Marched) -> None:
     """The 3-D segment between unprojected samples projects to the 2-D segment in OpenGL depth
     (depth is affine along a line's projection), so both algorithms find the same point."""
-    assert baked.graph.impostors is not None
-    image = baked.graph.impostors.depth_images[1]
-    origins, directions = random_rays(image, 7)
-    data = image_data(baked, image)
-    basic = reference.intersect_basic(data, origins, directions)
-    optimized = reference.intersect_optimized(data, origins, directions)
+    basic, optimized = marched(1, True)[2], marched(1, False)[2]
     clear = away_from_decision_boundaries(optimized)
     assert (basic.hit == optimized.hit)[clear].mean() >= 0.999
     both = clear & basic.hit & optimized.hit
@@ -126,14 +143,13 @@ def test_rays_that_miss_every_frustum_read_no_samples(ctx: moderngl.Context, bak
 
 
 @pytest.mark.parametrize("algorithm", [Algorithm.BASIC, Algorithm.OPTIMIZED], ids=lambda a: a.name.lower())
-def test_every_hit_lies_in_its_images_hit_bound(baked: Renderer, algorithm: Algorithm) -> None:
+def test_every_hit_lies_in_its_images_hit_bound(baked: Renderer, marched: Marched, algorithm: Algorithm) -> None:
     """The mirror shader skips an image whose hit bound a ray enters after its nearest hit
     (lib/reflected_scene.glsl): every hit a march of the image finds must lie inside it
     (PPC.hit_bound), and for one object's image it is tighter than the frustum's bound."""
     assert baked.graph.impostors is not None
-    for seed, image in enumerate(baked.graph.impostors.depth_images):
-        origins, directions = random_rays(image, 100 + seed)
-        hits = reference.intersect_depth_image(image_data(baked, image), origins, directions, algorithm)
+    for index, image in enumerate(baked.graph.impostors.depth_images):
+        origins, directions, hits = marched(index, algorithm == Algorithm.BASIC)
         record = image.record()
         centre, radius = record["hit_bound"][:3], float(record["hit_bound"][3])
         assert radius < float(record["bound"][3])

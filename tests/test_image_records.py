@@ -4,6 +4,7 @@ the mirror shows stays right against the truth."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from types import SimpleNamespace
 
 import moderngl
@@ -22,10 +23,11 @@ from depthimpostor.constants import (
 from depthimpostor.errors import ContextError
 from depthimpostor.gpu.meshes import GpuMeshes
 from depthimpostor.gpu.shaders import ProgramCache
+from depthimpostor.methods.atlas import DepthImage
 from depthimpostor.methods.image_cells import ORIGIN_MARGIN, GridSize, grid_size, image_cells, ray_cells
 from depthimpostor.methods.impostors import ImpostorPass
 from depthimpostor.oracles import reference
-from depthimpostor.oracles.compare import compare
+from depthimpostor.oracles.compare import Comparison, compare
 from depthimpostor.oracles.ray_query import RayQuery
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
@@ -67,6 +69,31 @@ def many_balls(count: int) -> Scene:
     return scene_from_toml(HEAD + checker_balls(count, 1.5), "many_balls.toml")
 
 
+#: A method's frame of the hundred balls: its colours, the object each pixel's reflected ray hit,
+#: and its comparison with the truth.
+Frame = tuple[np.ndarray, np.ndarray, Comparison]
+
+
+@pytest.fixture(scope="module")
+def hundred_balls(ctx: moderngl.Context) -> Callable[[Method], Frame]:
+    """Each method's frame of many_balls(100) (optimized algorithm, reflection data), made once for
+    the module (several tests read the depth method's). The truth is traced for the first frame and
+    reused by the others, whose rays are the same (compare checks that they are)."""
+    scene = many_balls(100)
+    frames: dict[Method, Frame] = {}
+
+    def frame(method: Method) -> Frame:
+        if method not in frames:
+            truth = next(iter(frames.values()))[2].truth_frame if frames else None
+            with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=method, reflection_data=True) as renderer:
+                renderer.render()
+                frames[method] = (renderer.read_color_float(), renderer.read_reflection_data().object_id,
+                                  compare(renderer, truth))
+        return frames[method]
+
+    return frame
+
+
 def test_capacity_is_the_uniform_block_up_to_it_then_a_power_of_two() -> None:
     assert depth_image_capacity(1) == depth_image_capacity(DEPTH_IMAGE_BLOCK_RECORDS) == DEPTH_IMAGE_BLOCK_RECORDS
     assert depth_image_capacity(DEPTH_IMAGE_BLOCK_RECORDS + 1) == 2 * DEPTH_IMAGE_BLOCK_RECORDS
@@ -77,32 +104,27 @@ def test_capacity_is_the_uniform_block_up_to_it_then_a_power_of_two() -> None:
 
 
 @pytest.mark.parametrize(("method", "wrong_object_limit"), [(Method.DEPTH, 0.01), (Method.BILLBOARD, 0.05)])
-def test_a_mirror_showing_a_hundred_objects_reads_them_all(ctx: moderngl.Context, method: Method,
+def test_a_mirror_showing_a_hundred_objects_reads_them_all(hundred_balls: Callable[[Method], Frame], method: Method,
                                                           wrong_object_limit: float) -> None:
-    scene = many_balls(100)
-    plan = plan_render(scene, method)
+    plan = plan_render(many_balls(100), method)
     images = [image for image in plan.images if image.label.startswith("wall mirror")]
     assert len(images) > DEPTH_IMAGE_BLOCK_RECORDS  # past what the old uniform block held
     assert any(("DEPTH_IMAGE_CAPACITY", "128") in variant.key[1] or ("DEPTH_IMAGE_CAPACITY", 128) in variant.key[1]
                for variant in plan.variants)
-    with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=method, reflection_data=True) as renderer:
-        renderer.render()
-        assert np.isfinite(renderer.read_color_float()).all()
-        figures = compare(renderer).figures
+    color, _, comparison = hundred_balls(method)
+    assert np.isfinite(color).all()
+    figures = comparison.figures
     assert figures.mirror_pixels > 1000
     # Objects are seen in the mirror, and the right ones: images past the 64th answer their rays.
     assert figures.wrong_object_share < wrong_object_limit, figures
 
 
-def test_the_last_images_answer_their_rays(ctx: moderngl.Context) -> None:
+def test_the_last_images_answer_their_rays(hundred_balls: Callable[[Method], Frame]) -> None:
     """The objects listed last (past the uniform block's 64 records) are the top rows of balls:
     where the truth sees one of them, the depth method sees the same object (a table cut short at
     64 records would leave them out of the mirror)."""
-    scene = many_balls(100)
-    with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=Method.DEPTH, reflection_data=True) as renderer:
-        renderer.render()
-        seen = renderer.read_reflection_data().object_id
-        truth = compare(renderer).truth_frame.object_id
+    _, seen, comparison = hundred_balls(Method.DEPTH)
+    truth = comparison.truth_frame.object_id
     late = truth > DEPTH_IMAGE_BLOCK_RECORDS  # object 0 is the mirror: ball i is object i + 1
     assert late.sum() > 150
     assert (seen[late] == truth[late]).mean() > 0.97
@@ -241,32 +263,47 @@ def test_moving_objects_list_their_images_again(ctx: moderngl.Context) -> None:
                                       Method.DEPTH, 1.5)
 
 
-@pytest.mark.parametrize("lists", [True, False], ids=["listed", "scanned"])
-def test_many_images_tracking_unseen_space_give_the_references_nearest_hits(ctx: moderngl.Context,
-                                                                            monkeypatch: pytest.MonkeyPatch,
-                                                                            lists: bool) -> None:
-    """The ray query (the mirror shader's GLSL with TRACK_UNSEEN; listed: the lists over the
-    images' bounds, for rays from the sphere about their origins) over 100 images of one mirror,
-    against the numpy reference's nearest hit, ray by ray."""
-    if not lists:
-        monkeypatch.setattr(constants, "IMAGE_CELLS_MIN_CAPACITY", 2**30)
+#: The hundred images of one mirror, 3000 rays from the mirror toward them, and the numpy
+#: reference's nearest hits of those rays.
+Queried = tuple[Renderer, list[DepthImage], np.ndarray, np.ndarray, reference.RayHits]
+
+
+@pytest.fixture(scope="module")
+def hundred_images(ctx: moderngl.Context) -> Iterator[Queried]:
+    """Baked and marched by the reference once for the module: the lists and the scan read the
+    same images (a ray query makes its own record table, with or without the lists)."""
     scene = many_balls(100).with_overrides(size=(32, 18), impostor_resolution=32)
     with Renderer(ctx, scene, method=Method.DEPTH) as renderer:
         renderer.render()
         impostors = renderer.graph.impostors
         assert impostors is not None
         images = impostors.images_by_reflector[renderer.world.mirrors[0].index]
-        assert len(images) == 100
         rng = np.random.default_rng(4)
         targets = np.array([image.target.bounding_sphere[0] for image in images])[rng.integers(0, 100, 3000)]
         origins = rng.uniform((-4.0, 0.5, 0.02), (4.0, 3.5, 0.1), size=(3000, 3))  # on the wall mirror's front
         directions = targets + rng.normal(size=(3000, 3)) * 0.12 - origins
-        query = RayQuery(ctx, renderer.programs, impostors.atlas, images)
-        assert (("IMAGE_CELLS", 1) in query_defines(query)) == lists
-        gpu = query.run(origins, directions)
-        query.release()
         expected = reference.nearest_depth_image_hit([impostors.atlas.read(image) for image in images], origins,
                                                      directions)
+        yield renderer, images, origins, directions, expected
+
+
+@pytest.mark.parametrize("lists", [True, False], ids=["listed", "scanned"])
+def test_many_images_tracking_unseen_space_give_the_references_nearest_hits(ctx: moderngl.Context,
+                                                                            monkeypatch: pytest.MonkeyPatch,
+                                                                            hundred_images: Queried,
+                                                                            lists: bool) -> None:
+    """The ray query (the mirror shader's GLSL with TRACK_UNSEEN; listed: the lists over the
+    images' bounds, for rays from the sphere about their origins) over 100 images of one mirror,
+    against the numpy reference's nearest hit, ray by ray."""
+    if not lists:
+        monkeypatch.setattr(constants, "IMAGE_CELLS_MIN_CAPACITY", 2**30)
+    renderer, images, origins, directions, expected = hundred_images
+    impostors = renderer.graph.impostors
+    assert impostors is not None and len(images) == 100
+    query = RayQuery(ctx, renderer.programs, impostors.atlas, images)
+    assert (("IMAGE_CELLS", 1) in query_defines(query)) == lists
+    gpu = query.run(origins, directions)
+    query.release()
     clear = (expected.texel_margin > 1e-3) & (expected.depth_margin > 1e-6)
     assert expected.hit.sum() > 1000
     assert (gpu.hit == expected.hit)[clear].mean() >= 0.999
@@ -280,16 +317,13 @@ def query_defines(query: RayQuery) -> set[tuple[str, int]]:
 
 
 @pytest.mark.parametrize("method", [Method.RAYTRACE, Method.HYBRID])
-def test_the_traced_methods_take_more_objects_than_a_uniform_block(ctx: moderngl.Context, method: Method) -> None:
+def test_the_traced_methods_take_more_objects_than_a_uniform_block(hundred_balls: Callable[[Method], Frame],
+                                                                  method: Method) -> None:
     """100 traced objects (past the 64 records of the uniform block they once had, which refused
     more; now instances of a two-level BVH, tests/test_instances.py): the mirror shows each where
     the truth does."""
-    scene = many_balls(100)
-    with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=method, reflection_data=True) as renderer:
-        renderer.render()
-        assert np.isfinite(renderer.read_color_float()).all()
-        seen = renderer.read_reflection_data().object_id
-        comparison = compare(renderer)
+    color, seen, comparison = hundred_balls(method)
+    assert np.isfinite(color).all()
     truth = comparison.truth_frame.object_id
     late = truth > 64  # the objects past what the uniform block held
     assert late.sum() > 150 and (seen[late] == truth[late]).mean() > 0.99

@@ -19,7 +19,7 @@ from depthimpostor.methods import triangles as triangles_module
 from depthimpostor.methods.bvh import build_box_bvh, build_bvh, build_triangle_forest, node_count
 from depthimpostor.methods.instances import NODE_TEXELS, world_boxes
 from depthimpostor.methods.triangles import TrianglePass
-from depthimpostor.oracles.compare import compare
+from depthimpostor.oracles.compare import TruthFrame, compare
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene
@@ -154,11 +154,20 @@ def test_an_instance_box_holds_its_transformed_mesh() -> None:
     assert (lows[0] < world.min(axis=0)).all() and (highs[0] > world.max(axis=0)).all()
 
 
+@pytest.fixture(scope="module")
+def two_hundred() -> tuple[Scene, list[TruthFrame]]:
+    """mixed_scene(210), and the truth of its mirror's rays at t = 1.5 once traced (the world's 650,440
+    triangles in Embree: seconds), for the next method's frame: the same rays (compare checks)."""
+    return mixed_scene(210), []
+
+
 @pytest.mark.parametrize("method", [Method.RAYTRACE, Method.HYBRID], ids=lambda m: m.option)
-def test_two_hundred_objects_of_shared_and_own_meshes_match_the_truth(ctx: moderngl.Context, method: Method) -> None:
+def test_two_hundred_objects_of_shared_and_own_meshes_match_the_truth(ctx: moderngl.Context, method: Method,
+                                                                      two_hundred: tuple[Scene, list[TruthFrame]]
+                                                                      ) -> None:
     """210 objects (was refused past 64), 7 meshes between them, some textured, some moving: the
     mirror shows each where the truth does, at a time when the animated ones have moved."""
-    scene = mixed_scene(210)
+    scene, truths = two_hundred
     with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=method, reflection_data=True) as renderer:
         renderer.set_time(1.5)
         renderer.render()
@@ -167,7 +176,9 @@ def test_two_hundred_objects_of_shared_and_own_meshes_match_the_truth(ctx: moder
         traced = stand_in.triangles if method == Method.HYBRID else stand_in
         assert isinstance(traced, TrianglePass)
         assert len(traced.reflected) == 210 and len(traced.distinct) == 7
-        figures = compare(renderer).figures
+        comparison = compare(renderer, truths[0] if truths else None)
+        truths[:] = [comparison.truth_frame]
+        figures = comparison.figures
     assert figures.mirror_pixels > 10000
     assert figures.wrong_object_share < 0.001, figures
     if method == Method.RAYTRACE:
@@ -274,11 +285,11 @@ def test_uneven_and_mirroring_transforms_keep_normals_outward(ctx: moderngl.Cont
     assert figures.geometric_error_max < 1e-3, figures
 
 
-def test_the_plan_counts_each_mesh_once() -> None:
+def test_the_plan_counts_each_mesh_once(two_hundred: tuple[Scene, list[TruthFrame]]) -> None:
     """210 objects of 7 meshes: the BVH's memory is the meshes' hierarchies and triangles once, and
     a few texels an instance: 1.6 MiB (every object's own 650,440 triangles in one world-space
     BVH, as before, would take 103 MiB)."""
-    plan = plan_render(mixed_scene(210), Method.RAYTRACE)
+    plan = plan_render(two_hundred[0], Method.RAYTRACE)
     assert plan.memory["BVH"] < 3 * 2**20
 
 

@@ -10,7 +10,7 @@ the optimized march is its reference (its samples per ray differ).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -83,6 +83,13 @@ class RayHits:
             np.full(count, np.inf), np.full(count, np.inf), np.full(count, np.inf),
             np.full(count, int(Unseen.NONE), np.int64),
         )
+
+    def rows(self, keep: NDArray[np.int64]) -> RayHits:
+        return RayHits(*(getattr(self, field.name)[keep] for field in fields(self)))
+
+    def put(self, rows: NDArray[np.int64], part: RayHits) -> None:
+        for field in fields(self):
+            getattr(self, field.name)[rows] = getattr(part, field.name)
 
     @property
     def certain(self) -> NDArray[np.bool_]:
@@ -257,6 +264,9 @@ class ClippedRays:
     sa: Array  # (u, v, OpenGL depth) of the clipped ends: a' and b'
     sb: Array
 
+    def rows(self, keep: NDArray[np.int64]) -> ClippedRays:
+        return ClippedRays(*(getattr(self, field.name)[keep] for field in fields(self)))
+
 
 def clip_and_project(image: DepthImageData, origins: Array, directions: Array) -> ClippedRays:
     camera = image.camera
@@ -295,15 +305,26 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
     starts_inside = active & inside_solid(s0[:, 2], z0)
     _record(result, starts_inside, rays.t_enter, s0[:, :2], sample_color(image, s0[:, :2]), image.object_id, 1)
     active &= ~starts_inside
+    # Once fewer than half of the rows march on, the others' answers are final and the steps go on
+    # over the marching rows alone (`rows`: the caller's ray of each row of `rays`, `steps`, `s0`,
+    # `z0` and `marching`, whose answers are put into `result`). Each step is computed ray by ray:
+    # the same answers. (Every ray stepped to the batch's longest march took several times as long
+    # where most rays end early or miss the frustum: a mirror's rays over each of its images.)
+    rows, marching = np.arange(len(origins)), result
     for i in range(int(steps.max(initial=0))):
         active &= i < steps
         if not active.any():
             break
+        if 2 * np.count_nonzero(active) < len(active):
+            result.put(rows, marching)
+            keep = np.flatnonzero(active)
+            rows, rays, marching, active = rows[keep], rays.rows(keep), marching.rows(keep), active[keep]
+            steps, s0, z0 = steps[keep], s0[keep], z0[keep]
         s1 = rays.sa + (rays.sb - rays.sa) * ((i + 1) / np.maximum(steps, 1))[:, None]
         z1 = sample_layers(image, s1[:, :2])
-        _track_margins(result, active, s1, z1)
+        _track_margins(marching, active, s1, z1)
         slack = connection_slack(image, s0[:, :2], s1[:, :2], z0[:, 0], z1[:, 0])
-        _track_connection(result, active, slack, z0[:, 0], z1[:, 0])
+        _track_connection(marching, active, slack, z0[:, 0], z1[:, 0])
         cross, k = segments_cross(s0[:, 2] - z0[:, 0], s1[:, 2] - z1[:, 0])
         through_surface = samples_connected(image, s0[:, :2], s1[:, :2], z0[:, 0], z1[:, 0]) & cross
         through_back, k_back = back_crossing(image, s0[:, :2], s1[:, :2], s0[:, 2], s1[:, 2], z0, z1)
@@ -314,7 +335,7 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
         kind = step_unseen(image, s0[:, :2], s1[:, :2], s0[:, 2], s1[:, 2], z0, z1)
         steep = steep_join(image, s0[:, :2], s1[:, :2], crossed[:, 0], crossed[:, 1])
         kind = np.where(through_surface | through_back, np.where(steep, int(Unseen.SILHOUETTE), int(Unseen.NONE)), kind)
-        note_unseen(result, active, kind, i / np.maximum(steps, 1), rays)
+        note_unseen(marching, active, kind, i / np.maximum(steps, 1), rays)
         through = through_surface | through_back
         k = np.where(through, k, 1.0)
         new_hit = active & (through | inside_solid(s1[:, 2], z1))
@@ -324,11 +345,13 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
             t = ray_parameter(sigma, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
             nearer = nearer_sample(k, s0[:, :2], s1[:, :2])
             color = np.where(through_back[:, None], sample_back_color(image, nearer), sample_color(image, nearer))
-            _record(result, new_hit, t, s, color, image.object_id, i + 2)
+            _record(marching, new_hit, t, s, color, image.object_id, i + 2)
             surface_hit = new_hit & through_surface
-            result.conditioning[surface_hit] = np.abs((s0[:, 2] - z0[:, 0]) - (s1[:, 2] - z1[:, 0]))[surface_hit]
+            marching.conditioning[surface_hit] = np.abs((s0[:, 2] - z0[:, 0]) - (s1[:, 2] - z1[:, 0]))[surface_hit]
             active &= ~new_hit
         s0, z0 = s1, z1
+    if marching is not result:
+        result.put(rows, marching)
     return result
 
 
@@ -352,10 +375,18 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
     _record(result, starts_inside, rays.t_enter, s0, sample_color(image, s0), image.object_id, 1)
     active &= ~starts_inside
     q0 = camera.unproject(s0[:, 0], s0[:, 1], camera.w_from_opengl_depth(z0[:, 0]))
+    # Once fewer than half of the rows march on, over those alone (as in intersect_optimized).
+    rows, marching = np.arange(len(origins)), result
     for i in range(int(steps.max(initial=0))):
         active &= i < steps
         if not active.any():
             break
+        if 2 * np.count_nonzero(active) < len(active):
+            result.put(rows, marching)
+            keep = np.flatnonzero(active)
+            rows, rays, marching, active = rows[keep], rays.rows(keep), marching.rows(keep), active[keep]
+            steps, s0, z0, q0 = steps[keep], s0[keep], z0[keep], q0[keep]
+            ray_a, ray_ab, wa, wb = ray_a[keep], ray_ab[keep], wa[keep], wb[keep]
         safe_steps = np.maximum(steps, 1)
         sigma0 = i / safe_steps
         sigma1 = (i + 1) / safe_steps
@@ -372,7 +403,7 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
             mu = (bb * ee - cc * dd) / denominator
             lam = (aa * ee - bb * dd) / denominator
         connected = active & samples_connected(image, s0, s1, z0[:, 0], z1[:, 0])
-        note_unseen(result, connected & steep_join(image, s0, s1, z0[:, 0], z1[:, 0]), np.full(len(origins), int(Unseen.SILHOUETTE)),
+        note_unseen(marching, connected & steep_join(image, s0, s1, z0[:, 0], z1[:, 0]), np.full(len(active), int(Unseen.SILHOUETTE)),
                     sigma0, rays)
         row0, column0 = texel_of(image, s0)
         row1, column1 = texel_of(image, s1)
@@ -387,7 +418,7 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
             s = camera.project(np.where(surface_hit[:, None], p, camera.C + camera.c))[:, :2]
             t = rays.t_enter + lam * (rays.t_exit - rays.t_enter)
             color = sample_color(image, nearer_sample(np.where(surface_hit, mu, 0.0), s0, s1))
-            _record(result, surface_hit, t, s, color, image.object_id, i + 2)
+            _record(marching, surface_hit, t, s, color, image.object_id, i + 2)
             active &= ~surface_hit
         # A point-like or ray-parallel 3-D segment: the 2-D intersection in depth (see the GLSL).
         r0 = rays.sa[:, 2] + (rays.sb[:, 2] - rays.sa[:, 2]) * sigma0
@@ -397,24 +428,26 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
         if degenerate_hit.any():
             t = ray_parameter(sigma0 + (sigma1 - sigma0) * k, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
             s = s0 + (s1 - s0) * k[:, None]
-            _record(result, degenerate_hit, t, s, sample_color(image, nearer_sample(k, s0, s1)), image.object_id, i + 2)
+            _record(marching, degenerate_hit, t, s, sample_color(image, nearer_sample(k, s0, s1)), image.object_id, i + 2)
             active &= ~degenerate_hit
         through_back, k_back = back_crossing(image, s0, s1, r0, r1, z0, z1)
         back_hit = active & through_back
         if back_hit.any():
-            note_unseen(result, back_hit & steep_join(image, s0, s1, z0[:, 1], z1[:, 1]),
-                        np.full(len(origins), int(Unseen.SILHOUETTE)), sigma0, rays)
+            note_unseen(marching, back_hit & steep_join(image, s0, s1, z0[:, 1], z1[:, 1]),
+                        np.full(len(active), int(Unseen.SILHOUETTE)), sigma0, rays)
             t = ray_parameter(sigma0 + (sigma1 - sigma0) * k_back, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
             s = s0 + (s1 - s0) * k_back[:, None]
-            _record(result, back_hit, t, s, sample_back_color(image, nearer_sample(k_back, s0, s1)), image.object_id, i + 2)
+            _record(marching, back_hit, t, s, sample_back_color(image, nearer_sample(k_back, s0, s1)), image.object_id, i + 2)
             active &= ~back_hit
-        note_unseen(result, active, step_unseen(image, s0, s1, r0, r1, z0, z1), sigma0, rays)
+        note_unseen(marching, active, step_unseen(image, s0, s1, r0, r1, z0, z1), sigma0, rays)
         entered = active & inside_solid(r1, z1)
         if entered.any():
             t = ray_parameter(sigma1, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
-            _record(result, entered, t, s1, sample_color(image, s1), image.object_id, i + 2)
+            _record(marching, entered, t, s1, sample_color(image, s1), image.object_id, i + 2)
             active &= ~entered
         s0, z0, q0 = s1, z1, q1
+    if marching is not result:
+        result.put(rows, marching)
     return result
 
 
