@@ -328,15 +328,11 @@ BOUND_MARGIN = 1e-3
 #: One reflected object of the traced methods, an instance of a mesh in their two-level BVH
 #: (methods/triangles.py), stored as texels of the BVH's node texture (gpu/texel_records.py): the
 #: world-to-local transform (the ray goes through it into the mesh's space, and the checker is
-#: laid out in local coordinates), colour_a with the checker scale in w, colour_b, (material kind,
-#: object id, texture slot or -1, 0), the texture's UV scale in texture.xy, and in mesh.x the node
-#: where its mesh's bottom-level hierarchy starts.
+#: laid out in local coordinates), (material index in the MaterialRecords table, object id, 0, 0),
+#: and in mesh.x the node where its mesh's bottom-level hierarchy starts.
 TRIANGLE_INSTANCE_FIELDS: tuple[tuple[str, str], ...] = (
     ("world_to_local", "mat4"),
-    ("color_a", "vec4"),
-    ("color_b", "vec4"),
-    ("kind_and_id", "ivec4"),
-    ("texture", "vec4"),
+    ("ids", "ivec4"),
     ("mesh", "ivec4"),
 )
 #: Width of the float textures holding BVH nodes and triangles: element i is texel
@@ -374,7 +370,9 @@ TEXTURE_RECORD = Struct("TextureRecord", (
 
 #: A surface's material as lib/shading.glsl's material_albedo reads it: MATERIAL_DIFFUSE or
 #: MATERIAL_CHECKER, the two colours (a diffuse material's is color_a), the checker's cell size,
-#: a diffuse material's texture slot (or -1) and that texture's UV multipliers.
+#: a diffuse material's texture slot (or -1) and that texture's UV multipliers. Every pass reads
+#: one table of them (lib/shading.glsl's MaterialRecords block, written once by
+#: gpu/scene_blocks.py): an object, an instance, a triangle instance and a plane carry an index.
 MATERIAL = Struct("Material", (
     ("kind", "int"),
     ("color_a", "vec3"),
@@ -415,7 +413,7 @@ LIGHTING = Struct("Lighting", (
 #: world-space normal and object id.
 ANALYTIC_PLANE = Struct("AnalyticPlane", (
     ("world_to_local", "mat4"),
-    ("material", MATERIAL),
+    ("material", "int"),  # its index in the MaterialRecords table
     ("normal", "vec3"),
     ("object_id", "int"),
     ("half_size", "vec2"),

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .constants import (
-    depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MAX_ANALYTIC_PLANES, MAX_BOUNCES, MAX_LIGHTS,
+    depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MATERIAL, MAX_ANALYTIC_PLANES, MAX_BOUNCES, MAX_LIGHTS,
     MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, HIERARCHICAL_MIN_SIDE, Algorithm, Method, image_algorithm, lists_images,
 )
 from .culling import Reach
@@ -29,7 +29,7 @@ from .gpu.batches import batch_bytes
 from .methods.planar import check_flat_mirrors
 from .methods.seen_from_eye import SeenFromEye
 from .gpu.meshes import GpuMeshes
-from .gpu.scene_blocks import SceneBlocks
+from .gpu.scene_blocks import SceneBlocks, materials_bytes
 from .gpu.textures import GpuTextures
 from .texture_layout import texture_layout
 from .passes.reflectors import (
@@ -468,6 +468,8 @@ def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImageP
     if spec.names_triangles:
         triangles = sum(len(g.local_mesh.indices) for g in reflected)
         lines.append(f"reflected triangles: {triangles} of {MAX_NAMED_TRIANGLES} (a float32 depth-image sample names one)")
+    lines.append(f"materials: {len(scene.materials)} (any number: one record of {MATERIAL.dtype.itemsize} bytes each in a "
+                 "uniform block, within GL_MAX_UNIFORM_BLOCK_SIZE (16 KiB at GL's least), checked at render)")
     if scene.textures:
         lines.append(f"image textures: {len(scene.textures)} (any number: in texture arrays, within GL_MAX_TEXTURE_SIZE, "
                      "GL_MAX_ARRAY_TEXTURE_LAYERS and GL_MAX_UNIFORM_BLOCK_SIZE, checked at render)")
@@ -493,7 +495,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     records = depth_image_capacity(len(scene.objects)) * DEPTH_IMAGE_DTYPE.itemsize  # one mirror's record table
     memory = {"frame colour and depth": width * height * (16 + 4),
               "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry]),
-              "lights and planes": SceneBlocks.BYTES}
+              "lights and planes": SceneBlocks.BYTES, "materials": materials_bytes(scene)}
     # The diffuse pass's batch of the objects that do not move (gpu/batches.py; a context without
     # OpenGL 4.3 draws them one by one, and makes none).
     still = [g for g in geometry if not g.object.is_reflector and not g.object.moves]

@@ -7,15 +7,14 @@
 #include "lib/shading.glsl"
 
 #ifdef INSTANCED
-// The object's material and ids, from its instance attributes (mesh.vert).
-flat in vec4 v_color_a;
-flat in vec3 v_color_b;
-flat in vec2 v_uv_scale;
+// The object's material index and ids, from its instance attributes (mesh.vert).
 flat in ivec4 v_ids;
-#define OBJECT_ID v_ids.z
-#define TRIANGLE_OFFSET v_ids.w
+#define MATERIAL_INDEX v_ids.x
+#define OBJECT_ID v_ids.y
+#define TRIANGLE_OFFSET v_ids.z
 #else
-uniform Material u_material;
+uniform int u_material_index;  // in the MaterialRecords table (lib/shading.glsl)
+#define MATERIAL_INDEX u_material_index
 #define OBJECT_ID u_object_id
 #define TRIANGLE_OFFSET u_triangle_offset
 #endif
@@ -53,11 +52,7 @@ uniform int u_triangle_offset;
 
 void main() {
     vec3 normal = safe_normalize(v_world_normal, vec3(0.0, 1.0, 0.0));
-#ifdef INSTANCED
-    Material material = Material(v_ids.x, v_color_a.rgb, v_color_b, v_color_a.w, v_ids.y, v_uv_scale);
-#else
-    Material material = u_material;
-#endif
+    Material material = u_materials[MATERIAL_INDEX];
     out_color = vec4(shade(material_albedo(material, v_local_position, v_uv), v_world_position, normal), 1.0);
 #if WRITE_DEPTH_IMAGE
 #ifdef BACK_LAYER

@@ -22,7 +22,7 @@ from ..gpu.gl_state import raster_state
 from ..methods.atlas import FRONT_FACES
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
-from ..gpu.uniforms import shading_defines, write, write_material, write_matrix
+from ..gpu.uniforms import shading_defines, write, write_matrix
 from ..node import Frame, GraphFacts, Node, Pass
 
 
@@ -97,7 +97,7 @@ class DiffusePass:
             items = [item for item in items if item.object.moves]
         for item in items:
             program = self.program
-            write_material(program, "u_material", item.object.material, self.scene)
+            write(program, "u_material_index", self.scene.material_index(item.object.material))
             write(program, "u_object_id", item.index)
             if self.triangle_offsets is not None:
                 write(program, "u_triangle_offset", self.triangle_offsets[item.index])

@@ -545,6 +545,21 @@ class Scene:
         texture = getattr(material, "texture", None)
         return -1 if texture is None else self._texture_slots[id(texture)]
 
+    @functools.cached_property
+    def materials(self) -> tuple[Material, ...]:
+        """The distinct materials of the objects that are shaded (neither mirrors nor glass), in
+        object order: material index k is the k-th (record k of lib/shading.glsl's MaterialRecords
+        table, which every pass reads: gpu/scene_blocks.py). Equal materials share one record."""
+        return tuple(dict.fromkeys(o.material for o in self.objects if not o.is_reflector))
+
+    @functools.cached_property
+    def _material_indices(self) -> dict[Material, int]:
+        return {material: k for k, material in enumerate(self.materials)}
+
+    def material_index(self, material: Material) -> int:
+        """The index of a shaded object's material in the MaterialRecords table."""
+        return self._material_indices[material]
+
     @property
     def diffuse_objects(self) -> tuple[SceneObject, ...]:
         """What the diffuse pass draws and a first bounce sees: everything but mirrors and glass."""

@@ -205,12 +205,13 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
         if (t > 0.0 && all(lessThanEqual(abs(p.xz), plane.half_size)) && (!best.hit || t < best.t)) {
             // The plane's UVs as meshes.plane_uvs lays them out: the image over the whole rectangle.
             vec2 uv = p.xz / (2.0 * plane.half_size) + 0.5;
-            vec3 albedo = material_albedo(plane.material, p, uv);
+            Material material = u_materials[plane.material];
+            vec3 albedo = material_albedo(material, p, uv);
 #ifdef GLOSSY
             // A glossy mirror's cone: the checker box-filtered over its footprint on the plane.
-            if (g_cone_tan > 0.0 && plane.material.kind == MATERIAL_CHECKER) {
-                float share = checker_b_share(p.xz / plane.material.scale, plane_footprint(d, t) / plane.material.scale);
-                albedo = mix(plane.material.color_a, plane.material.color_b, share);
+            if (g_cone_tan > 0.0 && material.kind == MATERIAL_CHECKER) {
+                float share = checker_b_share(p.xz / material.scale, plane_footprint(d, t) / material.scale);
+                albedo = mix(material.color_a, material.color_b, share);
             }
 #endif
             best = unlit_hit(t, p.xz, albedo, plane.normal, float(plane.object_id), 0);

@@ -5,6 +5,17 @@
 #include "lighting.glsl"
 #include "../generated/material.glsl"
 
+// Every shaded material of the scene, one record each (gpu/scene_blocks.py writes them once):
+// an object, a batch's instance, a traced triangle's instance and an analytic plane carry its index.
+// MATERIAL_COUNT comes from the scene (gpu/uniforms.py's shading_defines); a program made without
+// it (the GPU ray query, the tests' probes: they shade nothing) declares one record.
+#ifndef MATERIAL_COUNT
+#define MATERIAL_COUNT 1
+#endif
+layout(std140) uniform MaterialRecords {
+    Material u_materials[MATERIAL_COUNT];
+};
+
 #ifdef SHADOWS
 #include "shadows.glsl"
 #endif

@@ -98,12 +98,11 @@ RayHit triangle_hit(vec3 origin, vec3 direction, int slot, int i, float t, vec2 
     // a row vector times the matrix.
     vec3 normal = safe_normalize(local_normal * mat3(object.world_to_local), -direction);
     vec3 position = origin + direction * t;
-    Material material = Material(object.kind_and_id.x, object.color_a.xyz, object.color_b.xyz, object.color_a.w,
-                                 object.kind_and_id.z, object.texture.xy);
+    Material material = u_materials[object.ids.x];
     vec4 uv01 = bvh_fetch(u_bvh_triangles, base + 6);
     vec2 texture_uv = (1.0 - uv.x - uv.y) * uv01.xy + uv.x * uv01.zw + uv.y * bvh_fetch(u_bvh_triangles, base + 7).xy;
     vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz, texture_uv);
-    return unlit_hit(t, uv, albedo, normal, float(object.kind_and_id.y), samples);
+    return unlit_hit(t, uv, albedo, normal, float(object.ids.y), samples);
 }
 
 // The nearest triangle of one mesh that the ray (in the mesh's space) meets nearer than best_t,
