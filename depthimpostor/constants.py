@@ -88,6 +88,7 @@ class MaterialKind(IntEnum):
     DIFFUSE = 0
     CHECKER = 1
     MIRROR = 2
+    METALLIC_ROUGHNESS = 3  # glTF 2.0's material model (lib/brdf.glsl, oracles/brdf.py)
 
 
 class Wrap(IntEnum):
@@ -380,6 +381,9 @@ MATERIAL = Struct("Material", (
     ("scale", "float"),
     ("texture", "int"),
     ("uv_scale", "vec2"),
+    ("emissive", "vec3"),  # MATERIAL_METALLIC_ROUGHNESS alone: its emitted radiance,
+    ("metallic", "float"),  # metalness
+    ("roughness", "float"),  # and perceptual roughness (alpha = roughness^2)
 ))
 
 #: One light of the Lights block: LIGHT_DIRECTIONAL or LIGHT_POINT, SHADOW_NONE, SHADOW_HARD or
@@ -448,6 +452,21 @@ SSR_NOTHING = 1e30
 #: reflection off at a hard line (the engines' "edge fade").
 SSR_EDGE_FADE = 0.1
 
+# glTF 2.0's metallic-roughness model (its specification's Appendix B: lib/brdf.glsl and
+# oracles/brdf.py, the same functions by the same names).
+#: The Fresnel reflectance of a dielectric at normal incidence (an index of refraction of 1.5).
+DIELECTRIC_F0 = 0.04
+#: Karis' analytic fit of the split-sum's scale and bias of F0 for a uniform environment
+#: ("Physically Based Shading on Mobile", 2014; three.js's DFGApprox): what the ambient light,
+#: a constant radiance from every direction, gives a metallic-roughness surface's specular lobe.
+DFG_FIT_C0 = (-1.0, -0.0275, -0.572, 0.022)
+DFG_FIT_C1 = (1.0, 0.0425, 1.04, -0.04)
+DFG_FIT_EXPONENT = -9.28
+DFG_FIT_SCALE = 1.04
+#: The least roughness the lights' lobe is evaluated at (three.js's): at 0 the GGX distribution is
+#: 0 / 0 where N.H = 1 (a point light's highlight of zero width and infinite height).
+MIN_ROUGHNESS = 0.0525
+
 
 def glsl_constants() -> dict[str, str]:
     """Every shared constant as a GLSL define (name -> value text)."""
@@ -481,6 +500,12 @@ def glsl_constants() -> dict[str, str]:
         "SSR_MAX_STEPS": str(SSR_MAX_STEPS),
         "SSR_NOTHING": f"{SSR_NOTHING!r}",
         "SSR_EDGE_FADE": f"{SSR_EDGE_FADE!r}",
+        "DIELECTRIC_F0": f"{DIELECTRIC_F0!r}",
+        "DFG_FIT_C0": "vec4(" + ", ".join(f"{c!r}" for c in DFG_FIT_C0) + ")",
+        "DFG_FIT_C1": "vec4(" + ", ".join(f"{c!r}" for c in DFG_FIT_C1) + ")",
+        "DFG_FIT_EXPONENT": f"{DFG_FIT_EXPONENT!r}",
+        "DFG_FIT_SCALE": f"{DFG_FIT_SCALE!r}",
+        "MIN_ROUGHNESS": f"{MIN_ROUGHNESS!r}",
     }
     defines.update(glsl_bindings())
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",

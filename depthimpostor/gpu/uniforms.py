@@ -14,7 +14,7 @@ import numpy as np
 
 from .bindings import TextureUnit, UniformBlock
 from ..constants import MATERIAL, MATERIAL_ARRAYS, MAX_LIGHTS, MaterialKind
-from ..scene.model import CheckerMaterial, DiffuseMaterial, Scene
+from ..scene.model import CheckerMaterial, DiffuseMaterial, MetallicRoughnessMaterial, Scene
 from ..texture_layout import texture_defines
 from ..textures import SRGB_TABLE
 from .textures import array_unit
@@ -33,6 +33,9 @@ def shading_defines(scene: Scene) -> dict[str, int]:
             **({"DIRECTIONAL_LIGHTS": 1} if scene.lights and all(light.type == "directional" for light in scene.lights)
                else {}),
             **({"SHADOWS": 1} if scene.has_shadows else {}),
+            # glTF's material model, only in the scenes that have it (lib/shading.glsl).
+            **({"METALLIC_ROUGHNESS": 1} if any(isinstance(m, MetallicRoughnessMaterial) for m in scene.materials)
+               else {}),
             **texture_defines(scene)}
 
 
@@ -110,6 +113,10 @@ def material_records(scene: Scene) -> np.ndarray:
         elif isinstance(material, DiffuseMaterial):
             record["kind"], record["color_a"], record["color_b"] = MaterialKind.DIFFUSE, material.color, material.color
             record["scale"] = 1.0
+            if isinstance(material, MetallicRoughnessMaterial):
+                record["kind"] = MaterialKind.METALLIC_ROUGHNESS
+                record["emissive"], record["metallic"], record["roughness"] = (material.emissive, material.metallic,
+                                                                               material.roughness)
         else:
             raise TypeError(f"{material!r} is not a material that is shaded")
         texture = getattr(material, "texture", None)

@@ -25,8 +25,11 @@ from ..constants import MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
 from ..geometry import ObjectGeometry
 from ..lights import light_sample_points
 from ..meshes import plane_uvs
-from ..scene.model import CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MirrorMaterial, Scene
+from ..scene.model import (
+    CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MetallicRoughnessMaterial, MirrorMaterial, Scene,
+)
 from ..textures import texture_bilinear
+from .brdf import shade_metallic_roughness
 from .ggx import glossy_average
 
 if TYPE_CHECKING:
@@ -196,21 +199,28 @@ class TruthTracer:
 
     def trace(self, origins: Array, directions: Array) -> TruthHits:
         """The nearest hits, shaded (the environment where nothing was hit)."""
-        hits, albedo = self._intersect(origins, directions)
+        hits, albedo, materials = self._intersect(origins, directions)
         hit = hits.hit
         # A mirror's backing is shaded with its normal facing the ray, as reflector.frag does.
         normals = np.where(hits.backing[:, None], facing(hits.normal, directions), hits.normal)
         if hit.any():
             hits.color[hit] = shade(self.scene, albedo[hit], hits.position[hit], normals[hit], self.visibility)
+        # glTF's metallic-roughness materials, for the ray itself (lib/shading.glsl's shade_material).
+        for index, material in enumerate(self.scene.materials):
+            if isinstance(material, MetallicRoughnessMaterial) and (chosen := hit & (materials == index)).any():
+                hits.color[chosen] = shade_metallic_roughness(self.scene, material, albedo[chosen], hits.position[chosen],
+                                                              normals[chosen], -directions[chosen], self.visibility)
         return hits
 
     def intersect(self, origins: Array, directions: Array) -> TruthHits:
         """The nearest hits with no colour (zero): where a ray goes inside glass."""
-        hits, _ = self._intersect(origins, directions)
+        hits, _, _ = self._intersect(origins, directions)
         hits.color[:] = 0.0
         return hits
 
-    def _intersect(self, origins: Array, directions: Array) -> tuple[TruthHits, Array]:
+    def _intersect(self, origins: Array, directions: Array) -> tuple[TruthHits, Array, Array]:
+        """The nearest hits (no colour), each one's albedo, and its material's index in
+        Scene.materials (-1: a mirror's backing, glass, nothing)."""
         count = len(origins)
         hit = np.zeros(count, bool)
         t = np.full(count, np.inf)
@@ -222,10 +232,13 @@ class TruthTracer:
         if self.meshes and count:
             self._trace_meshes(origins, directions, hit, t, object_id, normal, albedo, backing)
         self._trace_planes(origins, directions, hit, t, object_id, normal, albedo, backing)
+        objects = self.scene.objects
+        by_object = np.array([-1 if o.is_reflector else self.scene.material_index(o.material) for o in objects] + [-1])
+        materials = by_object[np.where(hit, object_id, len(objects))]
         position[hit] = origins[hit] + directions[hit] * t[hit, None]
         hits = TruthHits(hit, np.where(hit, t, 0.0), position, object_id, environment(self.scene, directions), normal,
                          backing)
-        return hits, albedo
+        return hits, albedo, materials
 
     def _trace_meshes(self, origins: Array, directions: Array, hit: Array, t: Array,
                       object_id: Array, normal: Array, albedo: Array, backing: Array) -> None:

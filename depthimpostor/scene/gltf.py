@@ -33,7 +33,8 @@ from depthimpostor.scene.gltf_planes import Rectangle, find_rectangle, plane_pla
 from depthimpostor.scene.limits import check_scene
 from depthimpostor.textures import texture_from_pixels
 from depthimpostor.scene.model import (
-    Animation, Camera, DiffuseMaterial, Environment, GlassMaterial, GltfOrigin, GltfShape, Light, Material, MirrorMaterial,
+    Animation, Camera, DiffuseMaterial, Environment, GlassMaterial, GltfOrigin, GltfShape, Light, Material,
+    MetallicRoughnessMaterial, MirrorMaterial,
     PlaneShape, RenderSettings, Scene, SceneObject, Texture,
 )
 
@@ -41,6 +42,9 @@ from depthimpostor.scene.model import (
 MIRROR_METALLIC, MIRROR_ROUGHNESS = 0.9, 0.1
 #: The glass rule: a KHR_materials_transmission factor of at least this is glass.
 GLASS_TRANSMISSION = 0.5
+#: The largest KHR_materials_emissive_strength read (the extension sets none; a bound keeps the
+#: colours finite: 1e6 is brighter than any light a scene file can give).
+MAX_EMISSIVE_STRENGTH = 1.0e6
 #: Without a camera in the file: the TOML default camera's view direction, framing the whole scene.
 FRAMING_FOV_Y = Camera().fov_y
 #: Without lights in the file: one light from above, as the scene_format.md example has.
@@ -253,7 +257,8 @@ def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], data:
               source: str) -> GltfMaterial:
     """The rules of scene_format.md: transmission >= 0.5 is glass (its ior from KHR_materials_ior,
     its tint the base colour); metallic >= 0.9 with roughness <= 0.1 is a mirror tinted by the base
-    colour; anything else is diffuse in the base colour, its texture drawn. A mirror's or glass's
+    colour; anything else is a metallic-roughness material (its base colour, texture, metallic and
+    roughness factors, and emission). A mirror's or glass's
     tint cannot hold a texture: its mean colour joins the factor there. `data` reads its texture,
     None for a material no triangle is drawn with (its texture need not be readable)."""
     at = At(source, f"materials[{k}]")
@@ -281,8 +286,19 @@ def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], data:
     elif metallic >= MIRROR_METALLIC and roughness <= MIRROR_ROUGHNESS:
         material = MirrorMaterial((tr, tg, tb))
     else:
-        material = DiffuseMaterial((r, g, b), texture)
+        material = MetallicRoughnessMaterial((r, g, b), texture, metallic, roughness, _emissive(value, at))
     return GltfMaterial(_label(header, k), material, texture is not None and not isinstance(material, DiffuseMaterial))
+
+
+def _emissive(value: Mapping[str, Any], at: At) -> Vec3:
+    """The light a material gives off: emissiveFactor times KHR_materials_emissive_strength's
+    emissiveStrength (glTF keeps the factor in [0, 1]; the extension scales it past 1)."""
+    factor = at.key("emissiveFactor").read(value.get("emissiveFactor", [0, 0, 0]), f.numbers(3, f.UNIT))
+    strength_at = at.key("extensions").key("KHR_materials_emissive_strength")
+    strength = number_at(extension(value, "KHR_materials_emissive_strength", at) or {}, "emissiveStrength", 1.0,
+                         f.number(f.Bounds(0.0, MAX_EMISSIVE_STRENGTH)), strength_at)
+    r, g, b = (float(c) * strength for c in factor)
+    return (r, g, b)
 
 
 def _lights(header: Mapping[str, Any], source: str) -> tuple[GltfLight, ...]:

@@ -4,7 +4,8 @@ matrix of every node of its scene, and each triangle primitive's arrays, decoded
 trimesh decodes the binary data (accessors, triangle strips, data URIs, external buffers), but
 for what it reads wrongly: sparse accessors, whose substitutions it drops, and images, whose
 errors it swallows, are read by gltf_data.py. What trimesh drops is read from the JSON, which is
-plain data: the extensions KHR_lights_punctual, KHR_materials_transmission and KHR_materials_ior
+plain data: the extensions KHR_lights_punctual, KHR_materials_transmission, KHR_materials_ior and
+KHR_materials_emissive_strength
 (`ignored_features` names those used but not read), the exact material factors (trimesh rounds baseColorFactor to 8 bits), the primitive modes, and the node
 tree. The node tree's matrices are taken here too, because trimesh 5's scene graph leaves out the
 children of a node that holds a camera and places a camera by its own node's matrix alone.
@@ -34,7 +35,8 @@ GLTF_SUFFIXES = (".glb", ".gltf")
 #: required one changes what the file means in a way this reader would get wrong (Draco, quantized
 #: or basisu data would be misread), so the file is refused, naming it. Any other it merely uses is
 #: drawn as if absent, and `ignored_features` names it.
-SUPPORTED_REQUIRED = ("KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior", "EXT_texture_webp")
+SUPPORTED_REQUIRED = ("KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior",
+                      "KHR_materials_emissive_strength", "EXT_texture_webp")
 
 # Primitive modes (glTF 2.0, 3.7.2.1): what trimesh decodes into triangles, and what has no surface.
 TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN = 4, 5, 6
@@ -117,7 +119,7 @@ def _extension_names(value: Any) -> Iterator[str]:
 
 def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
     """The core material properties a material uses that are not drawn (scene_format.md says what
-    is): every texture but baseColorTexture on TEXCOORD_0, emission and transparency."""
+    is): every texture but baseColorTexture on TEXCOORD_0, and transparency."""
     pbr = material.get("pbrMetallicRoughness", {})
     pbr = pbr if isinstance(pbr, Mapping) else {}
     for key in ("normalTexture", "occlusionTexture", "emissiveTexture"):
@@ -128,9 +130,6 @@ def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
     base = pbr.get("baseColorTexture")
     if isinstance(base, Mapping) and base.get("texCoord", 0) != 0:
         yield "baseColorTexture.texCoord"
-    emissive = material.get("emissiveFactor", [0, 0, 0])
-    if isinstance(emissive, list) and any(isinstance(c, (int, float)) and c != 0 for c in emissive):
-        yield "emissiveFactor"
     if material.get("alphaMode", "OPAQUE") in ("MASK", "BLEND"):
         yield f"alphaMode {material['alphaMode']}"
 

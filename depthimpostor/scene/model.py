@@ -322,6 +322,20 @@ class DiffuseMaterial:
 
 
 @dataclass(frozen=True)
+class MetallicRoughnessMaterial(DiffuseMaterial):
+    """glTF 2.0's material model (its specification's Appendix B: lib/brdf.glsl): `color` (times
+    the `texture`'s texel) is the base colour, `metallic` mixes a dielectric (a diffuse base under a
+    clear coat of F0 = 0.04) with a metal (F0 the base colour), `roughness` is the perceptual
+    roughness of both lobes (alpha = roughness^2), `emissive` the light it gives off. A diffuse
+    material for everything that only needs a colour (what a reflected ray's image holds, the
+    panel's edits): its shading alone depends on the viewer."""
+
+    metallic: float = 1.0
+    roughness: float = 1.0
+    emissive: Vec3 = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
 class CheckerMaterial:
     color_a: Vec3
     color_b: Vec3

@@ -214,7 +214,7 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
                 albedo = mix(material.color_a, material.color_b, share);
             }
 #endif
-            best = unlit_hit(t, p.xz, albedo, plane.normal, float(plane.object_id), 0);
+            best = unlit_hit(t, p.xz, albedo, plane.normal, plane.material, float(plane.object_id), 0);
         }
     }
     return best;
@@ -328,7 +328,8 @@ RayHit trace_reflected(vec3 origin, vec3 direction) {
     // The share of the cone the object its axis hit does not cover (its silhouette's
     // neighbourhood in the footprint) sees what lies behind it: the plane beyond it, or the sky.
     if (hit.hit && !hit.unlit && g_cone_coverage < 1.0) {
-        vec3 behind = plane.hit ? shade(plane.color, origin + direction * plane.t, plane.normal)
+        vec3 behind = plane.hit ? shade_material(u_materials[plane.material], plane.color, origin + direction * plane.t,
+                                                 plane.normal, -direction)
                                 : prefiltered_environment(direction);
         hit.color = mix(behind, hit.color, g_cone_coverage);
     }
@@ -336,6 +337,7 @@ RayHit trace_reflected(vec3 origin, vec3 direction) {
 #else
     if (!hit.hit) hit.color = environment(direction);
 #endif
-    if (hit.hit && hit.unlit) hit.color = shade(hit.color, origin + direction * hit.t, hit.normal);
+    if (hit.hit && hit.unlit)
+        hit.color = shade_material(u_materials[hit.material], hit.color, origin + direction * hit.t, hit.normal, -direction);
     return hit;
 }

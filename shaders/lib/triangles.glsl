@@ -102,7 +102,7 @@ RayHit triangle_hit(vec3 origin, vec3 direction, int slot, int i, float t, vec2 
     vec4 uv01 = bvh_fetch(u_bvh_triangles, base + 6);
     vec2 texture_uv = (1.0 - uv.x - uv.y) * uv01.xy + uv.x * uv01.zw + uv.y * bvh_fetch(u_bvh_triangles, base + 7).xy;
     vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz, texture_uv);
-    return unlit_hit(t, uv, albedo, normal, float(object.ids.y), samples);
+    return unlit_hit(t, uv, albedo, normal, object.ids.x, float(object.ids.y), samples);
 }
 
 // The nearest triangle of one mesh that the ray (in the mesh's space) meets nearer than best_t,
