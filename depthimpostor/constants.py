@@ -371,19 +371,20 @@ TEXTURE_RECORD = Struct("TextureRecord", (
 
 #: A surface's material as lib/shading.glsl's material_albedo reads it: MATERIAL_DIFFUSE or
 #: MATERIAL_CHECKER, the two colours (a diffuse material's is color_a), the checker's cell size,
-#: a diffuse material's texture slot (or -1) and that texture's UV multipliers. Every pass reads
+#: a diffuse material's texture slot (or -1) and that texture's UV transform (Texture.uv_rows). Every pass reads
 #: one table of them (lib/shading.glsl's MaterialRecords block, written once by
 #: gpu/scene_blocks.py): an object, an instance, a triangle instance and a plane carry an index.
 MATERIAL = Struct("Material", (
     ("kind", "int"),
     ("color_a", "vec3"),
-    ("color_b", "vec3"),
     ("scale", "float"),
+    ("color_b", "vec3"),
+    ("metallic", "float"),  # MATERIAL_METALLIC_ROUGHNESS alone: metalness
+    ("uv_u", "vec3"),  # the texture's UV transform: u' = dot(uv_u, (u, v, 1)), v' = dot(uv_v, (u, v, 1))
     ("texture", "int"),
-    ("uv_scale", "vec2"),
-    ("emissive", "vec3"),  # MATERIAL_METALLIC_ROUGHNESS alone: its emitted radiance,
-    ("metallic", "float"),  # metalness
+    ("uv_v", "vec3"),
     ("roughness", "float"),  # and perceptual roughness (alpha = roughness^2)
+    ("emissive", "vec3"),  # and its emitted radiance
 ))
 
 #: One light of the Lights block: LIGHT_DIRECTIONAL or LIGHT_POINT, SHADOW_NONE, SHADOW_HARD or

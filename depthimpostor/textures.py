@@ -91,11 +91,13 @@ def wrap_texels(index: np.ndarray, size: int, mode: int) -> np.ndarray:
 
 
 def texture_bilinear(texture: Texture, uvs: np.ndarray) -> np.ndarray:
-    """The texture's linear RGB at (n, 2) UVs (before `scale`): level 0, bilinear, its wrap modes:
-    material_texture.glsl's texture_bilinear in numpy."""
+    """The texture's linear RGB at (n, 2) UVs (before its transform, Texture.uv_rows): level 0,
+    bilinear, its wrap modes: material_texture.glsl's material_texel for traced rays in numpy."""
     height, width = texture.image.shape[:2]
     linear = SRGB_TABLE[texture.image[..., :3]].astype(np.float64)
-    x = uvs * np.asarray(texture.scale) * (width, height) - 0.5  # texel centres at half-integers
+    (a, b, c), (d, e, f) = texture.uv_rows
+    placed = np.stack([uvs[:, 0] * a + uvs[:, 1] * b + c, uvs[:, 0] * d + uvs[:, 1] * e + f], axis=1)
+    x = placed * (width, height) - 0.5  # texel centres at half-integers
     base = np.floor(x)
     fraction = x - base
     i0, j0 = base[:, 0].astype(np.int64), base[:, 1].astype(np.int64)

@@ -66,7 +66,7 @@ void main() {
     Light light = u_lighting.lights[MAX_LIGHTS - 1];
     AnalyticPlane plane = u_planes.planes[MAX_ANALYTIC_PLANES - 1];
     Material material = u_materials[MATERIAL_COUNT - 1];
-    vec4 rows[14] = vec4[](
+    vec4 rows[17] = vec4[](
         vec4(u_lighting.ambient, float(u_lighting.light_count), u_lighting.env_rotation),
         vec4(u_lighting.env_zenith, u_lighting.env_intensity),
         vec4(u_lighting.env_horizon, 0.0), vec4(u_lighting.env_ground, 0.0),
@@ -74,8 +74,9 @@ void main() {
         vec4(light.vector, 0.0), vec4(light.radiance, 0.0),
         vec4(float(u_planes.count), float(plane.object_id), plane.half_size),
         plane.world_to_local[0], plane.world_to_local[3],
-        vec4(float(material.kind), float(material.texture), material.uv_scale),
+        vec4(float(material.kind), float(material.texture), material.metallic, material.roughness),
         vec4(material.color_a, material.scale), vec4(material.color_b, 0.0),
+        vec4(material.uv_u, 0.0), vec4(material.uv_v, 0.0), vec4(material.emissive, 0.0),
         vec4(plane.normal, float(plane.material)));
     out_color = rows[int(gl_FragCoord.x)];
 }
@@ -96,8 +97,9 @@ def _expected_rows(lighting: np.ndarray, planes: np.ndarray, materials: np.ndarr
         [light["kind"], light["shadows"], light["radius"], 0], [*light["vector"], 0], [*light["radiance"], 0],
         [planes["count"], plane["object_id"], *plane["half_size"]],
         plane["world_to_local"][0], plane["world_to_local"][3],
-        [material["kind"], material["texture"], *material["uv_scale"]],
-        [*material["color_a"], material["scale"]], [*material["color_b"], 0], [*plane["normal"], plane["material"]],
+        [material["kind"], material["texture"], material["metallic"], material["roughness"]],
+        [*material["color_a"], material["scale"]], [*material["color_b"], 0],
+        [*material["uv_u"], 0], [*material["uv_v"], 0], [*material["emissive"], 0], [*plane["normal"], plane["material"]],
     ]
     return np.array([np.asarray(row, np.float64) for row in rows], np.float32)
 
@@ -112,7 +114,7 @@ def test_the_gl_reads_every_field_where_numpy_put_it(ctx: moderngl.Context, tmp_
     materials[:] = _numbered(MATERIAL)
     materials["kind"][-1] += 100  # the last record, not the first, is read
     buffers = [ctx.buffer(lighting.tobytes()), ctx.buffer(planes.tobytes()), ctx.buffer(materials.tobytes())]
-    target = ctx.renderbuffer((14, 1), 4, dtype="f4")
+    target = ctx.renderbuffer((17, 1), 4, dtype="f4")
     framebuffer = ctx.framebuffer([target])
     try:
         program = programs.get("quad.vert", "reader.frag")
@@ -129,7 +131,7 @@ def test_the_gl_reads_every_field_where_numpy_put_it(ctx: moderngl.Context, tmp_
         framebuffer.use()
         vertex_array.render(moderngl.TRIANGLES, vertices=3)
         vertex_array.release()
-        rows = np.frombuffer(framebuffer.read(components=4, dtype="f4"), np.float32).reshape(14, 4)
+        rows = np.frombuffer(framebuffer.read(components=4, dtype="f4"), np.float32).reshape(17, 4)
     finally:
         bind_default_framebuffer(ctx)
         for item in (framebuffer, target, *buffers):

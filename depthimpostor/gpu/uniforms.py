@@ -14,7 +14,7 @@ import numpy as np
 
 from .bindings import TextureUnit, UniformBlock
 from ..constants import MATERIAL, MATERIAL_ARRAYS, MAX_LIGHTS, MaterialKind
-from ..scene.model import CheckerMaterial, DiffuseMaterial, MetallicRoughnessMaterial, Scene
+from ..scene.model import IDENTITY_UV_ROWS, CheckerMaterial, DiffuseMaterial, MetallicRoughnessMaterial, Scene
 from ..texture_layout import texture_defines
 from ..textures import SRGB_TABLE
 from .textures import array_unit
@@ -121,7 +121,7 @@ def material_records(scene: Scene) -> np.ndarray:
             raise TypeError(f"{material!r} is not a material that is shaded")
         texture = getattr(material, "texture", None)
         record["texture"] = scene.texture_slot(material)
-        record["uv_scale"] = texture.scale if texture is not None else (1.0, 1.0)
+        record["uv_u"], record["uv_v"] = texture.uv_rows if texture is not None else IDENTITY_UV_ROWS
     return records
 
 

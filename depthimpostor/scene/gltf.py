@@ -45,6 +45,9 @@ GLASS_TRANSMISSION = 0.5
 #: The largest KHR_materials_emissive_strength read (the extension sets none; a bound keeps the
 #: colours finite: 1e6 is brighter than any light a scene file can give).
 MAX_EMISSIVE_STRENGTH = 1.0e6
+#: The largest KHR_texture_transform rotation read, in radians (any angle is a turn of at most one
+#: circle; a bound keeps the sine and cosine meaningful).
+MAX_UV_ROTATION = 1.0e6
 #: Without a camera in the file: the TOML default camera's view direction, framing the whole scene.
 FRAMING_FOV_Y = Camera().fov_y
 #: Without lights in the file: one light from above, as the scene_format.md example has.
@@ -228,7 +231,8 @@ def _local_mesh(group: list[Primitive]) -> Mesh:
 
 def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData, at: At, source: str) -> Texture:
     """A baseColorTexture: its image (EXT_texture_webp's where given, else `source`), decoded as
-    written (image_files.py), and its sampler's wrap modes."""
+    written (image_files.py), its sampler's wrap modes, and its KHR_texture_transform (offset,
+    rotation, scale: a texCoord there is listed as ignored, as the texture info's own)."""
     textures = header.get("textures", [])
     t = index(info.get("index"), len(textures), at.key("index"))
     texture_at = At(source, f"textures[{t}]")
@@ -250,7 +254,17 @@ def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData,
             if key in sampler and sampler[key] not in {int(mode) for mode in Wrap}:
                 raise sampler_at.key(key).error(f"expected a wrap mode {', '.join(str(int(m)) for m in Wrap)}, "
                                                 f"got {show(sampler[key])}")
-    return texture_from_pixels(pixels, sampler, name=f"{Path(source).name} images[{image}]")
+    texture_read = texture_from_pixels(pixels, sampler, name=f"{Path(source).name} images[{image}]")
+    transform = extension(info, "KHR_texture_transform", at)
+    if transform is None:
+        return texture_read
+    transform_at = at.key("extensions").key("KHR_texture_transform")
+    offset = transform_at.key("offset").read(transform.get("offset", [0, 0]), f.numbers(2))
+    scale = transform_at.key("scale").read(transform.get("scale", [1, 1]), f.numbers(2))
+    rotation = number_at(transform, "rotation", 0.0, f.number(f.Bounds(-MAX_UV_ROTATION, MAX_UV_ROTATION)),
+                         transform_at)
+    return dataclasses.replace(texture_read, scale=(float(scale[0]), float(scale[1])),
+                               offset=(float(offset[0]), float(offset[1])), rotation=rotation)
 
 
 def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], data: GltfData | None,

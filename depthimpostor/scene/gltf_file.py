@@ -36,7 +36,7 @@ GLTF_SUFFIXES = (".glb", ".gltf")
 #: or basisu data would be misread), so the file is refused, naming it. Any other it merely uses is
 #: drawn as if absent, and `ignored_features` names it.
 SUPPORTED_REQUIRED = ("KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior",
-                      "KHR_materials_emissive_strength", "EXT_texture_webp")
+                      "KHR_materials_emissive_strength", "KHR_texture_transform", "EXT_texture_webp")
 
 # Primitive modes (glTF 2.0, 3.7.2.1): what trimesh decodes into triangles, and what has no surface.
 TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN = 4, 5, 6
@@ -130,6 +130,10 @@ def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
     base = pbr.get("baseColorTexture")
     if isinstance(base, Mapping) and base.get("texCoord", 0) != 0:
         yield "baseColorTexture.texCoord"
+    extensions = base.get("extensions") if isinstance(base, Mapping) else None
+    transform = extensions.get("KHR_texture_transform") if isinstance(extensions, Mapping) else None
+    if isinstance(transform, Mapping) and transform.get("texCoord", 0) != 0:
+        yield "KHR_texture_transform.texCoord"
     if material.get("alphaMode", "OPAQUE") in ("MASK", "BLEND"):
         yield f"alphaMode {material['alphaMode']}"
 

@@ -295,6 +295,10 @@ class GltfOrigin:
 Shape = PlaneShape | BoxShape | SphereShape | CylinderShape | TorusShape | TorusKnotShape | MeshShape | GltfShape
 
 
+#: A texture's UV transform when it has none (Texture.uv_rows of the identity).
+IDENTITY_UV_ROWS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+
+
 @dataclass(frozen=True, eq=False)
 class Texture:
     """An image texture on a diffuse material: a glTF baseColorTexture, or a TOML `texture`. The
@@ -306,6 +310,18 @@ class Texture:
     mean_color: Vec3  # the mean of the image's RGB decoded to linear
     scale: tuple[float, float] = (1.0, 1.0)  # UV multipliers: how many times the image repeats across u and v
     name: str = ""  # what messages call it: the image file's name, or the glTF file's image
+    # KHR_texture_transform's offset and rotation (radians, counter-clockwise in UV space), applied
+    # after `scale`: uv' = T(offset) R(rotation) S(scale) uv, as the extension defines it.
+    offset: tuple[float, float] = (0.0, 0.0)
+    rotation: float = 0.0
+
+    @property
+    def uv_rows(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The UV transform's two rows (u' = a u + b v + c, v' = d u + e v + f): the material record's
+        uv_u and uv_v (lib/shading.glsl) and the truth's (textures.texture_bilinear)."""
+        cos, sin = math.cos(self.rotation), math.sin(self.rotation)
+        (su, sv), (ou, ov) = self.scale, self.offset
+        return (cos * su, sin * sv, ou), (-sin * su, cos * sv, ov)
 
     @property
     def wrap(self) -> tuple[int, int]:

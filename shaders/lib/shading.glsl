@@ -44,8 +44,9 @@ vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
 #endif
 #ifdef TEXTURE_COUNT
     if (material.texture >= 0) {
-        vec2 scaled = uv * material.uv_scale;
-        return material.color_a * material_texel(material.texture, scaled);
+        vec3 affine = vec3(uv, 1.0);
+        vec2 placed = vec2(dot(material.uv_u, affine), dot(material.uv_v, affine));
+        return material.color_a * material_texel(material.texture, placed);
     }
 #endif
     return material.color_a;
