@@ -385,6 +385,8 @@ MATERIAL = Struct("Material", (
     ("uv_v", "vec3"),
     ("roughness", "float"),  # and perceptual roughness (alpha = roughness^2)
     ("emissive", "vec3"),  # and its emitted radiance
+    ("alpha_cutoff", "float"),  # glTF's alphaMode MASK: the cutoff (< 0: opaque)
+    ("alpha", "float"),  # and the base colour factor's alpha, times the texture's
 ))
 
 #: One light of the Lights block: LIGHT_DIRECTIONAL or LIGHT_POINT, SHADOW_NONE, SHADOW_HARD or

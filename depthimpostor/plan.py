@@ -47,8 +47,8 @@ from .targets import Surfaces
 from .methods.registry import METHODS
 from .methods.colour_mips import COLOUR_MIPS_PROGRAM
 from .methods.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
-from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
-from .gpu.uniforms import environment_defines
+from .passes.shadows import shadow_map_defines, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
+from .gpu.uniforms import alpha_mask_defines, environment_defines
 from .scene.limits import check_method, check_model_reach, check_model_uvs, check_scene
 from .scene.model import MeshShape, Scene
 from .gpu.shaders import ProgramKey, program_key
@@ -309,7 +309,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     if scene.has_shadows:
         lights = [f"lights[{i}] ({scene.lights[i].shadows})" for i in scene.shadowed_lights]
         passes.append(PlannedPass(Pass.SHADOW_MAPS, f"{', '.join(lights)} cast shadows"))
-        variant(Pass.SHADOW_MAPS, SHADOW_MAP_PROGRAM, SHADOW_MAP_DEFINES, "shadow maps: the casters' depth from each shadowed light")
+        variant(Pass.SHADOW_MAPS, SHADOW_MAP_PROGRAM, shadow_map_defines(scene),
+                "shadow maps: the casters' depth from each shadowed light")
         casters = set(scene.shadow_casters)
         for light in scene.shadowed_lights:  # refuses a light among its casters, as the shadow pass would
             fit_shadow_camera(scene, light, [g for g in geometry if g.object in casters], scene.render.shadow_resolution)
@@ -364,12 +365,13 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                 variant(Pass.STAND_IN, DIFFUSE_PROGRAM, diffuse_defines(scene, True, ids, back_layer=True, checker=checker),
                         f"depth images: the back layer's colour and depth (a ray may come in through it){with_ids}")
             if stand_in.keeps_beyond:
-                variant(Pass.STAND_IN, BEYOND_PROGRAM, None, "depth images: where a second solid run begins (the space before it "
+                variant(Pass.STAND_IN, BEYOND_PROGRAM, alpha_mask_defines(scene), "depth images: where a second solid run begins (the space before it "
                         "is seen empty)")
         if shown_in_bounces:
             passes.append(PlannedPass(Pass.BOUNCES, f"render.max_bounces = {scene.render.max_bounces}: reflectors "
                                       "show each other's reflections"))
-            variant(Pass.BOUNCES, BACK_FACE_PROGRAM, None, "a reflector drawn into another's depth image: its back-face layer")
+            variant(Pass.BOUNCES, BACK_FACE_PROGRAM, alpha_mask_defines(scene),
+                    "a reflector drawn into another's depth image: its back-face layer")
             for shown_glass in sorted(shown_in_bounces):
                 variant(Pass.BOUNCES, REFLECTOR_PROGRAM, reflector_defines(scene, bounce_defines(), shown_glass),
                         f"a {'glass' if shown_glass else 'mirror'} drawn into another reflector's depth image")

@@ -93,8 +93,19 @@ def wrap_texels(index: np.ndarray, size: int, mode: int) -> np.ndarray:
 def texture_bilinear(texture: Texture, uvs: np.ndarray) -> np.ndarray:
     """The texture's linear RGB at (n, 2) UVs (before its transform, Texture.uv_rows): level 0,
     bilinear, its wrap modes: material_texture.glsl's material_texel for traced rays in numpy."""
-    height, width = texture.image.shape[:2]
-    linear = SRGB_TABLE[texture.image[..., :3]].astype(np.float64)
+    return _bilinear(texture, SRGB_TABLE[texture.image[..., :3]].astype(np.float64), uvs)
+
+
+def texture_alpha_bilinear(texture: Texture, uvs: np.ndarray) -> np.ndarray:
+    """The texture's alpha (linear, in [0, 1]) at (n, 2) UVs, as texture_bilinear samples colours:
+    material_texture.glsl's material_texel_rgba(...).a for traced rays."""
+    return _bilinear(texture, texture.image[..., 3:4].astype(np.float64) / 255.0, uvs)[:, 0]
+
+
+def _bilinear(texture: Texture, texels: np.ndarray, uvs: np.ndarray) -> np.ndarray:
+    """(n, channels) bilinear samples of `texels` ((height, width, channels) float64, the texture's
+    level 0 decoded) at UVs placed by the texture's transform, with its wrap modes."""
+    height, width = texels.shape[:2]
     (a, b, c), (d, e, f) = texture.uv_rows
     placed = np.stack([uvs[:, 0] * a + uvs[:, 1] * b + c, uvs[:, 0] * d + uvs[:, 1] * e + f], axis=1)
     x = placed * (width, height) - 0.5  # texel centres at half-integers
@@ -105,6 +116,6 @@ def texture_bilinear(texture: Texture, uvs: np.ndarray) -> np.ndarray:
     columns = [wrap_texels(i0 + k, width, wrap_s) for k in (0, 1)]
     rows = [wrap_texels(j0 + k, height, wrap_t) for k in (0, 1)]
     fx, fy = fraction[:, 0:1], fraction[:, 1:2]
-    top = linear[rows[0], columns[0]] * (1 - fx) + linear[rows[0], columns[1]] * fx
-    bottom = linear[rows[1], columns[0]] * (1 - fx) + linear[rows[1], columns[1]] * fx
+    top = texels[rows[0], columns[0]] * (1 - fx) + texels[rows[0], columns[1]] * fx
+    bottom = texels[rows[1], columns[0]] * (1 - fx) + texels[rows[1], columns[1]] * fx
     return np.asarray(top * (1 - fy) + bottom * fy)

@@ -59,6 +59,9 @@ uniform int u_triangle_offset;
 void main() {
     vec3 normal = safe_normalize(v_world_normal, vec3(0.0, 1.0, 0.0));
     Material material = u_materials[MATERIAL_INDEX];
+#ifdef ALPHA_MASK
+    if (material_masked(material, v_uv)) discard;  // glTF's alphaMode MASK: the surface is not there
+#endif
     vec3 albedo = material_albedo(material, v_local_position, v_uv);
 #ifdef METALLIC_ROUGHNESS
     vec3 to_viewer = safe_normalize(u_eye.xyz - v_world_position * u_eye.w, normal);

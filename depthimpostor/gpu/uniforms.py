@@ -14,7 +14,9 @@ import numpy as np
 
 from .bindings import TextureUnit, UniformBlock
 from ..constants import MATERIAL, MATERIAL_ARRAYS, MAX_LIGHTS, MaterialKind
-from ..scene.model import IDENTITY_UV_ROWS, CheckerMaterial, DiffuseMaterial, MetallicRoughnessMaterial, Scene
+from ..scene.model import (
+    IDENTITY_UV_ROWS, CheckerMaterial, DiffuseMaterial, MetallicRoughnessMaterial, Scene, SceneObject,
+)
 from ..texture_layout import texture_defines
 from ..textures import SRGB_TABLE
 from .textures import array_unit
@@ -33,10 +35,34 @@ def shading_defines(scene: Scene) -> dict[str, int]:
             **({"DIRECTIONAL_LIGHTS": 1} if scene.lights and all(light.type == "directional" for light in scene.lights)
                else {}),
             **({"SHADOWS": 1} if scene.has_shadows else {}),
-            # glTF's material model, only in the scenes that have it (lib/shading.glsl).
+            # glTF's material model, only in the scenes that have it (lib/shading.glsl), and its
+            # alpha mask only where a material cuts parts away.
             **({"METALLIC_ROUGHNESS": 1} if any(isinstance(m, MetallicRoughnessMaterial) for m in scene.materials)
                else {}),
+            **alpha_mask_defines(scene),
             **texture_defines(scene)}
+
+
+def has_alpha_mask(scene: Scene) -> bool:
+    """Does a material of the scene cut parts of its surface away (glTF's alphaMode MASK)?"""
+    return any(isinstance(m, MetallicRoughnessMaterial) and m.masked for m in scene.materials)
+
+
+def alpha_mask_defines(scene: Scene) -> dict[str, int]:
+    """What a program that draws surfaces needs to cut masked parts away: ALPHA_MASK, the material
+    table and the textures (none in a scene without a masked material). The depth-only programs
+    (window_depth.frag's shadow maps and back faces, beyond_run.frag) take these alone; the shading
+    programs take them with shading_defines."""
+    if not has_alpha_mask(scene):
+        return {}
+    return {"ALPHA_MASK": 1, "MATERIAL_COUNT": max(1, len(scene.materials)), **texture_defines(scene)}
+
+
+def write_material_index(program: moderngl.Program, scene: Scene, obj: SceneObject) -> None:
+    """Where a program that cuts masked parts away (alpha_mask_defines) finds the object's material:
+    its index in the MaterialRecords table, or -1 for a mirror or glass (never masked)."""
+    if "u_material_index" in program:
+        write(program, "u_material_index", -1 if obj.is_reflector else scene.material_index(obj.material))
 
 
 def environment_defines(scene: Scene) -> dict[str, int]:
@@ -119,6 +145,9 @@ def material_records(scene: Scene) -> np.ndarray:
                                                                                material.roughness)
         else:
             raise TypeError(f"{material!r} is not a material that is shaded")
+        record["alpha_cutoff"], record["alpha"] = -1.0, 1.0  # opaque
+        if isinstance(material, MetallicRoughnessMaterial) and material.alpha_cutoff is not None:
+            record["alpha_cutoff"], record["alpha"] = material.alpha_cutoff, material.alpha
         texture = getattr(material, "texture", None)
         record["texture"] = scene.texture_slot(material)
         record["uv_u"], record["uv_v"] = texture.uv_rows if texture is not None else IDENTITY_UV_ROWS

@@ -28,7 +28,7 @@ from ..meshes import plane_uvs
 from ..scene.model import (
     CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MetallicRoughnessMaterial, MirrorMaterial, Scene,
 )
-from ..textures import texture_bilinear
+from ..textures import texture_alpha_bilinear, texture_bilinear
 from .brdf import shade_metallic_roughness
 from .ggx import glossy_average
 
@@ -115,6 +115,24 @@ def material_albedo(material: Material, local_positions: Array, uvs: Array | Non
     raise TypeError(f"{material!r} is not a diffuse material")
 
 
+def material_masked(material: Material, uvs: Array | None) -> Array:
+    """shaders/lib/shading.glsl's material_masked in numpy: which points at `uvs` glTF's alphaMode
+    MASK cuts away (alpha, the factor's times the texture's, under the cutoff). All False for an
+    opaque material; None for uvs: a mesh without them (the texture is not drawn: the factor alone)."""
+    count = 0 if uvs is None else len(uvs)
+    if not isinstance(material, MetallicRoughnessMaterial) or material.alpha_cutoff is None:
+        return np.zeros(count, bool)
+    alpha = np.full(count, material.alpha)
+    if material.texture is not None and uvs is not None:
+        alpha *= texture_alpha_bilinear(material.texture, uvs)
+    return alpha < material.alpha_cutoff
+
+
+#: How many cut-away surfaces (alphaMode MASK) one ray of the truth passes through at most before it
+#: takes the next surface as seen: each is another Embree query of the rays still passing.
+MAX_MASKED_LAYERS = 32
+
+
 #: The grey albedo of a mirror's back (shaders/reflector.frag's u_backing_albedo, written from here by
 #: passes/reflectors.py): dark, as the painted back of a real mirror, and a diffuse surface like any.
 MIRROR_BACKING_ALBEDO = 0.2
@@ -159,6 +177,61 @@ def shade(scene: Scene, albedo: Array, positions: Array, normals: Array,
     return albedo * irradiance
 
 
+def _masked_hits(items: Sequence[ObjectGeometry], geometry_id: Array, primitive_id: Array, u: Array,
+                 v: Array) -> Array:
+    """Which hits (on items[`geometry_id`], triangle `primitive_id`, barycentrics u, v) a masked
+    material cuts away (alphaMode MASK), at the UVs triangles.glsl's triangle_uv gives them."""
+    cut = np.zeros(len(geometry_id), bool)
+    for index, item in enumerate(items):
+        material = item.object.material
+        if not (isinstance(material, MetallicRoughnessMaterial) and material.masked):
+            continue
+        chosen = np.flatnonzero(geometry_id == index)
+        if not len(chosen):
+            continue
+        mesh = item.world_mesh
+        uvs = np.zeros((len(chosen), 2))
+        if mesh.uvs is not None:
+            corners = mesh.indices[primitive_id[chosen]]
+            a, b = u[chosen, None], v[chosen, None]
+            uvs = (1 - a - b) * mesh.uvs[corners[:, 0]] + a * mesh.uvs[corners[:, 1]] + b * mesh.uvs[corners[:, 2]]
+        cut[chosen] = material_masked(material, uvs)
+    return cut
+
+
+def nearest_shown(embree: rtcore_scene.EmbreeScene, items: Sequence[ObjectGeometry], origins: Array,
+                  directions: Array, dists: Array | None = None) -> dict[str, Array]:
+    """Embree's nearest hits on `items` (its geometries: geomID, primID, u, v, tfar), past the points
+    a masked material cuts away (alphaMode MASK): a ray that meets one goes on from just beyond it,
+    as the shader's traversal passes it by. `dists` bounds each ray (a shadow ray's length)."""
+    def run(o: Array, d: Array, bound: Array | None) -> dict[str, Array]:
+        o, d = np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32)
+        if bound is None:
+            return dict(embree.run(o, d, output=1))
+        return dict(embree.run(o, d, dists=np.ascontiguousarray(bound, np.float32), output=1))
+
+    result = {key: np.array(value) for key, value in run(origins, directions, dists).items()}
+    if not any(isinstance(i.object.material, MetallicRoughnessMaterial) and i.object.material.masked for i in items):
+        return result
+    start = np.zeros(len(origins))  # where each ray's current query began, as a ray parameter
+    for _ in range(MAX_MASKED_LAYERS):
+        hits = np.flatnonzero(result["geomID"] != -1)
+        cut = hits[_masked_hits(items, result["geomID"][hits], result["primID"][hits], result["u"][hits],
+                                result["v"][hits])]
+        if not len(cut):
+            break
+        # On from just past the cut point (RAY_START_OFFSET of its distance, as a ray leaving a surface).
+        restart = (start[cut] + result["tfar"][cut]) * (1.0 + RAY_START_OFFSET) + RAY_START_OFFSET
+        left = None if dists is None else np.maximum(dists[cut] - restart, 0.0)
+        again = run(origins[cut] + directions[cut] * restart[:, None], directions[cut], left)
+        start[cut] = restart
+        for key in ("geomID", "primID", "u", "v", "tfar"):
+            result[key][cut] = again[key]
+    found = result["geomID"] != -1
+    result["tfar"] = np.where(found, start + result["tfar"], result["tfar"])
+    return result
+
+
 class TruthTracer:
     """Traces rays against the scene's reflected meshes (Embree) and analytic planes (exactly):
     the same two lists the renderer splits the scene into (`reflected_objects`, `analytic_planes`).
@@ -175,6 +248,9 @@ class TruthTracer:
         self.planes = list(planes)
         self._embree = _embree_scene(self.meshes)
         self._casters = _embree_scene(casters) if scene.has_shadows and casters else None
+        self._caster_items = list(casters)
+        self._masked_casters = any(isinstance(c.object.material, MetallicRoughnessMaterial) and c.object.material.masked
+                                   for c in casters)
 
     def visibility(self, light_index: int, positions: Array, normals: Array) -> Array:
         """The share of the light's rays (lights.py: its centre for hard shadows, the disk points
@@ -190,11 +266,16 @@ class TruthTracer:
         offsets = targets - origins
         lengths = np.linalg.norm(offsets, axis=2)
         directions = offsets / np.maximum(lengths, 1e-300)[..., None]
-        blocked = self._casters.run(
-            np.ascontiguousarray(origins.reshape(-1, 3), np.float32),
-            np.ascontiguousarray(directions.reshape(-1, 3), np.float32),
-            dists=np.ascontiguousarray(lengths.reshape(-1), np.float32), query="OCCLUDED",
-        ) != -1
+        if self._masked_casters:  # a cut-away point blocks nothing: the nearest caster not cut away
+            shown = nearest_shown(self._casters, self._caster_items, origins.reshape(-1, 3), directions.reshape(-1, 3),
+                                  lengths.reshape(-1))
+            blocked = shown["geomID"] != -1
+        else:
+            blocked = self._casters.run(
+                np.ascontiguousarray(origins.reshape(-1, 3), np.float32),
+                np.ascontiguousarray(directions.reshape(-1, 3), np.float32),
+                dists=np.ascontiguousarray(lengths.reshape(-1), np.float32), query="OCCLUDED",
+            ) != -1
         return 1.0 - blocked.reshape(lengths.shape).mean(axis=1)
 
     def trace(self, origins: Array, directions: Array) -> TruthHits:
@@ -242,9 +323,7 @@ class TruthTracer:
 
     def _trace_meshes(self, origins: Array, directions: Array, hit: Array, t: Array,
                       object_id: Array, normal: Array, albedo: Array, backing: Array) -> None:
-        result = self._embree.run(
-            np.ascontiguousarray(origins, np.float32), np.ascontiguousarray(directions, np.float32), output=1
-        )
+        result = nearest_shown(self._embree, self.meshes, origins, directions)
         geometry_id = result["geomID"]
         for index, item in enumerate(self.meshes):
             mask = geometry_id == index
@@ -287,6 +366,9 @@ class TruthTracer:
             half = np.asarray(item.object.shape.size) / 2.0  # type: ignore[union-attr]
             inside = (np.abs(local[:, 0]) <= half[0]) & (np.abs(local[:, 2]) <= half[1])
             closer = (t_plane > 0.0) & np.isfinite(t_plane) & inside & (t_plane < t)
+            size = item.object.shape.size  # type: ignore[union-attr]
+            chosen = np.flatnonzero(closer)
+            closer[chosen[material_masked(item.object.material, plane_uvs(local[chosen], *size))]] = False
             if not closer.any():
                 continue
             plane_normal = item.normal_matrix @ np.array([0.0, 1.0, 0.0])

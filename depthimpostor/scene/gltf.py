@@ -300,7 +300,11 @@ def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], data:
     elif metallic >= MIRROR_METALLIC and roughness <= MIRROR_ROUGHNESS:
         material = MirrorMaterial((tr, tg, tb))
     else:
-        material = MetallicRoughnessMaterial((r, g, b), texture, metallic, roughness, _emissive(value, at))
+        mode = at.key("alphaMode").read(value.get("alphaMode", "OPAQUE"), f.choice(("OPAQUE", "MASK", "BLEND")))
+        cutoff = (number_at(value, "alphaCutoff", 0.5, f.number(f.Bounds(0.0, math.inf)), at) if mode == "MASK"
+                  else None)
+        material = MetallicRoughnessMaterial((r, g, b), texture, metallic, roughness, _emissive(value, at),
+                                             alpha=float(factor[3]), alpha_cutoff=cutoff)
     return GltfMaterial(_label(header, k), material, texture is not None and not isinstance(material, DiffuseMaterial))
 
 

@@ -119,7 +119,7 @@ def _extension_names(value: Any) -> Iterator[str]:
 
 def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
     """The core material properties a material uses that are not drawn (scene_format.md says what
-    is): every texture but baseColorTexture on TEXCOORD_0, and transparency."""
+    is): every texture but baseColorTexture on TEXCOORD_0, and blending (alphaMode MASK is drawn)."""
     pbr = material.get("pbrMetallicRoughness", {})
     pbr = pbr if isinstance(pbr, Mapping) else {}
     for key in ("normalTexture", "occlusionTexture", "emissiveTexture"):
@@ -134,8 +134,8 @@ def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
     transform = extensions.get("KHR_texture_transform") if isinstance(extensions, Mapping) else None
     if isinstance(transform, Mapping) and transform.get("texCoord", 0) != 0:
         yield "KHR_texture_transform.texCoord"
-    if material.get("alphaMode", "OPAQUE") in ("MASK", "BLEND"):
-        yield f"alphaMode {material['alphaMode']}"
+    if material.get("alphaMode", "OPAQUE") == "BLEND":
+        yield "alphaMode BLEND"
 
 
 def ignored_features(header: Mapping[str, Any]) -> tuple[str, ...]:

@@ -349,6 +349,15 @@ class MetallicRoughnessMaterial(DiffuseMaterial):
     metallic: float = 1.0
     roughness: float = 1.0
     emissive: Vec3 = (0.0, 0.0, 0.0)
+    # glTF's alphaMode MASK: where alpha (the base colour factor's times the texture's) is under
+    # `alpha_cutoff`, the surface is not there (every pass and the truth). None: opaque.
+    alpha: float = 1.0
+    alpha_cutoff: float | None = None
+
+    @property
+    def masked(self) -> bool:
+        """Can parts of it be cut away (alphaMode MASK)?"""
+        return self.alpha_cutoff is not None
 
 
 @dataclass(frozen=True)

@@ -206,6 +206,9 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
             // The plane's UVs as meshes.plane_uvs lays them out: the image over the whole rectangle.
             vec2 uv = p.xz / (2.0 * plane.half_size) + 0.5;
             Material material = u_materials[plane.material];
+#ifdef ALPHA_MASK
+            if (material_masked(material, uv)) continue;  // cut away: the ray goes on
+#endif
             vec3 albedo = material_albedo(material, p, uv);
 #ifdef GLOSSY
             // A glossy mirror's cone: the checker box-filtered over its footprint on the plane.

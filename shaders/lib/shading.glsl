@@ -35,6 +35,12 @@ layout(std140) uniform MaterialRecords {
 // passes/diffuse.py) leaves the checker out, and with it the local position it reads. llvmpipe runs
 // the body of an `if` whatever the condition: the test alone would not spare it. (With
 // DIRECTIONAL_LIGHTS, a fifth of the 8 x 9 scene's bake: tools/bake_cost.py.)
+// The texture's UV: the mesh's, through the material's UV transform (KHR_texture_transform's).
+vec2 placed_uv(Material material, vec2 uv) {
+    vec3 affine = vec3(uv, 1.0);
+    return vec2(dot(material.uv_u, affine), dot(material.uv_v, affine));
+}
+
 vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
 #ifndef NO_CHECKER
     if (material.kind == MATERIAL_CHECKER) {
@@ -44,13 +50,25 @@ vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
 #endif
 #ifdef TEXTURE_COUNT
     if (material.texture >= 0) {
-        vec3 affine = vec3(uv, 1.0);
-        vec2 placed = vec2(dot(material.uv_u, affine), dot(material.uv_v, affine));
-        return material.color_a * material_texel(material.texture, placed);
+        return material.color_a * material_texel(material.texture, placed_uv(material, uv));
     }
 #endif
     return material.color_a;
 }
+
+#ifdef ALPHA_MASK
+// glTF's alphaMode MASK (the ALPHA_MASK variant: scenes with such a material): a point whose alpha,
+// the material's factor times its texture's, is under the material's cutoff is not there at all;
+// rasterized fragments discard it, traced rays pass through it. alpha_cutoff < 0: opaque.
+bool material_masked(Material material, vec2 uv) {
+    if (material.alpha_cutoff < 0.0) return false;
+    float alpha = material.alpha;
+#ifdef TEXTURE_COUNT
+    if (material.texture >= 0) alpha *= material_texel_rgba(material.texture, placed_uv(material, uv)).a;
+#endif
+    return alpha < material.alpha_cutoff;
+}
+#endif
 
 // The lights shaded: a constant of the program where the pass gives one (LIGHT_COUNT, from the
 // scene: gpu/uniforms.py's shading_defines). llvmpipe runs a loop bounded by a uniform at about 5
