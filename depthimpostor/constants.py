@@ -363,15 +363,18 @@ TRIANGLE_INSTANCE_DTYPE = TRIANGLE_INSTANCE.dtype
 #: One image texture of the scene (texture slot k is record k of lib/material_texture.glsl's
 #: TextureRecords block, gpu/textures.py): `sampling` is (texture array, layer, wrap s, wrap t),
 #: the wrap modes GL enums (Wrap); `texels` where its level 0 lies in the traced rays' 8-bit atlas,
-#: (x, y, width, height) (texture_layout.py).
+#: (x, y, width, height) (texture_layout.py); its UV transform and colour space.
 TEXTURE_RECORD = Struct("TextureRecord", (
     ("sampling", "ivec4"),
     ("texels", "ivec4"),
+    ("uv_u", "vec3"),  # the UV transform (Texture.uv_rows): u' = dot(uv_u, (u, v, 1)), v' = dot(uv_v, (u, v, 1))
+    ("srgb", "int"),  # 1: colour, decoded from sRGB; 0: data, as stored
+    ("uv_v", "vec3"),
 ))
 
 #: A surface's material as lib/shading.glsl's material_albedo reads it: MATERIAL_DIFFUSE or
 #: MATERIAL_CHECKER, the two colours (a diffuse material's is color_a), the checker's cell size,
-#: a diffuse material's texture slot (or -1) and that texture's UV transform (Texture.uv_rows). Every pass reads
+#: a diffuse material's texture slot (or -1). Every pass reads
 #: one table of them (lib/shading.glsl's MaterialRecords block, written once by
 #: gpu/scene_blocks.py): an object, an instance, a triangle instance and a plane carry an index.
 MATERIAL = Struct("Material", (
@@ -379,14 +382,18 @@ MATERIAL = Struct("Material", (
     ("color_a", "vec3"),
     ("scale", "float"),
     ("color_b", "vec3"),
-    ("metallic", "float"),  # MATERIAL_METALLIC_ROUGHNESS alone: metalness
-    ("uv_u", "vec3"),  # the texture's UV transform: u' = dot(uv_u, (u, v, 1)), v' = dot(uv_v, (u, v, 1))
+    # MATERIAL_METALLIC_ROUGHNESS alone: metalness, perceptual roughness (alpha = roughness^2), the
+    # emitted radiance, and the slots (or -1) of its metallic-roughness, occlusion and emissive maps.
+    ("metallic", "float"),
+    ("emissive", "vec3"),
+    ("roughness", "float"),
     ("texture", "int"),
-    ("uv_v", "vec3"),
-    ("roughness", "float"),  # and perceptual roughness (alpha = roughness^2)
-    ("emissive", "vec3"),  # and its emitted radiance
+    ("metallic_roughness_texture", "int"),
+    ("occlusion_texture", "int"),
+    ("emissive_texture", "int"),
     ("alpha_cutoff", "float"),  # glTF's alphaMode MASK: the cutoff (< 0: opaque)
     ("alpha", "float"),  # and the base colour factor's alpha, times the texture's
+    ("occlusion_strength", "float"),
 ))
 
 #: One light of the Lights block: LIGHT_DIRECTIONAL or LIGHT_POINT, SHADOW_NONE, SHADOW_HARD or

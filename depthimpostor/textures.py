@@ -66,11 +66,17 @@ def read_texture(path: Path, at: At, scale: tuple[float, float], wrap: tuple[int
     return _CACHE[key]
 
 
-def resample(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+def resample(image: np.ndarray, size: tuple[int, int], srgb: bool = True) -> np.ndarray:
     """An (H, W, 4) sRGB image resampled to `size` (width, height) for a texture array's layer
     (texture_layout.py): its colour in linear light (decoded, filtered, encoded again: filtering the
     encoded values would darken edges between light and dark), its alpha as it is, each channel by
-    Pillow's Lanczos filter (3 lobes: sharp, little ringing; its overshoot is clipped)."""
+    Pillow's Lanczos filter (3 lobes: sharp, little ringing; its overshoot is clipped). `srgb`
+    False: data (a metallic-roughness map), filtered as stored."""
+    if not srgb:
+        channels = [image[..., c].astype(np.float32) / 255.0 for c in range(4)]
+        filtered = np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(channel), mode="F")
+                                        .resize(size, Image.Resampling.LANCZOS)) for channel in channels], axis=-1)
+        return np.asarray(np.rint(np.clip(filtered, 0.0, 1.0) * 255.0), np.uint8)
     linear = SRGB_TABLE[image[..., :3]]
     channels = [linear[..., c] for c in range(3)] + [image[..., 3].astype(np.float32) / 255.0]
     filtered = np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(channel), mode="F")
@@ -93,7 +99,9 @@ def wrap_texels(index: np.ndarray, size: int, mode: int) -> np.ndarray:
 def texture_bilinear(texture: Texture, uvs: np.ndarray) -> np.ndarray:
     """The texture's linear RGB at (n, 2) UVs (before its transform, Texture.uv_rows): level 0,
     bilinear, its wrap modes: material_texture.glsl's material_texel for traced rays in numpy."""
-    return _bilinear(texture, SRGB_TABLE[texture.image[..., :3]].astype(np.float64), uvs)
+    rgb = texture.image[..., :3]
+    decoded = SRGB_TABLE[rgb] if texture.srgb else rgb.astype(np.float32) / np.float32(255.0)
+    return _bilinear(texture, decoded.astype(np.float64), uvs)
 
 
 def texture_alpha_bilinear(texture: Texture, uvs: np.ndarray) -> np.ndarray:

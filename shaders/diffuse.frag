@@ -65,7 +65,7 @@ void main() {
     vec3 albedo = material_albedo(material, v_local_position, v_uv);
 #ifdef METALLIC_ROUGHNESS
     vec3 to_viewer = safe_normalize(u_eye.xyz - v_world_position * u_eye.w, normal);
-    out_color = vec4(shade_material(material, albedo, v_world_position, normal, to_viewer), 1.0);
+    out_color = vec4(shade_material(material, albedo, v_uv, v_world_position, normal, to_viewer), 1.0);
 #else
     out_color = vec4(shade(albedo, v_world_position, normal), 1.0);
 #endif

@@ -25,6 +25,7 @@ from depthimpostor.passes.diffuse import viewer_of
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
 from depthimpostor.scene.model import Light, MetallicRoughnessMaterial, Texture
+from depthimpostor.textures import texture_from_pixels
 
 GOLD = MetallicRoughnessMaterial((1.0, 0.77, 0.34), None, metallic=1.0, roughness=0.35)
 PLASTIC = MetallicRoughnessMaterial((0.2, 0.5, 0.9), None, metallic=0.0, roughness=0.2)
@@ -45,7 +46,7 @@ void main() {
     int i = int(gl_FragCoord.x);
     vec3 base = u_inputs[4 * i].xyz, position = u_inputs[4 * i + 1].xyz;
     vec3 normal = u_inputs[4 * i + 2].xyz, to_viewer = u_inputs[4 * i + 3].xyz;
-    out_color = vec4(shade_material(u_materials[u_material], base, position, normal, to_viewer), 1.0);
+    out_color = vec4(shade_material(u_materials[u_material], base, vec2(0.0), position, normal, to_viewer), 1.0);
 }
 """
 VERTEX = """#version 330 core
@@ -104,7 +105,7 @@ def test_the_glsl_and_numpy_shading_are_one_function(ctx: moderngl.Context, tmp_
             framebuffer.use()
             vertex_array.render(moderngl.TRIANGLES, vertices=3)
             gl = np.frombuffer(framebuffer.read(components=4, dtype="f4"), np.float32).reshape(pixels, 4)[:, :3]
-            expected = shade_metallic_roughness(scene, material, base, positions, normals, to_viewer)
+            expected = shade_metallic_roughness(scene, material, base, np.zeros((pixels, 2)), positions, normals, to_viewer)
             assert_finite(gl)
             np.testing.assert_allclose(gl, expected, rtol=2e-4, atol=2e-5, err_msg=f"materials[{index}]")
         vertex_array.release()
@@ -153,11 +154,22 @@ def test_the_viewer_of_a_view_projection_is_its_camera() -> None:
 @pytest.fixture(scope="module")
 def metal_scene() -> Scene:
     """textured_near_mirror.toml with its textured box, plate, knot and sphere in metallic-roughness
-    materials: a textured dielectric, a textured half-metal that glows, a gold knot, a blue plastic
-    sphere, beside a large mirror, and a point light for highlights."""
+    materials: a textured box whose metalness, roughness, occlusion and glow come from maps (data
+    and colour textures: both kinds of texture array), a textured half-metal plate that glows, a
+    gold knot, a blue plastic sphere, beside a large mirror, and a point light for highlights."""
     scene = load_scene(SCENES / "textured_near_mirror.toml").with_overrides(size=(240, 135))
     texture = next(o.material.texture for o in scene.objects if isinstance(getattr(o.material, "texture", None), Texture))
-    replaced = {"textured_box": MetallicRoughnessMaterial((1.0, 1.0, 1.0), texture, metallic=0.0, roughness=0.3),
+    rng = np.random.default_rng(11)
+    data = rng.integers(0, 256, (8, 8, 4), dtype=np.uint8)  # roughness in G, metalness in B, occlusion in R
+    data[..., 3] = 255
+    glow = np.zeros((8, 8, 4), np.uint8)
+    glow[::2, ::2] = (255, 180, 40, 255)
+    glow[..., 3] = 255
+    maps = {"metallic_roughness_texture": dataclasses.replace(texture_from_pixels(data, {}), srgb=False),
+            "occlusion_texture": dataclasses.replace(texture_from_pixels(data, {}), srgb=False),
+            "emissive_texture": texture_from_pixels(glow, {}), "occlusion_strength": 0.8}
+    replaced = {"textured_box": MetallicRoughnessMaterial((1.0, 1.0, 1.0), texture, metallic=1.0, roughness=1.0,
+                                                          emissive=(0.3, 0.3, 0.3), **maps),
                 "edge_on_plate": MetallicRoughnessMaterial((0.8, 0.9, 1.0), texture, metallic=0.5, roughness=0.5,
                                                            emissive=(0.15, 0.02, 0.0))}
     objects = []
@@ -175,7 +187,8 @@ def metal_scene() -> Scene:
 def test_traced_methods_shade_metals_as_the_truth(ctx: moderngl.Context, metal_scene: Scene, method: Method) -> None:
     """Beside a mirror, the methods that shade the hit for the reflected ray itself (raytrace,
     hybrid) give the truth's surfaces and its colours within float noise: the highlights seen in
-    the mirror are those of the reflected ray, not of the mirror's centre."""
+    the mirror are those of the reflected ray, not of the mirror's centre, and the maps are read
+    where the truth reads them."""
     assert sum(isinstance(m, MetallicRoughnessMaterial) for m in metal_scene.materials) == 4
     with Renderer(ctx, metal_scene, method=method, reflection_data=True) as renderer:
         renderer.render()

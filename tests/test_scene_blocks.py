@@ -76,7 +76,9 @@ void main() {
         plane.world_to_local[0], plane.world_to_local[3],
         vec4(float(material.kind), float(material.texture), material.metallic, material.roughness),
         vec4(material.color_a, material.scale), vec4(material.color_b, 0.0),
-        vec4(material.uv_u, 0.0), vec4(material.uv_v, 0.0), vec4(material.emissive, 0.0),
+        vec4(float(material.metallic_roughness_texture), float(material.occlusion_texture),
+             float(material.emissive_texture), material.occlusion_strength),
+        vec4(material.alpha_cutoff, material.alpha, 0.0, 0.0), vec4(material.emissive, 0.0),
         vec4(plane.normal, float(plane.material)));
     out_color = rows[int(gl_FragCoord.x)];
 }
@@ -99,7 +101,9 @@ def _expected_rows(lighting: np.ndarray, planes: np.ndarray, materials: np.ndarr
         plane["world_to_local"][0], plane["world_to_local"][3],
         [material["kind"], material["texture"], material["metallic"], material["roughness"]],
         [*material["color_a"], material["scale"]], [*material["color_b"], 0],
-        [*material["uv_u"], 0], [*material["uv_v"], 0], [*material["emissive"], 0], [*plane["normal"], plane["material"]],
+        [material["metallic_roughness_texture"], material["occlusion_texture"], material["emissive_texture"],
+         material["occlusion_strength"]],
+        [material["alpha_cutoff"], material["alpha"], 0, 0], [*material["emissive"], 0], [*plane["normal"], plane["material"]],
     ]
     return np.array([np.asarray(row, np.float64) for row in rows], np.float32)
 

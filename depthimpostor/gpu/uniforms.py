@@ -15,7 +15,7 @@ import numpy as np
 from .bindings import TextureUnit, UniformBlock
 from ..constants import MATERIAL, MATERIAL_ARRAYS, MAX_LIGHTS, MaterialKind
 from ..scene.model import (
-    IDENTITY_UV_ROWS, CheckerMaterial, DiffuseMaterial, MetallicRoughnessMaterial, Scene, SceneObject,
+    CheckerMaterial, DiffuseMaterial, MetallicRoughnessMaterial, Scene, SceneObject,
 )
 from ..texture_layout import texture_defines
 from ..textures import SRGB_TABLE
@@ -148,9 +148,12 @@ def material_records(scene: Scene) -> np.ndarray:
         record["alpha_cutoff"], record["alpha"] = -1.0, 1.0  # opaque
         if isinstance(material, MetallicRoughnessMaterial) and material.alpha_cutoff is not None:
             record["alpha_cutoff"], record["alpha"] = material.alpha_cutoff, material.alpha
-        texture = getattr(material, "texture", None)
         record["texture"] = scene.texture_slot(material)
-        record["uv_u"], record["uv_v"] = texture.uv_rows if texture is not None else IDENTITY_UV_ROWS
+        record["metallic_roughness_texture"] = record["occlusion_texture"] = record["emissive_texture"] = -1
+        if isinstance(material, MetallicRoughnessMaterial):
+            record["metallic_roughness_texture"], record["occlusion_texture"], record["emissive_texture"] = (
+                scene.slot_of(texture) for texture in material.maps)
+            record["occlusion_strength"] = material.occlusion_strength
     return records
 
 

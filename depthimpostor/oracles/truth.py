@@ -280,7 +280,7 @@ class TruthTracer:
 
     def trace(self, origins: Array, directions: Array) -> TruthHits:
         """The nearest hits, shaded (the environment where nothing was hit)."""
-        hits, albedo, materials = self._intersect(origins, directions)
+        hits, albedo, materials, uvs = self._intersect(origins, directions)
         hit = hits.hit
         # A mirror's backing is shaded with its normal facing the ray, as reflector.frag does.
         normals = np.where(hits.backing[:, None], facing(hits.normal, directions), hits.normal)
@@ -289,19 +289,20 @@ class TruthTracer:
         # glTF's metallic-roughness materials, for the ray itself (lib/shading.glsl's shade_material).
         for index, material in enumerate(self.scene.materials):
             if isinstance(material, MetallicRoughnessMaterial) and (chosen := hit & (materials == index)).any():
-                hits.color[chosen] = shade_metallic_roughness(self.scene, material, albedo[chosen], hits.position[chosen],
-                                                              normals[chosen], -directions[chosen], self.visibility)
+                hits.color[chosen] = shade_metallic_roughness(self.scene, material, albedo[chosen], uvs[chosen],
+                                                              hits.position[chosen], normals[chosen], -directions[chosen],
+                                                              self.visibility)
         return hits
 
     def intersect(self, origins: Array, directions: Array) -> TruthHits:
         """The nearest hits with no colour (zero): where a ray goes inside glass."""
-        hits, _, _ = self._intersect(origins, directions)
+        hits, _, _, _ = self._intersect(origins, directions)
         hits.color[:] = 0.0
         return hits
 
-    def _intersect(self, origins: Array, directions: Array) -> tuple[TruthHits, Array, Array]:
-        """The nearest hits (no colour), each one's albedo, and its material's index in
-        Scene.materials (-1: a mirror's backing, glass, nothing)."""
+    def _intersect(self, origins: Array, directions: Array) -> tuple[TruthHits, Array, Array, Array]:
+        """The nearest hits (no colour), each one's albedo, its material's index in Scene.materials
+        (-1: a mirror's backing, glass, nothing), and the mesh's texture coordinates there (0 without)."""
         count = len(origins)
         hit = np.zeros(count, bool)
         t = np.full(count, np.inf)
@@ -309,20 +310,21 @@ class TruthTracer:
         position = np.zeros((count, 3))
         normal = np.zeros((count, 3))
         albedo = np.zeros((count, 3))
+        uvs = np.zeros((count, 2))
         backing = np.zeros(count, bool)
         if self.meshes and count:
-            self._trace_meshes(origins, directions, hit, t, object_id, normal, albedo, backing)
-        self._trace_planes(origins, directions, hit, t, object_id, normal, albedo, backing)
+            self._trace_meshes(origins, directions, hit, t, object_id, normal, albedo, backing, uvs)
+        self._trace_planes(origins, directions, hit, t, object_id, normal, albedo, backing, uvs)
         objects = self.scene.objects
         by_object = np.array([-1 if o.is_reflector else self.scene.material_index(o.material) for o in objects] + [-1])
         materials = by_object[np.where(hit, object_id, len(objects))]
         position[hit] = origins[hit] + directions[hit] * t[hit, None]
         hits = TruthHits(hit, np.where(hit, t, 0.0), position, object_id, environment(self.scene, directions), normal,
                          backing)
-        return hits, albedo, materials
+        return hits, albedo, materials, uvs
 
     def _trace_meshes(self, origins: Array, directions: Array, hit: Array, t: Array,
-                      object_id: Array, normal: Array, albedo: Array, backing: Array) -> None:
+                      object_id: Array, normal: Array, albedo: Array, backing: Array, texture_uvs: Array) -> None:
         result = nearest_shown(self._embree, self.meshes, origins, directions)
         geometry_id = result["geomID"]
         for index, item in enumerate(self.meshes):
@@ -346,6 +348,7 @@ class TruthTracer:
                 if mesh.uvs is not None:  # as triangles.glsl: the corners' UVs by the hit's barycentrics
                     uvs = (1 - u - v) * mesh.uvs[triangles[:, 0]] + u * mesh.uvs[triangles[:, 1]] \
                         + v * mesh.uvs[triangles[:, 2]]
+                    texture_uvs[mask] = uvs
                 albedo[mask] = material_albedo(item.object.material, local, uvs)
             elif isinstance(item.object.material, MirrorMaterial):
                 # Seen from behind: the ray runs along the outward face normal.
@@ -354,7 +357,7 @@ class TruthTracer:
                 albedo[behind] = MIRROR_BACKING_ALBEDO
 
     def _trace_planes(self, origins: Array, directions: Array, hit: Array, t: Array,
-                      object_id: Array, normal: Array, albedo: Array, backing: Array) -> None:
+                      object_id: Array, normal: Array, albedo: Array, backing: Array, texture_uvs: Array) -> None:
         """The shader's nearest_plane_hit: the rectangle |x| <= w/2, |z| <= d/2 of local y = 0."""
         for item in self.planes:
             world_to_local = np.linalg.inv(item.model_matrix)
@@ -377,8 +380,8 @@ class TruthTracer:
             object_id[closer] = item.index
             backing[closer] = False  # a plane before a mirror's back hides it
             normal[closer] = plane_normal / np.linalg.norm(plane_normal)
-            albedo[closer] = material_albedo(item.object.material, local[closer],
-                                             plane_uvs(local[closer], *item.object.shape.size))  # type: ignore[union-attr]
+            texture_uvs[closer] = plane_uvs(local[closer], *size)
+            albedo[closer] = material_albedo(item.object.material, local[closer], texture_uvs[closer])
 
 
 def _dot(a: Array, b: Array) -> Array:

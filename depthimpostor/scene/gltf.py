@@ -34,7 +34,7 @@ from depthimpostor.scene.limits import check_scene
 from depthimpostor.textures import texture_from_pixels
 from depthimpostor.scene.model import (
     Animation, Camera, DiffuseMaterial, Environment, GlassMaterial, GltfOrigin, GltfShape, Light, Material,
-    MetallicRoughnessMaterial, MirrorMaterial,
+    MetallicRoughnessMaterial, MirrorMaterial, material_textures,
     PlaneShape, RenderSettings, Scene, SceneObject, Texture,
 )
 
@@ -229,7 +229,8 @@ def _local_mesh(group: list[Primitive]) -> Mesh:
                 np.concatenate(uvs) if any_uvs else None)
 
 
-def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData, at: At, source: str) -> Texture:
+def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData, at: At, source: str,
+             srgb: bool = True) -> Texture:
     """A baseColorTexture: its image (EXT_texture_webp's where given, else `source`), decoded as
     written (image_files.py), its sampler's wrap modes, and its KHR_texture_transform (offset,
     rotation, scale: a texCoord there is listed as ignored, as the texture info's own)."""
@@ -255,6 +256,8 @@ def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData,
                 raise sampler_at.key(key).error(f"expected a wrap mode {', '.join(str(int(m)) for m in Wrap)}, "
                                                 f"got {show(sampler[key])}")
     texture_read = texture_from_pixels(pixels, sampler, name=f"{Path(source).name} images[{image}]")
+    if not srgb:
+        texture_read = dataclasses.replace(texture_read, srgb=False)
     transform = extension(info, "KHR_texture_transform", at)
     if transform is None:
         return texture_read
@@ -303,9 +306,32 @@ def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], data:
         mode = at.key("alphaMode").read(value.get("alphaMode", "OPAQUE"), f.choice(("OPAQUE", "MASK", "BLEND")))
         cutoff = (number_at(value, "alphaCutoff", 0.5, f.number(f.Bounds(0.0, math.inf)), at) if mode == "MASK"
                   else None)
+        maps = _maps(header, value, data, at, source)
         material = MetallicRoughnessMaterial((r, g, b), texture, metallic, roughness, _emissive(value, at),
-                                             alpha=float(factor[3]), alpha_cutoff=cutoff)
+                                             alpha=float(factor[3]), alpha_cutoff=cutoff, **maps)
     return GltfMaterial(_label(header, k), material, texture is not None and not isinstance(material, DiffuseMaterial))
+
+
+def _maps(header: Mapping[str, Any], value: Mapping[str, Any], data: GltfData | None, at: At,
+          source: str) -> dict[str, Any]:
+    """A material's metallic-roughness, occlusion (with its strength) and emissive maps: the first
+    two data (linear), the last colour (sRGB), as the specification stores them."""
+    if data is None:
+        return {}
+    pbr_at = at.key("pbrMetallicRoughness")
+    pbr = table(value.get("pbrMetallicRoughness", {}), pbr_at)
+    found: dict[str, Any] = {}
+    for holder, holder_at, key, field, srgb in (
+            (pbr, pbr_at, "metallicRoughnessTexture", "metallic_roughness_texture", False),
+            (value, at, "occlusionTexture", "occlusion_texture", False),
+            (value, at, "emissiveTexture", "emissive_texture", True)):
+        if key in holder:
+            info_at = holder_at.key(key)
+            info = table(holder[key], info_at)
+            found[field] = _texture(header, info, data, info_at, source, srgb)
+            if key == "occlusionTexture":
+                found["occlusion_strength"] = number_at(info, "strength", 1.0, f.number(f.UNIT), info_at)
+    return found
 
 
 def _emissive(value: Mapping[str, Any], at: At) -> Vec3:
@@ -422,15 +448,25 @@ def _as_plane(part: GltfPart, material: Material, position: Vec3, rotation: Vec3
     rectangle = part.rectangle
     if rectangle is None or isinstance(material, GlassMaterial) or animation is not None or len(set(scale)) != 1:
         return None
-    if isinstance(material, DiffuseMaterial) and material.texture is not None:
+    if material_textures(material):
         if rectangle.uv_scale is None:
             return None
         if rectangle.uv_scale != (1.0, 1.0):
-            texture = material.texture
-            repeats = (texture.scale[0] * rectangle.uv_scale[0], texture.scale[1] * rectangle.uv_scale[1])
-            key = (id(texture), *repeats)
-            scaled.setdefault(key, dataclasses.replace(texture, scale=repeats))
-            material = DiffuseMaterial(material.color, scaled[key])
+            uv_scale = rectangle.uv_scale
+
+            def rescaled(texture: Texture | None) -> Texture | None:
+                if texture is None:
+                    return None
+                repeats = (texture.scale[0] * uv_scale[0], texture.scale[1] * uv_scale[1])
+                return scaled.setdefault((id(texture), *repeats), dataclasses.replace(texture, scale=repeats))
+
+            assert isinstance(material, DiffuseMaterial)  # only they hold textures
+            material = dataclasses.replace(material, texture=rescaled(material.texture))
+            if isinstance(material, MetallicRoughnessMaterial):
+                material = dataclasses.replace(
+                    material, metallic_roughness_texture=rescaled(material.metallic_roughness_texture),
+                    occlusion_texture=rescaled(material.occlusion_texture),
+                    emissive_texture=rescaled(material.emissive_texture))
     placed = plane_placement(rectangle, position, rotation, scale[0])
     if placed is None:
         return None
@@ -454,10 +490,14 @@ def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str
         material = overrides.get(mapped.label, mapped.material)
         if mapped.textured and mapped.label not in overrides and mapped.label not in textured:
             textured.append(mapped.label)
-        if isinstance(material, DiffuseMaterial) and material.texture is not None and part.mesh.uvs is None:
-            # A textured material on a part without TEXCOORD_0: nothing says where the image goes.
-            tint = np.clip(np.multiply(material.color, material.texture.mean_color), 0.0, 1.0)
-            material = DiffuseMaterial((float(tint[0]), float(tint[1]), float(tint[2])))
+        if isinstance(material, DiffuseMaterial) and material_textures(material) and part.mesh.uvs is None:
+            # A textured material on a part without TEXCOORD_0: nothing says where the images go.
+            mean = material.texture.mean_color if material.texture is not None else (1.0, 1.0, 1.0)
+            tint = np.clip(np.multiply(material.color, mean), 0.0, 1.0)
+            material = dataclasses.replace(material, color=(float(tint[0]), float(tint[1]), float(tint[2])), texture=None)
+            if isinstance(material, MetallicRoughnessMaterial):
+                material = dataclasses.replace(material, metallic_roughness_texture=None, occlusion_texture=None,
+                                               emissive_texture=None)
             no_uvs.append(part.origin.describe())
         origin = dataclasses.replace(part.origin, file=model.source, placed_by=placed_by)
         plane = _as_plane(part, material, position, rotation, scale, animation, scaled)

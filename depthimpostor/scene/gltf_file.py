@@ -119,21 +119,23 @@ def _extension_names(value: Any) -> Iterator[str]:
 
 def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
     """The core material properties a material uses that are not drawn (scene_format.md says what
-    is): every texture but baseColorTexture on TEXCOORD_0, and blending (alphaMode MASK is drawn)."""
+    is): the normal map, a texture on another set than TEXCOORD_0, and blending (alphaMode MASK is
+    drawn)."""
     pbr = material.get("pbrMetallicRoughness", {})
     pbr = pbr if isinstance(pbr, Mapping) else {}
-    for key in ("normalTexture", "occlusionTexture", "emissiveTexture"):
-        if key in material:
-            yield key
-    if "metallicRoughnessTexture" in pbr:
-        yield "metallicRoughnessTexture"
-    base = pbr.get("baseColorTexture")
-    if isinstance(base, Mapping) and base.get("texCoord", 0) != 0:
-        yield "baseColorTexture.texCoord"
-    extensions = base.get("extensions") if isinstance(base, Mapping) else None
-    transform = extensions.get("KHR_texture_transform") if isinstance(extensions, Mapping) else None
-    if isinstance(transform, Mapping) and transform.get("texCoord", 0) != 0:
-        yield "KHR_texture_transform.texCoord"
+    if "normalTexture" in material:
+        yield "normalTexture"
+    infos = [("baseColorTexture", pbr.get("baseColorTexture")), ("metallicRoughnessTexture", pbr.get("metallicRoughnessTexture")),
+             ("occlusionTexture", material.get("occlusionTexture")), ("emissiveTexture", material.get("emissiveTexture"))]
+    for key, info in infos:
+        if not isinstance(info, Mapping):
+            continue
+        if info.get("texCoord", 0) != 0:
+            yield f"{key}.texCoord"
+        extensions = info.get("extensions")
+        transform = extensions.get("KHR_texture_transform") if isinstance(extensions, Mapping) else None
+        if isinstance(transform, Mapping) and transform.get("texCoord", 0) != 0:
+            yield f"{key}.KHR_texture_transform.texCoord"
     if material.get("alphaMode", "OPAQUE") == "BLEND":
         yield "alphaMode BLEND"
 

@@ -314,6 +314,9 @@ class Texture:
     # after `scale`: uv' = T(offset) R(rotation) S(scale) uv, as the extension defines it.
     offset: tuple[float, float] = (0.0, 0.0)
     rotation: float = 0.0
+    # Colour, stored sRGB-encoded (decoded to linear when sampled: a base colour, an emissive map);
+    # False: data stored as it is (a metallic-roughness or occlusion map).
+    srgb: bool = True
 
     @property
     def uv_rows(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
@@ -353,11 +356,33 @@ class MetallicRoughnessMaterial(DiffuseMaterial):
     # `alpha_cutoff`, the surface is not there (every pass and the truth). None: opaque.
     alpha: float = 1.0
     alpha_cutoff: float | None = None
+    # glTF's other maps (linear data but the emissive map, which is colour): metalness in B and
+    # roughness in G (times the factors), ambient occlusion in R (mixed in by occlusion_strength:
+    # it darkens the ambient term alone), and the emission times `emissive`.
+    metallic_roughness_texture: Texture | None = None
+    occlusion_texture: Texture | None = None
+    occlusion_strength: float = 1.0
+    emissive_texture: Texture | None = None
+
+    @property
+    def maps(self) -> tuple[Texture | None, Texture | None, Texture | None]:
+        """The metallic-roughness, occlusion and emissive maps, in the material record's order."""
+        return self.metallic_roughness_texture, self.occlusion_texture, self.emissive_texture
 
     @property
     def masked(self) -> bool:
         """Can parts of it be cut away (alphaMode MASK)?"""
         return self.alpha_cutoff is not None
+
+
+def material_textures(material: object) -> tuple[Texture, ...]:
+    """Every image texture a material reads: its base colour's, then a metallic-roughness
+    material's other maps."""
+    texture = getattr(material, "texture", None)
+    found = [texture] if isinstance(texture, Texture) else []
+    if isinstance(material, MetallicRoughnessMaterial):
+        found += [m for m in material.maps if m is not None]
+    return tuple(found)
 
 
 @dataclass(frozen=True)
@@ -565,13 +590,13 @@ class Scene:
 
     @functools.cached_property
     def textures(self) -> tuple[Texture, ...]:
-        """The distinct image textures of the objects' materials (by identity), in object order:
-        texture slot k is the k-th (record k of gpu/textures.py's table: its array, layer, wraps).
-        Computed once: the fields are frozen."""
+        """The distinct image textures of the objects' materials (by identity), in object order, a
+        material's base colour texture before its other maps: texture slot k is the k-th (record k
+        of gpu/textures.py's table: its array, layer, wraps, transform). Computed once: the fields
+        are frozen."""
         seen: dict[int, Texture] = {}
         for obj in self.objects:
-            texture = getattr(obj.material, "texture", None)
-            if isinstance(texture, Texture):
+            for texture in material_textures(obj.material):
                 seen.setdefault(id(texture), texture)
         return tuple(seen.values())
 
@@ -580,8 +605,11 @@ class Scene:
         return {id(texture): k for k, texture in enumerate(self.textures)}
 
     def texture_slot(self, material: Material) -> int:
-        """The slot of the material's texture, or -1 for a material without one."""
-        texture = getattr(material, "texture", None)
+        """The slot of the material's (base colour) texture, or -1 for a material without one."""
+        return self.slot_of(getattr(material, "texture", None))
+
+    def slot_of(self, texture: Texture | None) -> int:
+        """The slot of one of the scene's textures, or -1 for none."""
         return -1 if texture is None else self._texture_slots[id(texture)]
 
     @functools.cached_property

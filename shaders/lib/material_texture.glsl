@@ -15,6 +15,12 @@ layout(std140) uniform TextureRecords {
     TextureRecord u_texture_records[TEXTURE_COUNT];
 };
 
+// The texture's UV: the mesh's, through the slot's UV transform (KHR_texture_transform's).
+vec2 texture_uv(int slot, vec2 mesh_uv) {
+    vec3 affine = vec3(mesh_uv, 1.0);
+    return vec2(dot(u_texture_records[slot].uv_u, affine), dot(u_texture_records[slot].uv_v, affine));
+}
+
 #ifdef RASTERIZED_TEXTURES
 #include "../generated/material_arrays.glsl"
 
@@ -38,7 +44,8 @@ float fold_coordinate(float u, int mode) {
 // sampler, its UV folded here, with the derivatives of the UV before folding: a fold turns the UV
 // back at a seam, where the folded UV's own derivatives would pick the finest level (a line of
 // aliasing along every seam) or, across fract's jump, the coarsest.
-vec4 material_texel_rgba(int slot, vec2 uv) {
+vec4 material_texel_rgba(int slot, vec2 mesh_uv) {
+    vec2 uv = texture_uv(slot, mesh_uv);
     ivec4 sampling = u_texture_records[slot].sampling;  // array, layer, wrap s, wrap t
 #ifdef FOLDED_TEXTURES
 #ifdef REPEATING_TEXTURES
@@ -63,9 +70,10 @@ ivec2 texture_level0_size(int slot) {
 }
 
 // Texel `texel` (in [0, size)) of the slot's level 0, its colour decoded from sRGB by the exact
-// table, its alpha (linear) in [0, 1].
+// table (data, srgb = 0: as stored, in [0, 1]), its alpha (linear) in [0, 1].
 vec4 texel_level0(int slot, ivec2 texel) {
     uvec4 encoded = texelFetch(u_material_texels, u_texture_records[slot].texels.xy + texel, 0);
+    if (u_texture_records[slot].srgb == 0) return vec4(encoded) / 255.0;
     return vec4(u_srgb_to_linear[encoded.r], u_srgb_to_linear[encoded.g], u_srgb_to_linear[encoded.b],
                 float(encoded.a) / 255.0);
 }
@@ -93,7 +101,8 @@ ivec2 wrap_texels(ivec2 index, ivec2 size, ivec2 mode) {
 // Level 0, bilinear, weights in float32: for traced rays, which have no derivatives to choose a
 // level from. The truth (textures.py's texture_bilinear) is this in numpy: see the comparison
 // rule there.
-vec4 material_texel_rgba(int slot, vec2 uv) {
+vec4 material_texel_rgba(int slot, vec2 mesh_uv) {
+    vec2 uv = texture_uv(slot, mesh_uv);
     ivec2 size = texture_level0_size(slot);
     vec2 x = uv * vec2(size) - 0.5;  // texel centres at half-integers
     vec2 base = floor(x);
@@ -110,7 +119,8 @@ vec4 material_texel_rgba(int slot, vec2 uv) {
 }
 #endif
 
-// The texel's linear colour (material_texel_rgba's alpha is glTF's coverage: alphaMode MASK).
-vec3 material_texel(int slot, vec2 uv) {
-    return material_texel_rgba(slot, uv).rgb;
+// The texel's linear colour at the mesh's UV (material_texel_rgba's alpha is glTF's coverage:
+// alphaMode MASK).
+vec3 material_texel(int slot, vec2 mesh_uv) {
+    return material_texel_rgba(slot, mesh_uv).rgb;
 }

@@ -217,7 +217,7 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
                 albedo = mix(material.color_a, material.color_b, share);
             }
 #endif
-            best = unlit_hit(t, p.xz, albedo, plane.normal, plane.material, float(plane.object_id), 0);
+            best = unlit_hit(t, p.xz, albedo, plane.normal, plane.material, uv, float(plane.object_id), 0);
         }
     }
     return best;
@@ -331,8 +331,8 @@ RayHit trace_reflected(vec3 origin, vec3 direction) {
     // The share of the cone the object its axis hit does not cover (its silhouette's
     // neighbourhood in the footprint) sees what lies behind it: the plane beyond it, or the sky.
     if (hit.hit && !hit.unlit && g_cone_coverage < 1.0) {
-        vec3 behind = plane.hit ? shade_material(u_materials[plane.material], plane.color, origin + direction * plane.t,
-                                                 plane.normal, -direction)
+        vec3 behind = plane.hit ? shade_material(u_materials[plane.material], plane.color, plane.uv,
+                                                 origin + direction * plane.t, plane.normal, -direction)
                                 : prefiltered_environment(direction);
         hit.color = mix(behind, hit.color, g_cone_coverage);
     }
@@ -341,6 +341,7 @@ RayHit trace_reflected(vec3 origin, vec3 direction) {
     if (!hit.hit) hit.color = environment(direction);
 #endif
     if (hit.hit && hit.unlit)
-        hit.color = shade_material(u_materials[hit.material], hit.color, origin + direction * hit.t, hit.normal, -direction);
+        hit.color = shade_material(u_materials[hit.material], hit.color, hit.uv, origin + direction * hit.t, hit.normal,
+                                   -direction);
     return hit;
 }

@@ -35,12 +35,6 @@ layout(std140) uniform MaterialRecords {
 // passes/diffuse.py) leaves the checker out, and with it the local position it reads. llvmpipe runs
 // the body of an `if` whatever the condition: the test alone would not spare it. (With
 // DIRECTIONAL_LIGHTS, a fifth of the 8 x 9 scene's bake: tools/bake_cost.py.)
-// The texture's UV: the mesh's, through the material's UV transform (KHR_texture_transform's).
-vec2 placed_uv(Material material, vec2 uv) {
-    vec3 affine = vec3(uv, 1.0);
-    return vec2(dot(material.uv_u, affine), dot(material.uv_v, affine));
-}
-
 vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
 #ifndef NO_CHECKER
     if (material.kind == MATERIAL_CHECKER) {
@@ -50,7 +44,7 @@ vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
 #endif
 #ifdef TEXTURE_COUNT
     if (material.texture >= 0) {
-        return material.color_a * material_texel(material.texture, placed_uv(material, uv));
+        return material.color_a * material_texel(material.texture, uv);
     }
 #endif
     return material.color_a;
@@ -64,7 +58,7 @@ bool material_masked(Material material, vec2 uv) {
     if (material.alpha_cutoff < 0.0) return false;
     float alpha = material.alpha;
 #ifdef TEXTURE_COUNT
-    if (material.texture >= 0) alpha *= material_texel_rgba(material.texture, placed_uv(material, uv)).a;
+    if (material.texture >= 0) alpha *= material_texel_rgba(material.texture, uv).a;
 #endif
     return alpha < material.alpha_cutoff;
 }
@@ -108,16 +102,29 @@ vec3 shade(vec3 albedo, vec3 position, vec3 normal) {
 #include "brdf.glsl"
 
 // A metallic-roughness surface of `base_color` (the material's factor times its texel: material_albedo)
-// seen along `to_viewer` (unit, from the surface): the ambient term as a uniform environment, the
-// lights through the BRDF, and the emitted light. A variant of the scenes that have such a
-// material (METALLIC_ROUGHNESS: shading_defines); oracles/brdf.py's function of the same name.
-vec3 shade_metallic_roughness(Material material, vec3 base_color, vec3 position, vec3 normal, vec3 to_viewer) {
-    vec3 c_diff = mix(base_color, vec3(0.0), material.metallic);
-    vec3 f0 = mix(vec3(DIELECTRIC_F0), base_color, material.metallic);
-    float roughness = max(material.roughness, MIN_ROUGHNESS);
-    float alpha = roughness * roughness;
+// at the mesh's texture coordinates `uv`, seen along `to_viewer` (unit, from the surface): the
+// ambient term as a uniform environment (darkened by the occlusion map), the lights through the
+// BRDF, and the emitted light. A variant of the scenes that have such a material
+// (METALLIC_ROUGHNESS: shading_defines); oracles/brdf.py's function of the same name.
+vec3 shade_metallic_roughness(Material material, vec3 base_color, vec2 uv, vec3 position, vec3 normal, vec3 to_viewer) {
+    float metallic = material.metallic, roughness = material.roughness, occlusion = 1.0;
+    vec3 emissive = material.emissive;
+#ifdef TEXTURE_COUNT
+    if (material.metallic_roughness_texture >= 0) {  // glTF: roughness in G, metalness in B
+        vec3 texel = material_texel(material.metallic_roughness_texture, uv);
+        roughness *= texel.g;
+        metallic *= texel.b;
+    }
+    if (material.occlusion_texture >= 0)
+        occlusion = 1.0 + material.occlusion_strength * (material_texel(material.occlusion_texture, uv).r - 1.0);
+    if (material.emissive_texture >= 0) emissive *= material_texel(material.emissive_texture, uv);
+#endif
+    vec3 c_diff = mix(base_color, vec3(0.0), metallic);
+    vec3 f0 = mix(vec3(DIELECTRIC_F0), base_color, metallic);
+    float lobe_roughness = max(roughness, MIN_ROUGHNESS);
+    float alpha = lobe_roughness * lobe_roughness;
     float n_dot_v = abs(dot(normal, to_viewer));
-    vec3 color = u_lighting.ambient * (c_diff + ambient_specular(f0, material.roughness, n_dot_v));
+    vec3 color = u_lighting.ambient * occlusion * (c_diff + ambient_specular(f0, roughness, n_dot_v));
     for (int i = 0; i < LIGHT_COUNT; ++i) {
         Light light = u_lighting.lights[i];
         vec3 to_light = toward_light(light, position, normal);
@@ -128,16 +135,16 @@ vec3 shade_metallic_roughness(Material material, vec3 base_color, vec3 position,
 #endif
         color += metallic_roughness_brdf(c_diff, f0, alpha, normal, to_light, to_viewer) * light.radiance * cosine;
     }
-    return color + material.emissive;
+    return color + emissive;
 }
 #endif
 
-// A surface of `material` (its colour at the point: `albedo`, material_albedo's), seen along
-// `to_viewer`: the one call every pass makes to shade a point.
-vec3 shade_material(Material material, vec3 albedo, vec3 position, vec3 normal, vec3 to_viewer) {
+// A surface of `material` (its colour at the point: `albedo`, material_albedo's; the mesh's texture
+// coordinates there: `uv`), seen along `to_viewer`: the one call every pass makes to shade a point.
+vec3 shade_material(Material material, vec3 albedo, vec2 uv, vec3 position, vec3 normal, vec3 to_viewer) {
 #ifdef METALLIC_ROUGHNESS
     if (material.kind == MATERIAL_METALLIC_ROUGHNESS)
-        return shade_metallic_roughness(material, albedo, position, normal, to_viewer);
+        return shade_metallic_roughness(material, albedo, uv, position, normal, to_viewer);
 #endif
     return shade(albedo, position, normal);
 }

@@ -106,8 +106,9 @@ RayHit triangle_hit(vec3 origin, vec3 direction, int slot, int i, float t, vec2 
     vec3 normal = safe_normalize(local_normal * mat3(object.world_to_local), -direction);
     vec3 position = origin + direction * t;
     Material material = u_materials[object.ids.x];
-    vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz, triangle_uv(i, uv));
-    return unlit_hit(t, uv, albedo, normal, object.ids.x, float(object.ids.y), samples);
+    vec2 texture_uv = triangle_uv(i, uv);
+    vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz, texture_uv);
+    return unlit_hit(t, uv, albedo, normal, object.ids.x, texture_uv, float(object.ids.y), samples);
 }
 
 // The nearest triangle of one mesh that the ray (in the mesh's space) meets nearer than best_t,
