@@ -236,3 +236,22 @@ def test_the_eye_sees_metals_as_the_truth(ctx: moderngl.Context, metal_scene: Sc
     differs = np.abs(truth - raster).max(axis=2) > 2 / 255
     assert differs.mean() < 0.02, f"{differs.mean():.3%} of pixels differ"
     assert np.median(np.abs(truth - raster)) < 1e-3
+
+
+def test_more_materials_than_the_gl_holds_are_refused_in_one_line(ctx: moderngl.Context, metal_scene: Scene) -> None:
+    """The material table is a uniform block: past GL_MAX_UNIFORM_BLOCK_SIZE the scene is refused
+    before anything is made, naming the count and the limit."""
+    from depthimpostor.errors import GpuLimitError
+    from depthimpostor.gpu.limits import GpuLimits, context_limits, use_limits
+
+    before = context_limits(ctx)
+    count = len(metal_scene.materials)
+    use_limits(ctx, dataclasses.replace(before, max_uniform_block_size=96 * (count - 1)))
+    try:
+        with pytest.raises(GpuLimitError) as refused:
+            Renderer(ctx, metal_scene, method=Method.RAYTRACE).release()
+    finally:
+        use_limits(ctx, before)
+    message = str(refused.value)
+    assert "\n" not in message and f"{count} distinct materials" in message and "GL_MAX_UNIFORM_BLOCK_SIZE" in message
+    assert isinstance(before, GpuLimits)
