@@ -255,3 +255,43 @@ def test_more_materials_than_the_gl_holds_are_refused_in_one_line(ctx: moderngl.
     message = str(refused.value)
     assert "\n" not in message and f"{count} distinct materials" in message and "GL_MAX_UNIFORM_BLOCK_SIZE" in message
     assert isinstance(before, GpuLimits)
+
+
+def test_a_toml_material_overrides_what_the_gltf_rule_makes_a_mirror(tmp_path: Path) -> None:
+    """`metallic_roughness` in TOML: glTF's model for TOML objects, and the override of the mirror
+    rule for a placed glTF's materials (a polished metal stays a shaded metal)."""
+    from depthimpostor.scene.model import MirrorMaterial
+    from gltf_files import GltfWriter
+
+    w = GltfWriter()
+    chrome = w.material("Chrome", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.05)
+    w.node(name="Ball", mesh=w.mesh(w.box(material=chrome)))
+    w.write(tmp_path / "thing.glb")
+    (tmp_path / "s.toml").write_text("""
+[[objects]]
+name = "thing"
+shape = { type = "gltf", path = "thing.glb" }
+[[objects]]
+name = "polished"
+shape = { type = "gltf", path = "thing.glb" }
+materials = { "Chrome" = { type = "metallic_roughness", color = [0.9, 0.8, 0.2], metallic = 1.0, roughness = 0.05 } }
+position = [2.0, 0.0, 0.0]
+[[objects]]
+name = "lamp"
+shape = { type = "sphere", radius = 0.2 }
+material = { type = "metallic_roughness", color = [0.1, 0.1, 0.1], metallic = 0.0, roughness = 0.5, emissive = [3.0, 2.0, 1.0] }
+position = [0.0, 2.0, 0.0]
+""")
+    scene = load_scene(tmp_path / "s.toml")
+    assert isinstance(scene.objects[0].material, MirrorMaterial)
+    assert scene.objects[1].material == MetallicRoughnessMaterial((0.9, 0.8, 0.2), None, 1.0, 0.05)
+    assert scene.objects[2].material == MetallicRoughnessMaterial((0.1, 0.1, 0.1), None, 0.0, 0.5, (3.0, 2.0, 1.0))
+    (tmp_path / "bad.toml").write_text("""
+[[objects]]
+name = "lamp"
+shape = { type = "sphere", radius = 0.2 }
+material = { type = "metallic_roughness", metallic = 2.0 }
+""")
+    from depthimpostor.errors import SceneError
+    with pytest.raises(SceneError, match=r"bad.toml: objects\[0\].material.metallic: expected a number in \[0, 1\]"):
+        load_scene(tmp_path / "bad.toml")
