@@ -50,7 +50,7 @@ from .methods.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
 from .passes.shadows import shadow_map_defines, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
 from .gpu.uniforms import alpha_mask_defines, environment_defines
 from .scene.limits import check_method, check_model_reach, check_model_uvs, check_scene
-from .scene.model import MeshShape, Scene
+from .scene.model import MeshShape, MetallicRoughnessMaterial, Scene
 from .gpu.shaders import ProgramKey, program_key
 from .graph import Pass, RenderNode, build_graph, format_graph, in_order, node_class
 from .world import World
@@ -441,6 +441,23 @@ def ignored_in_files(scene: Scene) -> tuple[tuple[str, tuple[str, ...]], ...]:
     return tuple((file, names) for file, names in ignored.items() if names)
 
 
+def material_kinds(scene: Scene) -> str:
+    """What the scene's materials call for, for `plan`: the metallic-roughness shading (the
+    METALLIC_ROUGHNESS variant of every shading program) and the alpha mask (ALPHA_MASK) only where
+    a material has them, so a scene without pays for neither."""
+    pbr = [m for m in scene.materials if isinstance(m, MetallicRoughnessMaterial)]
+    if not pbr:
+        return ""
+    masked = sum(m.masked for m in pbr)
+    maps = sum(any(t is not None for t in m.maps) for m in pbr)
+    parts = [f"{len(pbr)} metallic-roughness (their shading compiled in: METALLIC_ROUGHNESS)"]
+    if maps:
+        parts.append(f"{maps} with metallic-roughness, occlusion or emissive maps")
+    if masked:
+        parts.append(f"{masked} alpha-masked (every surface pass cuts them: ALPHA_MASK)")
+    return ", of which " + ", ".join(parts)
+
+
 def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImagePlan]], memory: dict[str, int],
                 reflected: list[ObjectGeometry]) -> tuple[str, ...]:
     """One line per limit the scene meets (scene/limits.py's table): what it uses of a fixed cap,
@@ -470,8 +487,9 @@ def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImageP
     if spec.names_triangles:
         triangles = sum(len(g.local_mesh.indices) for g in reflected)
         lines.append(f"reflected triangles: {triangles} of {MAX_NAMED_TRIANGLES} (a float32 depth-image sample names one)")
-    lines.append(f"materials: {len(scene.materials)} (any number: one record of {MATERIAL.dtype.itemsize} bytes each in a "
-                 "uniform block, within GL_MAX_UNIFORM_BLOCK_SIZE (16 KiB at GL's least), checked at render)")
+    lines.append(f"materials: {len(scene.materials)}{material_kinds(scene)} (any number: one record of "
+                 f"{MATERIAL.dtype.itemsize} bytes each in a uniform block, within GL_MAX_UNIFORM_BLOCK_SIZE (16 KiB at "
+                 "GL's least), checked at render)")
     if scene.textures:
         lines.append(f"image textures: {len(scene.textures)} (any number: in texture arrays, within GL_MAX_TEXTURE_SIZE, "
                      "GL_MAX_ARRAY_TEXTURE_LAYERS and GL_MAX_UNIFORM_BLOCK_SIZE, checked at render)")
