@@ -102,6 +102,25 @@ class GltfWriter:
         accessor.pop("min", None), accessor.pop("max", None)
         return k
 
+    def raw_accessor(self, array: Any, kind: str, component: int = FLOAT) -> int:
+        """An accessor of any element type (SCALAR, VEC4, MAT4...) and component type, as given."""
+        dtype = {FLOAT: np.float32, UNSIGNED_INT: np.uint32, 5123: np.uint16, 5121: np.uint8}[component]
+        data = np.ascontiguousarray(array, dtype)
+        return self._append("accessors", {"bufferView": self.view(data.tobytes()), "componentType": component,
+                                          "count": len(data), "type": kind})
+
+    def animation(self, *channels: tuple[int, str, Any, Any, str]) -> int:
+        """An animation of (node, path, keyframe times, values (rows; CUBICSPLINE: in-tangent, value,
+        out-tangent rows a keyframe), interpolation) channels, a sampler each."""
+        samplers, targets = [], []
+        for s, (node, path, times, values, interpolation) in enumerate(channels):
+            values = np.asarray(values, np.float32)
+            kind = "SCALAR" if values.ndim == 1 else f"VEC{values.shape[1]}"
+            samplers.append({"input": self.raw_accessor(np.asarray(times), "SCALAR"),
+                             "output": self.raw_accessor(values, kind), "interpolation": interpolation})
+            targets.append({"sampler": s, "target": {"node": node, "path": path}})
+        return self._append("animations", {"samplers": samplers, "channels": targets})
+
     def light(self, **fields: Any) -> int:
         extensions = self.json.setdefault("extensions", {}).setdefault("KHR_lights_punctual", {"lights": []})
         extensions["lights"].append(fields)
@@ -126,3 +145,37 @@ def quaternion(axis: tuple[float, float, float], degrees: float) -> list[float]:
     """glTF's XYZW rotation quaternion."""
     half = np.radians(degrees) / 2.0
     return [*(np.sin(half) * np.asarray(axis, float) / np.linalg.norm(axis)).tolist(), float(np.cos(half))]
+
+
+def skinned_column(w: GltfWriter, material: int, translation: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                   keys: tuple[float, ...] = (0.0, 60.0, 0.0), interpolation: str = "LINEAR") -> int:
+    """A square column 2 high along +Y (0.4 wide, in 8 rings, file normals), skinned to two bones:
+    the root joint at its foot (the node `translation`) and a child joint 1 above it, which the
+    file's animation turns about Z through `keys` degrees at t = 0, 1, 2... The vertices below
+    y = 0.5 follow the root, those above 1.5 the child, those between a blend (wide enough that no
+    triangle folds over at 60 degrees). Returns the root."""
+    rings = np.linspace(0.0, 2.0, 9)
+    square = np.array([[-0.2, -0.2], [0.2, -0.2], [0.2, 0.2], [-0.2, 0.2]])
+    positions = np.array([[x, y, z] for y in rings for x, z in square])
+    normals = np.array([[x, 0.0, z] for _ in rings for x, z in square]) / np.hypot(0.2, 0.2)
+    faces = [[4 * r + k, 4 * r + 4 + (k + 1) % 4, 4 * r + (k + 1) % 4] for r in range(8) for k in range(4)]
+    faces += [[4 * r + k, 4 * r + 4 + k, 4 * r + 4 + (k + 1) % 4] for r in range(8) for k in range(4)]
+    faces += [[0, 1, 2], [0, 2, 3], [32, 34, 33], [32, 35, 34]]  # the ends (with the sides' normals: rounded)
+    upper = np.clip(positions[:, 1] - 0.5, 0.0, 1.0)
+    primitive = w.primitive(positions, np.array(faces), normals, material=material)
+    primitive["attributes"]["JOINTS_0"] = w.raw_accessor(np.tile([0, 1, 0, 0], (len(positions), 1)), "VEC4", 5123)
+    primitive["attributes"]["WEIGHTS_0"] = w.raw_accessor(
+        np.stack([1.0 - upper, upper, 0.0 * upper, 0.0 * upper], axis=1), "VEC4")
+    root = w.node(name="Root", translation=list(translation))
+    bend = w.node(root=False, name="Bend", translation=[0.0, 1.0, 0.0])
+    w.json["nodes"][root]["children"] = [bend]
+    # Inverse bind matrices: the joints' world matrices at bind time, inverted (column-major).
+    binds = np.stack([np.eye(4), np.eye(4)])
+    binds[0, :3, 3] = -np.asarray(translation)
+    binds[1, :3, 3] = -np.asarray(translation) - (0.0, 1.0, 0.0)
+    w.json["skins"] = [{"joints": [root, bend], "inverseBindMatrices": w.raw_accessor(
+        binds.transpose(0, 2, 1).reshape(-1, 16), "MAT4")}]
+    w.node(name="Column", mesh=w.mesh(primitive), skin=0)
+    w.animation((bend, "rotation", [float(t) for t in range(len(keys))], [quaternion((0, 0, 1), a) for a in keys],
+                 interpolation))
+    return root

@@ -1,0 +1,261 @@
+"""glTF animation as authored (scene/gltf_animation.py, gltf_deform.py): node TRS channels with
+their three interpolations through the node tree, looping, morph targets and skins, each sampled
+where the specification says; bad channels refused in one line; and, rendered, a skinned column
+whose joint turns moves in every method's picture and in the truth's alike. Every file is built
+here (tests/gltf_files.py)."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+from typing import Any
+
+import moderngl
+import numpy as np
+import pytest
+
+from conftest import assert_finite
+from depthimpostor.constants import Method
+from depthimpostor.errors import SceneWarning
+from depthimpostor.oracles.compare import Comparison, compare
+from depthimpostor.renderer import Renderer
+from depthimpostor.scene import Scene, load_scene
+from depthimpostor.scene.gltf_file import ignored_features, read_json
+from depthimpostor.scene.model import axis_rotation
+from depthimpostor.world import World
+from gltf_files import GltfWriter, quaternion, skinned_column
+from test_cli import assert_one_line_error, run_in_process
+
+
+def load_quietly(path: Path) -> Scene:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SceneWarning)
+        return load_scene(path)
+
+
+def world_positions(scene: Scene, time: float, index: int = 0) -> np.ndarray:
+    """objects[index]'s world-space vertices at `time`, as every pass and the truth see them."""
+    return World(scene, time=time).geometry[index].world_mesh.positions.astype(np.float64)
+
+
+def animated_box(tmp_path: Path, *channels: tuple[str, Any, Any, str], parent: bool = False) -> Scene:
+    """A unit box whose node (or, `parent`, whose parent node) the channels animate."""
+    w = GltfWriter()
+    box = w.node(mesh=w.mesh(w.box(material=w.material("Grey"), normals=True)), root=not parent, translation=[0, 0, 1])
+    target = box
+    if parent:
+        target = w.node(name="Parent", children=[box], translation=[1, 0, 0])
+    w.animation(*((target, path, times, values, interpolation) for path, times, values, interpolation in channels))
+    return load_quietly(w.write(tmp_path / "a.glb"))
+
+
+def moved_by(scene: Scene, time: float) -> np.ndarray:
+    """The world transform of objects[0] at `time` relative to time as written (the file's rest)."""
+    return scene.objects[0].model_matrix(time)
+
+
+# --- node channels --------------------------------------------------------------------------------------------
+def test_linear_translation_loops_over_the_clip_and_step_holds(tmp_path: Path) -> None:
+    linear = animated_box(tmp_path, ("translation", [0.0, 2.0], [[0, 0, 1], [2, 0, 1]], "LINEAR"))
+    for time, x in ((0.0, 0.0), (0.5, 0.5), (2.5, 0.5), (-1.5, 0.5), (1.999, 1.999)):
+        np.testing.assert_allclose(moved_by(linear, time)[:3, 3], (x, 0, 0), atol=1e-9)
+    step = animated_box(tmp_path, ("translation", [0.0, 1.0, 2.0], [[0, 0, 1], [3, 0, 1], [5, 0, 1]], "STEP"))
+    for time, x in ((0.5, 0.0), (1.0, 3.0), (1.9, 3.0)):
+        np.testing.assert_allclose(moved_by(step, time)[:3, 3], (x, 0, 0), atol=1e-9)
+    assert linear.animated and linear.objects[0].moves and not linear.objects[0].deforms
+
+
+def test_rotation_is_slerped_along_the_shorter_arc(tmp_path: Path) -> None:
+    """0 to 350 degrees about Y: the shorter arc goes back through -5 at the middle, not on through 175."""
+    scene = animated_box(tmp_path, ("rotation", [0.0, 1.0], [quaternion((0, 1, 0), 0), quaternion((0, 1, 0), 350)],
+                                    "LINEAR"))
+    rest = np.eye(4)
+    rest[2, 3] = 1.0
+    expected = np.eye(4)
+    expected[:3, :3] = axis_rotation(1, -5.0)
+    expected[2, 3] = 1.0
+    np.testing.assert_allclose(moved_by(scene, 0.5) @ rest, expected, atol=1e-9)
+
+
+def test_cubic_spline_is_appendix_cs_hermite_with_scaled_tangents(tmp_path: Path) -> None:
+    """Keys at t = 1 and 3 (interval 2): p(s) = (2s^3 - 3s^2 + 1) v0 + 2 (s^3 - 2s^2 + s) b0
+    + (-2s^3 + 3s^2) v1 + 2 (s^3 - s^2) a1, at t = 1.6 (s = 0.3)."""
+    v0, b0, a1, v1 = 1.0, 4.0, -2.0, 3.0
+    rows = [[9, 0, 1], [v0, 0, 1], [b0, 0, 0], [a1, 0, 0], [v1, 0, 1], [9, 0, 0]]  # (in, value, out) per key
+    scene = animated_box(tmp_path, ("translation", [1.0, 3.0], rows, "CUBICSPLINE"))
+    s = 0.3
+    x = (2 * s**3 - 3 * s**2 + 1) * v0 + 2 * (s**3 - 2 * s**2 + s) * b0 + (-2 * s**3 + 3 * s**2) * v1 \
+        + 2 * (s**3 - s**2) * a1
+    np.testing.assert_allclose(moved_by(scene, 1.6)[:3, 3], (x, 0, 0), atol=1e-6)
+    np.testing.assert_allclose(moved_by(scene, 0.5)[:3, 3], (v0, 0, 0), atol=1e-6)  # before the first key: its value
+
+
+def test_a_parents_animation_moves_its_child(tmp_path: Path) -> None:
+    """The parent at (1, 0, 0) turns about Y: the child box, 1 along Z from it, swings round it."""
+    scene = animated_box(tmp_path, ("rotation", [0.0, 1.0], [quaternion((0, 1, 0), 0), quaternion((0, 1, 0), 90)],
+                                    "LINEAR"), parent=True)
+    centre = world_positions(scene, 1.0 - 1e-9).mean(axis=0)  # just before the loop: 90 degrees
+    np.testing.assert_allclose(centre, (2.0, 0.0, 0.0), atol=1e-5)
+    np.testing.assert_allclose(world_positions(scene, 0.0).mean(axis=0), (1.0, 0.0, 1.0), atol=1e-6)
+
+
+def test_a_file_without_animations_is_still_at_every_time(tmp_path: Path) -> None:
+    w = GltfWriter()
+    w.node(mesh=w.mesh(w.box(material=w.material("Grey"))), translation=[0, 0, 1])
+    scene = load_quietly(w.write(tmp_path / "still.glb"))
+    assert not scene.animated and scene.objects[0].motion is None
+
+
+# --- bad channels -------------------------------------------------------------------------------------------
+def bad_animation(tmp_path: Path, case: str) -> tuple[Path, str]:
+    w = GltfWriter()
+    node = w.node(mesh=w.mesh(w.box(material=w.material("Grey"))))
+    w.animation((node, "translation", [0.0, 1.0], [[0, 0, 0], [1, 0, 0]], "LINEAR"))
+    animation = w.json["animations"][0]
+    if case == "sampler":
+        animation["channels"][0]["sampler"] = 3
+        fragment = "animations[0].channels[0].sampler: expected an index in [0, 1), got 3"
+    elif case == "input":
+        animation["samplers"][0]["input"] = w.raw_accessor(np.array([1.0, 0.5]), "SCALAR")
+        fragment = "animations[0].samplers[0].input: expected keyframe times >= 0, finite and strictly increasing"
+    elif case == "output":
+        animation["samplers"][0]["output"] = w.raw_accessor(np.zeros((3, 3)), "VEC3")
+        fragment = ("animations[0].samplers[0].output: expected 2 values of 3 components for translation "
+                    "(2 keyframes, LINEAR), got 3 of 3")
+    elif case == "path":
+        animation["channels"][0]["target"]["path"] = "position"
+        fragment = 'animations[0].channels[0].target.path: expected "translation", "rotation", "scale" or "weights"'
+    else:
+        animation["samplers"][0]["interpolation"] = "SMOOTH"
+        fragment = "animations[0].samplers[0].interpolation: expected one of LINEAR, STEP, CUBICSPLINE"
+    return w.write(tmp_path / "x.glb"), fragment
+
+
+@pytest.mark.parametrize("case", ["sampler", "input", "output", "path", "interpolation"])
+def test_a_bad_channel_is_refused_in_one_line_naming_it(tmp_path: Path, case: str,
+                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    path, fragment = bad_animation(tmp_path, case)
+    code, stdout, stderr = run_in_process(["plan", str(path)], capsys)
+    assert_one_line_error(code, stdout, stderr, f"{path}: ", fragment)
+
+
+# --- morph targets and skins ----------------------------------------------------------------------------------
+def morphed_quad(tmp_path: Path, mesh_weights: list[float] | None = None, node_weights: list[float] | None = None,
+                 animated: bool = False) -> Scene:
+    """A quad in XY whose one morph target lifts vertex 2 by 1 along Z (its normals unchanged)."""
+    w = GltfWriter()
+    positions = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]
+    primitive = w.primitive(positions, [[0, 1, 2], [0, 2, 3]], [[0, 0, 1]] * 4, material=w.material("Grey"))
+    primitive["targets"] = [{"POSITION": w.accessor(np.array([[0, 0, 0], [0, 0, 0], [0, 0, 1], [0, 0, 0]], float), "VEC3")}]
+    mesh = w.mesh(primitive)
+    if mesh_weights is not None:
+        w.json["meshes"][mesh]["weights"] = mesh_weights
+    node = w.node(mesh=mesh, **({"weights": node_weights} if node_weights is not None else {}))
+    if animated:
+        w.animation((node, "weights", [0.0, 2.0], [0.0, 1.0], "LINEAR"))
+    return load_quietly(w.write(tmp_path / "m.glb"))
+
+
+def lifted(scene: Scene, time: float = 0.0) -> float:
+    """How far the morph target has lifted the quad's corner (1, 1) at `time`."""
+    positions = world_positions(scene, time)
+    return float(positions[np.argmin(np.linalg.norm(positions[:, :2] - (1, 1), axis=1)), 2])
+
+
+def test_a_morph_target_at_weight_one_moves_its_vertices(tmp_path: Path) -> None:
+    assert lifted(morphed_quad(tmp_path, mesh_weights=[1.0])) == pytest.approx(1.0)
+    assert lifted(morphed_quad(tmp_path, mesh_weights=[1.0], node_weights=[0.25])) == pytest.approx(0.25)  # the node's first
+    unweighted = morphed_quad(tmp_path)
+    assert lifted(unweighted) == 0.0 and unweighted.objects[0].deforms and unweighted.animated
+    animated = morphed_quad(tmp_path, animated=True)
+    assert [lifted(animated, t) for t in (0.0, 1.0, 1.5)] == pytest.approx([0.0, 0.5, 0.75])
+
+
+def test_a_skinned_column_bends_where_its_joint_turns(tmp_path: Path) -> None:
+    """At t = 1 the child joint (at y = 1) has turned 60 degrees about Z: a vertex above y = 1.5,
+    all its own, is turned about (0, 1, 0); one below y = 0.5 stays; the blend is between."""
+    w = GltfWriter()
+    skinned_column(w, w.material("Blue"))
+    scene = load_quietly(w.write(tmp_path / "c.glb"))
+    rest, bent = world_positions(scene, 0.0), world_positions(scene, 1.0)
+    assert scene.objects[0].deforms
+    top, foot = rest[:, 1] > 1.55, rest[:, 1] < 0.45
+    turned = (rest - (0, 1, 0)) @ axis_rotation(2, 60.0).T + (0, 1, 0)
+    np.testing.assert_allclose(bent[top], turned[top], atol=1e-5)
+    np.testing.assert_allclose(bent[foot], rest[foot], atol=1e-6)
+    rest_normals = World(scene, time=0.0).geometry[0].world_mesh.normals
+    normals = World(scene, time=1.0).geometry[0].world_mesh.normals
+    assert np.isfinite(normals).all() and np.allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-5)
+    np.testing.assert_allclose(normals[top], rest_normals[top] @ axis_rotation(2, 60.0).T, atol=1e-5)
+
+
+def test_what_is_played_is_no_longer_listed_as_ignored(tmp_path: Path) -> None:
+    """A skin, morph targets and one animation are drawn: nothing listed. A second animation is not played: listed."""
+    w = GltfWriter()
+    skinned_column(w, w.material("Blue"))
+    path = w.write(tmp_path / "c.glb")
+    assert ignored_features(read_json(path, str(path))) == ()
+    w.json["animations"].append(w.json["animations"][0])
+    path = w.write(tmp_path / "two.glb")
+    assert ignored_features(read_json(path, str(path))) == ("1 animation(s) after the first (only animations[0] plays)",)
+
+
+# --- rendered -----------------------------------------------------------------------------------------------
+def bending_scene(tmp_path: Path) -> Path:
+    """A wall mirror, the skinned column before it bending towards the camera's side, a red box, a
+    camera looking at the mirror from the side (the column's reflection clear of the column)."""
+    w = GltfWriter()
+    chrome = w.material("Chrome", (0.95, 0.95, 0.95), metallic=1.0, roughness=0.0)
+    w.node(name="Mirror", mesh=w.mesh(w.primitive([[-2, 0, -1.2], [2, 0, -1.2], [2, 0, 1.2], [-2, 0, 1.2]],
+                                                  [[0, 2, 1], [0, 3, 2]], [[0, 1, 0]] * 4, material=chrome)),
+           translation=[0.0, 1.2, -1.2], rotation=quaternion((1, 0, 0), 90))
+    skinned_column(w, w.material("Blue", (0.2, 0.5, 0.9)), translation=(0.3, 0.0, -0.3))
+    w.node(name="Red", mesh=w.mesh(w.box(0.5, w.material("Red", (0.8, 0.1, 0.1)), normals=True)),
+           translation=[-1.0, 0.25, 0.3])
+    w.json["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.05}}]
+    half_y, half_x = math.radians(25) / 2, math.radians(-12) / 2  # turned left about Y, then tipped down about X
+    yaw, pitch = np.array([0, math.sin(half_y), 0, math.cos(half_y)]), np.array([math.sin(half_x), 0, 0, math.cos(half_x)])
+    rotation = [yaw[3] * pitch[0], yaw[1] * pitch[3], -yaw[1] * pitch[0], yaw[3] * pitch[3]]  # yaw * pitch (x y z w)
+    w.node(camera=0, translation=[2.4, 1.6, 3.6], rotation=rotation)
+    # Behind the column and to its right: its side the mirror shows is lit.
+    w.node(extensions={"KHR_lights_punctual": {"light": w.light(type="point", intensity=20.0)}}, translation=[1.5, 2.5, -0.9])
+    return w.write(tmp_path / "bending.glb")
+
+
+#: The methods that find the real (deformed) triangles, exactly as the truth does.
+EXACT = {Method.RAYTRACE, Method.SIMPLIFIED, Method.HYBRID, Method.PLANAR}
+
+
+def _two_times(ctx: moderngl.Context, scene: Scene, method: Method) -> list[Comparison]:
+    """The method's frames at t = 0 (the joint straight) and t = 1 (turned 60 degrees), each
+    compared with the truth; one renderer, moved from one time to the other as `--video` moves it."""
+    comparisons = []
+    with Renderer(ctx, scene, reflection_data=True, method=method) as renderer:
+        for time in (0.0, 1.0):
+            renderer.set_time(time)
+            renderer.render()
+            assert_finite(renderer.read_color_float())
+            comparisons.append(compare(renderer))
+    return comparisons
+
+
+@pytest.mark.parametrize("method", list(Method), ids=lambda m: m.option)
+def test_every_method_and_the_truth_move_where_the_joint_moves(ctx: moderngl.Context, tmp_path: Path,
+                                                               method: Method) -> None:
+    """Between the two times the truth's reflection changes where the column bends; the method's
+    picture changes there too (most of those pixels), its direct view changes, and it stays as
+    near the truth at the second time as at the first (a stale image or BVH would not)."""
+    scene = load_quietly(bending_scene(tmp_path)).with_overrides(size=(192, 108), impostor_resolution=128)
+    before, after = _two_times(ctx, scene, method)
+    mirror = before.mirror_mask & after.mirror_mask
+    truth_moved = (np.abs(before.truth - after.truth).max(axis=2) > 0.05) & mirror
+    moved = (np.abs(before.render - after.render).max(axis=2) > 0.05) & mirror
+    direct_moved = (np.abs(before.render - after.render).max(axis=2) > 0.05) & ~(before.mirror_mask | after.mirror_mask)
+    assert truth_moved.sum() > 200 and direct_moved.sum() > 50
+    assert (moved & truth_moved).sum() >= 0.7 * truth_moved.sum()
+    if method in EXACT:
+        for comparison in (before, after):
+            assert comparison.figures.wrong_object_share < 0.001 and comparison.figures.color_rmse < 1e-3
+    else:
+        assert after.figures.color_rmse <= 1.5 * before.figures.color_rmse + 0.01
