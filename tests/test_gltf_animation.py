@@ -6,7 +6,6 @@ here (tests/gltf_files.py)."""
 
 from __future__ import annotations
 
-import math
 import warnings
 from pathlib import Path
 from typing import Any
@@ -24,7 +23,7 @@ from depthimpostor.scene import Scene, load_scene
 from depthimpostor.scene.gltf_file import ignored_features, read_json
 from depthimpostor.scene.model import axis_rotation
 from depthimpostor.world import World
-from gltf_files import GltfWriter, quaternion, skinned_column
+from gltf_files import GltfWriter, bending_scene, quaternion, skinned_column
 from test_cli import assert_one_line_error, run_in_process
 
 
@@ -122,17 +121,26 @@ def bad_animation(tmp_path: Path, case: str) -> tuple[Path, str]:
     elif case == "output":
         animation["samplers"][0]["output"] = w.raw_accessor(np.zeros((3, 3)), "VEC3")
         fragment = ("animations[0].samplers[0].output: expected 2 values of 3 components for translation "
-                    "(2 keyframes, LINEAR), got 3 of 3")
+                    "(2 keyframes, LINEAR), got 3 of 3 (the sampler of channels[0], the translation of nodes[0])")
     elif case == "path":
         animation["channels"][0]["target"]["path"] = "position"
         fragment = 'animations[0].channels[0].target.path: expected "translation", "rotation", "scale" or "weights"'
+    elif case == "matrix":
+        w.json["nodes"][node]["matrix"] = np.eye(4).ravel().tolist()
+        fragment = "animations[0].channels[0].target.node: expected a node with TRS properties"
+    elif case == "joints":
+        w = GltfWriter()
+        skinned_column(w, w.material("Blue"))
+        attributes = w.json["meshes"][0]["primitives"][0]["attributes"]
+        attributes["JOINTS_0"] = w.raw_accessor(np.tile([0, 2, 0, 0], (36, 1)), "VEC4", 5123)
+        fragment = "meshes[0].primitives[0].attributes.JOINTS_0: expected unsigned integer joint indices below the skin's 2"
     else:
         animation["samplers"][0]["interpolation"] = "SMOOTH"
         fragment = "animations[0].samplers[0].interpolation: expected one of LINEAR, STEP, CUBICSPLINE"
     return w.write(tmp_path / "x.glb"), fragment
 
 
-@pytest.mark.parametrize("case", ["sampler", "input", "output", "path", "interpolation"])
+@pytest.mark.parametrize("case", ["sampler", "input", "output", "path", "interpolation", "matrix", "joints"])
 def test_a_bad_channel_is_refused_in_one_line_naming_it(tmp_path: Path, case: str,
                                                         capsys: pytest.CaptureFixture[str]) -> None:
     path, fragment = bad_animation(tmp_path, case)
@@ -202,27 +210,6 @@ def test_what_is_played_is_no_longer_listed_as_ignored(tmp_path: Path) -> None:
 
 
 # --- rendered -----------------------------------------------------------------------------------------------
-def bending_scene(tmp_path: Path) -> Path:
-    """A wall mirror, the skinned column before it bending towards the camera's side, a red box, a
-    camera looking at the mirror from the side (the column's reflection clear of the column)."""
-    w = GltfWriter()
-    chrome = w.material("Chrome", (0.95, 0.95, 0.95), metallic=1.0, roughness=0.0)
-    w.node(name="Mirror", mesh=w.mesh(w.primitive([[-2, 0, -1.2], [2, 0, -1.2], [2, 0, 1.2], [-2, 0, 1.2]],
-                                                  [[0, 2, 1], [0, 3, 2]], [[0, 1, 0]] * 4, material=chrome)),
-           translation=[0.0, 1.2, -1.2], rotation=quaternion((1, 0, 0), 90))
-    skinned_column(w, w.material("Blue", (0.2, 0.5, 0.9)), translation=(0.3, 0.0, -0.3))
-    w.node(name="Red", mesh=w.mesh(w.box(0.5, w.material("Red", (0.8, 0.1, 0.1)), normals=True)),
-           translation=[-1.0, 0.25, 0.3])
-    w.json["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.05}}]
-    half_y, half_x = math.radians(25) / 2, math.radians(-12) / 2  # turned left about Y, then tipped down about X
-    yaw, pitch = np.array([0, math.sin(half_y), 0, math.cos(half_y)]), np.array([math.sin(half_x), 0, 0, math.cos(half_x)])
-    rotation = [yaw[3] * pitch[0], yaw[1] * pitch[3], -yaw[1] * pitch[0], yaw[3] * pitch[3]]  # yaw * pitch (x y z w)
-    w.node(camera=0, translation=[2.4, 1.6, 3.6], rotation=rotation)
-    # Behind the column and to its right: its side the mirror shows is lit.
-    w.node(extensions={"KHR_lights_punctual": {"light": w.light(type="point", intensity=20.0)}}, translation=[1.5, 2.5, -0.9])
-    return w.write(tmp_path / "bending.glb")
-
-
 #: The methods that find the real (deformed) triangles, exactly as the truth does.
 EXACT = {Method.RAYTRACE, Method.SIMPLIFIED, Method.HYBRID, Method.PLANAR}
 
@@ -246,7 +233,7 @@ def test_every_method_and_the_truth_move_where_the_joint_moves(ctx: moderngl.Con
     """Between the two times the truth's reflection changes where the column bends; the method's
     picture changes there too (most of those pixels), its direct view changes, and it stays as
     near the truth at the second time as at the first (a stale image or BVH would not)."""
-    scene = load_quietly(bending_scene(tmp_path)).with_overrides(size=(192, 108), impostor_resolution=128)
+    scene = load_quietly(bending_scene(tmp_path / "bending.glb")).with_overrides(size=(192, 108), impostor_resolution=128)
     before, after = _two_times(ctx, scene, method)
     mirror = before.mirror_mask & after.mirror_mask
     truth_moved = (np.abs(before.truth - after.truth).max(axis=2) > 0.05) & mirror

@@ -125,8 +125,10 @@ def refit_triangle_forest(bvh: Bvh, triangles: np.ndarray) -> Bvh:
         raise ValueError(f"refit_triangle_forest: expected ({len(bvh.order)}, 3, 3) triangles, got {triangles.shape}")
     p0, p1, p2 = triangles[:, 0], triangles[:, 1], triangles[:, 2]
     # The inner nodes a level at a time from the roots (a level's children are numbered after it).
-    roots = np.flatnonzero(np.isin(np.arange(bvh.node_count), np.concatenate(
-        [bvh.first[bvh.count == 0], bvh.first[bvh.count == 0] + 1]), invert=True))
+    inner = bvh.count == 0
+    is_child = np.zeros(bvh.node_count, bool)
+    is_child[bvh.first[inner]] = is_child[bvh.first[inner] + 1] = True
+    roots = np.flatnonzero(~is_child)
     parents_by_level, level = [], roots
     while len(level):
         inner = level[bvh.count[level] == 0]

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from depthimpostor.errors import SceneError
 from depthimpostor.scene.fields import At, numbers, show
 from depthimpostor.scene.gltf_data import GltfData
 from depthimpostor.scene.gltf_file import index, items, node_matrix, scene_nodes, table
@@ -217,19 +218,23 @@ def _channels(data: GltfData, animation: Mapping[str, Any], tree: dict[int, int 
         channel_at = at.key("channels").index(c)
         channel = table(value, channel_at)
         target = table(channel.get("target"), channel_at.key("target"))
+        if "node" not in target:  # glTF 3.11: without a node (KHR_animation_pointer's target), the channel is ignored
+            continue
         path = target.get("path")
         if path not in (*PATH_WIDTHS, "weights"):
             raise channel_at.key("target").key("path").error(
                 f'expected "translation", "rotation", "scale" or "weights", got {show(path)}')
-        if "node" not in target:  # glTF 3.11: without a node (an extension's target), the channel is ignored
-            continue
         node = index(target["node"], len(nodes), channel_at.key("target").key("node"))
         if "matrix" in nodes[node] and path != "weights":
             raise channel_at.key("target").key("node").error(
                 f"expected a node with TRS properties (glTF 3.11: an animated node has no `matrix`), got nodes[{node}] "
                 f"with a matrix")
         s = index(channel.get("sampler"), len(samplers), channel_at.key("sampler"))
-        sampler = _sampler(data, samplers[s], path, PATH_WIDTHS.get(path), at.key("samplers").index(s))
+        try:
+            sampler = _sampler(data, samplers[s], path, PATH_WIDTHS.get(path), at.key("samplers").index(s))
+        except SceneError as error:  # said of the channel too: a sampler may serve several
+            raise SceneError(error.source, error.path, f"{error.detail} (the sampler of channels[{c}], the {path} "
+                                                       f"of nodes[{node}])") from None
         if node in tree:  # a node outside the scene is not drawn: its channel moves nothing seen
             read.append(Channel(c, node, path, sampler))
     return read
