@@ -246,3 +246,68 @@ def test_every_method_and_the_truth_move_where_the_joint_moves(ctx: moderngl.Con
             assert comparison.figures.wrong_object_share < 0.001 and comparison.figures.color_rmse < 1e-3
     else:
         assert after.figures.color_rmse <= 1.5 * before.figures.color_rmse + 0.01
+
+
+# --- public samples (tests/data/gltf, scenes/MODELS.md) -------------------------------------------------------
+DATA = Path(__file__).resolve().parent / "data" / "gltf"
+
+
+def test_the_khronos_samples_play_their_animation_with_nothing_ignored() -> None:
+    """BoxAnimated (COLLADA2GLTF): its inner box rises 2.5 and turns by node channels, its outer
+    one stays; RiggedSimple: a cylinder skinned to two bones whose upper one bends it by 1.87 at 1 s."""
+    for name in ("BoxAnimated", "RiggedSimple"):
+        path = DATA / f"{name}.glb"
+        assert ignored_features(read_json(path, str(path))) == ()
+    box = load_scene(DATA / "BoxAnimated.glb")
+    still, inner = box.objects
+    assert not still.moves and inner.moves and not inner.deforms
+    assert world_positions(box, 2.0, 1).mean(axis=0)[1] == pytest.approx(2.52, abs=0.01)
+    assert World(box, time=2.0).geometry[1].local_mesh is World(box).geometry[1].local_mesh  # rigid: its mesh kept
+    # Its README's trap: the rotation channel ends at 2.5 s, the translation at 3.71 s; the shorter one
+    # holds its last value until the clip (the longer) loops, and then both start again together.
+    turned = [inner.model_matrix(t)[:3, :3] for t in (2.5, 3.0, 3.7)]
+    np.testing.assert_allclose(turned[1], turned[0], atol=1e-9)
+    np.testing.assert_allclose(turned[2], turned[0], atol=1e-9)
+    duration = 3.70832992
+    np.testing.assert_allclose(inner.model_matrix(duration + 0.5), inner.model_matrix(0.5), atol=1e-5)
+    rigged = load_scene(DATA / "RiggedSimple.glb")
+    assert rigged.objects[0].deforms
+    assert world_positions(rigged, 1.0)[:, 0].max() - world_positions(rigged, 0.0)[:, 0].max() == pytest.approx(1.87, abs=0.01)
+
+
+@pytest.mark.parametrize("method", [Method.RAYTRACE, Method.HYBRID, Method.DEPTH], ids=lambda m: m.option)
+def test_rigged_simple_before_a_mirror_matches_the_truth_at_two_times(ctx: moderngl.Context, tmp_path: Path,
+                                                                       method: Method) -> None:
+    """The exporter's skin (a Z-up root matrix, MAT4 inverse binds, unnormalized rounding) placed by
+    a TOML scene before a mirror: the triangle methods as the truth, the depth images near it."""
+    toml = tmp_path / "rigged.toml"
+    toml.write_text(f"""
+[camera]
+eye = [2.5, 1.2, 3.5]
+target = [0.0, 0.9, -0.5]
+[[lights]]
+type = "directional"
+direction = [-0.3, -1.0, 0.5]  # from behind the cylinder: its side the mirror shows is lit
+[[objects]]
+name = "mirror"
+shape = {{ type = "plane", size = [4.0, 2.4] }}
+material = {{ type = "mirror" }}
+position = [0.0, 1.2, -1.2]
+rotation = [90.0, 0.0, 0.0]
+[[objects]]
+name = "rigged"
+shape = {{ type = "gltf", path = "{DATA / 'RiggedSimple.glb'}" }}
+scale = [0.2, 0.2, 0.2]
+position = [0.0, 0.92, -0.3]
+""", encoding="utf-8")
+    scene = load_scene(toml).with_overrides(size=(160, 90), impostor_resolution=128)
+    before, after = _two_times(ctx, scene, method)
+    mirror = before.mirror_mask & after.mirror_mask
+    truth_moved = (np.abs(before.truth - after.truth).max(axis=2) > 0.05) & mirror
+    moved = (np.abs(before.render - after.render).max(axis=2) > 0.05) & mirror
+    assert truth_moved.sum() > 30 and (moved & truth_moved).sum() >= 0.7 * truth_moved.sum()
+    for comparison in (before, after):
+        if method in EXACT:
+            assert comparison.figures.wrong_object_share < 0.001 and comparison.figures.color_rmse < 1e-3
+        else:
+            assert comparison.figures.wrong_object_share < 0.02

@@ -18,7 +18,10 @@ Per method and tube, the medians over the frames of:
 A second table sets the refit beside what a CPU rebuild of the same bottom level would cost
 (bvh.refit_triangle_forest against build_triangle_forest on the tube's triangles at t = 1).
 
-    python3 tools/deforming_cost.py [--frames 12] [--size 960x540] [-o results/llvmpipe/deforming.md]
+    python3 tools/deforming_cost.py [--frames 12] [--size 960x540] [--model x.glb ...] [-o results/llvmpipe/deforming.md]
+
+`--model` adds a glTF file of one's own (BrainStem.glb, say), scaled to 1.8 units tall and stood
+before the mirror of scenes/planar_mirror.toml (`model_scene`).
 
 Times are wall-clock around ctx.finish() (render_graph.py), on whatever GL the context gets.
 """
@@ -37,6 +40,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 from gltf_files import bending_scene  # noqa: E402
@@ -49,6 +54,7 @@ from depthimpostor.methods.bvh import build_triangle_forest, refit_triangle_fore
 from depthimpostor.methods.triangles import TrianglePass  # noqa: E402
 from depthimpostor.renderer import Renderer  # noqa: E402
 from depthimpostor.scene import load_scene  # noqa: E402
+from depthimpostor.scene.gltf import read_gltf  # noqa: E402
 from depthimpostor.scene.gltf_deform import PartMotion  # noqa: E402
 
 #: Tubes (rings, sides): the tests' 80-triangle column, then about 8k and 66k triangles.
@@ -123,24 +129,45 @@ def refit_against_rebuild(path: Path, repeats: int = 5) -> tuple[int, float, flo
     return len(triangles), statistics.median(times["refit"]), statistics.median(times["build"])
 
 
+def model_scene(model: Path, folder: Path) -> Path:
+    """A TOML scene of `model` (scaled to 1.8 units tall, its foot at the origin) before
+    scenes/planar_mirror.toml's mirror, under its floor, camera and light."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SceneWarning)
+        lower, upper = np.min([p.mesh.positions.min(axis=0) for p in read_gltf(model, str(model)).parts], axis=0), \
+            np.max([p.mesh.positions.max(axis=0) for p in read_gltf(model, str(model)).parts], axis=0)
+    scale = 1.8 / float(upper[1] - lower[1])
+    centre = 0.5 * (lower + upper)
+    position = [-scale * float(centre[0]), -scale * float(lower[1]), -scale * float(centre[2])]
+    base = (ROOT / "scenes" / "planar_mirror.toml").read_text(encoding="utf-8")
+    scene = base[:base.index('[[objects]]\nname = "red_box"')]
+    scene += (f'[[objects]]\nname = "model"\nshape = {{ type = "gltf", path = "{model.resolve()}" }}\n'
+              f"scale = [{scale}, {scale}, {scale}]\nposition = {position}\n")
+    path = folder / f"{model.stem}.toml"
+    path.write_text(scene, encoding="utf-8")
+    return path
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=12)
     parser.add_argument("--size", default="960x540")
+    parser.add_argument("--model", type=Path, action="append", default=[], help="a glTF file to add (repeatable)")
     parser.add_argument("-o", "--output", type=Path)
     args = parser.parse_args()
     size = tuple(int(v) for v in args.size.split("x"))
     ctx = create_context()
     lines = [f"tools/deforming_cost.py, {datetime.date.today().isoformat()}, {describe(ctx)}, {args.size}, "
              f"median of {args.frames} frames after 2, each at a new time (ms)", "",
-             "| tube triangles | method | deform | upload | refit | set_time | bake (frames that baked) | frame |",
+             "| deforming triangles | method | deform | upload | refit | set_time | bake (frames that baked) | frame |",
              "|---:|---|---:|---:|---:|---:|---:|---:|"]
     with tempfile.TemporaryDirectory() as folder:
-        for rings, sides in TUBES:
-            path = bending_scene(Path(folder) / f"tube_{rings}x{sides}.glb", rings, sides)
+        scenes = [bending_scene(Path(folder) / f"tube_{rings}x{sides}.glb", rings, sides) for rings, sides in TUBES]
+        for path in scenes + [model_scene(model, Path(folder)) for model in args.model]:
             for method in METHODS:
                 m = measure(ctx, path, method, args.frames, (size[0], size[1]))
-                line = (f"| {m['triangles']:,.0f} | {method.option} | {m['deform']:.2f} | {m['upload']:.2f} | "
+                name = path.stem if path.suffix == ".toml" else "tube"
+                line = (f"| {name} {m['triangles']:,.0f} | {method.option} | {m['deform']:.2f} | {m['upload']:.2f} | "
                         f"{m['refit']:.2f} | {m['set_time']:.2f} | {m['bake']:.2f} ({m['bakes']:.0f}) | {m['frame']:.2f} |")
                 lines.append(line)
                 print(line, flush=True)
