@@ -91,15 +91,22 @@ def measure(ctx: Any, path: Path, method: Method, frames: int, size: tuple[int, 
     with Renderer(ctx, scene, method=method) as renderer, \
             timed(PartMotion, "mesh_at", spent["deform"]), timed(GpuMeshes, "replace", spent["upload"]), \
             timed(TrianglePass, "_refit", spent["refit"]):
+        calls: dict[str, list[float]] = {name: spent[name] for name in ("deform", "upload", "refit")}
+        per_frame: dict[str, list[float]] = {name: [] for name in calls}
         for frame in range(frames + 2):
             if frame == 2:  # the first frames are cold (programs, first bakes): not counted
-                for values in spent.values():
+                for values in (*spent.values(), *per_frame.values()):
                     values.clear()
                 baked, drawn = len(renderer.stats.bake_seconds), len(renderer.stats.draw_seconds)
+            made = {name: len(values) for name, values in calls.items()}
             start = time.perf_counter()
             renderer.set_time(frame / 30.0)  # a 30 frames/s video through the bend and back
             spent["set_time"].append(time.perf_counter() - start)
             renderer.render()
+            for name, values in calls.items():  # a frame's calls summed: a model of many parts makes many
+                if len(values) > made[name]:
+                    per_frame[name].append(sum(values[made[name]:]))
+        spent.update(per_frame)
         spent["bake"] = renderer.stats.bake_seconds[baked:]
         spent["frame"] = renderer.stats.draw_seconds[drawn:]
         triangles = sum(len(g.local_mesh.indices) for g in renderer.world.geometry if g.object.deforms)

@@ -257,7 +257,8 @@ def read_animation(data: GltfData) -> FileAnimation | None:
     rest_worlds: dict[int, np.ndarray] = {}
     for i, world in scene_nodes(header, source):  # checked there: a tree, finite, affine
         tree[i] = tree.get(i)
-        tree.update(dict.fromkeys(nodes[i].get("children", []), i))
+        children = nodes[i].get("children", [])
+        tree.update(dict.fromkeys(children if isinstance(children, list) else [], i))  # (scene_nodes refuses others)
         rest[i], rest_worlds[i] = node_matrix(nodes[i], At(source, f"nodes[{i}]")), world
     animation = animations[0]
     channels = _channels(data, animation, tree, At(source, "animations[0]"))
