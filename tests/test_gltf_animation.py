@@ -13,6 +13,7 @@ from typing import Any
 import moderngl
 import numpy as np
 import pytest
+from PIL import Image
 
 from conftest import assert_finite
 from depthimpostor.constants import Method
@@ -315,3 +316,18 @@ position = [0.0, 0.92, -0.3]
             assert comparison.figures.wrong_object_share < 0.001 and comparison.figures.color_rmse < 1e-3
         else:
             assert comparison.figures.wrong_object_share < 0.02
+
+
+def test_render_plays_the_files_animation_at_its_time(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`render --time` as a user runs it: the bent column's picture (t = 1) is not the straight one's
+    (t = 0), and a time a whole clip later (t = 3: the clip is 2 s long) is the same picture as t = 1."""
+    path = str(bending_scene(tmp_path / "bending.glb"))
+    pictures = []
+    for time in ("0", "1", "3"):
+        out = tmp_path / f"t{time}.png"
+        code, _, stderr = run_in_process(["render", path, "--time", time, "--size", "96x54", "-o", str(out),
+                                          "--method", "raytrace"], capsys)
+        assert code == 0, stderr
+        pictures.append(np.asarray(Image.open(out), np.int16))
+    assert np.abs(pictures[1] - pictures[0]).max() > 64
+    assert np.abs(pictures[2] - pictures[1]).max() <= 1
