@@ -26,9 +26,11 @@ from depthimpostor.scene import fields as f
 from depthimpostor.scene.fields import At, Vec3, show
 from depthimpostor.scene.gltf_file import (
     NOT_SURFACES, TRIANGLE_FAN, Primitive, check_header, decode_primitives, extension, ignored_features, index, items,
-    number_at, primitive_modes, read_json, scene_nodes, table,
+    local_mesh, number_at, primitive_modes, read_json, scene_nodes, table,
 )
+from depthimpostor.scene.gltf_animation import FileAnimation, read_animation
 from depthimpostor.scene.gltf_data import GltfData
+from depthimpostor.scene.gltf_deform import PartMotion, part_motion
 from depthimpostor.scene.gltf_planes import Rectangle, find_rectangle, plane_placement
 from depthimpostor.scene.limits import check_scene
 from depthimpostor.textures import texture_from_pixels
@@ -66,8 +68,9 @@ class GltfPart:
     name: str  # the node's name (or "nodes[i]"), with the material's label where a node has several
     origin: GltfOrigin  # for messages: the node, mesh, primitives and material, by index and name
     material: int | None  # index into the file's materials; None: glTF's default (white, diffuse)
-    mesh: Mesh  # in the file's world space
+    mesh: Mesh  # in the file's world space (a part that deforms: at time 0)
     rectangle: Rectangle | None  # where the mesh is one flat rectangle: placed as a plane (gltf_planes.py)
+    motion: PartMotion | None = None  # how the file's animation, skin or morph targets move it; None: still
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,7 +125,7 @@ def read_gltf(path: Path, source: str) -> GltfFile:
                                    f"drawn as if absent: {', '.join(ignored)}"), stacklevel=2)
     data = GltfData(resolved, header, source)
     primitives = decode_primitives(data)
-    parts = _parts(header, source, primitives, ignored)
+    parts = _parts(data, primitives, ignored, read_animation(data))
     if not parts:
         raise SceneError(source, "", "expected a scene with at least one mesh node holding triangles, got none")
     used = _used_materials(header, source, primitives)
@@ -143,9 +146,11 @@ def _used_materials(header: Mapping[str, Any], source: str, primitives: dict[tup
     return used
 
 
-def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, int], Primitive],
-           ignored: tuple[str, ...]) -> list[GltfPart]:
-    """One part per mesh node and material, in the order the node tree is walked."""
+def _parts(data: GltfData, primitives: dict[tuple[int, int], Primitive], ignored: tuple[str, ...],
+           animation: FileAnimation | None) -> list[GltfPart]:
+    """One part per mesh node and material, in the order the node tree is walked, each with how
+    it moves (gltf_deform.py) where the file animates, skins or morphs it."""
+    header, source = data.header, data.source
     meshes, nodes = items(header, "meshes", source), items(header, "nodes", source)
     by_mode: dict[int, list[str]] = {}
     for m, p, _, mode in primitive_modes(header, source):
@@ -165,7 +170,8 @@ def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, i
     names = [_name(node) for node in nodes]
     named = Counter(names)
     parts = []
-    for i, world in scene_nodes(header, source):
+    worlds = dict(scene_nodes(header, source))
+    for i, world in worlds.items():
         if "mesh" not in nodes[i]:
             continue
         m = index(nodes[i]["mesh"], len(meshes), At(source, f"nodes[{i}].mesh"))
@@ -173,7 +179,8 @@ def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, i
         for p, value in enumerate(meshes[m].get("primitives", [])):
             if (m, p) in primitives and len(primitives[m, p].faces):
                 groups.setdefault(value.get("material"), []).append((p, primitives[m, p]))
-        if abs(np.linalg.det(world[:3, :3])) <= 1e-12 * float(np.linalg.norm(world[:3, :3])) ** 3:
+        if abs(np.linalg.det(world[:3, :3])) <= 1e-12 * float(np.linalg.norm(world[:3, :3])) ** 3 \
+                and "skin" not in nodes[i]:  # (a skinned mesh is placed by its joints alone)
             continue  # scaled to nothing: glTF's way to hide a node, which has no surface to draw
         node = names[i] if names[i] and named[names[i]] == 1 else f"nodes[{i}]"
         for material, group in groups.items():
@@ -181,8 +188,12 @@ def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, i
             name = node if len(groups) == 1 else f"{node} ({label})"
             origin = GltfOrigin(source, i, names[i], m, _name(meshes[m]), tuple(p for p, _ in group), material,
                                 "" if material is None else _name(header["materials"][material]), ignored=ignored)
-            mesh = _local_mesh([primitive for _, primitive in group]).transformed(world)
-            parts.append(GltfPart(name, origin, material, mesh, find_rectangle(mesh)))
+            motion = part_motion(data, animation, worlds, i, m, group)
+            if motion is not None and motion.deforms:
+                parts.append(GltfPart(name, origin, material, motion.mesh_at(0.0), None, motion))
+                continue
+            mesh = local_mesh([primitive for _, primitive in group]).transformed(world)
+            parts.append(GltfPart(name, origin, material, mesh, find_rectangle(mesh) if motion is None else None, motion))
     return parts
 
 
@@ -194,39 +205,6 @@ def _name(value: Mapping[str, Any]) -> str:
 
 def _label(header: Mapping[str, Any], k: int) -> str:
     return _name(header["materials"][k]) or f"materials[{k}]"
-
-
-def _flat_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """One unit normal per face, (0, 1, 0) for a face of no area (any unit vector keeps NaN out)."""
-    a, b, c = (positions[faces[:, k]] for k in range(3))
-    normals = np.cross(b - a, c - a)
-    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
-    return np.where(lengths > 1e-30, normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
-
-
-def _local_mesh(group: list[Primitive]) -> Mesh:
-    """The primitives of one node and material as one mesh, in the node's space. A primitive with
-    the file's normals keeps them (and its shared vertices); one without gets flat normals, as the
-    glTF specification asks, each triangle with its own three vertices."""
-    positions, normals, uvs, faces, start = [], [], [], [], 0
-    any_uvs = any(p.uvs is not None for p in group)
-    for p in group:
-        if p.normals is not None:
-            lengths = np.linalg.norm(p.normals, axis=1, keepdims=True)
-            corners = np.arange(len(p.positions))
-            normal = np.where(lengths > 1e-13, p.normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
-            face = p.faces
-        else:
-            corners = p.faces.ravel()
-            normal = np.repeat(_flat_normals(p.positions, p.faces), 3, axis=0)
-            face = np.arange(len(corners)).reshape(-1, 3)
-        positions.append(p.positions[corners])
-        normals.append(normal)
-        uvs.append(p.uvs[corners] if p.uvs is not None else np.zeros((len(corners), 2)))
-        faces.append(face + start)
-        start += len(corners)
-    return Mesh(np.concatenate(positions), np.concatenate(normals), np.concatenate(faces),
-                np.concatenate(uvs) if any_uvs else None)
 
 
 def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData, at: At, source: str,
@@ -504,7 +482,7 @@ def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str
         if plane is not None:
             objects.append(dataclasses.replace(plane, name=prefix + part.name, origin=origin))
             continue
-        objects.append(SceneObject(name=prefix + part.name, shape=GltfShape(model.path, part.mesh),
+        objects.append(SceneObject(name=prefix + part.name, shape=GltfShape(model.path, part.mesh, part.motion),
                                    material=material, position=position, rotation=rotation, scale=scale,
                                    animation=animation, origin=origin))
     if no_uvs:

@@ -27,6 +27,7 @@ import numpy as np
 
 from depthimpostor.constants import MAX_COORDINATE
 from depthimpostor.errors import SceneError
+from depthimpostor.meshes import Mesh
 from depthimpostor.scene.fields import At, Reader, numbers, read_file_bytes, show
 from depthimpostor.scene.gltf_data import GltfData
 
@@ -143,7 +144,7 @@ def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
 def ignored_features(header: Mapping[str, Any]) -> tuple[str, ...]:
     """What the file uses that this loader does not implement, each named once, in a stable order:
     the extensions it uses but SUPPORTED_REQUIRED lacks (sorted), then the core features read past
-    (material properties, vertex colours, morph targets, skins, animations). Such a file is drawn as
+    (material properties, vertex colours, the animations after the first). Such a file is drawn as
     if they were absent; `plan` lists them and loading warns once."""
     used = header.get("extensionsUsed", [])
     extensions = {name for name in used if isinstance(name, str)} if isinstance(used, list) else set()
@@ -159,11 +160,9 @@ def ignored_features(header: Mapping[str, Any]) -> tuple[str, ...]:
         for primitive in primitives if isinstance(primitives, list) else []:
             if isinstance(primitive, Mapping) and "COLOR_0" in primitive.get("attributes", {}):
                 features["COLOR_0 (vertex colours)"] = None
-            if isinstance(primitive, Mapping) and primitive.get("targets"):
-                features["morph targets"] = None
-    for key in ("skins", "animations"):
-        if header.get(key):
-            features[key] = None
+    animations = header.get("animations", [])
+    if isinstance(animations, list) and len(animations) > 1:  # gltf_animation.py plays the first alone
+        features[f"{len(animations) - 1} animation(s) after the first (only animations[0] plays)"] = None
     return tuple(sorted(extensions - set(SUPPORTED_REQUIRED))) + tuple(features)
 
 
@@ -222,6 +221,39 @@ class Primitive:
     faces: np.ndarray  # (M, 3)
     normals: np.ndarray | None  # (N, 3) from the file's NORMAL, or None (glTF then asks for flat normals)
     uvs: np.ndarray | None  # (N, 2) TEXCOORD_0 in glTF's convention (v down from the image's top)
+
+
+def _flat_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """One unit normal per face, (0, 1, 0) for a face of no area (any unit vector keeps NaN out)."""
+    a, b, c = (positions[faces[:, k]] for k in range(3))
+    normals = np.cross(b - a, c - a)
+    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.where(lengths > 1e-30, normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
+
+
+def local_mesh(group: list[Primitive]) -> Mesh:
+    """The primitives of one node and material as one mesh, in the node's space. A primitive with
+    the file's normals keeps them (and its shared vertices); one without gets flat normals, as the
+    glTF specification asks, each triangle with its own three vertices."""
+    positions, normals, uvs, faces, start = [], [], [], [], 0
+    any_uvs = any(p.uvs is not None for p in group)
+    for p in group:
+        if p.normals is not None:
+            lengths = np.linalg.norm(p.normals, axis=1, keepdims=True)
+            corners = np.arange(len(p.positions))
+            normal = np.where(lengths > 1e-13, p.normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
+            face = p.faces
+        else:
+            corners = p.faces.ravel()
+            normal = np.repeat(_flat_normals(p.positions, p.faces), 3, axis=0)
+            face = np.arange(len(corners)).reshape(-1, 3)
+        positions.append(p.positions[corners])
+        normals.append(normal)
+        uvs.append(p.uvs[corners] if p.uvs is not None else np.zeros((len(corners), 2)))
+        faces.append(face + start)
+        start += len(corners)
+    return Mesh(np.concatenate(positions), np.concatenate(normals), np.concatenate(faces),
+                np.concatenate(uvs) if any_uvs else None)
 
 
 def primitive_modes(header: Mapping[str, Any], source: str) -> Iterator[tuple[int, int, Mapping[str, Any], int]]:

@@ -13,7 +13,7 @@ from fractions import Fraction
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypeVar
+from typing import Protocol, TypeVar
 
 import numpy as np
 
@@ -250,15 +250,30 @@ class MeshShape:
     written: str  # as written in the scene file, for messages
 
 
+class ShapeMotion(Protocol):
+    """How a glTF part moves by its file's animation, skin or morph targets (scene/gltf_deform.py's
+    PartMotion): rigidly, `matrix(time)` acting on its mesh before the object's own placement, or,
+    where it `deforms`, as another mesh at each time (`mesh_at`, in the file's world space)."""
+
+    @property
+    def deforms(self) -> bool: ...
+
+    def matrix(self, time: float) -> np.ndarray: ...
+
+    def mesh_at(self, time: float) -> Mesh: ...
+
+
 @dataclass(frozen=True)
 class GltfShape:
     """One part of a glTF file: the triangles of one mesh node drawn with one of the file's
     materials (scene/gltf.py). `mesh` is in the file's world space, the node's transforms (and its
     parents') already applied, so that the object's own position, rotation and scale act on top.
-    Which node, mesh and material it is: the object's `origin`."""
+    Which node, mesh and material it is: the object's `origin`. `motion`: how the file moves it
+    (its mesh is then the part at time 0 where it deforms); None where it stays as written."""
 
     path: Path  # the file, resolved and absolute
     mesh: Mesh  # compared and hashed by identity (Mesh has eq=False): one part, one mesh
+    motion: ShapeMotion | None = dataclasses.field(default=None, compare=False)
 
 
 @dataclass(frozen=True)
@@ -440,7 +455,18 @@ class SceneObject:
 
     @property
     def moves(self) -> bool:
-        return self.animation is not None
+        """Does it move: a TOML animation, or its glTF file's (gltf_deform.py)?"""
+        return self.animation is not None or self.motion is not None
+
+    @property
+    def motion(self) -> ShapeMotion | None:
+        """How its glTF file moves it (GltfShape.motion), or None."""
+        return self.shape.motion if isinstance(self.shape, GltfShape) else None
+
+    @property
+    def deforms(self) -> bool:
+        """Is its mesh another at each time (a glTF skin or morph targets), not only its transform?"""
+        return self.motion is not None and self.motion.deforms
 
     @property
     def is_mirror(self) -> bool:
@@ -471,12 +497,16 @@ class SceneObject:
         return self.is_mirror or self.is_glass
 
     def model_matrix(self, time: float = 0.0) -> np.ndarray:
-        """Local to world at `time` seconds, 4x4 float64 for column vectors: A(time) @ T @ Rz @ Ry @ Rx @ S,
-        so scale acts first and the animation A (the identity without one, or at time 0) last."""
+        """Local to world at `time` seconds, 4x4 float64 for column vectors: A(time) @ T @ Rz @ Ry @ Rx @ S
+        (@ G(time) for a glTF part its file moves rigidly: GltfShape.motion), so the file's motion acts
+        first, then scale, and the animation A (the identity without one, or at time 0) last."""
         rx, ry, rz = self.rotation
         m = np.eye(4)
         m[:3, :3] = axis_rotation(2, rz) @ axis_rotation(1, ry) @ axis_rotation(0, rx) @ np.diag(self.scale)
         m[:3, 3] = self.position
+        motion = self.motion
+        if motion is not None and not motion.deforms:
+            m = m @ motion.matrix(time)
         if self.animation is None:
             return m
         return self.animation.matrix(time, self.animation.pivot_of(self.position)) @ m
