@@ -397,8 +397,8 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
         crossed = np.where(through_back[:, None], z0[:, [1]] * [1, 0] + z1[:, [1]] * [0, 1],
                            z0[:, [0]] * [1, 0] + z1[:, [0]] * [0, 1])
         kind = step_unseen(image, s0[:, :2], s1[:, :2], s0[:, 2], s1[:, 2], z0, z1)
-        steep = hit_unseen(image, s0[:, :2], s1[:, :2], crossed[:, 0], crossed[:, 1])
-        kind = np.where(through_surface | through_back, np.where(steep, int(Unseen.SILHOUETTE), int(Unseen.NONE)), kind)
+        unseen_hit = hit_unseen(image, s0[:, :2], s1[:, :2], crossed[:, 0], crossed[:, 1])
+        kind = np.where(through_surface | through_back, np.where(unseen_hit, int(Unseen.SILHOUETTE), int(Unseen.NONE)), kind)
         note_unseen(marching, active, kind, i / np.maximum(steps, 1), rays)
         through = through_surface | through_back
         k = np.where(through, k, 1.0)
