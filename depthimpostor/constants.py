@@ -78,10 +78,12 @@ class Unseen(IntEnum):
     HIDDEN_ENTRY = 1  # the ray is inside a solid run without crossing the visible surface: it
     #                   entered through a side the image's eye does not see (where, and its colour, unknown)
     OCCLUDED = 2  # the ray passed behind a solid run: space the object hides from the eye
-    SILHOUETTE = 3  # the ray crossed a silhouette (two samples that are not one surface) no farther in
-    #                 front of the nearer surface than SILHOUETTE_BAND_TEXELS of its steepest slope, or
-    #                 hit a join steeper than STEEP_JOIN_SHARE of the steepest: a hit between the
-    #                 samples and a miss are both consistent with them
+    SILHOUETTE = 3  # the ray passed within a texel of a silhouette (samples that are not one surface)
+    #                 no farther in front of the nearest surface than SILHOUETTE_BAND_TEXELS of its
+    #                 steepest slope, or in front of a join and behind the extension of the join beside
+    #                 it (an edge between samples), or hit a join steeper than STEEP_JOIN_SHARE of the
+    #                 steepest or within a texel of a silhouette: a hit between the samples and a miss
+    #                 are both consistent with them
 
 
 class MaterialKind(IntEnum):

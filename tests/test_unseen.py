@@ -37,9 +37,9 @@ CAMERA = synthetic.camera()
 SLAB = synthetic.plane_image(CAMERA, (0.0, 0.0, -5.0), (0.0, 0.0, 1.0), thickness=0.3, mask=lambda u, v: u < 30)
 
 
-def _across(w: float) -> tuple[np.ndarray, np.ndarray]:
-    """A ray at constant depth w, from u = 50 (right of the slab) to u = 10 (over it), row 24."""
-    origin = CAMERA.unproject(50.0, 24.0, w)
+def _across(w: float, start: float = 50.0) -> tuple[np.ndarray, np.ndarray]:
+    """A ray at constant depth w, from u = `start` (right of the slab) toward u = 10 (over it), row 24."""
+    origin = CAMERA.unproject(start, 24.0, w)
     return origin, CAMERA.unproject(10.0, 24.0, w) - origin
 
 
@@ -49,10 +49,15 @@ CASES = {
             True, Unseen.NONE),
     # Well in front of everything: a certain miss, the slab's silhouette crossed far from it.
     "clear miss": (*_across(2.0), False, Unseen.NONE),
-    # Inside the slab's depth: it enters through the side face, which the image does not hold.
-    "hidden entry": (*_across(5.15), True, Unseen.HIDDEN_ENTRY),
-    # Behind the slab: space the slab hides, where more of the object could be.
-    "occluded": (*_across(7.0), False, Unseen.OCCLUDED),
+    # Inside the slab's depth: it enters through the side face, which the image does not hold. (Its
+    # samples fall 0.6 texel past the texel edges: the one before the entry is more than a texel
+    # from the covered centres, so that the coverage band around the edge flags nothing earlier;
+    # from u = 50 it is a silhouette a step before.)
+    "hidden entry": (*_across(5.15, 45.6), True, Unseen.HIDDEN_ENTRY),
+    "within a texel of the edge": (*_across(5.15), True, Unseen.SILHOUETTE),
+    # Behind the slab: space the slab hides, where more of the object could be (samples placed as
+    # for the hidden entry).
+    "occluded": (*_across(7.0, 45.6), False, Unseen.OCCLUDED),
     # Just in front of the face: whether it grazes the slab's edge the samples cannot say.
     "silhouette": (*_across(4.99), False, Unseen.SILHOUETTE),
 }
@@ -71,6 +76,31 @@ def test_each_kind_of_unseen(ctx, programs, case: str, algorithm: Algorithm) -> 
     if kind is not Unseen.NONE:
         assert gpu.unseen_t[0] == pytest.approx(expected.unseen_t[0], rel=1e-3, abs=1e-3)
         assert expected.unseen_t[0] <= (expected.t[0] if hit else np.inf)
+
+
+# A ridge toward the eye (two planes 40 degrees either side of the line of sight meeting along the
+# column u = 30.2, 5 units away): between the samples at u = 29.5 and 30.5 the surface comes in
+# front of their join, up to the ridge.
+RIDGE_POINT = CAMERA.unproject(30.2, 24.0, 5.0)
+_RIDGE_U, _RIDGE_V = synthetic.pixel_centres(CAMERA)
+RIDGE = synthetic.image_from_w(CAMERA, np.maximum(
+    synthetic.plane_w(CAMERA, RIDGE_POINT, np.array([np.sin(0.7), 0.0, np.cos(0.7)]), _RIDGE_U, _RIDGE_V),
+    synthetic.plane_w(CAMERA, RIDGE_POINT, np.array([-np.sin(0.7), 0.0, np.cos(0.7)]), _RIDGE_U, _RIDGE_V)), None)
+
+
+@pytest.mark.parametrize("algorithm", list(Algorithm))
+@pytest.mark.parametrize(("w", "kind"), [(5.01, Unseen.SILHOUETTE), (4.95, Unseen.NONE)])
+def test_a_ridge_between_samples_is_unseen(ctx, programs, w: float, kind: Unseen, algorithm: Algorithm) -> None:
+    """A ray across the ridge at w = 5.01 passes in front of both samples next to it and their
+    join, and behind the ridge itself: the truth hits it, the samples cannot tell, and the march's
+    miss must not be called certain (it was, before the joins' extensions bounded the surface
+    between samples). At w = 4.95 it passes in front of the extensions too: a certain miss."""
+    origin, direction = _across(w, 45.6)
+    gpu = query_depth_images(ctx, programs, [RIDGE], origin[None], direction[None], algorithm)
+    expected = reference.intersect_depth_image(RIDGE, origin[None], direction[None], algorithm)
+    for answer, who in ((gpu, "GPU"), (expected, "reference")):
+        assert not answer.hit[0], who
+        assert Unseen(int(answer.unseen[0])) is kind, f"{who}: {Unseen(int(answer.unseen[0])).name}"
 
 
 # ---------------------------------------------------------------- real objects against their triangles

@@ -210,19 +210,83 @@ def silhouette_clear_depth(image: DepthImageData, z: Array, side: float) -> Arra
     return (1.0 / camera.w_near - clear) / (1.0 / camera.w_near - 1.0 / camera.w_far)
 
 
+def texel_block(image: DepthImageData, s: Array) -> tuple[Array, Array, NDArray[np.bool_]]:
+    """Over the texels whose centres lie within one texel of image point s in u and in v (the 2 x 2
+    block a bilinear lookup reads): the nearest visible surface, the farthest back of a solid run
+    (0 where none is covered), and whether the block is one surface (see the GLSL)."""
+    corner = np.floor(s[..., :2] - 0.5)
+    centres = [corner + [du + 0.5, dv + 0.5] for dv in (0.0, 1.0) for du in (0.0, 1.0)]
+    layers = [sample_layers(image, centre) for centre in centres]
+    nearest = np.minimum.reduce([z[..., 0] for z in layers])
+    farthest_back = np.maximum.reduce([np.where(z[..., 0] < BACKGROUND_DEPTH, z[..., 1], 0.0) for z in layers])
+    one_surface = np.logical_and.reduce([z[..., 0] < BACKGROUND_DEPTH for z in layers])
+    for a, b in ((0, 1), (2, 3), (0, 2), (1, 3)):
+        one_surface &= samples_connected(image, centres[a], centres[b], layers[a][..., 0], layers[b][..., 0])
+    return nearest, farthest_back, one_surface
+
+
+def clip_half_space(value: Array, rate: Array, low: Array, high: Array) -> tuple[Array, Array]:
+    """One Liang-Barsky step: keep the part of [low, high] where value + rate * k >= 0 (empty: low > high)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = -value / rate
+    low = np.where(rate > 0.0, np.maximum(low, bound), low)
+    high = np.where(rate < 0.0, np.minimum(high, bound), high)
+    return low, np.where((rate == 0.0) & (value < 0.0), -np.inf, high)
+
+
+def outer_join(image: DepthImageData, texel: Array, outward: Array, z: Array) -> tuple[Array, NDArray[np.bool_]]:
+    """The visible surface one step `outward` (texels) beyond a sample at texel centre `texel` of
+    depth z, and whether it is joined to it (inside the image and one surface with it)."""
+    height, width = image.depth.shape
+    beyond = texel + outward
+    inside = (beyond[:, 0] >= 0) & (beyond[:, 0] < width) & (beyond[:, 1] >= 0) & (beyond[:, 1] < height)
+    z_beyond = sample_layers(image, beyond)[:, 0]
+    return z_beyond, inside & np.any(outward != 0.0, axis=1) & samples_connected(image, texel, beyond, z, z_beyond)
+
+
+def crease_unseen(image: DepthImageData, s0: Array, s1: Array, r0: Array, r1: Array, z0: Array, z1: Array
+                  ) -> NDArray[np.bool_]:
+    """Does the ray pass between the join of two samples of one surface and the nearest that surface
+    can come between them (see the GLSL)?"""
+    row0, column0 = texel_of(image, s0)
+    row1, column1 = texel_of(image, s1)
+    texel0 = np.stack([column0, row0], axis=1).astype(np.float64) + 0.5  # the samples' texel centres
+    texel1 = np.stack([column1, row1], axis=1).astype(np.float64) + 0.5
+    z_before, left = outer_join(image, texel0, texel0 - texel1, z0)
+    z_after, right = outer_join(image, texel1, texel1 - texel0, z1)
+    low, high = np.zeros(len(r0)), np.ones(len(r0))
+    low, high = clip_half_space(z0 - CONTACT_DEPTH_TOLERANCE - r0, (z1 - z0) - (r1 - r0), low, high)
+    clear = silhouette_clear_depth(image, np.minimum(z0, z1), 1.0)
+    low, high = clip_half_space(r0 - clear, r1 - r0, low, high)
+    left_low, left_high = clip_half_space(r0 - z0, (r1 - r0) - (z0 - z_before), low, high)
+    right_low, right_high = clip_half_space(r0 - (2.0 * z1 - z_after), (r1 - r0) - (z_after - z1), low, high)
+    beyond_left = left & (left_low <= left_high)
+    beyond_right = right & (right_low <= right_high)
+    return np.any(texel0 != texel1, axis=1) & (beyond_left | beyond_right)
+
+
 def step_unseen(image: DepthImageData, s0: Array, s1: Array, r0: Array, r1: Array, z0: Array, z1: Array) -> Array:
     """What a step that did not hit through the visible surface relies on that the image does
     not hold (an Unseen kind per ray; see the GLSL)."""
-    nearer = np.minimum(z0[:, 0], z1[:, 0])
-    farther_back = np.maximum(np.where(z0[:, 0] < BACKGROUND_DEPTH, z0[:, 1], 0.0),
-                              np.where(z1[:, 0] < BACKGROUND_DEPTH, z1[:, 1], 0.0))
+    nearest0, back0, one_surface0 = texel_block(image, s0)
+    nearest1, back1, one_surface1 = texel_block(image, s1)
+    nearer = np.minimum(nearest0, nearest1)
+    farther_back = np.maximum(back0, back1)
+    one_surface = one_surface0 & one_surface1 & samples_connected(image, s0, s1, z0[:, 0], z1[:, 0])
     in_front = np.maximum(r0, r1) < silhouette_clear_depth(image, nearer, 1.0)
     behind = np.minimum(r0, r1) > silhouette_clear_depth(image, farther_back, -1.0)
-    silhouette = ((nearer < BACKGROUND_DEPTH) & ~samples_connected(image, s0, s1, z0[:, 0], z1[:, 0])
-                  & ~in_front & ~behind)
+    silhouette = (nearer < BACKGROUND_DEPTH) & np.where(
+        one_surface, crease_unseen(image, s0, s1, r0, r1, z0[:, 0], z1[:, 0]), ~in_front & ~behind)
     kind = np.where(silhouette, int(Unseen.SILHOUETTE), int(Unseen.NONE))
     kind = np.where(occluded(image, s1, r1, z1), int(Unseen.OCCLUDED), kind)
     return np.where(inside_solid(r1, z1), int(Unseen.HIDDEN_ENTRY), kind)
+
+
+def hit_unseen(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> NDArray[np.bool_]:
+    """Is a hit through a step between joined samples (depths z0, z1 of the layer crossed) on a
+    silhouette's: a join steeper than STEEP_JOIN_SHARE of the steepest, or within a texel of
+    where the image is not one surface (see the GLSL)?"""
+    return steep_join(image, s0, s1, z0, z1) | ~texel_block(image, s0)[2] | ~texel_block(image, s1)[2]
 
 
 def steep_join(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> NDArray[np.bool_]:
@@ -333,8 +397,8 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
         crossed = np.where(through_back[:, None], z0[:, [1]] * [1, 0] + z1[:, [1]] * [0, 1],
                            z0[:, [0]] * [1, 0] + z1[:, [0]] * [0, 1])
         kind = step_unseen(image, s0[:, :2], s1[:, :2], s0[:, 2], s1[:, 2], z0, z1)
-        steep = steep_join(image, s0[:, :2], s1[:, :2], crossed[:, 0], crossed[:, 1])
-        kind = np.where(through_surface | through_back, np.where(steep, int(Unseen.SILHOUETTE), int(Unseen.NONE)), kind)
+        unseen_hit = hit_unseen(image, s0[:, :2], s1[:, :2], crossed[:, 0], crossed[:, 1])
+        kind = np.where(through_surface | through_back, np.where(unseen_hit, int(Unseen.SILHOUETTE), int(Unseen.NONE)), kind)
         note_unseen(marching, active, kind, i / np.maximum(steps, 1), rays)
         through = through_surface | through_back
         k = np.where(through, k, 1.0)
@@ -413,6 +477,8 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
             connected & regular & in_front_at_start & (mu >= 0) & (mu <= 1) & (lam >= 0) & (lam <= 1)
         )
         if surface_hit.any():
+            note_unseen(marching, surface_hit & hit_unseen(image, s0, s1, z0[:, 0], z1[:, 0]),
+                        np.full(len(active), int(Unseen.SILHOUETTE)), sigma0, rays)
             lam = np.where(surface_hit, lam, 0.0)
             p = ray_a + ray_ab * lam[:, None]
             s = camera.project(np.where(surface_hit[:, None], p, camera.C + camera.c))[:, :2]
@@ -426,6 +492,8 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
         cross, k = segments_cross(r0 - z0[:, 0], r1 - z1[:, 0])
         degenerate_hit = active & connected & ~regular & cross
         if degenerate_hit.any():
+            note_unseen(marching, degenerate_hit & hit_unseen(image, s0, s1, z0[:, 0], z1[:, 0]),
+                        np.full(len(active), int(Unseen.SILHOUETTE)), sigma0, rays)
             t = ray_parameter(sigma0 + (sigma1 - sigma0) * k, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
             s = s0 + (s1 - s0) * k[:, None]
             _record(marching, degenerate_hit, t, s, sample_color(image, nearer_sample(k, s0, s1)), image.object_id, i + 2)
@@ -433,7 +501,7 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
         through_back, k_back = back_crossing(image, s0, s1, r0, r1, z0, z1)
         back_hit = active & through_back
         if back_hit.any():
-            note_unseen(marching, back_hit & steep_join(image, s0, s1, z0[:, 1], z1[:, 1]),
+            note_unseen(marching, back_hit & hit_unseen(image, s0, s1, z0[:, 1], z1[:, 1]),
                         np.full(len(active), int(Unseen.SILHOUETTE)), sigma0, rays)
             t = ray_parameter(sigma0 + (sigma1 - sigma0) * k_back, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
             s = s0 + (s1 - s0) * k_back[:, None]

@@ -164,10 +164,14 @@ RayHit with_unseen(RayHit hit, float unseen_t, int unseen) {
 // fails (constants.py's Unseen): UNSEEN_HIDDEN_ENTRY, the ray is inside a solid run without
 // having crossed either (it came in through a side the image holds nothing of); UNSEEN_OCCLUDED,
 // the ray is behind a solid run and at or behind where a second one begins (u_impostor_beyond;
-// between the two, space is seen empty); UNSEEN_SILHOUETTE, a step between two samples that are
-// not one surface, with the ray no farther in front of the nearer one (or behind the farther back
-// face) than SILHOUETTE_BAND_TEXELS of the steepest slope two samples are joined across (a surface
-// may reach that far between them), or a hit on a join steeper than STEEP_JOIN_SHARE of it. The
+// between the two, space is seen empty); UNSEEN_SILHOUETTE, a step within a texel of samples that
+// are not one surface (texel_block: the texels whose centres are within a texel of either
+// sample, since an edge between centres may pass anywhere between them), with the ray no farther
+// in front of the nearest (or behind the farthest back face) than SILHOUETTE_BAND_TEXELS of the
+// steepest slope two samples are joined across (a surface may reach that far between them); a
+// step in front of the join of one surface and behind the extension of a join beside it (an edge
+// the samples step over: crease_unseen); a hit on a join steeper than STEEP_JOIN_SHARE of the
+// steepest, or within a texel of samples that are not one surface (hit_unseen). The
 // record is the ray parameter of the step's start (the ray left seen space somewhere after it)
 // and the kind. Only the variants that act on it track it (TRACK_UNSEEN: the hybrid method and the
 // ray query); the reference (depthimpostor/reference.py) has the same functions.
@@ -202,20 +206,107 @@ float silhouette_clear_depth(DepthImage image, float z, float side) {
     return (image.surface.y - inverse_w * (1.0 + side * SILHOUETTE_BAND_TEXELS * image.surface.x)) / image.surface.z;
 }
 
-// What a step from sample 0 to sample 1 (ray depths r0, r1; layers z0, z1) that did not hit
-// through the visible surface relies on that the image does not hold (UNSEEN_NONE: nothing).
-int step_unseen(DepthImage image, ivec2 texel0, ivec2 texel1, float r0, float r1, vec2 z0, vec2 z1) {
+// What the samples within one texel of image point s hold: the texels whose centres lie within one
+// texel of s in u and in v (the 2 x 2 block a bilinear lookup reads). A sample stands for its
+// texel's centre alone: a silhouette between two of these centres (an object's edge against the
+// background, or a nearer surface against a farther one) may pass anywhere between them, and so
+// reach s, although the sample the march reads at s shows no edge (a corner thinner than a texel
+// covers no centre). `nearest`: the nearest visible surface; `farthest_back`: the farthest back of
+// a solid run (0 where none is covered); `one_surface`: all four covered and joined, edge by edge.
+struct TexelBlock {
+    float nearest;
+    float farthest_back;
+    bool one_surface;
+};
+
+// The texel `offset` from `texel`, clamped to the image (as texel_of clamps).
+ivec2 texel_beside(DepthImage image, ivec2 texel, ivec2 offset) {
+    return image.tile.xy + clamp(texel - image.tile.xy + offset, ivec2(0), image.tile.zw - 1);
+}
+
+// The block of s, whose own texel (texel_of) and its layers z the march has read: that texel and
+// its neighbours on the sides of its centre that s lies on (three more reads).
+TexelBlock texel_block(sampler2D layers, DepthImage image, vec2 s, ivec2 texel, vec2 z) {
+    ivec2 side = ivec2(mix(vec2(-1.0), vec2(1.0), greaterThanEqual(fract(s), vec2(0.5))));
+    ivec2 across = texel_beside(image, texel, ivec2(side.x, 0));
+    ivec2 up = texel_beside(image, texel, ivec2(0, side.y));
+    ivec2 diagonal = texel_beside(image, texel, side);
+    vec2 z_across = layers_at(layers, across), z_up = layers_at(layers, up), z_diagonal = layers_at(layers, diagonal);
+    TexelBlock block;
+    vec4 fronts = vec4(z.x, z_across.x, z_up.x, z_diagonal.x);
+    block.nearest = min(min(fronts.x, fronts.y), min(fronts.z, fronts.w));
+    vec4 backs = mix(vec4(z.y, z_across.y, z_up.y, z_diagonal.y), vec4(0.0), greaterThanEqual(fronts, vec4(BACKGROUND_DEPTH)));
+    block.farthest_back = max(max(backs.x, backs.y), max(backs.z, backs.w));
+    block.one_surface = samples_connected(image, texel, across, z.x, z_across.x)
+        && samples_connected(image, up, diagonal, z_up.x, z_diagonal.x)
+        && samples_connected(image, texel, up, z.x, z_up.x)
+        && samples_connected(image, across, diagonal, z_across.x, z_diagonal.x);
+    return block;
+}
+
+// The visible surface one step `outward` beyond the sample at `texel` (depth z) in `z_beyond`, and
+// whether it is joined to it: inside the image, and one surface with it.
+bool outer_join(sampler2D layers, DepthImage image, ivec2 texel, ivec2 outward, float z, out float z_beyond) {
+    ivec2 beyond = texel + outward - image.tile.xy;
+    bool inside = all(greaterThanEqual(beyond, ivec2(0))) && all(lessThan(beyond, image.tile.zw));
+    ivec2 read = image.tile.xy + clamp(beyond, ivec2(0), image.tile.zw - 1);
+    z_beyond = layers_at(layers, read).x;
+    return inside && outward != ivec2(0) && samples_connected(image, texel, read, z, z_beyond);
+}
+
+// Does the ray pass between the join of two samples of one surface and the nearest that surface
+// can come between them? A join is the surface's chord: where the surface bends toward the eye
+// between the samples (a box's edge, a rim, a ledge) it comes in front of it, up to the extension
+// of the join beyond either sample (to the sample one step beyond it, where that is of the same
+// surface): a ray in front of the join and behind one of the extensions may meet an edge the
+// samples step over. Along the step (k in [0, 1]) the ray's depth, the join and the extensions
+// are all affine: for each extension, the interval where the ray is behind it, in front of the
+// join by more than the contact tolerance (touching the join is a hit) and not clear of the
+// silhouette band is clipped as the frustum clips a ray. A flat surface's extensions are its
+// join, and a surface bent away from the eye (a hollow) has them behind it: neither is flagged.
+bool crease_unseen(sampler2D layers, DepthImage image, ivec2 texel0, ivec2 texel1, float r0, float r1, float z0,
+                   float z1) {
+    float z_before, z_after;
+    bool left = outer_join(layers, image, texel0, texel0 - texel1, z0, z_before);
+    bool right = outer_join(layers, image, texel1, texel1 - texel0, z1, z_after);
+    float low = 0.0, high = 1.0;
+    bool inside = texel0 != texel1;
+    clip_half_space(z0 - CONTACT_DEPTH_TOLERANCE - r0, (z1 - z0) - (r1 - r0), low, high, inside);
+    clip_half_space(r0 - silhouette_clear_depth(image, min(z0, z1), 1.0), r1 - r0, low, high, inside);
+    float left_low = low, left_high = high, right_low = low, right_high = high;
+    bool beyond_left = left && inside, beyond_right = right && inside;
+    clip_half_space(r0 - z0, (r1 - r0) - (z0 - z_before), left_low, left_high, beyond_left);
+    clip_half_space(r0 - (2.0 * z1 - z_after), (r1 - r0) - (z_after - z1), right_low, right_high, beyond_right);
+    return (beyond_left && left_low <= left_high) || (beyond_right && right_low <= right_high);
+}
+
+// What a step from sample 0 to sample 1 (ray depths r0, r1; layers z0, z1; the texel blocks of both
+// samples) that did not hit through the visible surface relies on that the image does not hold
+// (UNSEEN_NONE: nothing).
+int step_unseen(sampler2D layers, DepthImage image, ivec2 texel0, ivec2 texel1, float r0, float r1, vec2 z0, vec2 z1,
+                TexelBlock block0, TexelBlock block1) {
     if (inside_solid(r1, z1)) return UNSEEN_HIDDEN_ENTRY;
     if (occluded(texel1, r1, z1)) return UNSEEN_OCCLUDED;
-    float nearer = min(z0.x, z1.x);
-    if (nearer >= BACKGROUND_DEPTH || samples_connected(image, texel0, texel1, z0.x, z1.x)) return UNSEEN_NONE;
+    // The blocks hold both samples' texels.
+    float nearer = min(block0.nearest, block1.nearest);
+    if (nearer >= BACKGROUND_DEPTH) return UNSEEN_NONE;
+    if (block0.one_surface && block1.one_surface && samples_connected(image, texel0, texel1, z0.x, z1.x)) {
+        return crease_unseen(layers, image, texel0, texel1, r0, r1, z0.x, z1.x) ? UNSEEN_SILHOUETTE : UNSEEN_NONE;
+    }
     // Clear in front of the nearer surface, or behind the farther back face (in space seen empty:
     // the samples are not occluded, or the step before this one said so). The ray's depth is
     // affine along a step: its ends bound it.
-    float farther_back = max(z0.x < BACKGROUND_DEPTH ? z0.y : 0.0, z1.x < BACKGROUND_DEPTH ? z1.y : 0.0);
     bool in_front = max(r0, r1) < silhouette_clear_depth(image, nearer, 1.0);
-    bool behind = min(r0, r1) > silhouette_clear_depth(image, farther_back, -1.0);
+    bool behind = min(r0, r1) > silhouette_clear_depth(image, max(block0.farthest_back, block1.farthest_back), -1.0);
     return in_front || behind ? UNSEEN_NONE : UNSEEN_SILHOUETTE;
+}
+
+// Is a hit through a step between joined samples (depths z0, z1 of the layer crossed) on a
+// silhouette's: a join steeper than STEEP_JOIN_SHARE of the steepest (it may be a sheet over the
+// gap between two surfaces close in depth), or within a texel of where the image is not one
+// surface (a nearer edge may reach in front of the join there)?
+bool hit_unseen(DepthImage image, ivec2 texel0, ivec2 texel1, float z0, float z1, TexelBlock block0, TexelBlock block1) {
+    return !depth_step_within(image, texel0, texel1, z0, z1, STEEP_JOIN_SHARE) || !block0.one_surface || !block1.one_surface;
 }
 
 // Record the step from screen parameter sigma0's kind, unless something unseen came before it.
@@ -236,13 +327,15 @@ vec3 march_sample(ClippedRay ray, int i, int steps) {
 // inside the object (a ray that touches the mirror), where it hits at once. `early` also holds
 // what sample 0 already relies on that the image does not hold (TRACK_UNSEEN).
 bool march_start(sampler2D layers, DepthImage image, vec3 origin, vec3 direction, float t_limit, out ClippedRay ray,
-                 out int steps, out ivec2 texel0, out vec2 z0, out RayHit early) {
+                 out int steps, out ivec2 texel0, out vec2 z0, out TexelBlock block0, out RayHit early) {
     early = no_hit(0);
     if (!clip_and_project(image, origin, direction, t_limit, ray)) return false;
     steps = step_count(image, ray.sa, ray.sb);
     texel0 = texel_of(image, ray.sa.xy);
     z0 = layers_at(layers, texel0);
+    block0 = TexelBlock(z0.x, z0.y, true);
 #ifdef TRACK_UNSEEN
+    block0 = texel_block(layers, image, ray.sa.xy, texel0, z0);
     // Entering the frustum already inside the run or behind it: the object reaches the frustum's
     // side there, where its surface is edge-on to the eye and unseen.
     int kind = inside_solid(ray.sa.z, z0) ? UNSEEN_HIDDEN_ENTRY : occluded(texel0, ray.sa.z, z0) ? UNSEEN_OCCLUDED
@@ -264,7 +357,7 @@ bool march_start(sampler2D layers, DepthImage image, vec3 origin, vec3 direction
 // passes behind the solid run (behind a thin foreground) is inside nothing and goes on to what
 // lies behind, as the truth does. `hit_texel` and `hit_layer` say whose colour the hit shows.
 bool march_step(sampler2D layers, bool back_colors, DepthImage image, ClippedRay ray, int i, int steps, vec3 s0,
-                ivec2 texel0, vec2 z0, out vec3 s1, out ivec2 texel1, out vec2 z1, out float t, out vec2 s,
+                ivec2 texel0, vec2 z0, inout TexelBlock blocks, out vec3 s1, out ivec2 texel1, out vec2 z1, out float t, out vec2 s,
                 out ivec2 hit_texel, out int hit_layer, inout float unseen_t, inout int unseen) {
     s1 = march_sample(ray, i + 1, steps);
     texel1 = texel_of(image, s1.xy);
@@ -275,11 +368,13 @@ bool march_step(sampler2D layers, bool back_colors, DepthImage image, ClippedRay
     bool through_back = back_colors && !through_surface && back_crossing(image, texel0, texel1, s0.z, s1.z, z0, z1, k);
     hit_layer = through_back ? 1 : 0;
 #ifdef TRACK_UNSEEN
-    // A hit on a steep join may be on a sheet over the gap between two surfaces close in depth.
+    // `blocks`: sample 0's on the way in (the step before read it), sample 1's on the way out.
+    TexelBlock block0 = blocks, block1 = texel_block(layers, image, s1.xy, texel1, z1);
+    blocks = block1;
     vec2 crossed = through_back ? vec2(z0.y, z1.y) : vec2(z0.x, z1.x);
     int kind = through_surface || through_back
-        ? (depth_step_within(image, texel0, texel1, crossed.x, crossed.y, STEEP_JOIN_SHARE) ? UNSEEN_NONE : UNSEEN_SILHOUETTE)
-        : step_unseen(image, texel0, texel1, s0.z, s1.z, z0, z1);
+        ? (hit_unseen(image, texel0, texel1, crossed.x, crossed.y, block0, block1) ? UNSEEN_SILHOUETTE : UNSEEN_NONE)
+        : step_unseen(layers, image, texel0, texel1, s0.z, s1.z, z0, z1, block0, block1);
     note_unseen(kind, float(i) / float(steps), ray, unseen_t, unseen);
 #endif
     if (!through_surface && !through_back && !inside_solid(s1.z, z1)) return false;
@@ -308,14 +403,14 @@ int steps_before(ClippedRay ray, int steps, float t_stop) {
 // the end); `reads` texels were read before it, and `unseen` is what sample 0 relies on that the
 // image lacks.
 RayHit march_linear(sampler2D layers, bool back_colors, DepthImage image, ClippedRay ray, int steps, int first, int last,
-                    vec3 s0, ivec2 texel0, vec2 z0, int reads, RayHit unseen) {
+                    vec3 s0, ivec2 texel0, vec2 z0, TexelBlock block0, int reads, RayHit unseen) {
     for (int i = first; i < last; ++i) {
         vec3 s1;
         ivec2 texel1, hit_texel;
         vec2 z1, s;
         float t;
         int hit_layer;
-        if (march_step(layers, back_colors, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s, hit_texel, hit_layer,
+        if (march_step(layers, back_colors, image, ray, i, steps, s0, texel0, z0, block0, s1, texel1, z1, t, s, hit_texel, hit_layer,
                        unseen.unseen_t, unseen.unseen)) {
             return with_unseen(hit_at(image, t, s, reads + i - first + 1, hit_texel, hit_layer), unseen.unseen_t,
                                unseen.unseen);
@@ -338,10 +433,11 @@ RayHit intersect_optimized(sampler2D layers, bool back_colors, DepthImage image,
     int steps;
     ivec2 texel0;
     vec2 z0;
+    TexelBlock block0;
     RayHit early;
-    if (!march_start(layers, image, origin, direction, t_limit, ray, steps, texel0, z0, early)) return early;
+    if (!march_start(layers, image, origin, direction, t_limit, ray, steps, texel0, z0, block0, early)) return early;
     return march_linear(layers, back_colors, image, ray, steps, 0, steps_before(ray, steps, t_stop), ray.sa, texel0, z0,
-                        1, early);
+                        block0, 1, early);
 }
 
 #if ALGORITHM == ALGORITHM_HIERARCHICAL || ALGORITHM == ALGORITHM_AUTO
@@ -383,8 +479,9 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction, flo
     int steps;
     ivec2 texel0;
     vec2 z0;
+    TexelBlock block0;
     RayHit early;
-    if (!march_start(u_impostor_depth, image, origin, direction, UNBOUNDED_RAY, ray, steps, texel0, z0, early)) return early;
+    if (!march_start(u_impostor_depth, image, origin, direction, UNBOUNDED_RAY, ray, steps, texel0, z0, block0, early)) return early;
     RayHit unseen = early;
     vec3 s0 = ray.sa;
     bool z0_read = true;
@@ -418,7 +515,11 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction, flo
                 bool behind = min(s0.z, s_end.z) > span.y + margin;
 #ifdef TRACK_UNSEEN
                 if (unseen.unseen == UNSEEN_NONE) {
-                    in_front = min(in_front, silhouette_clear_depth(image, span.x, 1.0));
+                    // The last step skipped reads the texel block of s_end, which may reach a texel
+                    // beyond the cell's grown block.
+                    float nearest = min(span.x, texel_block(u_impostor_depth, image, s_end.xy, texel_end,
+                                                          layers_at(u_impostor_depth, texel_end)).nearest);
+                    in_front = min(in_front, silhouette_clear_depth(image, nearest, 1.0));
                     behind = false;
                 }
 #endif
@@ -437,6 +538,9 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction, flo
         if (!z0_read) {
             z0 = layers_at(u_impostor_depth, texel0);
             reads += 1;
+#ifdef TRACK_UNSEEN
+            block0 = texel_block(u_impostor_depth, image, s0.xy, texel0, z0);
+#endif
         }
         vec3 s1;
         ivec2 texel1, hit_texel;
@@ -444,7 +548,7 @@ RayHit intersect_hierarchical(DepthImage image, vec3 origin, vec3 direction, flo
         float t;
         int hit_layer;
         reads += 1;
-        if (march_step(u_impostor_depth, true, image, ray, i, steps, s0, texel0, z0, s1, texel1, z1, t, s, hit_texel, hit_layer,
+        if (march_step(u_impostor_depth, true, image, ray, i, steps, s0, texel0, z0, block0, s1, texel1, z1, t, s, hit_texel, hit_layer,
                        unseen.unseen_t, unseen.unseen)) {
             return with_unseen(hit_at(image, t, s, reads, hit_texel, hit_layer), unseen.unseen_t, unseen.unseen);
         }
@@ -491,6 +595,10 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
         ivec2 texel1 = texel_of(image, s1);
         vec2 z1 = layers_at(u_impostor_depth, texel1);
         vec3 q1 = unproject(image, s1, w_from_opengl_depth(image, z1.x));
+#ifdef TRACK_UNSEEN
+        TexelBlock block0 = texel_block(u_impostor_depth, image, s0, texel0, z0);
+        TexelBlock block1 = texel_block(u_impostor_depth, image, s1, texel1, z1);
+#endif
         if (samples_connected(image, texel0, texel1, z0.x, z1.x)) {
 #ifdef TRACK_UNSEEN
             if (!depth_step_within(image, texel0, texel1, z0.x, z1.x, STEEP_JOIN_SHARE)) {
@@ -512,6 +620,11 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
                 float mu = (bb * ee - cc * dd) / denominator;
                 float lambda = (aa * ee - bb * dd) / denominator;
                 if (in_front_at_start && mu >= 0.0 && mu <= 1.0 && lambda >= 0.0 && lambda <= 1.0) {
+#ifdef TRACK_UNSEEN
+                    if (hit_unseen(image, texel0, texel1, z0.x, z1.x, block0, block1)) {
+                        note_unseen(UNSEEN_SILHOUETTE, sigma0, ray, unseen_t, unseen);
+                    }
+#endif
                     vec3 p = ray_a + ray_ab * lambda;
                     vec3 pc = camera_coordinates(image, p - image.eye.xyz);
                     float t = ray.t_enter + lambda * (ray.t_exit - ray.t_enter);
@@ -520,6 +633,11 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
             } else {
                 float k;
                 if (segments_cross(sa.z + (sb.z - sa.z) * sigma0 - z0.x, sa.z + (sb.z - sa.z) * sigma1 - z1.x, k)) {
+#ifdef TRACK_UNSEEN
+                    if (hit_unseen(image, texel0, texel1, z0.x, z1.x, block0, block1)) {
+                        note_unseen(UNSEEN_SILHOUETTE, sigma0, ray, unseen_t, unseen);
+                    }
+#endif
                     float t = ray_parameter(sigma0 + (sigma1 - sigma0) * k, ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
                     return with_unseen(hit_at(image, t, s0 + (s1 - s0) * k, i + 2, k < 0.5 ? texel0 : texel1, 0), unseen_t, unseen);
                 }
@@ -529,7 +647,7 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
         float r0 = sa.z + (sb.z - sa.z) * sigma0, r1 = sa.z + (sb.z - sa.z) * sigma1, k_back;
         if (back_crossing(image, texel0, texel1, r0, r1, z0, z1, k_back)) {
 #ifdef TRACK_UNSEEN
-            if (!depth_step_within(image, texel0, texel1, z0.y, z1.y, STEEP_JOIN_SHARE)) {
+            if (hit_unseen(image, texel0, texel1, z0.y, z1.y, block0, block1)) {
                 note_unseen(UNSEEN_SILHOUETTE, sigma0, ray, unseen_t, unseen);
             }
 #endif
@@ -538,7 +656,8 @@ RayHit intersect_basic(DepthImage image, vec3 origin, vec3 direction) {
                                unseen_t, unseen);
         }
 #ifdef TRACK_UNSEEN
-        note_unseen(step_unseen(image, texel0, texel1, r0, r1, z0, z1), sigma0, ray, unseen_t, unseen);
+        note_unseen(step_unseen(u_impostor_depth, image, texel0, texel1, r0, r1, z0, z1, block0, block1), sigma0, ray,
+                    unseen_t, unseen);
 #endif
         if (inside_solid(sa.z + (sb.z - sa.z) * sigma1, z1)) {
             float t = ray_parameter(sigma1, ray.pa.z, ray.pb.z, ray.t_enter, ray.t_exit);
