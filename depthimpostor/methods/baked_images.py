@@ -27,6 +27,7 @@ from ..constants import (
 )
 from ..errors import ContextError
 from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
+from ..lod import BakeDetail
 from ..culling import Reach, ReachTable, reaches
 from ..ppc import PPC, FrustumFit, view_projections
 from ..resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION, auto_resolution, scene_view
@@ -137,6 +138,9 @@ class BakedImages:
         self.bake_counts: Counter[str] = Counter()  # by image label
         self.bounce_bakes = 0  # of them, images of reflectors (render.max_bounces > 1)
         self.stale: set[int] = {image.slot for image in self.depth_images}  # slots the next bake renders
+        # Each image's objects at the level its texels can tell (lod.py); the hybrid method's at
+        # their full meshes, whose triangles its samples name.
+        self.detail = None if self.keeps_triangle_ids else BakeDetail()
 
     @property
     def needs_bake(self) -> bool:
@@ -282,10 +286,11 @@ class BakedImages:
         # Each image's matrix once, all at once (ppc.view_projections), for every layer's pass.
         matrices = dict(zip((image.slot for image in stale), view_projections([image.camera for image in stale]),
                             strict=True))
+        drawn = dict(zip((image.slot for image in stale), self.drawn(stale), strict=True))
         with raster_state(self.ctx):
-            draws += self._bake_surfaces(stale, whole, matrices)
+            draws += self._bake_surfaces(stale, whole, matrices, drawn)
             if self.back_layer is not None:
-                draws += self._bake_back_layers(stale, whole, matrices)
+                draws += self._bake_back_layers(stale, whole, matrices, drawn)
                 if atlas.beyond is not None:
                     draws += self._bake_beyond(stale, whole, matrices)
             elif self.second_layer == SecondLayer.BACK_FACE:
@@ -297,6 +302,13 @@ class BakedImages:
         for image in stale:
             self.baked(image)
         return draws
+
+    def drawn(self, images: list[DepthImage]) -> list[list[ObjectGeometry]]:
+        """The objects of each of `images` (of level 0) as its bake draws them: each at its level
+        (lod.BakeDetail)."""
+        if self.detail is None:
+            return [list(image.targets) for image in images]
+        return self.detail.drawn([(image.camera, image.targets) for image in images])
 
     def rest(self) -> None:
         """A frame with nothing to bake: the bakes' depth buffer (one float a texel of the atlas)
@@ -310,9 +322,10 @@ class BakedImages:
         tiles' first writes, and draws a scissored one."""
         return [None] if whole else [image.tile for image in stale]
 
-    def _bake_surfaces(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray]) -> int:
-        """The visible surface of each stale image: colour, R (and G where G is the object id), the
-        triangle ids' R; cleared to colour alpha 0 ("nothing here") and BACKGROUND_DEPTH in both
+    def _bake_surfaces(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray],
+                       drawn: dict[int, list[ObjectGeometry]]) -> int:
+        """The visible surface of each stale image (`drawn`: its objects as drawn, by slot): colour,
+        R (and G where G is the object id), the triangle ids' R; cleared to colour alpha 0 ("nothing here") and BACKGROUND_DEPTH in both
         layers, the value the depth buffer clears to."""
         atlas = self.atlas
         framebuffer = atlas.framebuffer
@@ -329,7 +342,7 @@ class BakedImages:
             framebuffer.color_mask = surface_mask
             for image in stale:
                 framebuffer.viewport = image.tile
-                draws += self.diffuse.draw(list(image.targets), matrices[image.slot])
+                draws += self.diffuse.draw(drawn[image.slot], matrices[image.slot])
         finally:
             framebuffer.color_mask = everything
         return draws
@@ -354,9 +367,11 @@ class BakedImages:
                 self.meshes.draw(back_faces, target, image.camera.view_projection)
         return len(image.targets)
 
-    def _bake_back_layers(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray]) -> int:
-        """The nearest back face's colour, depth (G) and triangle (G) of each stale image, against
-        a fresh depth buffer; the colour cleared to alpha 0 (none drawn)."""
+    def _bake_back_layers(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray],
+                          drawn: dict[int, list[ObjectGeometry]]) -> int:
+        """The nearest back face's colour, depth (G) and triangle (G) of each stale image (its
+        objects as the surface pass drew them), against a fresh depth buffer; the colour cleared
+        to alpha 0 (none drawn)."""
         assert self.back_layer is not None and self.atlas.back_framebuffer is not None
         framebuffer, atlas = self.atlas.back_framebuffer, self.atlas
         framebuffer.use()
@@ -370,7 +385,7 @@ class BakedImages:
             with raster_state(self.ctx, BACK_FACES):
                 for image in stale:
                     framebuffer.viewport = image.tile
-                    draws += self.back_layer.draw(list(image.targets), matrices[image.slot])
+                    draws += self.back_layer.draw(drawn[image.slot], matrices[image.slot])
             return draws
         finally:
             framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))

@@ -1,0 +1,119 @@
+"""Levels of detail in baked images (lod.py, "Baked images"): each object drawn into a depth image,
+billboard or cube-map face at the coarsest level whose chordal error stays under LOD_TEXEL_ERROR
+texels of that image; reflectors, and the hybrid method's images, at the full meshes."""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+import pytest
+from conftest import assert_finite, scene_from_toml
+
+import depthimpostor.lod as lod
+from depthimpostor.constants import Method
+from depthimpostor.geometry import ObjectGeometry, mesh_for_shape, tessellation
+from depthimpostor.lod import LOD_TEXEL_ERROR, BakeDetail, chordal_error, image_levels, texels_per_unit
+from depthimpostor.methods.cubemaps import CUBE_FACES
+from depthimpostor.ppc import PPC
+from depthimpostor.renderer import Renderer
+from depthimpostor.scene.model import Scene
+
+HEAD = """
+[render]
+size = [160, 90]
+impostor_resolution = 128
+[camera]
+eye = [0.0, 1.2, 4.0]
+target = [0.0, 1.0, 0.0]
+[[lights]]
+type = "directional"
+direction = [-0.4, -1.0, -0.3]
+"""
+
+
+def ball(name: str, radius: float, position: tuple[float, float, float], material: str) -> str:
+    return (f'[[objects]]\nname = "{name}"\nshape = {{ type = "sphere", radius = {radius} }}\n'
+            f"material = {material}\nposition = {[round(float(v), 4) for v in position]}\n")
+
+
+CHECKER = '{ type = "checker", color_a = [0.9, 0.3, 0.1], color_b = [0.1, 0.2, 0.8], scale = 0.05 }'
+MIRROR = '{ type = "mirror" }'
+
+
+def scene_of(*objects: str) -> Scene:
+    return scene_from_toml(HEAD + "".join(objects))
+
+
+def geometry(scene: Scene) -> list[ObjectGeometry]:
+    return [ObjectGeometry(i, obj, mesh_for_shape(obj.shape)) for i, obj in enumerate(scene.objects)]
+
+
+def filling_camera(item: ObjectGeometry, eye: tuple[float, float, float]) -> PPC:
+    """A 128^2 depth image from `eye` fitted to `item` (as the depth method fits its images)."""
+    return PPC.fitted(eye, item.world_mesh.positions, item.bounding_sphere[0], 128, 128)
+
+
+def test_a_sphere_filling_its_image_is_baked_at_48_by_24_and_a_reflector_at_full() -> None:
+    items = geometry(scene_of(ball("ball", 0.12, (0.0, 0.8, 0.0), CHECKER), ball("mirror", 0.12, (0.0, 0.8, 0.0), MIRROR)))
+    camera = filling_camera(items[0], (3.0, 0.8, 0.0))
+    # A texel is about 2 r / 128 where the sphere is nearest: 48 x 24 sags by 0.14 of it, 24 x 12 by 0.55.
+    assert image_levels([camera, camera], items) == [1, 0]
+    assert tessellation(items[0].object.shape, 1) == (48, 24)
+    per_unit = texels_per_unit([camera], *(np.array([part]) for part in items[0].bounding_sphere))[0]
+    assert chordal_error(items[0].object.shape, 1) * per_unit <= LOD_TEXEL_ERROR < chordal_error(items[0].object.shape, 2) * per_unit
+    drawn = BakeDetail().drawn([(camera, items)])[0]
+    assert len(drawn[0].local_mesh.indices) == 48 * 2 * (24 - 1) and drawn[1] is items[1]
+    assert np.array_equal(drawn[0].model_matrix, items[0].model_matrix) and drawn[0].index == items[0].index
+
+
+def test_a_cube_face_bakes_small_far_spheres_coarser_and_its_corners_finer_than_its_centre() -> None:
+    items = geometry(scene_of(ball("near", 0.12, (0.0, 0.0, 1.5), CHECKER), ball("far", 0.12, (0.0, 0.0, 6.0), CHECKER),
+                              ball("corner", 0.12, (1.5, 1.5, 1.5), CHECKER)))
+    axis, up = CUBE_FACES[4]  # +z
+    face = PPC.look_at((0.0, 0.0, 0.0), axis, up, 90.0, 128, 128, 0.5, 20.0)
+    near, far, corner = image_levels([face] * 3, items)
+    assert 1 <= near < far  # a few texels across: far coarser than the full 96 x 48
+    assert corner < far
+    # A texel covers less off the axis: a length at distance d covers F / (d cos^2 theta) texels
+    # (F = 64 for 128 texels over 90 degrees), 3 times the centre's at the face's corner.
+    d = 2.0
+    per_unit = texels_per_unit([face] * 2, np.array([[0.0, 0.0, d], [d, d, d] / np.sqrt(3.0)]), np.zeros(2))
+    assert per_unit[0] == pytest.approx(64.0 / d) and per_unit[1] == pytest.approx(3.0 * 64.0 / d)
+    assert texels_per_unit([face], np.zeros((1, 3)), np.array([1.0]))[0] == np.inf  # a sphere holding the eye
+
+
+def test_depth_images_bake_coarser_levels_and_the_hybrids_keep_the_full_meshes(ctx: moderngl.Context) -> None:
+    scene = scene_of(ball("mirror", 0.8, (0.0, 0.8, 0.0), MIRROR), ball("ball", 0.3, (1.6, 0.8, 1.0), CHECKER))
+    triangles = {}
+    for method in (Method.DEPTH, Method.BILLBOARD, Method.CUBEMAP, Method.HYBRID):
+        with Renderer(ctx, scene, method=method) as renderer:
+            baked = renderer.graph.baked_images
+            assert baked is not None
+            images = [image for image in baked.depth_images if not image.level]
+            triangles[method] = [len(item.local_mesh.indices) for drawn in baked.drawn(images) for item in drawn]
+    full = 96 * 2 * (48 - 1)
+    assert triangles[Method.DEPTH] == triangles[Method.BILLBOARD] == [48 * 2 * (24 - 1)]
+    assert all(count < full // 4 for count in triangles[Method.CUBEMAP])  # 0.3 across, 1.4 away: 128^2 over 90 degrees
+    assert triangles[Method.HYBRID] == [full]  # its samples name the full mesh's triangles
+
+
+def test_baked_levels_barely_change_the_reflection(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Round checkered objects close to a mirror sphere: the depth method's frame with its images
+    baked at their levels is the frame baked at full meshes, but for a few texels' worth at
+    silhouettes and checker edges (under half a texel of the image moves)."""
+    objects = [ball("mirror", 1.0, (0.0, 1.0, 0.0), MIRROR)]
+    objects += [ball(f"ball{k}", 0.3, (1.6 * np.cos(0.6 * k + 0.3), 1.0 + 0.5 * np.sin(2 * k), 1.6 * np.sin(0.6 * k + 0.3)),
+                     CHECKER) for k in range(5)]
+    scene = scene_of(*objects).with_overrides(size=(320, 180))
+    frames = []
+    for levels in (image_levels, lambda cameras, items: [0] * len(items)):
+        monkeypatch.setattr(lod, "image_levels", levels)
+        with Renderer(ctx, scene, method=Method.DEPTH) as renderer:
+            renderer.render()
+            frames.append(renderer.read_color_float())
+            assert_finite(frames[-1])
+    difference = np.abs(frames[0] - frames[1]).max(axis=-1)
+    assert (difference > 0.0).any()  # the levels are in use
+    # On llvmpipe: 0.3 % of the frame's pixels change, 0.07 % by more than 0.1 (pixels at the
+    # reflected balls' silhouettes, whose edge moved by under half a texel of their images).
+    assert (difference > 0.1).mean() < 0.002
