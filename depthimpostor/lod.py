@@ -22,13 +22,15 @@ Baked images (depth images, billboards, cube-map faces) draw each object at the 
 whose chordal error, projected into that image at the object's nearest point, stays under
 LOD_TEXEL_ERROR texels of it (`image_levels`, `BakeDetail`): the image's own sampling is what a
 reflected ray sees of the object, whatever the eye's frame. A sphere filling a 128^2 depth image
-is drawn at 48 x 24 instead of 96 x 48 (a quarter of the triangles); a small object in a cube-map
-face, at a few dozen triangles. The hybrid method's images keep the full meshes: each of their
-samples names the triangle it shows, which its re-trace intersects exactly.
+keeps its 96 x 48 (48 x 24 would sag by 0.14 texels), and gets 48 x 24 in a 64^2 one; a small
+object in a 128^2 cube-map face is drawn with a few hundred triangles. The hybrid method's images
+keep the full meshes: each of their samples names the triangle it shows, which its re-trace
+intersects exactly.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Collection, Sequence
 
@@ -45,10 +47,14 @@ from .scene.model import CylinderShape, Scene, Shape, SphereShape, TorusKnotShap
 #: shading (smooth normals, interpolated) cannot be told from the full mesh's on an object a few
 #: pixels across.
 LOD_PIXEL_ERROR = 0.5
-#: The same for a baked image, in texels of that image: under half a texel, a silhouette moves by
-#: less than the distance between sample centres, and a depth by less than a texel's footprint
-#: (the marches' tolerances are whole texels: ppc.max_relative_depth_step, CLIP_TOLERANCE_PIXELS).
-LOD_TEXEL_ERROR = 0.5
+#: The same for a baked image, in texels of that image. Not half, as for the eye: a mirror magnifies
+#: a texel into several pixels where it turns away from the eye, and half a texel measurably moved
+#: the depth method's silhouettes (tools/bake_levels.py on tools/scene_size.py's scenes, against the
+#: truth: colour RMSE +13 % at 100 objects, +4 % at 1,000, the wrong-surface share up, where its
+#: spheres were baked at 48 x 24, 0.14 texels of chordal error). At an eighth, no figure of any
+#: method moved beyond its noise (results/llvmpipe/bake_levels.md), and the cube maps' faces draw a
+#: eighteenth of their triangles.
+LOD_TEXEL_ERROR = 0.125
 
 
 def _sag(radius: float, chords: int) -> float:
@@ -183,13 +189,20 @@ def image_levels(cameras: Sequence[PPC], items: Sequence[ObjectGeometry]) -> lis
     return levels
 
 
+@functools.lru_cache(maxsize=256)
+def level_mesh(shape: Shape, textured: bool, level: int) -> Mesh:
+    """The local mesh of `shape` at `level` that bakes draw: one per (shape, texture seam, level),
+    shared by every image and renderer (meshes are read-only), so that the plan counts the very
+    meshes the bakes load (plan_memory)."""
+    return mesh_for_shape(shape, textured, level)
+
+
 class BakeDetail:
     """The geometry a bake draws of its images' objects: each object at its image_levels level,
     made once per (object, level) and kept while the object does not move; objects of one shape
-    and level share one local mesh, as the world's do (geometry.scene_geometry)."""
+    and level share one local mesh (level_mesh), as the world's do (geometry.scene_geometry)."""
 
     def __init__(self) -> None:
-        self._meshes: dict[tuple[Shape, bool, int], Mesh] = {}
         self._items: dict[tuple[int, int], tuple[ObjectGeometry, ObjectGeometry]] = {}  # (index, level): (full, coarse)
 
     def drawn(self, images: Sequence[tuple[PPC, Sequence[ObjectGeometry]]]) -> list[list[ObjectGeometry]]:
@@ -206,10 +219,7 @@ class BakeDetail:
         kept = self._items.get((item.index, level))
         if kept is not None and kept[0] is item:
             return kept[1]
-        key = (item.object.shape, getattr(item.object.material, "texture", None) is not None, level)
-        if key not in self._meshes:
-            self._meshes[key] = mesh_for_shape(*key)
-        mesh = self._meshes[key]
+        mesh = level_mesh(item.object.shape, getattr(item.object.material, "texture", None) is not None, level)
         if len(mesh.indices) >= len(item.local_mesh.indices):
             coarse = item
         else:
@@ -218,3 +228,12 @@ class BakeDetail:
                                     if name in item.__dict__})  # the same transform: its cached properties' slots
         self._items[(item.index, level)] = (item, coarse)
         return coarse
+
+
+def bake_meshes(images: Sequence[tuple[PPC, Sequence[ObjectGeometry]]]) -> list[Mesh]:
+    """The meshes the bakes of `images` (each its camera and objects) draw that are not their
+    objects' own: the levels the renderer loads at its first bake (the plan's memory figure)."""
+    drawn = BakeDetail().drawn(images)
+    coarse = [item.local_mesh for (_, items), shown in zip(images, drawn, strict=True)
+              for full, item in zip(items, shown, strict=True) if item is not full]
+    return list({id(mesh): mesh for mesh in coarse}.values())

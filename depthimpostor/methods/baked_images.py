@@ -29,7 +29,7 @@ from ..errors import ContextError
 from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
 from ..lod import BakeDetail
 from ..culling import Reach, ReachTable, reaches
-from ..ppc import PPC, FrustumFit, view_projections
+from ..ppc import PPC, FrustumFit, depth_image_records, view_projections
 from ..resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION, auto_resolution, scene_view
 from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
@@ -37,7 +37,7 @@ from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import bind_texture, write
 from .colour_mips import ColourMips
-from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, fit_depth_image_frusta, image_label, image_records, plural, record_table, write_table
+from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, fit_depth_image_frusta, image_label, image_records, plural, record_table, record_table_bytes, write_table
 
 
 
@@ -199,6 +199,29 @@ class BakedImages:
         """GPU memory a texel of this stand-in's atlas takes, with the depth buffer it is baked with."""
         return ImpostorAtlas.bytes_for(1, 1, cls.second_layer != SecondLayer.NONE, cls.keeps_triangle_ids,
                                        cls.keeps_back_colors, cls.keeps_beyond)
+
+    @classmethod
+    def table_bytes(cls, scene: Scene, mirrors: list[ObjectGeometry], plans: dict[int, list[ImagePlan]]) -> tuple[int, int]:
+        """GPU bytes of the mirrors' record tables (uniform_buffers) and of those the bounce images
+        are drawn with (BounceBaker.level_buffers), for the images `plans`: their records and the
+        lists of candidate images by ray they hold past them (methods/image_cells.py), each counted
+        as record_table builds it, before any is built (the plan's memory figure)."""
+        capacity = depth_image_capacity(len(scene.objects))
+        final = scene.render.max_bounces
+        bounces = range(1, final) if final > 1 and len(mirrors) > 1 and cls.second_layer == SecondLayer.BACK_FACE else range(0)
+        tables = [0, 0]
+        for mirror in mirrors:
+            mirror_plans = plans.get(mirror.index, [])
+            records = depth_image_records(
+                [plan.camera for plan in mirror_plans], [0] * len(mirror_plans), [(0, 0)] * len(mirror_plans),
+                [(0, 0, 0)] * len(mirror_plans),
+                [plan.targets[0].bounding_sphere if len(plan.targets) == 1 else None for plan in mirror_plans])
+            spheres = np.asarray(records["bound" if cls.lists_over_bounds else "hit_bound"], np.float64)
+            rays_from = mirror.bounding_sphere if mirror_plans else (np.zeros(3), 0.0)
+            for level, kind in [(final, 0), *((level, 1) for level in bounces)]:
+                shown = [i for i, plan in enumerate(mirror_plans) if plan.level in (0, level)]
+                tables[kind] += record_table_bytes(spheres[shown], capacity, rays_from)
+        return tables[0], tables[1]
 
     def images_at(self, mirror_index: int, bounces: int) -> list[DepthImage]:
         """The images a reflected ray of this mirror is traced against when it may make
