@@ -47,13 +47,13 @@ from .scene.model import CylinderShape, Scene, Shape, SphereShape, TorusKnotShap
 #: shading (smooth normals, interpolated) cannot be told from the full mesh's on an object a few
 #: pixels across.
 LOD_PIXEL_ERROR = 0.5
-#: The same for a baked image, in texels of that image. Not half, as for the eye: a mirror magnifies
-#: a texel into several pixels where it turns away from the eye, and half a texel measurably moved
-#: the depth method's silhouettes (tools/bake_levels.py on tools/scene_size.py's scenes, against the
-#: truth: colour RMSE +13 % at 100 objects, +4 % at 1,000, the wrong-surface share up, where its
-#: spheres were baked at 48 x 24, 0.14 texels of chordal error). At an eighth, no figure of any
-#: method moved beyond its noise (results/llvmpipe/bake_levels.md), and the cube maps' faces draw a
-#: eighteenth of their triangles.
+#: The same for a baked image, in texels of that image. Not half, as for the eye: half a texel
+#: measurably moved the depth method's silhouettes (tools/bake_levels.py on tools/scene_size.py's
+#: scenes, against the truth: colour RMSE +13 % at 100 objects, +4 % at 1,000, the wrong-surface
+#: share up, where its spheres were baked at 48 x 24, 0.14 texels of chordal error; presumably
+#: where a mirror, turning away from the eye, magnifies a texel into several pixels). At an eighth, no figure of any
+#: method moved beyond its noise (results/llvmpipe/bake_levels.md), and the cube maps' faces draw
+#: an eighteenth of their triangles (1,000 objects: 3.0 M instead of 54 M).
 LOD_TEXEL_ERROR = 0.125
 
 
