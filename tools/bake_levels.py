@@ -1,6 +1,7 @@
-"""What the bakes' levels of detail (lod.py, "Baked images") change: each scene with each baking
-method, its images baked at their levels and again at the full meshes, both compared with the
-truth (traced once), and the largest difference between the two frames.
+"""What the bakes' levels of detail (lod.py, "Baked images") and the culled back faces of their
+surface pass change: each scene with each baking method, its images baked as this branch bakes
+them and again as main did (full meshes, every back face drawn; --against: undo one of the two),
+both compared with the truth (traced once), and the largest difference between the two frames.
 
     python3 tools/bake_levels.py --counts 10,100,1000 scenes/lecture_8x9.toml -o results/llvmpipe/bake_levels.md
 
@@ -27,19 +28,23 @@ from depthimpostor.scene import Scene, load_scene
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from scene_size import family_scene  # noqa: E402
 
-METHODS = (Method.DEPTH, Method.BILLBOARD, Method.CUBEMAP, Method.CUBEMAP_PARALLAX)
+METHODS = (Method.DEPTH, Method.BILLBOARD, Method.CUBEMAP, Method.CUBEMAP_PARALLAX, Method.HYBRID)
 
 
-def both(renderer: Renderer, truth: TruthFrame | None) -> tuple[Comparison, Comparison, int, int]:
-    """The comparisons of the frame baked at the levels and at the full meshes, and the triangles
-    each bake drew."""
+def both(renderer: Renderer, truth: TruthFrame | None, against: str) -> tuple[Comparison, Comparison, int, int]:
+    """The comparisons of the frame baked as this branch bakes and as `against` says (main's: full
+    meshes, every back face drawn; "levels": full meshes; "culling": every back face drawn), and
+    the triangles each bake drew."""
     baked = renderer.graph.baked_images
     assert baked is not None
     images = [image for image in baked.depth_images if not image.level]
     renderer.render()
     levels = compare(renderer, truth)
     coarse = sum(len(item.local_mesh.indices) for drawn in baked.drawn(images) for item in drawn)
-    baked.detail = None  # every object at its full mesh, as before the levels
+    if against in ("main", "levels"):
+        baked.detail = None  # every object at its full mesh
+    if against in ("main", "culling"):
+        baked.culls_back_faces = False  # every back face drawn in the surface pass
     renderer.bake_again()
     renderer.render()
     full = compare(renderer, levels.truth_frame)
@@ -66,6 +71,8 @@ def main() -> int:
     parser.add_argument("--methods", default=",".join(m.option for m in METHODS))
     parser.add_argument("--fraction", type=float, default=lod.LOD_TEXEL_ERROR,
                         help="the texels of chordal error a level may make (lod.LOD_TEXEL_ERROR)")
+    parser.add_argument("--against", choices=("main", "levels", "culling"), default="main",
+                        help="what the second frame undoes: both changes (main's bakes), the levels, the culling")
     parser.add_argument("-o", "--output", type=Path)
     args = parser.parse_args()
     lod.LOD_TEXEL_ERROR = args.fraction  # read by lod.image_levels at each bake
@@ -74,7 +81,7 @@ def main() -> int:
     named: list[tuple[str, Scene]] = [(f"{int(c)} objects", family_scene(int(c))) for c in args.counts.split(",") if c]
     named += [(str(path), load_scene(path)) for path in args.scenes]
     ctx = create_context()
-    lines = [f"{width}x{height}, images of {args.resolution}^2, levels within {args.fraction} texels; each pair is full meshes -> levels; `difference` is "
+    lines = [f"{width}x{height}, images of {args.resolution}^2, levels within {args.fraction} texels; each pair is {args.against} -> this branch; `difference` is "
              "the largest of any pixel's channels between the two frames, `changed` the share of mirror pixels whose "
              "difference passes 0.1.", "",
              "| scene | method | bake triangles | difference | changed % | wrong object % | wrong surface % | RMSE |",
@@ -86,7 +93,7 @@ def main() -> int:
         for method in methods:
             try:
                 with Renderer(ctx, scene, method=method, reflection_data=True) as renderer:
-                    levels, full, coarse, triangles = both(renderer, truth)
+                    levels, full, coarse, triangles = both(renderer, truth, args.against)
             except DepthImpostorError as error:
                 line = f"| {name} | {method.option} | refused: {str(error).splitlines()[0]} | | | | | |"
             else:

@@ -16,7 +16,8 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from ..gpu.gl_state import raster_state
+from ..gpu.batches import is_closed
+from ..gpu.gl_state import BASE, raster_state
 from ..gpu.bindings import TextureUnit
 from ..constants import (
     BACKGROUND_DEPTH,
@@ -141,6 +142,9 @@ class BakedImages:
         # Each image's objects at the level its texels can tell (lod.py); the hybrid method's at
         # their full meshes, whose triangles its samples name.
         self.detail = None if self.keeps_triangle_ids else BakeDetail()
+        # Closed solids' back faces culled in the visible-surface pass, as the frame's batch culls
+        # them: seen from outside, each back face lies behind a front face of the same solid.
+        self.culls_back_faces = True
 
     @property
     def needs_bake(self) -> bool:
@@ -365,7 +369,9 @@ class BakedImages:
             framebuffer.color_mask = surface_mask
             for image in stale:
                 framebuffer.viewport = image.tile
-                draws += self.diffuse.draw(drawn[image.slot], matrices[image.slot])
+                closed = self.culls_back_faces and all(is_closed(item) for item in drawn[image.slot])
+                with raster_state(self.ctx, FRONT_FACES if closed else BASE):
+                    draws += self.diffuse.draw(drawn[image.slot], matrices[image.slot])
         finally:
             framebuffer.color_mask = everything
         return draws
