@@ -1,8 +1,11 @@
 """Levels of detail in baked images (lod.py, "Baked images"): each object drawn into a depth image,
 billboard or cube-map face at the coarsest level whose chordal error stays under LOD_TEXEL_ERROR
-texels of that image; reflectors, and the hybrid method's images, at the full meshes."""
+texels of that image; reflectors, and the hybrid method's images, at the full meshes. And the
+closed solids' back faces culled in the bakes' surface pass."""
 
 from __future__ import annotations
+
+from typing import Any
 
 import moderngl
 import numpy as np
@@ -11,6 +14,9 @@ from conftest import assert_finite, scene_from_toml
 
 import depthimpostor.lod as lod
 from depthimpostor.constants import Method
+from depthimpostor.gpu import gl_state
+from depthimpostor.gpu.gl_state import RasterState
+from depthimpostor.methods.atlas import FRONT_FACES
 from depthimpostor.geometry import ObjectGeometry, mesh_for_shape, tessellation
 from depthimpostor.lod import LOD_TEXEL_ERROR, BakeDetail, chordal_error, image_levels, texels_per_unit
 from depthimpostor.methods.cubemaps import CUBE_FACES
@@ -122,3 +128,38 @@ def test_baked_levels_barely_change_the_reflection(ctx: moderngl.Context, monkey
     # On llvmpipe: 0.3 % of the frame's pixels change, 0.05 % by more than 0.1 (pixels at the
     # reflected balls' silhouettes).
     assert (difference > 0.1).mean() < 0.002
+
+
+def test_the_surface_pass_culls_closed_solids_back_faces_and_changes_no_frame(
+        ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A closed solid seen from outside hides each back face behind a front face of its own: the
+    bakes' visible-surface pass culls them (as the frame's batch does), and the frame is the same
+    to the bit as with every back face drawn (tools/frames.py: no shipped frame changes)."""
+    objects = [ball("mirror", 1.0, (0.0, 1.0, 0.0), MIRROR)]
+    objects += [ball(f"ball{k}", 0.3, (1.6 * np.cos(0.6 * k + 0.3), 1.0 + 0.5 * np.sin(2 * k), 1.6 * np.sin(0.6 * k + 0.3)),
+                     CHECKER) for k in range(5)]
+    scene = scene_of(*objects).with_overrides(size=(320, 180), impostor_resolution=64)
+    applied: list[RasterState] = []  # the states set while a bake's surface pass draws
+    apply = gl_state._apply
+    monkeypatch.setattr(gl_state, "_apply", lambda context, state: (applied.append(state), apply(context, state))[1])
+    for method in (Method.DEPTH, Method.CUBEMAP):
+        frames = []
+        for culls in (True, False):
+            with Renderer(ctx, scene, method=method) as renderer:
+                baked = renderer.graph.baked_images
+                assert baked is not None
+                baked.culls_back_faces = culls
+                surfaces = baked._bake_surfaces
+                seen: list[RasterState] = []
+
+                def recorded(*args: Any, surfaces: Any = surfaces, seen: list[RasterState] = seen) -> int:
+                    applied.clear()
+                    draws: int = surfaces(*args)
+                    seen.extend(applied)
+                    return draws
+
+                monkeypatch.setattr(baked, "_bake_surfaces", recorded)
+                renderer.render()
+                frames.append(renderer.read_color_float())
+                assert (FRONT_FACES in seen) == culls
+        assert np.array_equal(frames[0], frames[1])

@@ -323,7 +323,7 @@ class BakedImages:
             elif self.second_layer == SecondLayer.BACK_FACE:
                 try:
                     for image in stale:
-                        draws += self.bake_back_faces(image, atlas.framebuffer, image.tile)
+                        draws += self.bake_back_faces(image, atlas.framebuffer, image.tile, drawn[image.slot])
                 finally:
                     atlas.framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
         for image in stale:
@@ -352,8 +352,11 @@ class BakedImages:
     def _bake_surfaces(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray],
                        drawn: dict[int, list[ObjectGeometry]]) -> int:
         """The visible surface of each stale image (`drawn`: its objects as drawn, by slot): colour,
-        R (and G where G is the object id), the triangle ids' R; cleared to colour alpha 0 ("nothing here") and BACKGROUND_DEPTH in both
-        layers, the value the depth buffer clears to."""
+        R (and G where G is the object id), the triangle ids' R; cleared to colour alpha 0 ("nothing
+        here") and BACKGROUND_DEPTH in both layers, the value the depth buffer clears to. An image
+        whose objects are all closed solids (batches.is_closed) is drawn with their back faces
+        culled: each lies behind a front face of its own solid, and tools/frames.py and
+        tools/bake_levels.py --against culling find no frame or error figure that changes."""
         atlas = self.atlas
         framebuffer = atlas.framebuffer
         framebuffer.use()
@@ -382,19 +385,22 @@ class BakedImages:
         self.bake_counts[image.label] += 1
         self.stale.discard(image.slot)
 
-    def bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, int, int, int]) -> int:
+    def bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, int, int, int],
+                        drawn: list[ObjectGeometry] | None = None) -> int:
         """The nearest back face: the G layer alone, against a fresh depth buffer (images of
-        reflectors at bounce k >= 2, which have no colour of their backs to show)."""
+        reflectors at bounce k >= 2, which have no colour of their backs to show); `drawn`: the
+        image's objects as its surface pass drew them (its targets by default)."""
         back_faces = self.programs.get(*BACK_FACE_PROGRAM)
+        drawn = list(image.targets) if drawn is None else drawn
         attachments = len(framebuffer.color_attachments)
         framebuffer.viewport = tile
         framebuffer.color_mask = color_mask(attachments)
         framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=tile)
         framebuffer.color_mask = color_mask(attachments, (False,) * 4, (False, True, False, False))
         with raster_state(self.ctx, BACK_FACES):
-            for target in image.targets:
+            for target in drawn:
                 self.meshes.draw(back_faces, target, image.camera.view_projection)
-        return len(image.targets)
+        return len(drawn)
 
     def _bake_back_layers(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray],
                           drawn: dict[int, list[ObjectGeometry]]) -> int:
