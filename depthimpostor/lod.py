@@ -12,21 +12,34 @@ and the frame size it renders at; a viewer that flies close to a small object se
 Kept at the full tessellation, because a coarser mesh would change what they show:
 - reflectors (mirrors and glass): a mirror's normals are interpolated over its triangles, so a
   coarser mirror mesh changes every reflected pixel;
-- objects a reflector can show (culling.reaches): they are drawn into depth images and traced by the
-  triangle methods, whose rays meet them at the size of an image's sample, not of an eye pixel;
+- objects a reflector can show (culling.reaches): they are traced by the triangle methods (and the
+  hybrid method's re-trace, and the truth), whose rays meet them at the size of an image's sample,
+  not of an eye pixel; the images baked of them choose their own levels (below);
 - objects that move (their distance from the camera changes), and, in a scene with shadows,
   shadow casters (their shadow falls elsewhere, at another size on screen).
+
+Baked images (depth images, billboards, cube-map faces) draw each object at the coarsest level
+whose chordal error, projected into that image at the object's nearest point, stays under
+LOD_TEXEL_ERROR texels of it (`image_levels`, `BakeDetail`): the image's own sampling is what a
+reflected ray sees of the object, whatever the eye's frame. A sphere filling a 128^2 depth image
+keeps its 96 x 48 (48 x 24 would sag by 0.14 texels), and gets 48 x 24 in a 64^2 one; a small
+object in a 128^2 cube-map face is drawn with a few hundred triangles. The hybrid method's images
+keep the full meshes: each of their samples names the triangle it shows, which its re-trace
+intersects exactly.
 """
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Collection
+from collections.abc import Collection, Sequence
 
 import numpy as np
 
 from .culling import enclosing_spheres
-from .geometry import ObjectGeometry, has_levels, max_level, tessellation
+from .geometry import ObjectGeometry, bounding_spheres, has_levels, max_level, mesh_for_shape, tessellation
+from .meshes import Mesh
+from .ppc import PPC
 from .scene.model import CylinderShape, Scene, Shape, SphereShape, TorusKnotShape, TorusShape
 
 #: The largest screen-space error a level may make, in pixels of the scene's frame: under half a
@@ -34,6 +47,14 @@ from .scene.model import CylinderShape, Scene, Shape, SphereShape, TorusKnotShap
 #: shading (smooth normals, interpolated) cannot be told from the full mesh's on an object a few
 #: pixels across.
 LOD_PIXEL_ERROR = 0.5
+#: The same for a baked image, in texels of that image. Not half, as for the eye: half a texel
+#: measurably moved the depth method's silhouettes (tools/bake_levels.py on tools/scene_size.py's
+#: scenes, against the truth: colour RMSE +13 % at 100 objects, +4 % at 1,000, the wrong-surface
+#: share up, where its spheres were baked at 48 x 24, 0.14 texels of chordal error; presumably
+#: where a mirror, turning away from the eye, magnifies a texel into several pixels). At an eighth, no figure of any
+#: method moved beyond its noise (results/llvmpipe/bake_levels.md), and the cube maps' faces draw
+#: an eighteenth of their triangles (1,000 objects: 3.0 M instead of 54 M).
+LOD_TEXEL_ERROR = 0.125
 
 
 def _sag(radius: float, chords: int) -> float:
@@ -79,13 +100,23 @@ def pixels_per_unit(scene: Scene, centre: np.ndarray, radius: float) -> float:
     return focal / distance
 
 
-def detail_level(errors: list[float], pixels: float) -> int:
+def detail_level(errors: list[float], pixels: float, limit: float = LOD_PIXEL_ERROR) -> int:
     """The coarsest level whose error (`errors[level]`, in local units, finest first) covers at
-    most LOD_PIXEL_ERROR pixels, where a local unit covers `pixels` pixels."""
+    most `limit` pixels, where a local unit covers `pixels` pixels."""
     level = 0
-    while level + 1 < len(errors) and errors[level + 1] * pixels <= LOD_PIXEL_ERROR:
+    while level + 1 < len(errors) and errors[level + 1] * pixels <= limit:
         level += 1
     return level
+
+
+def level_errors(shape: Shape) -> list[float]:
+    """chordal_error of `shape` at each of its levels, finest first (one level, 0, without levels)."""
+    if shape not in _ERRORS:
+        _ERRORS[shape] = [chordal_error(shape, level) for level in range(max_level(shape) + 1)]
+    return _ERRORS[shape]
+
+
+_ERRORS: dict[Shape, list[float]] = {}  # level_errors of each shape met so far (shapes are frozen)
 
 
 def detail_levels(scene: Scene, geometry: list[ObjectGeometry], keep: Collection[int]) -> dict[int, int]:
@@ -97,13 +128,112 @@ def detail_levels(scene: Scene, geometry: list[ObjectGeometry], keep: Collection
         return {}
     centres, radii = enclosing_spheres(items)
     scales = np.linalg.norm(np.stack([g.model_matrix[:3, :3] for g in items]), 2, axis=(1, 2))  # local to world units, at most
-    errors: dict[Shape, list[float]] = {}  # of each distinct shape, at each of its levels
     levels = {}
     for item, centre, radius, scale in zip(items, centres, radii, scales, strict=True):
-        shape = item.object.shape
-        if shape not in errors:
-            errors[shape] = [chordal_error(shape, level) for level in range(max_level(shape) + 1)]
-        level = detail_level(errors[shape], float(scale) * pixels_per_unit(scene, centre, float(radius)))
+        level = detail_level(level_errors(item.object.shape), float(scale) * pixels_per_unit(scene, centre, float(radius)))
         if level:
             levels[item.index] = level
     return levels
+
+
+def texels_per_unit(cameras: Sequence[PPC], centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """For each sphere ((n, 3) centres, (n,) radii) and the camera beside it in `cameras`, the most
+    texels of that camera's image that a world length anywhere in the sphere covers (infinite
+    where the sphere holds the eye).
+
+    A pinhole of F texels at unit depth maps a length at distance d, at angle theta from the
+    optical axis, to at most F / (d cos^2 theta) texels (a length across the ray: its depth is
+    d cos theta, and the image plane, seen at theta, stretches it by 1 / cos theta). Within the
+    sphere, d is at least the distance of its nearest point and theta at most the angle of its
+    centre plus its angular radius, and no more than the image's corners' (farther off the axis
+    the image holds nothing): a cube-map face's corner texels cover a third of its centre's."""
+    places: dict[int, int] = {}  # each distinct camera's row (a cube map's six serve every object)
+    which = np.array([places.setdefault(id(camera), len(places)) for camera in cameras], np.intp)
+    distinct = list({id(camera): camera for camera in cameras}.values())
+    eye, a, b, c = (np.stack([getattr(camera, name) for camera in distinct]) for name in ("C", "a", "b", "c"))
+    sizes = np.array([(camera.width, camera.height) for camera in distinct], np.float64)
+    forward = np.cross(a, b)
+    forward /= np.linalg.norm(forward, axis=1, keepdims=True)
+    focal_texels = np.einsum("ij,ij->i", c, forward) / np.minimum(np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1))
+    corners = np.stack([c + a * u[:, None] + b * v[:, None] for u in (0.0 * sizes[:, 0], sizes[:, 0])
+                        for v in (0.0 * sizes[:, 1], sizes[:, 1])], axis=1)  # (cameras, 4, 3)
+    corner_cosines = np.einsum("ikj,ij->ik", corners, forward) / np.linalg.norm(corners, axis=2)
+    corner_angle = np.arccos(np.clip(corner_cosines.min(axis=1), -1.0, 1.0))[which]
+    offsets = centres - eye[which]
+    distances = np.linalg.norm(offsets, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        centre_angle = np.arccos(np.clip(np.einsum("ij,ij->i", offsets, forward[which]) / distances, -1.0, 1.0))
+        angular_radius = np.arcsin(np.clip(radii / distances, 0.0, 1.0))
+    angles = np.minimum(np.nan_to_num(centre_angle + angular_radius, nan=np.inf), corner_angle)
+    nearest = distances - radii
+    with np.errstate(divide="ignore"):
+        texels = focal_texels[which] / (np.maximum(nearest, 0.0) * np.cos(angles) ** 2)
+    return np.where(nearest > 0.0, texels, np.inf)
+
+
+def image_levels(cameras: Sequence[PPC], items: Sequence[ObjectGeometry]) -> list[int]:
+    """The level each of `items` is baked at into the image of the camera beside it in `cameras`:
+    the coarsest whose chordal error covers at most LOD_TEXEL_ERROR texels of it (0, the full
+    mesh, for reflectors, whose interpolated normals are what they reflect with, and for shapes
+    without levels)."""
+    levels = [0] * len(items)
+    rounded = [i for i, item in enumerate(items) if has_levels(item.object.shape) and not item.object.is_reflector]
+    if not rounded:
+        return levels
+    spheres = bounding_spheres([items[i] for i in rounded])  # the full meshes' (cached by the plan's camera fits)
+    texels = texels_per_unit([cameras[i] for i in rounded], np.array([centre for centre, _ in spheres]),
+                             np.array([radius for _, radius in spheres]))
+    scales = np.linalg.norm(np.stack([items[i].model_matrix[:3, :3] for i in rounded]), 2, axis=(1, 2))  # local to world units, at most
+    for i, per_unit in zip(rounded, texels * scales, strict=True):
+        levels[i] = detail_level(level_errors(items[i].object.shape), float(per_unit), LOD_TEXEL_ERROR)
+    return levels
+
+
+@functools.lru_cache(maxsize=256)
+def level_mesh(shape: Shape, textured: bool, level: int) -> Mesh:
+    """The local mesh of `shape` at `level` that bakes draw: one per (shape, texture seam, level),
+    shared by every image and renderer (meshes are read-only), so that the plan counts the very
+    meshes the bakes load (plan_memory)."""
+    return mesh_for_shape(shape, textured, level)
+
+
+class BakeDetail:
+    """The geometry a bake draws of its images' objects: each object at its image_levels level,
+    made once per (object, level) and kept while the object does not move; objects of one shape
+    and level share one local mesh (level_mesh), as the world's do (geometry.scene_geometry)."""
+
+    def __init__(self) -> None:
+        self._items: dict[tuple[int, int], tuple[ObjectGeometry, ObjectGeometry]] = {}  # (index, level): (full, coarse)
+
+    def drawn(self, images: Sequence[tuple[PPC, Sequence[ObjectGeometry]]]) -> list[list[ObjectGeometry]]:
+        """The objects of each image (its camera, its objects) as its bake draws them: each at its
+        level, or itself where its own mesh is as coarse already (the world's level of an object
+        no reflector shows). The levels of every image's objects are worked out at once."""
+        cameras = [camera for camera, items in images for _ in items]
+        levels = iter(image_levels(cameras, [item for _, items in images for item in items]))
+        return [[self._at(item, next(levels)) for item in items] for _, items in images]
+
+    def _at(self, item: ObjectGeometry, level: int) -> ObjectGeometry:
+        if not level:
+            return item
+        kept = self._items.get((item.index, level))
+        if kept is not None and kept[0] is item:
+            return kept[1]
+        mesh = level_mesh(item.object.shape, getattr(item.object.material, "texture", None) is not None, level)
+        if len(mesh.indices) >= len(item.local_mesh.indices):
+            coarse = item
+        else:
+            coarse = ObjectGeometry(item.index, item.object, mesh, item.time)
+            coarse.__dict__.update({name: item.__dict__[name] for name in ("model_matrix", "normal_matrix")
+                                    if name in item.__dict__})  # the same transform: its cached properties' slots
+        self._items[(item.index, level)] = (item, coarse)
+        return coarse
+
+
+def bake_meshes(images: Sequence[tuple[PPC, Sequence[ObjectGeometry]]]) -> list[Mesh]:
+    """The meshes the bakes of `images` (each its camera and objects) draw that are not their
+    objects' own: the levels the renderer loads at its first bake (the plan's memory figure)."""
+    drawn = BakeDetail().drawn(images)
+    coarse = [item.local_mesh for (_, items), shown in zip(images, drawn, strict=True)
+              for full, item in zip(items, shown, strict=True) if item is not full]
+    return list({id(mesh): mesh for mesh in coarse}.values())

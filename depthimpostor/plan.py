@@ -53,6 +53,7 @@ from .scene.limits import check_method, check_model_reach, check_model_uvs, chec
 from .scene.model import MeshShape, MetallicRoughnessMaterial, Scene
 from .gpu.shaders import ProgramKey, program_key
 from .graph import Pass, RenderNode, build_graph, format_graph, in_order, node_class
+from .lod import bake_meshes
 from .world import World
 
 @dataclass(frozen=True)
@@ -417,7 +418,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
             variant(Pass.REFLECTORS, DEFERRED_REFLECTOR_PROGRAM, reflector_defines(scene, defines, True),
                     f"glass (GLASS), {method.option} method, deferred")
     memory = plan_memory(scene, method, algorithm, geometry, images, True in shown_in_bounces, reflection_data,
-                         count_samples)
+                         count_samples, image_plans)
     ordered = tuple(sorted(passes, key=lambda p: in_order(p.stage)))
     programs = {stage: tuple(key for key, (_, of) in variants.items() if of is stage) for stage in Pass}
     eye = METHODS[method].seen_from_eye
@@ -506,13 +507,13 @@ def frame_surface(method: Method, reflectors: bool) -> bool:
 
 def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: list[ObjectGeometry],
                 images: Sequence[PlannedImage], bounce_glass: bool = False, reflection_data: bool = False,
-                count_samples: bool = False) -> dict[str, int]:
+                count_samples: bool = False, image_plans: dict[int, list[ImagePlan]] | None = None) -> dict[str, int]:
     """Bytes of every GL texture, renderbuffer and buffer a Renderer makes for the plan's first
     frame, by allocation (tests/test_plan_memory.py counts what the renderer really makes):
-    `images` are the plan's baked images, `bounce_glass` whether one shows glass in a mirror.
+    `images` are the plan's baked images (`image_plans` their cameras, by reflector), `bounce_glass`
+    whether one shows glass in a mirror.
     The renderer's own options add outputs: `reflection_data` and `count_samples`."""
     width, height = scene.render.size
-    records = depth_image_capacity(len(scene.objects)) * DEPTH_IMAGE_DTYPE.itemsize  # one mirror's record table
     memory = {"frame colour and depth": width * height * (16 + 4),
               "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry]),
               "lights and planes": SceneBlocks.BYTES, "materials": materials_bytes(scene)}
@@ -548,12 +549,19 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
             len(images), side, stand_in.second_layer != SecondLayer.NONE, stand_in.keeps_triangle_ids,
             stand_in.keeps_back_colors, stand_in.keeps_beyond, bake_buffer=False)
         memory[BAKE_DEPTH_BUFFER] = ImpostorAtlas.bake_buffer_bytes(len(images), side)
-        memory[stand_in.image_noun + " records"] = len(reflectors) * records
+        # The coarser levels its images draw their objects at (lod.py: loaded at the first bake).
+        levels = bake_meshes([(plan.camera, plan.targets) for plans in (image_plans or {}).values() for plan in plans
+                              if not plan.level]) if not stand_in.keeps_triangle_ids else []
+        if levels:
+            memory["bake levels"] = GpuMeshes.bytes_for(levels)
+        # Each mirror's table: its records and, in a scene of many objects, the lists of candidate
+        # images by ray past them (methods/image_cells.py); the bounce images' tables likewise.
+        tables, bounce_tables = stand_in.table_bytes(scene, reflectors, image_plans or {})
+        memory[stand_in.image_noun + " records"] = tables
         marches = METHODS[method].marches_depth_images
         if marches and scene.render.max_bounces > 1 and len(reflectors) > 1:  # methods/bounces.py
-            levels = len(reflectors) * (scene.render.max_bounces - 1)
             interior = interior_bytes(side) + DEPTH_IMAGE_DTYPE.itemsize if bounce_glass else 0
-            memory["bounce baking"] = ImpostorAtlas.bytes_for(1, side, True) + side * side * 8 + levels * records + interior
+            memory["bounce baking"] = ImpostorAtlas.bytes_for(1, side, True) + side * side * 8 + bounce_tables + interior
         if _builds_pyramids(method, algorithm, images):
             memory["depth pyramids"] = pyramid_bytes(PyramidLayout.of_grid(*atlas_grid(len(images)), side), len(images))
         if _builds_colour_mips(scene, method, images):

@@ -7,10 +7,12 @@ from collections.abc import Iterator
 from typing import Any
 
 import moderngl
+import numpy as np
 import pytest
-from conftest import SCENES
+from conftest import SCENES, scene_from_toml
 
-from depthimpostor.constants import Algorithm, Method
+from depthimpostor.constants import DEPTH_IMAGE_DTYPE, Algorithm, Method, depth_image_capacity, lists_images
+from depthimpostor.methods.registry import METHODS
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
@@ -108,3 +110,34 @@ def test_plan_memory_is_what_the_renderer_allocates(ctx: moderngl.Context, alloc
     assert sum(planned.values()) == allocated, planned
     if not options:  # the `plan` command's figure is the renderer's
         assert plan_render(scene, method, algorithm).memory == planned
+
+
+def many_around_a_mirror(count: int) -> str:
+    """A mirror sphere among `count` small spheres and boxes: past 128 objects, each mirror's table
+    holds lists of candidate images by ray past its records (methods/image_cells.py)."""
+    text = ('[render]\nsize = [96, 54]\nimpostor_resolution = 16\n[camera]\neye = [0.0, 2.0, 7.0]\ntarget = [0.0, 0.8, 0.0]\n'
+            '[[lights]]\ntype = "directional"\ndirection = [-0.4, -1.0, -0.3]\n'
+            '[[objects]]\nname = "mirror"\nshape = { type = "sphere", radius = 0.8 }\nmaterial = { type = "mirror" }\n'
+            'position = [0.0, 0.8, 0.0]\n')
+    for k in range(count):
+        angle, ring = 2.39996 * k, 1.6 + 2.0 * k / count
+        shape = '{ type = "sphere", radius = 0.1 }' if k % 2 else '{ type = "box", size = [0.15, 0.15, 0.15] }'
+        text += (f'[[objects]]\nname = "o{k}"\nshape = {shape}\nmaterial = {{ type = "diffuse", color = [0.8, 0.4, 0.2] }}\n'
+                 f"position = [{ring * np.cos(angle):.4f}, {0.2 + 1.2 * (k % 7) / 7:.4f}, {ring * np.sin(angle):.4f}]\n")
+    return text
+
+
+@pytest.mark.parametrize("method", [Method.DEPTH, Method.BILLBOARD, Method.CUBEMAP])
+def test_plan_memory_counts_the_lists_of_candidate_images(ctx: moderngl.Context, allocations: list[tuple[Any, list[int]]],
+                                                          method: Method) -> None:
+    scene = scene_from_toml(many_around_a_mirror(140))
+    assert lists_images(depth_image_capacity(len(scene.objects)))
+    with Renderer(ctx, scene, method=method) as renderer:
+        renderer.render()
+        allocated = _alive_bytes(allocations)
+        planned = renderer.plan.memory
+    records = depth_image_capacity(len(scene.objects)) * DEPTH_IMAGE_DTYPE.itemsize
+    noun = METHODS[method].stand_in.image_noun  # type: ignore[attr-defined]
+    assert planned[f"{noun} records"] > records  # the lists past the one mirror's records
+    assert sum(planned.values()) == allocated, planned
+    assert plan_render(scene, method).memory == planned

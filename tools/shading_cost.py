@@ -23,7 +23,7 @@ import moderngl
 from depthimpostor.bench import rotated_medians
 from depthimpostor.eye import clear_depth, eye_depth
 from depthimpostor.gpu.context import create_context, describe
-from depthimpostor.gpu.uniforms import write, write_material
+from depthimpostor.gpu.uniforms import write
 from depthimpostor.oracles.truth import MIRROR_BACKING_ALBEDO
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
@@ -45,7 +45,7 @@ def floor_timer(renderer: Renderer, program: moderngl.Program) -> Callable[[], f
         start = time.perf_counter()
         with eye_depth(ctx):
             for plane in planes:
-                write_material(program, "u_material", plane.object.material, renderer.scene)
+                write(program, "u_material_index", renderer.scene.material_index(plane.object.material))
                 renderer.graph.meshes.draw(program, plane, view_projection)
         ctx.finish()
         return time.perf_counter() - start

@@ -104,11 +104,15 @@ class GpuMeshes:
 
     def draw(self, program: moderngl.Program, item: ObjectGeometry, view_projection: np.ndarray) -> None:
         """Draw one object with `program` (which reads mesh.vert's attributes and uniforms)."""
-        arena = self.arena(item.local_mesh)
-        first, count = arena.ranges[item.local_mesh]
         write_matrix(program, "u_model", item.model_matrix)
         write_matrix(program, "u_normal_matrix", item.normal_matrix)
         write_matrix(program, "u_view_projection", view_projection)
+        self.render(program, item)
+
+    def render(self, program: moderngl.Program, item: ObjectGeometry) -> None:
+        """Draw one object's triangles with `program`, its uniforms written already."""
+        arena = self.arena(item.local_mesh)
+        first, count = arena.ranges[item.local_mesh]
         self.vertex_array(program, arena).render(moderngl.TRIANGLES, vertices=count, first=first)
 
     def forget_vertex_arrays(self) -> None:

@@ -7,7 +7,9 @@ each write checks membership first instead of catching errors.
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Sequence
+from typing import Any, cast
 
 import moderngl
 import numpy as np
@@ -73,9 +75,19 @@ def environment_defines(scene: Scene) -> dict[str, int]:
 def write(program: moderngl.Program | moderngl.ComputeShader, name: str,
           data: np.ndarray | bytes | float | Sequence[float]) -> None:
     """Set a uniform if the program has it: numpy arrays as float32/int32 bytes, scalars as values."""
-    if name not in program:
-        return
-    uniform = program[name]
+    found = packed(program, name, data)
+    if found is not None:
+        found[0].write(found[1])
+
+
+def packed(program: moderngl.Program | moderngl.ComputeShader, name: str,
+           data: np.ndarray | bytes | float | Sequence[float]) -> tuple[moderngl.Uniform, bytes] | None:
+    """The uniform `write` sets and the bytes it writes there (None where the program lacks it):
+    what a pass that writes the same values over and over (an object's, at each image it is baked
+    into) packs once and writes with Uniform.write."""
+    uniform = program.get(name, None)  # a dict look-up (`name in program` walks every member)
+    if uniform is None:
+        return None
     if not isinstance(uniform, moderngl.Uniform):
         raise TypeError(f"{name} is a {type(uniform).__name__}, not a uniform a value can be written to")
     if isinstance(data, np.ndarray):
@@ -83,11 +95,23 @@ def write(program: moderngl.Program | moderngl.ComputeShader, name: str,
         values = np.ascontiguousarray(data, dtype=dtype).reshape(-1)
         # An array the compiler shortened to the elements the program reads (a loop bounded by a
         # constant, LIGHT_COUNT or PLANE_COUNT, reads the first ones): those elements alone.
-        uniform.write(values[:uniform.array_length * uniform.dimension].tobytes())
-    elif isinstance(data, bytes):
-        uniform.write(data)
-    else:
-        uniform.value = data
+        return uniform, values[:uniform.array_length * uniform.dimension].tobytes()
+    if isinstance(data, bytes):
+        return uniform, data
+    return uniform, _value_bytes(uniform, data)
+
+
+def _value_bytes(uniform: moderngl.Uniform, value: float | Sequence[float]) -> bytes:
+    """The bytes moderngl's `Uniform.value = value` writes (its setter, without the write)."""
+    fmt: str = uniform.fmt  # type: ignore[attr-defined]  # its struct format (moderngl's stubs omit it)
+    if uniform.array_length > 1:
+        rows = cast(Sequence[Any], value)
+        if uniform.dimension > 1:
+            return b"".join(struct.pack(fmt, *row) for row in rows)
+        return b"".join(struct.pack(fmt, item) for item in rows)
+    if uniform.dimension > 1:
+        return struct.pack(fmt, *cast(Sequence[float], value))
+    return struct.pack(fmt, value)
 
 
 def bind_texture(program: moderngl.Program | moderngl.ComputeShader, name: str, texture: moderngl.Texture,
@@ -99,9 +123,9 @@ def bind_texture(program: moderngl.Program | moderngl.ComputeShader, name: str, 
 
 def bind_uniform_block(program: moderngl.Program, name: str, binding: int) -> None:
     """Point the uniform block `name` (if the variant kept it) at a buffer binding point."""
-    if name not in program:
+    block = program.get(name, None)
+    if block is None:
         return
-    block = program[name]
     if not isinstance(block, moderngl.UniformBlock):
         raise TypeError(f"{name} is a {type(block).__name__}, not a uniform block")
     block.binding = binding
@@ -111,9 +135,9 @@ def bind_record_block(program: moderngl.Program, name: str, uniform_binding: int
     """Point the block `name` (if the variant kept it) at its binding point: `uniform_binding` where
     the variant declares a uniform block, `storage_binding` where a storage buffer (a record table
     the variant's size puts past a uniform block's: lib/baked_images.glsl)."""
-    if name not in program:
+    block = program.get(name, None)
+    if block is None:
         return
-    block = program[name]
     if isinstance(block, moderngl.UniformBlock):
         block.binding = uniform_binding
     elif isinstance(block, moderngl.StorageBlock):
@@ -124,7 +148,12 @@ def bind_record_block(program: moderngl.Program, name: str, uniform_binding: int
 
 def write_matrix(program: moderngl.Program | moderngl.ComputeShader, name: str, matrix: np.ndarray) -> None:
     """A matrix in GL's column-major float32 layout."""
-    write(program, name, np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes())
+    write(program, name, matrix_bytes(matrix))
+
+
+def matrix_bytes(matrix: np.ndarray) -> bytes:
+    """`matrix` as write_matrix writes it: GL's column-major float32 layout."""
+    return np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes()
 
 
 def material_records(scene: Scene) -> np.ndarray:

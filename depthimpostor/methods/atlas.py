@@ -27,7 +27,7 @@ from ..geometry import ObjectGeometry, world_vertex_groups
 from ..ppc import PPC, FrustumFit, FrustumFitError, depth_image_records, fit_frusta
 from ..oracles.reference import DepthImageData
 from ..scene.model import Scene
-from .image_cells import cells_table
+from .image_cells import cells_table, cells_table_bytes
 from .pyramid import PyramidLayout
 from ..gpu.uniforms import bind_record_block, bind_texture
 
@@ -134,6 +134,14 @@ def record_table(records: NDArray[np.void], count: int, capacity: int, rays_from
         return records.tobytes()
     spheres = np.asarray(records["bound" if over_bounds else "hit_bound"][:count], np.float64)
     return records.tobytes() + cells_table(spheres, *rays_from)
+
+
+def record_table_bytes(spheres: NDArray[np.float64], capacity: int, rays_from: tuple[NDArray[np.float64], float]) -> int:
+    """len(record_table(...)) of a mirror's table whose images' tested spheres (`bound`s or
+    `hit_bound`s, as record_table picks them) are `spheres`: its records and, where it holds them,
+    its lists, counted without making them (the plan's memory figure)."""
+    records = capacity * DEPTH_IMAGE_DTYPE.itemsize
+    return records + cells_table_bytes(spheres, *rays_from) if lists_images(capacity) else records
 
 
 def write_table(buffer: moderngl.Buffer, table: bytes) -> None:

@@ -16,7 +16,8 @@ import moderngl
 import numpy as np
 from numpy.typing import NDArray
 
-from ..gpu.gl_state import raster_state
+from ..gpu.batches import is_closed
+from ..gpu.gl_state import BASE, raster_state
 from ..gpu.bindings import TextureUnit
 from ..constants import (
     BACKGROUND_DEPTH,
@@ -27,8 +28,9 @@ from ..constants import (
 )
 from ..errors import ContextError
 from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
+from ..lod import BakeDetail
 from ..culling import Reach, ReachTable, reaches
-from ..ppc import PPC, FrustumFit, view_projections
+from ..ppc import PPC, FrustumFit, depth_image_records, view_projections
 from ..resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION, auto_resolution, scene_view
 from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
@@ -36,7 +38,7 @@ from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
 from ..gpu.uniforms import alpha_mask_defines, bind_texture, write, write_material_index
 from .colour_mips import ColourMips
-from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, fit_depth_image_frusta, image_label, image_records, plural, record_table, write_table
+from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, fit_depth_image_frusta, image_label, image_records, plural, record_table, record_table_bytes, write_table
 
 
 
@@ -137,6 +139,12 @@ class BakedImages:
         self.bake_counts: Counter[str] = Counter()  # by image label
         self.bounce_bakes = 0  # of them, images of reflectors (render.max_bounces > 1)
         self.stale: set[int] = {image.slot for image in self.depth_images}  # slots the next bake renders
+        # Each image's objects at the level its texels can tell (lod.py); the hybrid method's at
+        # their full meshes, whose triangles its samples name.
+        self.detail = None if self.keeps_triangle_ids else BakeDetail()
+        # Closed solids' back faces culled in the visible-surface pass, as the frame's batch culls
+        # them: seen from outside, each back face lies behind a front face of the same solid.
+        self.culls_back_faces = True
 
     @property
     def needs_bake(self) -> bool:
@@ -195,6 +203,29 @@ class BakedImages:
         """GPU memory a texel of this stand-in's atlas takes, with the depth buffer it is baked with."""
         return ImpostorAtlas.bytes_for(1, 1, cls.second_layer != SecondLayer.NONE, cls.keeps_triangle_ids,
                                        cls.keeps_back_colors, cls.keeps_beyond)
+
+    @classmethod
+    def table_bytes(cls, scene: Scene, mirrors: list[ObjectGeometry], plans: dict[int, list[ImagePlan]]) -> tuple[int, int]:
+        """GPU bytes of the mirrors' record tables (uniform_buffers) and of those the bounce images
+        are drawn with (BounceBaker.level_buffers), for the images `plans`: their records and the
+        lists of candidate images by ray they hold past them (methods/image_cells.py), each counted
+        as record_table builds it, before any is built (the plan's memory figure)."""
+        capacity = depth_image_capacity(len(scene.objects))
+        final = scene.render.max_bounces
+        bounces = range(1, final) if final > 1 and len(mirrors) > 1 and cls.second_layer == SecondLayer.BACK_FACE else range(0)
+        tables = [0, 0]
+        for mirror in mirrors:
+            mirror_plans = plans.get(mirror.index, [])
+            records = depth_image_records(
+                [plan.camera for plan in mirror_plans], [0] * len(mirror_plans), [(0, 0)] * len(mirror_plans),
+                [(0, 0, 0)] * len(mirror_plans),
+                [plan.targets[0].bounding_sphere if len(plan.targets) == 1 else None for plan in mirror_plans])
+            spheres = np.asarray(records["bound" if cls.lists_over_bounds else "hit_bound"], np.float64)
+            rays_from = mirror.bounding_sphere if mirror_plans else (np.zeros(3), 0.0)
+            for level, kind in [(final, 0), *((level, 1) for level in bounces)]:
+                shown = [i for i, plan in enumerate(mirror_plans) if plan.level in (0, level)]
+                tables[kind] += record_table_bytes(spheres[shown], capacity, rays_from)
+        return tables[0], tables[1]
 
     def images_at(self, mirror_index: int, bounces: int) -> list[DepthImage]:
         """The images a reflected ray of this mirror is traced against when it may make
@@ -282,21 +313,29 @@ class BakedImages:
         # Each image's matrix once, all at once (ppc.view_projections), for every layer's pass.
         matrices = dict(zip((image.slot for image in stale), view_projections([image.camera for image in stale]),
                             strict=True))
+        drawn = dict(zip((image.slot for image in stale), self.drawn(stale), strict=True))
         with raster_state(self.ctx):
-            draws += self._bake_surfaces(stale, whole, matrices)
+            draws += self._bake_surfaces(stale, whole, matrices, drawn)
             if self.back_layer is not None:
-                draws += self._bake_back_layers(stale, whole, matrices)
+                draws += self._bake_back_layers(stale, whole, matrices, drawn)
                 if atlas.beyond is not None:
                     draws += self._bake_beyond(stale, whole, matrices)
             elif self.second_layer == SecondLayer.BACK_FACE:
                 try:
                     for image in stale:
-                        draws += self.bake_back_faces(image, atlas.framebuffer, image.tile)
+                        draws += self.bake_back_faces(image, atlas.framebuffer, image.tile, drawn[image.slot])
                 finally:
                     atlas.framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
         for image in stale:
             self.baked(image)
         return draws
+
+    def drawn(self, images: list[DepthImage]) -> list[list[ObjectGeometry]]:
+        """The objects of each of `images` (of level 0) as its bake draws them: each at its level
+        (lod.BakeDetail)."""
+        if self.detail is None:
+            return [list(image.targets) for image in images]
+        return self.detail.drawn([(image.camera, image.targets) for image in images])
 
     def rest(self) -> None:
         """A frame with nothing to bake: the bakes' depth buffer (one float a texel of the atlas)
@@ -310,10 +349,14 @@ class BakedImages:
         tiles' first writes, and draws a scissored one."""
         return [None] if whole else [image.tile for image in stale]
 
-    def _bake_surfaces(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray]) -> int:
-        """The visible surface of each stale image: colour, R (and G where G is the object id), the
-        triangle ids' R; cleared to colour alpha 0 ("nothing here") and BACKGROUND_DEPTH in both
-        layers, the value the depth buffer clears to."""
+    def _bake_surfaces(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray],
+                       drawn: dict[int, list[ObjectGeometry]]) -> int:
+        """The visible surface of each stale image (`drawn`: its objects as drawn, by slot): colour,
+        R (and G where G is the object id), the triangle ids' R; cleared to colour alpha 0 ("nothing
+        here") and BACKGROUND_DEPTH in both layers, the value the depth buffer clears to. An image
+        whose objects are all closed solids (batches.is_closed) is drawn with their back faces
+        culled: each lies behind a front face of its own solid, and tools/frames.py and
+        tools/bake_levels.py --against culling find no frame or error figure that changes."""
         atlas = self.atlas
         framebuffer = atlas.framebuffer
         framebuffer.use()
@@ -329,7 +372,9 @@ class BakedImages:
             framebuffer.color_mask = surface_mask
             for image in stale:
                 framebuffer.viewport = image.tile
-                draws += self.diffuse.draw(list(image.targets), matrices[image.slot])
+                closed = self.culls_back_faces and all(is_closed(item) for item in drawn[image.slot])
+                with raster_state(self.ctx, FRONT_FACES if closed else BASE):
+                    draws += self.diffuse.draw(drawn[image.slot], matrices[image.slot])
         finally:
             framebuffer.color_mask = everything
         return draws
@@ -340,24 +385,29 @@ class BakedImages:
         self.bake_counts[image.label] += 1
         self.stale.discard(image.slot)
 
-    def bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, int, int, int]) -> int:
+    def bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, int, int, int],
+                        drawn: list[ObjectGeometry] | None = None) -> int:
         """The nearest back face: the G layer alone, against a fresh depth buffer (images of
-        reflectors at bounce k >= 2, which have no colour of their backs to show)."""
+        reflectors at bounce k >= 2, which have no colour of their backs to show); `drawn`: the
+        image's objects as its surface pass drew them (its targets by default)."""
         back_faces = self.programs.get(*BACK_FACE_PROGRAM, alpha_mask_defines(self.scene))
+        drawn = list(image.targets) if drawn is None else drawn
         attachments = len(framebuffer.color_attachments)
         framebuffer.viewport = tile
         framebuffer.color_mask = color_mask(attachments)
         framebuffer.clear(depth=BACKGROUND_DEPTH, viewport=tile)
         framebuffer.color_mask = color_mask(attachments, (False,) * 4, (False, True, False, False))
         with raster_state(self.ctx, BACK_FACES):
-            for target in image.targets:
+            for target in drawn:
                 write_material_index(back_faces, self.scene, target.object)
                 self.meshes.draw(back_faces, target, image.camera.view_projection)
-        return len(image.targets)
+        return len(drawn)
 
-    def _bake_back_layers(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray]) -> int:
-        """The nearest back face's colour, depth (G) and triangle (G) of each stale image, against
-        a fresh depth buffer; the colour cleared to alpha 0 (none drawn)."""
+    def _bake_back_layers(self, stale: list[DepthImage], whole: bool, matrices: dict[int, np.ndarray],
+                          drawn: dict[int, list[ObjectGeometry]]) -> int:
+        """The nearest back face's colour, depth (G) and triangle (G) of each stale image (its
+        objects as the surface pass drew them), against a fresh depth buffer; the colour cleared
+        to alpha 0 (none drawn)."""
         assert self.back_layer is not None and self.atlas.back_framebuffer is not None
         framebuffer, atlas = self.atlas.back_framebuffer, self.atlas
         framebuffer.use()
@@ -371,7 +421,7 @@ class BakedImages:
             with raster_state(self.ctx, BACK_FACES):
                 for image in stale:
                     framebuffer.viewport = image.tile
-                    draws += self.back_layer.draw(list(image.targets), matrices[image.slot])
+                    draws += self.back_layer.draw(drawn[image.slot], matrices[image.slot])
             return draws
         finally:
             framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))

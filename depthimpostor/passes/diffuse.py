@@ -10,6 +10,7 @@ multi-draw indirect, one call each with uniforms.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Iterable
 
 import moderngl
@@ -22,7 +23,7 @@ from ..gpu.gl_state import raster_state
 from ..methods.atlas import FRONT_FACES
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
-from ..gpu.uniforms import shading_defines, write, write_matrix
+from ..gpu.uniforms import matrix_bytes, packed, shading_defines, write, write_matrix
 from ..node import Frame, GraphFacts, Node, Pass
 
 
@@ -82,6 +83,10 @@ class DiffusePass:
         self.meshes = meshes
         self.triangle_offsets = triangle_offsets
         self._batch: ObjectBatch | None = None
+        # Each object's uniforms, packed for the program they were packed for (_object_uniforms);
+        # an object that moves is another ObjectGeometry at each time, and its old one's entry goes with it.
+        self._packed: weakref.WeakKeyDictionary[ObjectGeometry, tuple[moderngl.Program, list[tuple[moderngl.Uniform, bytes]]]] = \
+            weakref.WeakKeyDictionary()
 
     @property
     def batched(self) -> bool:
@@ -110,16 +115,33 @@ class DiffusePass:
                 with raster_state(self.programs.ctx, FRONT_FACES):
                     calls += batch.draw(self.instanced, batch.first_closed)
             items = [item for item in items if item.object.moves]
-        for item in items:
+        if items:
             program = self.program
-            write(program, "u_material_index", self.scene.material_index(item.object.material))
+            write_matrix(program, "u_view_projection", view_projection)
             if viewer is not None:
                 write(program, "u_eye", viewer)
-            write(program, "u_object_id", item.index)
-            if self.triangle_offsets is not None:
-                write(program, "u_triangle_offset", self.triangle_offsets[item.index])
-            self.meshes.draw(program, item, view_projection)
+            for item in items:
+                for uniform, data in self._object_uniforms(program, item):
+                    uniform.write(data)
+                self.meshes.render(program, item)
         return calls + len(items)
+
+    def _object_uniforms(self, program: moderngl.Program, item: ObjectGeometry) -> list[tuple[moderngl.Uniform, bytes]]:
+        """The uniforms `program` draws `item` with (material, object id, triangle offset,
+        transforms) and their bytes, packed once per object: a bake draws each object into one
+        image per mirror (a cube map, into six faces), and packing them anew each time took most
+        of a thousand-object bake's Python time."""
+        kept = self._packed.get(item)
+        if kept is not None and kept[0] is program:
+            return kept[1]
+        values: list[tuple[str, float | bytes]] = [
+            ("u_material_index", self.scene.material_index(item.object.material)), ("u_object_id", item.index)]
+        if self.triangle_offsets is not None:
+            values.append(("u_triangle_offset", self.triangle_offsets[item.index]))
+        values += [("u_model", matrix_bytes(item.model_matrix)), ("u_normal_matrix", matrix_bytes(item.normal_matrix))]
+        uniforms = [found for name, value in values if (found := packed(program, name, value)) is not None]
+        self._packed[item] = (program, uniforms)
+        return uniforms
 
     def _batch_of(self, items: list[ObjectGeometry]) -> ObjectBatch:
         """The batch of exactly these objects (made again when the list is another: objects that
