@@ -14,7 +14,6 @@ from __future__ import annotations
 import io
 import os
 import re
-import struct
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager

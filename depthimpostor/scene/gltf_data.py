@@ -155,7 +155,7 @@ class GltfData:
             self._buffers[i] = data
         return self._buffers[i]
 
-    def view_layout(self, value: Any, at: At) -> tuple[int, int, int, int | None]:
+    def view_layout(self, value: Any, at: At) -> tuple[Any, int, int, int | None]:
         """bufferViews[value]'s buffer, byte range (start, length) and byteStride (None: packed),
         checked against its buffer's byteLength."""
         view = self._item("bufferViews", value, at)

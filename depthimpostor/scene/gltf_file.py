@@ -30,7 +30,7 @@ import numpy as np
 from depthimpostor.constants import MAX_COORDINATE
 from depthimpostor.errors import SceneError
 from depthimpostor.scene.fields import At, Reader, leaves_folder, numbers, read_file_bytes, show
-from depthimpostor.scene.gltf_data import GltfData
+from depthimpostor.scene.gltf_data import GltfData, Layout
 
 GLTF_SUFFIXES = (".glb", ".gltf")
 #: The extensions read here. A file may require (`extensionsRequired`) these alone: any other
@@ -306,7 +306,7 @@ def primitive_size(data: GltfData, primitive: Mapping[str, Any], mode: int, at: 
     attributes = table(primitive.get("attributes", {}), at.key("attributes"))
     if "POSITION" not in attributes:
         raise at.key("attributes").error("expected a POSITION attribute, got none")
-    layouts = {}
+    layouts: dict[str, Layout] = {}
     for name, width in ATTRIBUTES.items():
         if name not in attributes:
             continue
