@@ -11,12 +11,13 @@ Images are (height, width, 3) float32 linear RGB, row 0 at the top.
 
 from __future__ import annotations
 
+import ctypes
 import io
 import os
 import re
 import sys
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from pathlib import Path
 from typing import IO
 
@@ -107,15 +108,19 @@ def _radiance_size(header: bytes) -> tuple[int, int]:
 def _quiet_descriptors() -> Iterator[None]:
     """File descriptors 1 and 2 sent to /dev/null: OpenEXR's C++ core writes its own lines about a
     damaged file (to stdout and stderr: stdout may be the PNG being written, `-o /dev/stdout`),
-    which the HdrImageError says once, in the package's words."""
+    which the HdrImageError says once, in the package's words. (C's buffers are flushed on the way
+    out, where the C++ streams write: a line left in them would be written after the restore. The
+    bindings' own warning goes through Python's sys.stdout, which is not always descriptor 1.)"""
     sys.stdout.flush(), sys.stderr.flush()
     saved = [os.dup(fd) for fd in (1, 2)]
     null = os.open(os.devnull, os.O_WRONLY)
     try:
         for fd in (1, 2):
             os.dup2(null, fd)
-        yield
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()):
+            yield
     finally:
+        ctypes.CDLL(None).fflush(None)
         for fd, copy in zip((1, 2), saved, strict=True):
             os.dup2(copy, fd)
             os.close(copy)

@@ -318,11 +318,13 @@ def _parse_mesh_file(resolved: Path, shown: Path) -> Mesh:
     import trimesh  # only loading files needs it; the procedural shapes do not
 
     try:
-        # force="mesh" also flattens glTF and other scenes, applying their node transforms.
         # trimesh merges vertices by rounding coordinates to int64 steps of 1e-8, which numpy warns
         # about past 9e10; coordinates that large are refused below, in one line.
         with np.errstate(invalid="ignore", over="ignore"):
-            loaded = trimesh.load(str(resolved), force="mesh")
+            loaded = _gltf_mesh(resolved, shown) if resolved.suffix.lower() in (".glb", ".gltf") \
+                else trimesh.load(str(resolved), force="mesh")
+    except DepthImpostorError:
+        raise
     except Exception as error:  # trimesh's parsers raise anything on a bad file; the user needs the name
         raise MeshError(f"{shown}: cannot read mesh file: {type(error).__name__}: {error}") from error
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
@@ -357,6 +359,27 @@ def _parse_mesh_file(resolved: Path, shown: Path) -> Mesh:
     lengths = np.linalg.norm(normals, axis=1)
     normals[~(lengths > 1e-13)] = (0.0, 1.0, 0.0)
     return Mesh(np.asarray(loaded.vertices), _normalized_rows(normals), faces, uvs)
+
+
+def _gltf_mesh(resolved: Path, shown: Path) -> Any:
+    """A glTF file's parts as one trimesh mesh in the file's world space (as trimesh's own
+    `force="mesh"` flattens a scene), read by scene/gltf.py: its checks before any decoding are
+    this shape's too (trimesh's reader walks a chain of nodes in quadratic time, decodes every
+    texture and reads every accessor before a count is checked). UVs in trimesh's convention (v
+    up), as _file_uvs reads them."""
+    import trimesh
+
+    from depthimpostor.scene.gltf import read_gltf
+
+    meshes = [part.mesh for part in read_gltf(resolved, str(shown)).parts]
+    starts = np.cumsum([0] + [len(mesh.positions) for mesh in meshes])
+    faces = np.concatenate([np.asarray(mesh.indices, np.int64) + start for mesh, start in zip(meshes, starts, strict=False)])
+    visual = None
+    if all(mesh.uvs is not None for mesh in meshes):
+        uvs = np.concatenate([np.asarray(mesh.uvs, np.float64) for mesh in meshes])
+        visual = trimesh.visual.TextureVisuals(uv=np.stack([uvs[:, 0], 1.0 - uvs[:, 1]], axis=1))
+    positions = np.concatenate([np.asarray(mesh.positions, np.float64) for mesh in meshes])
+    return trimesh.Trimesh(positions, faces, visual=visual, process=False)
 
 
 def _file_uvs(loaded: Any) -> np.ndarray | None:

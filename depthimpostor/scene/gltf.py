@@ -55,7 +55,7 @@ PLACED_TRIANGLE_BYTES = 3 * 8 * (3 + 3 + 2) + 3 * 8
 #: The most memory the loader's arrays may take, from the same counts: the accessors decoded (as
 #: float64 and int64) and the placed triangles. A file's accessors can share bytes, so a file of
 #: megabytes can claim terabytes.
-MAX_DECODED_BYTES = 4 * 2**30
+MAX_DECODED_BYTES = 2 * 2**30
 
 
 @dataclass(frozen=True, eq=False)
