@@ -271,7 +271,7 @@ class Worker:
     DATA_LIMIT = 4 * 2**30
 
     def __init__(self) -> None:
-        self.log = tempfile.TemporaryFile()
+        self.log = tempfile.TemporaryFile()  # noqa: SIM115 (the worker's stderr, as long as it runs)
         self.process: subprocess.Popen[str] | None = None
 
     def _start(self) -> subprocess.Popen[str]:
@@ -300,3 +300,7 @@ class Worker:
             self.process.kill()
             self.process.wait()
             self.process = None
+
+    def release(self) -> None:
+        self.close()
+        self.log.close()

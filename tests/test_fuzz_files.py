@@ -54,7 +54,7 @@ def worker() -> Iterator[Worker]:
         warm = running.run(write_gltf(SEED_JSON, BLOB, IMAGE, Path(folder), "glb"), timeout=600.0)
     assert warm.outcome == "rendered", warm.message
     yield running
-    running.close()
+    running.release()
 
 
 def check(result: Result, path: Path) -> None:

@@ -349,6 +349,8 @@ def decode_primitive(data: GltfData, primitive: Mapping[str, Any], mode: int, at
         raise at.key("attributes").key("POSITION").error(
             f"expected vertex coordinates of magnitude at most {MAX_COORDINATE:g} (float32 geometry squares "
             f"distances), got {float(np.abs(positions).max()):g}")
+    if uvs is not None and not np.isfinite(uvs).all():
+        raise at.key("attributes").key("TEXCOORD_0").error("expected finite texture coordinates, got NaN or infinity")
     return Primitive(positions, np.asarray(faces, np.int64), normals, uvs)
 
 
