@@ -108,8 +108,8 @@ side = st.one_of(st.sampled_from([0, 1, 2, 8, 255, 8192, 8193, 16384, 16385, 655
 @given(texture=st.sampled_from(["png", "jpeg", "bmp", "gif"]), width=side, height=side,
        depth=st.sampled_from([1, 2, 4, 8, 16, 3, 0, 255]), colour=st.sampled_from([0, 2, 3, 4, 6, 1, 5, 7]),
        crc=st.booleans(), resize=st.booleans(), sky=st.sampled_from(["hdr", "exr"]),
-       box=st.tuples(st.integers(-2**31, 2**31 - 1), side, side, side), resize_sky=st.booleans(),
-       texture_ops=st.lists(byte_mutation, max_size=2), sky_ops=st.lists(byte_mutation, max_size=2))
+       box=st.tuples(st.integers(-2**31, 2**31 - 1), side, side, side), resize_sky=st.sampled_from([False, False, True]),
+       texture_ops=st.lists(byte_mutation, max_size=2), sky_ops=st.lists(byte_mutation, max_size=1))
 def test_image_headers_that_lie_are_refused_before_decoding_or_read(
         worker: Worker, texture: str, width: int, height: int, depth: int, colour: int, crc: bool,
         resize: bool, sky: str, box: tuple[int, int, int, int], resize_sky: bool,

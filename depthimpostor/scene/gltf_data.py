@@ -1,7 +1,7 @@
-"""The binary data of a glTF file, read here where trimesh's reading is not what the file means:
-accessors with `sparse` substitutions (trimesh reads their base and drops the substitutions, so a
-patched mesh drew unpatched), and images (trimesh swallows a decoding error, and Pillow's modes
-need image_files.py's reading).
+"""The binary data of a glTF file: its buffers, views and accessors (sparse substitutions made),
+and its images (decoded by image_files.py, whose reading of Pillow's modes is what a file means).
+Every range is checked from the JSON and the files' sizes before a byte is read (`layout`), so
+that the scene's counts can be summed before anything is decoded (gltf.py).
 
 glTF 2.0, 3.6: a buffer is a GLB's BIN chunk, a data URI or a file beside the glTF file; a buffer
 view a byte range of one; an accessor `count` elements of a `type` (SCALAR, VEC2...) of a
