@@ -377,7 +377,8 @@ def _gltf_mesh(resolved: Path, shown: Path) -> Any:
     visual = None
     if all(mesh.uvs is not None for mesh in meshes):
         uvs = np.concatenate([np.asarray(mesh.uvs, np.float64) for mesh in meshes])
-        visual = trimesh.visual.TextureVisuals(uv=np.stack([uvs[:, 0], 1.0 - uvs[:, 1]], axis=1))
+        texture_visuals = cast(Callable[..., Any], trimesh.visual.TextureVisuals)  # trimesh has no hints
+        visual = texture_visuals(uv=np.stack([uvs[:, 0], 1.0 - uvs[:, 1]], axis=1))
     positions = np.concatenate([np.asarray(mesh.positions, np.float64) for mesh in meshes])
     return trimesh.Trimesh(positions, faces, visual=visual, process=False)
 
