@@ -287,8 +287,14 @@ def torus_knot(p: int, q: int, radius: float, tube: float,
 _MESH_CACHE: dict[Path, tuple[int, Mesh]] = {}
 
 
-def load_mesh_file(path: Path) -> Mesh:
-    """A model file (OBJ, PLY, STL, glTF, ... anything trimesh reads) as one smooth-shaded mesh.
+#: What reads a model file into a trimesh mesh in place of trimesh's own loader: given the
+#: resolved path and the path as shown (geometry.py gives glTF files to scene/gltf.py's reader).
+MeshReader = Callable[[Path, Path], Any]
+
+
+def load_mesh_file(path: Path, reader: MeshReader | None = None) -> Mesh:
+    """A model file (OBJ, PLY, STL, ... anything trimesh reads, or what `reader` reads) as one
+    smooth-shaded mesh.
 
     Parsed once per (resolved path, modification time): scenes and tests that name the same model
     share the result, and editing the file on disk makes the next call parse it again.
@@ -304,7 +310,7 @@ def load_mesh_file(path: Path) -> Mesh:
     cached = _MESH_CACHE.get(resolved)
     if cached is not None and cached[0] == modified:
         return cached[1]
-    mesh = _parse_mesh_file(resolved, shown)
+    mesh = _parse_mesh_file(resolved, shown, reader)
     _MESH_CACHE[resolved] = (modified, mesh)
     return mesh
 
@@ -314,15 +320,14 @@ def clear_mesh_cache() -> None:
     _MESH_CACHE.clear()
 
 
-def _parse_mesh_file(resolved: Path, shown: Path) -> Mesh:
+def _parse_mesh_file(resolved: Path, shown: Path, reader: MeshReader | None) -> Mesh:
     import trimesh  # only loading files needs it; the procedural shapes do not
 
     try:
         # trimesh merges vertices by rounding coordinates to int64 steps of 1e-8, which numpy warns
         # about past 9e10; coordinates that large are refused below, in one line.
         with np.errstate(invalid="ignore", over="ignore"):
-            loaded = _gltf_mesh(resolved, shown) if resolved.suffix.lower() in (".glb", ".gltf") \
-                else trimesh.load(str(resolved), force="mesh")
+            loaded = trimesh.load(str(resolved), force="mesh") if reader is None else reader(resolved, shown)
     except DepthImpostorError:
         raise
     except Exception as error:  # trimesh's parsers raise anything on a bad file; the user needs the name
@@ -359,28 +364,6 @@ def _parse_mesh_file(resolved: Path, shown: Path) -> Mesh:
     lengths = np.linalg.norm(normals, axis=1)
     normals[~(lengths > 1e-13)] = (0.0, 1.0, 0.0)
     return Mesh(np.asarray(loaded.vertices), _normalized_rows(normals), faces, uvs)
-
-
-def _gltf_mesh(resolved: Path, shown: Path) -> Any:
-    """A glTF file's parts as one trimesh mesh in the file's world space (as trimesh's own
-    `force="mesh"` flattens a scene), read by scene/gltf.py: its checks before any decoding are
-    this shape's too (trimesh's reader walks a chain of nodes in quadratic time, decodes every
-    texture and reads every accessor before a count is checked). UVs in trimesh's convention (v
-    up), as _file_uvs reads them."""
-    import trimesh
-
-    from depthimpostor.scene.gltf import read_gltf
-
-    meshes = [part.mesh for part in read_gltf(resolved, str(shown)).parts]
-    starts = np.cumsum([0] + [len(mesh.positions) for mesh in meshes])
-    faces = np.concatenate([np.asarray(mesh.indices, np.int64) + start for mesh, start in zip(meshes, starts, strict=False)])
-    visual = None
-    if all(mesh.uvs is not None for mesh in meshes):
-        uvs = np.concatenate([np.asarray(mesh.uvs, np.float64) for mesh in meshes])
-        texture_visuals = cast(Callable[..., Any], trimesh.visual.TextureVisuals)  # trimesh has no hints
-        visual = texture_visuals(uv=np.stack([uvs[:, 0], 1.0 - uvs[:, 1]], axis=1))
-    positions = np.concatenate([np.asarray(mesh.positions, np.float64) for mesh in meshes])
-    return trimesh.Trimesh(positions, faces, visual=visual, process=False)
 
 
 def _file_uvs(loaded: Any) -> np.ndarray | None:

@@ -19,7 +19,7 @@ from depthimpostor.api import render_image
 from depthimpostor.errors import GpuLimitError
 from depthimpostor.gpu.limits import context_limits, use_limits
 from depthimpostor.hdr import write_hdr
-from depthimpostor.meshes import load_mesh_file
+from depthimpostor.geometry import scene_geometry
 from depthimpostor.scene import gltf_file, gltf_planes, load_scene
 from depthimpostor.scene.gltf import read_gltf
 from gltf_files import GltfWriter
@@ -359,10 +359,9 @@ def test_a_gltf_mesh_shape_is_read_by_the_same_reader(tmp_path: Path, monkeypatc
     write_chain(tmp_path, 30000)
     (tmp_path / "s.toml").write_text('[[objects]]\nname = "box"\nshape = { type = "mesh", path = "chain.gltf" }\n'
                                      'material = { type = "diffuse", color = [1, 1, 1] }\n')
-    mesh = load_mesh_file(tmp_path / "chain.gltf")
+    mesh = scene_geometry(load_scene(tmp_path / "s.toml").objects)[0].world_mesh
     assert len(calls) == 30000
     assert len(mesh.indices) == 12 and np.allclose(np.ptp(mesh.positions, axis=0), 1.0)
-    assert load_scene(tmp_path / "s.toml").objects[0].name == "box"
 
 
 def test_texture_coordinates_that_are_not_finite_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

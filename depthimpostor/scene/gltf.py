@@ -12,10 +12,10 @@ import dataclasses
 import math
 import warnings
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -487,6 +487,26 @@ def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str
                                    f"are tinted by the mean colour of their baseColorTexture times baseColorFactor"),
                       stacklevel=3)
     return objects
+
+
+def gltf_trimesh(resolved: Path, shown: Path) -> Any:
+    """A glTF file's parts as one trimesh mesh in the file's world space (as trimesh's own
+    `force="mesh"` flattens a scene), for a `mesh` shape (meshes.load_mesh_file finishes it): read
+    here, its checks before any decoding are that shape's too (trimesh's reader walked a chain of
+    nodes in quadratic time, decoded every texture and read every accessor before a count could be
+    checked). UVs in trimesh's convention (v up), as meshes.py reads a file's."""
+    import trimesh
+
+    meshes = [part.mesh for part in read_gltf(resolved, str(shown)).parts]
+    starts = np.cumsum([0] + [len(mesh.positions) for mesh in meshes])
+    faces = np.concatenate([np.asarray(mesh.indices, np.int64) + start for mesh, start in zip(meshes, starts, strict=False)])
+    visual = None
+    if all(mesh.uvs is not None for mesh in meshes):
+        uvs = np.concatenate([np.asarray(mesh.uvs, np.float64) for mesh in meshes])
+        texture_visuals = cast(Callable[..., Any], trimesh.visual.TextureVisuals)  # trimesh has no hints
+        visual = texture_visuals(uv=np.stack([uvs[:, 0], 1.0 - uvs[:, 1]], axis=1))
+    positions = np.concatenate([np.asarray(mesh.positions, np.float64) for mesh in meshes])
+    return trimesh.Trimesh(positions, faces, visual=visual, process=False)
 
 
 def gltf_scene(path: Path, source: str) -> Scene:
