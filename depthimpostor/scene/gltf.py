@@ -335,7 +335,7 @@ def _lights(header: Mapping[str, Any], source: str, walked: list[tuple[int, np.n
         raise At(source, "extensions.KHR_lights_punctual.lights").error(f"expected an array, got {show(lights)}")
     nodes, placed = items(header, "nodes", source), []
     for i, world in walked:
-        use = extension(nodes[i], "KHR_lights_punctual", At(source, f"nodes[{i}]"))
+        use = extension(nodes[i], "KHR_lights_punctual", At(source, f"nodes[{i}]")) if "extensions" in nodes[i] else None
         if use is None:
             continue
         at = At(source, "extensions.KHR_lights_punctual.lights")

@@ -87,10 +87,13 @@ def table(value: Any, at: At) -> Mapping[str, Any]:
 
 def items(header: Mapping[str, Any], key: str, source: str) -> list[Mapping[str, Any]]:
     """The array of objects at `key` (empty when absent)."""
-    at, value = At(source, key), header.get(key, [])
+    value = header.get(key, [])
     if not isinstance(value, list):
-        raise at.error(f"expected an array, got {show(value)}")
-    return [table(v, at.index(i)) for i, v in enumerate(value)]
+        raise At(source, key).error(f"expected an array, got {show(value)}")
+    for i, item in enumerate(value):  # the place of an item is made for its message alone: lists are long
+        if not isinstance(item, dict):
+            table(item, At(source, key).index(i))
+    return value
 
 
 def index(value: Any, count: int, at: At) -> int:
@@ -144,15 +147,15 @@ def _extension_names(value: Any) -> Iterator[str]:
     use in `extensionsUsed`), but in `extras`, which is the application's own data. (A stack, not
     recursion: the JSON may nest as deep as the JSON reader went.)"""
     stack = [value]
-    while stack:
+    while stack:  # JSON's objects are dicts (no slower Mapping checks: a file may hold 10^5 of them)
         item = stack.pop()
-        if isinstance(item, Mapping):
+        if type(item) is dict:
             extensions = item.get("extensions")
-            if isinstance(extensions, Mapping):
+            if type(extensions) is dict:
                 yield from (name for name in extensions if isinstance(name, str))
-            stack.extend(child for key, child in item.items() if key != "extras" and isinstance(child, (Mapping, list)))
-        elif isinstance(item, list):
-            stack.extend(child for child in item if isinstance(child, (Mapping, list)))
+            stack.extend(child for key, child in item.items() if key != "extras" and type(child) in (dict, list))
+        elif type(item) is list:
+            stack.extend(child for child in item if type(child) in (dict, list))
 
 
 def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
@@ -209,7 +212,7 @@ _PLACEMENT = ("matrix", "translation", "rotation", "scale")
 def node_matrix(node: Mapping[str, Any], at: At) -> np.ndarray | None:
     """A node's local matrix: its `matrix` (column-major), or T @ R @ S from its TRS properties;
     None for a node with none of them (the identity: its children keep its parent's matrix)."""
-    if not any(key in node for key in _PLACEMENT):
+    if node.keys().isdisjoint(_PLACEMENT):
         return None
     if "matrix" in node:
         matrix = np.array(at.key("matrix").read(node["matrix"], numbers(16)), dtype=np.float64).reshape(4, 4).T
@@ -257,8 +260,11 @@ def scene_nodes(header: Mapping[str, Any], source: str) -> list[tuple[int, np.nd
         children = nodes[i].get("children", [])
         if not isinstance(children, list):
             raise SceneError(source, f"nodes[{i}].children", f"expected an array of node indices, got {show(children)}")
-        child_at = At(source, f"nodes[{i}].children")
-        stack.extend((index(c, len(nodes), child_at.index(k)), world) for k, c in reversed(list(enumerate(children))))
+        for k in range(len(children) - 1, -1, -1):
+            child = children[k]
+            if not (type(child) is int and 0 <= child < len(nodes)):  # its place made for the message alone
+                index(child, len(nodes), At(source, f"nodes[{i}].children").index(k))
+            stack.append((child, world))
     return walked
 
 
@@ -370,5 +376,7 @@ def number_at(value: Mapping[str, Any], key: str, default: float, reader: Reader
 
 def extension(value: Mapping[str, Any], name: str, at: At) -> Mapping[str, Any] | None:
     """The object's extension `name`, or None."""
-    extensions = table(value.get("extensions", {}), at.key("extensions"))
+    if "extensions" not in value:
+        return None
+    extensions = table(value["extensions"], at.key("extensions"))
     return table(extensions[name], at.key("extensions").key(name)) if name in extensions else None
