@@ -88,6 +88,7 @@ class MaterialKind(IntEnum):
     DIFFUSE = 0
     CHECKER = 1
     MIRROR = 2
+    METALLIC_ROUGHNESS = 3  # glTF 2.0's material model (lib/brdf.glsl, oracles/brdf.py)
 
 
 class Wrap(IntEnum):
@@ -328,15 +329,11 @@ BOUND_MARGIN = 1e-3
 #: One reflected object of the traced methods, an instance of a mesh in their two-level BVH
 #: (methods/triangles.py), stored as texels of the BVH's node texture (gpu/texel_records.py): the
 #: world-to-local transform (the ray goes through it into the mesh's space, and the checker is
-#: laid out in local coordinates), colour_a with the checker scale in w, colour_b, (material kind,
-#: object id, texture slot or -1, 0), the texture's UV scale in texture.xy, and in mesh.x the node
-#: where its mesh's bottom-level hierarchy starts.
+#: laid out in local coordinates), (material index in the MaterialRecords table, object id, 0, 0),
+#: and in mesh.x the node where its mesh's bottom-level hierarchy starts.
 TRIANGLE_INSTANCE_FIELDS: tuple[tuple[str, str], ...] = (
     ("world_to_local", "mat4"),
-    ("color_a", "vec4"),
-    ("color_b", "vec4"),
-    ("kind_and_id", "ivec4"),
-    ("texture", "vec4"),
+    ("ids", "ivec4"),
     ("mesh", "ivec4"),
 )
 #: Width of the float textures holding BVH nodes and triangles: element i is texel
@@ -366,22 +363,37 @@ TRIANGLE_INSTANCE_DTYPE = TRIANGLE_INSTANCE.dtype
 #: One image texture of the scene (texture slot k is record k of lib/material_texture.glsl's
 #: TextureRecords block, gpu/textures.py): `sampling` is (texture array, layer, wrap s, wrap t),
 #: the wrap modes GL enums (Wrap); `texels` where its level 0 lies in the traced rays' 8-bit atlas,
-#: (x, y, width, height) (texture_layout.py).
+#: (x, y, width, height) (texture_layout.py); its UV transform and colour space.
 TEXTURE_RECORD = Struct("TextureRecord", (
     ("sampling", "ivec4"),
     ("texels", "ivec4"),
+    ("uv_u", "vec3"),  # the UV transform (Texture.uv_rows): u' = dot(uv_u, (u, v, 1)), v' = dot(uv_v, (u, v, 1))
+    ("srgb", "int"),  # 1: colour, decoded from sRGB; 0: data, as stored
+    ("uv_v", "vec3"),
 ))
 
 #: A surface's material as lib/shading.glsl's material_albedo reads it: MATERIAL_DIFFUSE or
 #: MATERIAL_CHECKER, the two colours (a diffuse material's is color_a), the checker's cell size,
-#: a diffuse material's texture slot (or -1) and that texture's UV multipliers.
+#: a diffuse material's texture slot (or -1). Every pass reads
+#: one table of them (lib/shading.glsl's MaterialRecords block, written once by
+#: gpu/scene_blocks.py): an object, an instance, a triangle instance and a plane carry an index.
 MATERIAL = Struct("Material", (
     ("kind", "int"),
     ("color_a", "vec3"),
-    ("color_b", "vec3"),
     ("scale", "float"),
+    ("color_b", "vec3"),
+    # MATERIAL_METALLIC_ROUGHNESS alone: metalness, perceptual roughness (alpha = roughness^2), the
+    # emitted radiance, and the slots (or -1) of its metallic-roughness, occlusion and emissive maps.
+    ("metallic", "float"),
+    ("emissive", "vec3"),
+    ("roughness", "float"),
     ("texture", "int"),
-    ("uv_scale", "vec2"),
+    ("metallic_roughness_texture", "int"),
+    ("occlusion_texture", "int"),
+    ("emissive_texture", "int"),
+    ("alpha_cutoff", "float"),  # glTF's alphaMode MASK: the cutoff (< 0: opaque)
+    ("alpha", "float"),  # and the base colour factor's alpha, times the texture's
+    ("occlusion_strength", "float"),
 ))
 
 #: One light of the Lights block: LIGHT_DIRECTIONAL or LIGHT_POINT, SHADOW_NONE, SHADOW_HARD or
@@ -415,7 +427,7 @@ LIGHTING = Struct("Lighting", (
 #: world-space normal and object id.
 ANALYTIC_PLANE = Struct("AnalyticPlane", (
     ("world_to_local", "mat4"),
-    ("material", MATERIAL),
+    ("material", "int"),  # its index in the MaterialRecords table
     ("normal", "vec3"),
     ("object_id", "int"),
     ("half_size", "vec2"),
@@ -450,6 +462,21 @@ SSR_NOTHING = 1e30
 #: reflection off at a hard line (the engines' "edge fade").
 SSR_EDGE_FADE = 0.1
 
+# glTF 2.0's metallic-roughness model (its specification's Appendix B: lib/brdf.glsl and
+# oracles/brdf.py, the same functions by the same names).
+#: The Fresnel reflectance of a dielectric at normal incidence (an index of refraction of 1.5).
+DIELECTRIC_F0 = 0.04
+#: Karis' analytic fit of the split-sum's scale and bias of F0 for a uniform environment
+#: ("Physically Based Shading on Mobile", 2014; three.js's DFGApprox): what the ambient light,
+#: a constant radiance from every direction, gives a metallic-roughness surface's specular lobe.
+DFG_FIT_C0 = (-1.0, -0.0275, -0.572, 0.022)
+DFG_FIT_C1 = (1.0, 0.0425, 1.04, -0.04)
+DFG_FIT_EXPONENT = -9.28
+DFG_FIT_SCALE = 1.04
+#: The least roughness the lights' lobe is evaluated at (three.js's): at 0 the GGX distribution is
+#: 0 / 0 where N.H = 1 (a point light's highlight of zero width and infinite height).
+MIN_ROUGHNESS = 0.0525
+
 
 def glsl_constants() -> dict[str, str]:
     """Every shared constant as a GLSL define (name -> value text)."""
@@ -483,6 +510,12 @@ def glsl_constants() -> dict[str, str]:
         "SSR_MAX_STEPS": str(SSR_MAX_STEPS),
         "SSR_NOTHING": f"{SSR_NOTHING!r}",
         "SSR_EDGE_FADE": f"{SSR_EDGE_FADE!r}",
+        "DIELECTRIC_F0": f"{DIELECTRIC_F0!r}",
+        "DFG_FIT_C0": "vec4(" + ", ".join(f"{c!r}" for c in DFG_FIT_C0) + ")",
+        "DFG_FIT_C1": "vec4(" + ", ".join(f"{c!r}" for c in DFG_FIT_C1) + ")",
+        "DFG_FIT_EXPONENT": f"{DFG_FIT_EXPONENT!r}",
+        "DFG_FIT_SCALE": f"{DFG_FIT_SCALE!r}",
+        "MIN_ROUGHNESS": f"{MIN_ROUGHNESS!r}",
     }
     defines.update(glsl_bindings())
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",

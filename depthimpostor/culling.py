@@ -28,6 +28,7 @@ so that a scene of thousands of objects is culled in a fraction of a second.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from typing import TypeAlias
 from dataclasses import dataclass
@@ -82,7 +83,11 @@ def swept_sphere(item: ObjectGeometry) -> tuple[np.ndarray, float]:
 
 
 def _swept(item: ObjectGeometry, centre: np.ndarray, radius: float) -> tuple[np.ndarray, float]:
-    """swept_sphere of `item` from its enclosing sphere (`centre`, `radius`)."""
+    """swept_sphere of `item` from its enclosing sphere (`centre`, `radius`). A glTF part its file
+    animates (scene/gltf_deform.py) may go anywhere its keyframes and splines take it: its sphere
+    is everything (it is never culled), so that what a reflector shows holds at every time."""
+    if item.object.motion is not None:
+        return centre, math.inf
     animation = item.object.animation
     if animation is None:
         return centre, radius
@@ -97,7 +102,7 @@ def swept_spheres(items: Sequence[ObjectGeometry]) -> tuple[np.ndarray, np.ndarr
     in one pass of numpy (enclosing_spheres), then the few animated items' sweeps one by one."""
     centres, radii = enclosing_spheres(items)
     for i, item in enumerate(items):
-        if item.object.animation is not None:
+        if item.object.moves:
             centre, radius = _swept(item, centres[i].copy(), float(radii[i]))
             centres[i], radii[i] = centre, radius
     return centres, radii

@@ -102,11 +102,14 @@ class ObjectGeometry:
         return self.object.model_matrix(self.time)
 
     def at(self, time: float) -> ObjectGeometry:
-        """The object at `time`: itself when it does not move (its GPU buffers and bounds are
-        kept either way: the mesh is the same, only its transform changes)."""
+        """The object at `time`: itself when it does not move. Its GPU buffers and bounds are
+        kept where only its transform changes; a glTF part that deforms (a skin, morph targets)
+        has another mesh at each time (scene/gltf_deform.py), which the passes upload again."""
         if not self.object.moves or time == self.time:
             return self
-        return ObjectGeometry(self.index, self.object, self.local_mesh, time)
+        motion = self.object.motion
+        mesh = motion.mesh_at(time) if motion is not None and motion.deforms else self.local_mesh
+        return ObjectGeometry(self.index, self.object, mesh, time)
 
     @cached_property
     def normal_matrix(self) -> np.ndarray:

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .constants import (
-    depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MAX_ANALYTIC_PLANES, MAX_BOUNCES, MAX_LIGHTS,
+    depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MATERIAL, MAX_ANALYTIC_PLANES, MAX_BOUNCES, MAX_LIGHTS,
     MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, HIERARCHICAL_MIN_SIDE, Algorithm, Method, image_algorithm, lists_images,
 )
 from .culling import Reach
@@ -29,7 +29,7 @@ from .gpu.batches import batch_bytes
 from .methods.planar import check_flat_mirrors
 from .methods.seen_from_eye import SeenFromEye
 from .gpu.meshes import GpuMeshes
-from .gpu.scene_blocks import SceneBlocks
+from .gpu.scene_blocks import SceneBlocks, materials_bytes
 from .gpu.textures import GpuTextures
 from .texture_layout import texture_layout
 from .passes.reflectors import (
@@ -47,10 +47,10 @@ from .targets import Surfaces
 from .methods.registry import METHODS
 from .methods.colour_mips import COLOUR_MIPS_PROGRAM
 from .methods.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
-from .passes.shadows import SHADOW_MAP_DEFINES, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
-from .gpu.uniforms import environment_defines
+from .passes.shadows import shadow_map_defines, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
+from .gpu.uniforms import alpha_mask_defines, environment_defines
 from .scene.limits import check_method, check_model_reach, check_model_uvs, check_scene
-from .scene.model import MeshShape, Scene
+from .scene.model import MeshShape, MetallicRoughnessMaterial, Scene
 from .gpu.shaders import ProgramKey, program_key
 from .graph import Pass, RenderNode, build_graph, format_graph, in_order, node_class
 from .world import World
@@ -309,7 +309,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     if scene.has_shadows:
         lights = [f"lights[{i}] ({scene.lights[i].shadows})" for i in scene.shadowed_lights]
         passes.append(PlannedPass(Pass.SHADOW_MAPS, f"{', '.join(lights)} cast shadows"))
-        variant(Pass.SHADOW_MAPS, SHADOW_MAP_PROGRAM, SHADOW_MAP_DEFINES, "shadow maps: the casters' depth from each shadowed light")
+        variant(Pass.SHADOW_MAPS, SHADOW_MAP_PROGRAM, shadow_map_defines(scene),
+                "shadow maps: the casters' depth from each shadowed light")
         casters = set(scene.shadow_casters)
         for light in scene.shadowed_lights:  # refuses a light among its casters, as the shadow pass would
             fit_shadow_camera(scene, light, [g for g in geometry if g.object in casters], scene.render.shadow_resolution)
@@ -364,12 +365,13 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                 variant(Pass.STAND_IN, DIFFUSE_PROGRAM, diffuse_defines(scene, True, ids, back_layer=True, checker=checker),
                         f"depth images: the back layer's colour and depth (a ray may come in through it){with_ids}")
             if stand_in.keeps_beyond:
-                variant(Pass.STAND_IN, BEYOND_PROGRAM, None, "depth images: where a second solid run begins (the space before it "
+                variant(Pass.STAND_IN, BEYOND_PROGRAM, alpha_mask_defines(scene), "depth images: where a second solid run begins (the space before it "
                         "is seen empty)")
         if shown_in_bounces:
             passes.append(PlannedPass(Pass.BOUNCES, f"render.max_bounces = {scene.render.max_bounces}: reflectors "
                                       "show each other's reflections"))
-            variant(Pass.BOUNCES, BACK_FACE_PROGRAM, None, "a reflector drawn into another's depth image: its back-face layer")
+            variant(Pass.BOUNCES, BACK_FACE_PROGRAM, alpha_mask_defines(scene),
+                    "a reflector drawn into another's depth image: its back-face layer")
             for shown_glass in sorted(shown_in_bounces):
                 variant(Pass.BOUNCES, REFLECTOR_PROGRAM, reflector_defines(scene, bounce_defines(), shown_glass),
                         f"a {'glass' if shown_glass else 'mirror'} drawn into another reflector's depth image")
@@ -439,6 +441,23 @@ def ignored_in_files(scene: Scene) -> tuple[tuple[str, tuple[str, ...]], ...]:
     return tuple((file, names) for file, names in ignored.items() if names)
 
 
+def material_kinds(scene: Scene) -> str:
+    """What the scene's materials call for, for `plan`: the metallic-roughness shading (the
+    METALLIC_ROUGHNESS variant of every shading program) and the alpha mask (ALPHA_MASK) only where
+    a material has them, so a scene without pays for neither."""
+    pbr = [m for m in scene.materials if isinstance(m, MetallicRoughnessMaterial)]
+    if not pbr:
+        return ""
+    masked = sum(m.masked for m in pbr)
+    maps = sum(any(t is not None for t in m.maps) for m in pbr)
+    parts = [f"{len(pbr)} metallic-roughness (their shading compiled in: METALLIC_ROUGHNESS)"]
+    if maps:
+        parts.append(f"{maps} with metallic-roughness, occlusion or emissive maps")
+    if masked:
+        parts.append(f"{masked} alpha-masked (every surface pass cuts them: ALPHA_MASK)")
+    return ", of which " + ", ".join(parts)
+
+
 def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImagePlan]], memory: dict[str, int],
                 reflected: list[ObjectGeometry]) -> tuple[str, ...]:
     """One line per limit the scene meets (scene/limits.py's table): what it uses of a fixed cap,
@@ -468,6 +487,9 @@ def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImageP
     if spec.names_triangles:
         triangles = sum(len(g.local_mesh.indices) for g in reflected)
         lines.append(f"reflected triangles: {triangles} of {MAX_NAMED_TRIANGLES} (a float32 depth-image sample names one)")
+    lines.append(f"materials: {len(scene.materials)}{material_kinds(scene)} (any number: one record of "
+                 f"{MATERIAL.dtype.itemsize} bytes each in a uniform block, within GL_MAX_UNIFORM_BLOCK_SIZE (16 KiB at "
+                 "GL's least), checked at render)")
     if scene.textures:
         lines.append(f"image textures: {len(scene.textures)} (any number: in texture arrays, within GL_MAX_TEXTURE_SIZE, "
                      "GL_MAX_ARRAY_TEXTURE_LAYERS and GL_MAX_UNIFORM_BLOCK_SIZE, checked at render)")
@@ -493,7 +515,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     records = depth_image_capacity(len(scene.objects)) * DEPTH_IMAGE_DTYPE.itemsize  # one mirror's record table
     memory = {"frame colour and depth": width * height * (16 + 4),
               "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry]),
-              "lights and planes": SceneBlocks.BYTES}
+              "lights and planes": SceneBlocks.BYTES, "materials": materials_bytes(scene)}
     # The diffuse pass's batch of the objects that do not move (gpu/batches.py; a context without
     # OpenGL 4.3 draws them one by one, and makes none).
     still = [g for g in geometry if not g.object.is_reflector and not g.object.moves]

@@ -274,6 +274,10 @@ class RenderGraph:
         object moved, when a light moved, or when a caster moved whose shadow may fall on its object)."""
         self.world = world
         self.scene_blocks.write(world.lit_scene, world.analytic_planes)
+        # What deforms (a glTF skin, morph targets) has another mesh: uploaded over the one it replaces.
+        self.meshes.replace([(before.local_mesh, now.local_mesh) for before, now in zip(earlier.geometry, world.geometry,
+                                                                                        strict=True)
+                             if now.local_mesh is not before.local_mesh])
         for node in self.nodes:
             node.follow(earlier, world)
 

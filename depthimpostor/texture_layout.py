@@ -50,6 +50,7 @@ class ArrayLayout:
 
     size: tuple[int, int]  # (width, height)
     images: tuple[int, ...]
+    srgb: bool = True  # GL_SRGB8_ALPHA8 (colour); False: GL_RGBA8 (data: metallic-roughness, occlusion)
 
     @property
     def bytes(self) -> int:
@@ -77,6 +78,8 @@ class TextureLayout:
             image = self.image_of[slot]
             records["sampling"][slot] = (*self.places[image], *texture.wrap)
             records["texels"][slot] = self.texel_rects[image]
+            records["uv_u"][slot], records["uv_v"][slot] = texture.uv_rows
+            records["srgb"][slot] = int(texture.srgb)
         return records
 
     @property
@@ -114,18 +117,22 @@ class TextureLayout:
         return self.image_of.index(image)
 
 
-def _distinct_images(textures: tuple[Texture, ...]) -> tuple[tuple[np.ndarray, ...], tuple[int, ...]]:
-    """The distinct images (by content) in order of first use, and each slot's."""
-    index: dict[tuple[tuple[int, ...], bytes], int] = {}
+def _distinct_images(textures: tuple[Texture, ...]) -> tuple[tuple[np.ndarray, ...], tuple[int, ...], tuple[bool, ...]]:
+    """The distinct images (by content and colour space) in order of first use, each slot's, and
+    whether each image is colour (sRGB) or data."""
+    index: dict[tuple[tuple[int, ...], bytes, bool], int] = {}
     images: list[np.ndarray] = []
+    srgb: list[bool] = []
     image_of = []
     for texture in textures:
-        key = (texture.image.shape, hashlib.blake2b(np.ascontiguousarray(texture.image).data, digest_size=16).digest())
+        digest = hashlib.blake2b(np.ascontiguousarray(texture.image).data, digest_size=16).digest()
+        key = (texture.image.shape, digest, texture.srgb)
         if key not in index:
             index[key] = len(images)
             images.append(texture.image)
+            srgb.append(texture.srgb)
         image_of.append(index[key])
-    return tuple(images), tuple(image_of)
+    return tuple(images), tuple(image_of), tuple(srgb)
 
 
 def size_groups(sizes: list[tuple[int, int]], groups: int = MATERIAL_ARRAYS) -> list[tuple[int, int]]:
@@ -181,14 +188,20 @@ def shelf_pack(sizes: list[tuple[int, int]]) -> tuple[np.ndarray, tuple[int, int
 
 @functools.lru_cache(maxsize=8)
 def _layout(textures: tuple[Texture, ...]) -> TextureLayout:
-    images, image_of = _distinct_images(textures)
+    images, image_of, srgb = _distinct_images(textures)
     sizes = [(int(image.shape[1]), int(image.shape[0])) for image in images]
-    layer_sizes = size_groups(sizes)
-    arrays: dict[tuple[int, int], list[int]] = {}
-    for image, size in enumerate(layer_sizes):
-        arrays.setdefault(size, []).append(image)
-    # Arrays in order of size (the smallest first), each image's place in them.
-    ordered = [ArrayLayout(size, tuple(members)) for size, members in sorted(arrays.items())]
+    # Colour and data never share an array (one is decoded from sRGB, the other not): with both,
+    # each gets half the arrays.
+    spaces = sorted(set(srgb), reverse=True)
+    arrays: dict[tuple[bool, tuple[int, int]], list[int]] = {}
+    for space in spaces:
+        members = [k for k in range(len(images)) if srgb[k] == space]
+        groups = MATERIAL_ARRAYS // len(spaces)
+        for image, size in zip(members, size_groups([sizes[k] for k in members], groups), strict=True):
+            arrays.setdefault((space, size), []).append(image)
+    # Arrays colour first, each space's in order of size (the smallest first), each image's place in them.
+    ordered = [ArrayLayout(size, tuple(members), space)
+               for (space, size), members in sorted(arrays.items(), key=lambda item: (not item[0][0], item[0][1]))]
     places = [(0, 0)] * len(images)
     for a, array in enumerate(ordered):
         for layer, image in enumerate(array.images):

@@ -71,11 +71,17 @@ def read_texture(path: Path, at: At, scale: tuple[float, float], wrap: tuple[int
     return _CACHE[key]
 
 
-def resample(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+def resample(image: np.ndarray, size: tuple[int, int], srgb: bool = True) -> np.ndarray:
     """An (H, W, 4) sRGB image resampled to `size` (width, height) for a texture array's layer
     (texture_layout.py): its colour in linear light (decoded, filtered, encoded again: filtering the
     encoded values would darken edges between light and dark), its alpha as it is, each channel by
-    Pillow's Lanczos filter (3 lobes: sharp, little ringing; its overshoot is clipped)."""
+    Pillow's Lanczos filter (3 lobes: sharp, little ringing; its overshoot is clipped). `srgb`
+    False: data (a metallic-roughness map), filtered as stored."""
+    if not srgb:
+        channels = [image[..., c].astype(np.float32) / 255.0 for c in range(4)]
+        filtered = np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(channel), mode="F")
+                                        .resize(size, Image.Resampling.LANCZOS)) for channel in channels], axis=-1)
+        return np.asarray(np.rint(np.clip(filtered, 0.0, 1.0) * 255.0), np.uint8)
     linear = SRGB_TABLE[image[..., :3]]
     channels = [linear[..., c] for c in range(3)] + [image[..., 3].astype(np.float32) / 255.0]
     filtered = np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(channel), mode="F")
@@ -96,11 +102,26 @@ def wrap_texels(index: np.ndarray, size: int, mode: int) -> np.ndarray:
 
 
 def texture_bilinear(texture: Texture, uvs: np.ndarray) -> np.ndarray:
-    """The texture's linear RGB at (n, 2) UVs (before `scale`): level 0, bilinear, its wrap modes:
-    material_texture.glsl's texture_bilinear in numpy."""
-    height, width = texture.image.shape[:2]
-    linear = SRGB_TABLE[texture.image[..., :3]].astype(np.float64)
-    x = uvs * np.asarray(texture.scale) * (width, height) - 0.5  # texel centres at half-integers
+    """The texture's linear RGB at (n, 2) UVs (before its transform, Texture.uv_rows): level 0,
+    bilinear, its wrap modes: material_texture.glsl's material_texel for traced rays in numpy."""
+    rgb = texture.image[..., :3]
+    decoded = SRGB_TABLE[rgb] if texture.srgb else rgb.astype(np.float32) / np.float32(255.0)
+    return _bilinear(texture, decoded.astype(np.float64), uvs)
+
+
+def texture_alpha_bilinear(texture: Texture, uvs: np.ndarray) -> np.ndarray:
+    """The texture's alpha (linear, in [0, 1]) at (n, 2) UVs, as texture_bilinear samples colours:
+    material_texture.glsl's material_texel_rgba(...).a for traced rays."""
+    return _bilinear(texture, texture.image[..., 3:4].astype(np.float64) / 255.0, uvs)[:, 0]
+
+
+def _bilinear(texture: Texture, texels: np.ndarray, uvs: np.ndarray) -> np.ndarray:
+    """(n, channels) bilinear samples of `texels` ((height, width, channels) float64, the texture's
+    level 0 decoded) at UVs placed by the texture's transform, with its wrap modes."""
+    height, width = texels.shape[:2]
+    (a, b, c), (d, e, f) = texture.uv_rows
+    placed = np.stack([uvs[:, 0] * a + uvs[:, 1] * b + c, uvs[:, 0] * d + uvs[:, 1] * e + f], axis=1)
+    x = placed * (width, height) - 0.5  # texel centres at half-integers
     base = np.floor(x)
     fraction = x - base
     i0, j0 = base[:, 0].astype(np.int64), base[:, 1].astype(np.int64)
@@ -108,6 +129,6 @@ def texture_bilinear(texture: Texture, uvs: np.ndarray) -> np.ndarray:
     columns = [wrap_texels(i0 + k, width, wrap_s) for k in (0, 1)]
     rows = [wrap_texels(j0 + k, height, wrap_t) for k in (0, 1)]
     fx, fy = fraction[:, 0:1], fraction[:, 1:2]
-    top = linear[rows[0], columns[0]] * (1 - fx) + linear[rows[0], columns[1]] * fx
-    bottom = linear[rows[1], columns[0]] * (1 - fx) + linear[rows[1], columns[1]] * fx
+    top = texels[rows[0], columns[0]] * (1 - fx) + texels[rows[0], columns[1]] * fx
+    bottom = texels[rows[1], columns[0]] * (1 - fx) + texels[rows[1], columns[1]] * fx
     return np.asarray(top * (1 - fy) + bottom * fy)

@@ -7,17 +7,22 @@
 #include "lib/shading.glsl"
 
 #ifdef INSTANCED
-// The object's material and ids, from its instance attributes (mesh.vert).
-flat in vec4 v_color_a;
-flat in vec3 v_color_b;
-flat in vec2 v_uv_scale;
+// The object's material index and ids, from its instance attributes (mesh.vert).
 flat in ivec4 v_ids;
-#define OBJECT_ID v_ids.z
-#define TRIANGLE_OFFSET v_ids.w
+#define MATERIAL_INDEX v_ids.x
+#define OBJECT_ID v_ids.y
+#define TRIANGLE_OFFSET v_ids.z
 #else
-uniform Material u_material;
+uniform int u_material_index;  // in the MaterialRecords table (lib/shading.glsl)
+#define MATERIAL_INDEX u_material_index
 #define OBJECT_ID u_object_id
 #define TRIANGLE_OFFSET u_triangle_offset
+#endif
+
+#ifdef METALLIC_ROUGHNESS
+// Where the camera is (w = 1), or toward it at infinity (w = 0: an orthographic image), in the world
+// (passes/diffuse.py, from the view-projection): metallic-roughness shading depends on the viewer.
+uniform vec4 u_eye;
 #endif
 
 in vec3 v_world_position;
@@ -53,16 +58,22 @@ uniform int u_triangle_offset;
 
 void main() {
     vec3 normal = safe_normalize(v_world_normal, vec3(0.0, 1.0, 0.0));
-#ifdef INSTANCED
-    Material material = Material(v_ids.x, v_color_a.rgb, v_color_b, v_color_a.w, v_ids.y, v_uv_scale);
-#else
-    Material material = u_material;
+    Material material = u_materials[MATERIAL_INDEX];
+#ifdef ALPHA_MASK
+    if (material_masked(material, v_uv)) discard;  // glTF's alphaMode MASK: the surface is not there
 #endif
-    out_color = vec4(shade(material_albedo(material, v_local_position, v_uv), v_world_position, normal), 1.0);
+    vec3 albedo = material_albedo(material, v_local_position, v_uv);
+#ifdef METALLIC_ROUGHNESS
+    vec3 to_viewer = safe_normalize(u_eye.xyz - v_world_position * u_eye.w, normal);
+    out_color = vec4(shade_material(material, albedo, v_uv, v_world_position, normal, to_viewer), 1.0);
+#else
+    out_color = vec4(shade(albedo, v_world_position, normal), 1.0);
+#endif
 #if WRITE_DEPTH_IMAGE
 #ifdef BACK_LAYER
     // The back layer of a depth image (drawn with front faces culled): its colour, the outward
-    // face lit as it is (diffuse shading does not depend on the viewer), and its depth in G.
+    // face lit as it is (diffuse shading does not depend on the viewer; metallic-roughness shading
+    // as seen from the image's camera, through the surface), and its depth in G.
     out_depth_and_object = vec2(gl_FragCoord.z);
 #else
     out_depth_and_object = vec2(gl_FragCoord.z, float(OBJECT_ID));

@@ -1,7 +1,7 @@
 #version 330 core
 // World-space position, normal and UVs of a mesh, shared by the diffuse and mirror passes.
 // INSTANCED (the diffuse pass's batches, gpu/batches.py): the transform and the material are
-// per-instance attributes instead of uniforms, and the material goes on to the fragment shader.
+// per-instance attributes instead of uniforms, and the ids go on to the fragment shader.
 uniform mat4 u_view_projection;
 #ifdef INSTANCED
 in vec4 in_model_0;  // the model matrix's rows (its last row is 0 0 0 1)
@@ -10,13 +10,7 @@ in vec4 in_model_2;
 in vec3 in_normal_matrix_0;  // the normal matrix's columns
 in vec3 in_normal_matrix_1;
 in vec3 in_normal_matrix_2;
-in vec4 in_color_a;  // Material.color_a and, in w, Material.scale
-in vec3 in_color_b;
-in vec2 in_uv_scale;
-in ivec4 in_ids;  // Material.kind, Material.texture, the object id, its triangle offset
-flat out vec4 v_color_a;
-flat out vec3 v_color_b;
-flat out vec2 v_uv_scale;
+in ivec4 in_ids;  // the material's index in MaterialRecords, the object id, its triangle offset, 0
 flat out ivec4 v_ids;
 #else
 uniform mat4 u_model;
@@ -36,9 +30,6 @@ void main() {
 #ifdef INSTANCED
     mat4 model = transpose(mat4(in_model_0, in_model_1, in_model_2, vec4(0.0, 0.0, 0.0, 1.0)));
     mat3 normal_matrix = mat3(in_normal_matrix_0, in_normal_matrix_1, in_normal_matrix_2);
-    v_color_a = in_color_a;
-    v_color_b = in_color_b;
-    v_uv_scale = in_uv_scale;
     v_ids = in_ids;
 #else
     mat4 model = u_model;

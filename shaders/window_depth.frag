@@ -1,4 +1,5 @@
 #version 330 core
+#include "lib/alpha_mask.glsl"
 // The window depth alone, into the float layers of a depth image: the nearest back face (drawn
 // with front faces culled, into the G channel of a depth atlas: output 1), and both layers of a
 // shadow map (output 0; passes/shadows.py). Between the visible surface and the nearest back
@@ -11,5 +12,6 @@
 layout(location = OUTPUT_LOCATION) out vec2 out_depth;
 
 void main() {
+    discard_masked();
     out_depth = vec2(gl_FragCoord.z);
 }

@@ -4,6 +4,7 @@ buffer, enough for node trees, materials with their extensions, cameras, lights 
 from __future__ import annotations
 
 import io
+import math
 import json
 import struct
 from pathlib import Path
@@ -102,6 +103,25 @@ class GltfWriter:
         accessor.pop("min", None), accessor.pop("max", None)
         return k
 
+    def raw_accessor(self, array: Any, kind: str, component: int = FLOAT) -> int:
+        """An accessor of any element type (SCALAR, VEC4, MAT4...) and component type, as given."""
+        dtype = {FLOAT: np.float32, UNSIGNED_INT: np.uint32, 5123: np.uint16, 5121: np.uint8}[component]
+        data = np.ascontiguousarray(array, dtype)
+        return self._append("accessors", {"bufferView": self.view(data.tobytes()), "componentType": component,
+                                          "count": len(data), "type": kind})
+
+    def animation(self, *channels: tuple[int, str, Any, Any, str]) -> int:
+        """An animation of (node, path, keyframe times, values (rows; CUBICSPLINE: in-tangent, value,
+        out-tangent rows a keyframe), interpolation) channels, a sampler each."""
+        samplers, targets = [], []
+        for s, (node, path, times, values, interpolation) in enumerate(channels):
+            values = np.asarray(values, np.float32)
+            kind = "SCALAR" if values.ndim == 1 else f"VEC{values.shape[1]}"
+            samplers.append({"input": self.raw_accessor(np.asarray(times), "SCALAR"),
+                             "output": self.raw_accessor(values, kind), "interpolation": interpolation})
+            targets.append({"sampler": s, "target": {"node": node, "path": path}})
+        return self._append("animations", {"samplers": samplers, "channels": targets})
+
     def light(self, **fields: Any) -> int:
         extensions = self.json.setdefault("extensions", {}).setdefault("KHR_lights_punctual", {"lights": []})
         extensions["lights"].append(fields)
@@ -126,3 +146,62 @@ def quaternion(axis: tuple[float, float, float], degrees: float) -> list[float]:
     """glTF's XYZW rotation quaternion."""
     half = np.radians(degrees) / 2.0
     return [*(np.sin(half) * np.asarray(axis, float) / np.linalg.norm(axis)).tolist(), float(np.cos(half))]
+
+
+def skinned_column(w: GltfWriter, material: int, translation: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                   keys: tuple[float, ...] = (0.0, 60.0, 0.0), interpolation: str = "LINEAR", rings: int = 8,
+                   sides: int = 4) -> int:
+    """A column 2 high along +Y (a square 0.4 wide, or with more `sides` a tube as wide; `rings`
+    bands; file normals), skinned to two bones: the root joint at its foot (the node `translation`)
+    and a child joint 1 above it, which the file's animation turns about Z through `keys` degrees
+    at t = 0, 1, 2... The vertices below y = 0.5 follow the root, those above 1.5 the child, those
+    between a blend (wide enough that no triangle folds over at 60 degrees). Returns the root."""
+    heights = np.linspace(0.0, 2.0, rings + 1)
+    angles = np.radians(225.0) + 2.0 * np.pi * np.arange(sides) / sides  # sides = 4: the square's corners
+    around = np.hypot(0.2, 0.2) * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    positions = np.array([[x, y, z] for y in heights for x, z in around])
+    normals = np.array([[x, 0.0, z] for _ in heights for x, z in around]) / np.hypot(0.2, 0.2)
+    n, top = sides, sides * rings
+    faces = [[n * r + k, n * r + n + (k + 1) % n, n * r + (k + 1) % n] for r in range(rings) for k in range(n)]
+    faces += [[n * r + k, n * r + n + k, n * r + n + (k + 1) % n] for r in range(rings) for k in range(n)]
+    faces += [[0, k, k + 1] for k in range(1, n - 1)] + [[top, top + k + 1, top + k] for k in range(1, n - 1)]  # the ends
+    upper = np.clip(positions[:, 1] - 0.5, 0.0, 1.0)
+    primitive = w.primitive(positions, np.array(faces), normals, material=material)
+    primitive["attributes"]["JOINTS_0"] = w.raw_accessor(np.tile([0, 1, 0, 0], (len(positions), 1)), "VEC4", 5123)
+    primitive["attributes"]["WEIGHTS_0"] = w.raw_accessor(
+        np.stack([1.0 - upper, upper, 0.0 * upper, 0.0 * upper], axis=1), "VEC4")
+    root = w.node(name="Root", translation=list(translation))
+    bend = w.node(root=False, name="Bend", translation=[0.0, 1.0, 0.0])
+    w.json["nodes"][root]["children"] = [bend]
+    # Inverse bind matrices: the joints' world matrices at bind time, inverted (column-major).
+    binds = np.stack([np.eye(4), np.eye(4)])
+    binds[0, :3, 3] = -np.asarray(translation)
+    binds[1, :3, 3] = -np.asarray(translation) - (0.0, 1.0, 0.0)
+    w.json["skins"] = [{"joints": [root, bend], "inverseBindMatrices": w.raw_accessor(
+        binds.transpose(0, 2, 1).reshape(-1, 16), "MAT4")}]
+    w.node(name="Column", mesh=w.mesh(primitive), skin=0)
+    w.animation((bend, "rotation", [float(t) for t in range(len(keys))], [quaternion((0, 0, 1), a) for a in keys],
+                 interpolation))
+    return root
+
+
+def bending_scene(path: Path, rings: int = 8, sides: int = 4) -> Path:
+    """A wall mirror, the skinned column (skinned_column's `rings` and `sides`) before it, bending
+    60 degrees at t = 1, a red box, and a camera looking at the mirror from the side (the column's
+    reflection clear of the column)."""
+    w = GltfWriter()
+    chrome = w.material("Chrome", (0.95, 0.95, 0.95), metallic=1.0, roughness=0.0)
+    w.node(name="Mirror", mesh=w.mesh(w.primitive([[-2, 0, -1.2], [2, 0, -1.2], [2, 0, 1.2], [-2, 0, 1.2]],
+                                                  [[0, 2, 1], [0, 3, 2]], [[0, 1, 0]] * 4, material=chrome)),
+           translation=[0.0, 1.2, -1.2], rotation=quaternion((1, 0, 0), 90))
+    skinned_column(w, w.material("Blue", (0.2, 0.5, 0.9)), translation=(0.3, 0.0, -0.3), rings=rings, sides=sides)
+    w.node(name="Red", mesh=w.mesh(w.box(0.5, w.material("Red", (0.8, 0.1, 0.1)), normals=True)),
+           translation=[-1.0, 0.25, 0.3])
+    w.json["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.05}}]
+    half_y, half_x = math.radians(25) / 2, math.radians(-12) / 2  # turned left about Y, then tipped down about X
+    yaw, pitch = np.array([0, math.sin(half_y), 0, math.cos(half_y)]), np.array([math.sin(half_x), 0, 0, math.cos(half_x)])
+    rotation = [yaw[3] * pitch[0], yaw[1] * pitch[3], -yaw[1] * pitch[0], yaw[3] * pitch[3]]  # yaw * pitch (x y z w)
+    w.node(camera=0, translation=[2.4, 1.6, 3.6], rotation=rotation)
+    # Behind the column and to its right: its side the mirror shows is lit.
+    w.node(extensions={"KHR_lights_punctual": {"light": w.light(type="point", intensity=20.0)}}, translation=[1.5, 2.5, -0.9])
+    return w.write(path)

@@ -21,7 +21,7 @@ from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import DiffuseMaterial, GlassMaterial, MirrorMaterial, Scene, load_scene
 from depthimpostor.scene.gltf import DEFAULT_LIGHT
-from depthimpostor.scene.model import axis_rotation
+from depthimpostor.scene.model import MetallicRoughnessMaterial, axis_rotation
 from gltf_files import GltfWriter, quaternion
 from test_methods import assert_raytrace_matches_the_truth
 from test_cli import assert_one_line_error, run_in_process, run_subprocess
@@ -103,19 +103,22 @@ def test_without_file_normals_each_triangle_is_flat(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("fields", "expected"), [
-    ({"color": (0.2, 0.4, 0.6), "metallic": 0.0, "roughness": 0.5}, DiffuseMaterial((0.2, 0.4, 0.6))),
+    ({"color": (0.2, 0.4, 0.6), "metallic": 0.0, "roughness": 0.5}, MetallicRoughnessMaterial((0.2, 0.4, 0.6), None, 0.0, 0.5)),
     ({"color": (0.9, 0.8, 0.7), "metallic": 1.0, "roughness": 0.05}, MirrorMaterial((0.9, 0.8, 0.7))),
     ({"color": (1.0, 1.0, 1.0), "metallic": 0.9, "roughness": 0.1}, MirrorMaterial((1.0, 1.0, 1.0))),
-    ({"color": (0.9, 0.8, 0.7), "metallic": 1.0, "roughness": 0.2}, DiffuseMaterial((0.9, 0.8, 0.7))),
-    ({"color": (0.9, 0.8, 0.7), "metallic": 0.5, "roughness": 0.0}, DiffuseMaterial((0.9, 0.8, 0.7))),
+    ({"color": (0.9, 0.8, 0.7), "metallic": 1.0, "roughness": 0.2}, MetallicRoughnessMaterial((0.9, 0.8, 0.7), None, 1.0, 0.2)),
+    ({"color": (0.9, 0.8, 0.7), "metallic": 0.5, "roughness": 0.0}, MetallicRoughnessMaterial((0.9, 0.8, 0.7), None, 0.5, 0.0)),
     ({"color": (0.8, 1.0, 0.9), "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
                                                "KHR_materials_ior": {"ior": 1.33}}}, GlassMaterial(1.33, (0.8, 1.0, 0.9))),
     ({"color": (0.8, 1.0, 0.9), "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.6}}},
      GlassMaterial(1.5, (0.8, 1.0, 0.9))),
     ({"color": (0.8, 1.0, 0.9), "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.3}}},
-     DiffuseMaterial((0.8, 1.0, 0.9))),
+     MetallicRoughnessMaterial((0.8, 1.0, 0.9), None, 0.0, 1.0)),
+    ({"color": (0.5, 0.5, 0.5), "emissiveFactor": [1.0, 0.5, 0.0],
+      "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}},
+     MetallicRoughnessMaterial((0.5, 0.5, 0.5), None, 0.0, 1.0, (4.0, 2.0, 0.0))),
 ], ids=["diffuse", "mirror", "mirror_at_the_bounds", "too_rough", "half_metal", "glass", "glass_default_ior",
-        "little_transmission"])
+        "little_transmission", "emissive"])
 def test_materials_map_by_the_documented_rules(tmp_path: Path, fields: dict[str, object], expected: object) -> None:
     w = GltfWriter()
     w.node(mesh=w.mesh(w.box(material=w.material("M", **fields))))  # type: ignore[arg-type]
@@ -251,7 +254,7 @@ scale = 2.0
     scene = load_scene(tmp_path / "s.toml")
     assert [o.name for o in scene.objects] == ["floor", "thing/Ball", "thing/Cube"]
     assert scene.objects[1].material == MirrorMaterial((0.9, 0.9, 0.9))
-    assert scene.objects[2].material == DiffuseMaterial((0.5, 0.5, 0.5))
+    assert scene.objects[2].material == MetallicRoughnessMaterial((0.5, 0.5, 0.5), None, 0.0, 1.0)
     ball = scene_geometry(scene.objects)[1].world_mesh
     # The file puts the ball at x = 1; the object scales by 2, turns +X to -Z and lifts by 2.
     assert np.allclose(ball.positions.mean(axis=0), [0.0, 2.0, -2.0], atol=1e-6)

@@ -269,7 +269,7 @@ def ctx_limits(ctx: moderngl.Context) -> Iterator[moderngl.Context]:
 @pytest.mark.parametrize("limit, fragments", [
     ({"max_array_texture_layers": 20}, ("the image texture objects[43].material.texture (t38.png) would be layer 21",
                                         "GL_MAX_ARRAY_TEXTURE_LAYERS of 20")),
-    ({"max_uniform_block_size": 1024}, ("the first past it: objects[33].material.texture (t28.png)",
+    ({"max_uniform_block_size": 1024}, ("the first past it: objects[17].material.texture (t12.png)",
                                         "GL_MAX_UNIFORM_BLOCK_SIZE of 1024")),
     ({"max_texture_size": 24}, ("the image texture objects[1].material.texture (t60.png) is 32x32",
                                 "GL_MAX_TEXTURE_SIZE of 24")),

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import SCENES, assert_finite
-from depthimpostor.constants import LIGHTING, MAX_ANALYTIC_PLANES, MAX_LIGHTS, PLANES
+from depthimpostor.constants import LIGHTING, MATERIAL, MAX_ANALYTIC_PLANES, MAX_LIGHTS, PLANES
 from depthimpostor.gpu.bindings import UniformBlock
 from depthimpostor.gpu.context import bind_default_framebuffer
 from depthimpostor.gpu.shaders import ProgramCache, ShaderLibrary
@@ -54,17 +54,19 @@ def _numbered(struct: Struct) -> np.ndarray:
     return record
 
 
-# Each row one vec4 of what the GL read from the blocks, for the last light and the last plane
-# (the farthest offsets); main writes row x into pixel x.
+# Each row one vec4 of what the GL read from the blocks, for the last light, the last plane and the
+# last material (the farthest offsets); main writes row x into pixel x.
 READER = """#version 330 core
-#include "lib/lighting.glsl"
+#define MATERIAL_COUNT 3
+#include "lib/common.glsl"
+#include "lib/shading.glsl"
 #include "lib/analytic_planes.glsl"
 out vec4 out_color;
 void main() {
     Light light = u_lighting.lights[MAX_LIGHTS - 1];
     AnalyticPlane plane = u_planes.planes[MAX_ANALYTIC_PLANES - 1];
-    Material material = plane.material;
-    vec4 rows[14] = vec4[](
+    Material material = u_materials[MATERIAL_COUNT - 1];
+    vec4 rows[17] = vec4[](
         vec4(u_lighting.ambient, float(u_lighting.light_count), u_lighting.env_rotation),
         vec4(u_lighting.env_zenith, u_lighting.env_intensity),
         vec4(u_lighting.env_horizon, 0.0), vec4(u_lighting.env_ground, 0.0),
@@ -72,9 +74,12 @@ void main() {
         vec4(light.vector, 0.0), vec4(light.radiance, 0.0),
         vec4(float(u_planes.count), float(plane.object_id), plane.half_size),
         plane.world_to_local[0], plane.world_to_local[3],
-        vec4(float(material.kind), float(material.texture), material.uv_scale),
+        vec4(float(material.kind), float(material.texture), material.metallic, material.roughness),
         vec4(material.color_a, material.scale), vec4(material.color_b, 0.0),
-        vec4(plane.normal, 0.0));
+        vec4(float(material.metallic_roughness_texture), float(material.occlusion_texture),
+             float(material.emissive_texture), material.occlusion_strength),
+        vec4(material.alpha_cutoff, material.alpha, 0.0, 0.0), vec4(material.emissive, 0.0),
+        vec4(plane.normal, float(plane.material)));
     out_color = rows[int(gl_FragCoord.x)];
 }
 """
@@ -83,10 +88,10 @@ void main() { gl_Position = vec4(vec2(gl_VertexID & 1, gl_VertexID >> 1) * 4.0 -
 """
 
 
-def _expected_rows(lighting: np.ndarray, planes: np.ndarray) -> np.ndarray:
+def _expected_rows(lighting: np.ndarray, planes: np.ndarray, materials: np.ndarray) -> np.ndarray:
     light = lighting["lights"][MAX_LIGHTS - 1]
     plane = planes["planes"][MAX_ANALYTIC_PLANES - 1]
-    material = plane["material"]
+    material = materials[-1]
     rows = [
         [lighting["ambient"], lighting["light_count"], *lighting["env_rotation"]],
         [*lighting["env_zenith"], lighting["env_intensity"]],
@@ -94,8 +99,11 @@ def _expected_rows(lighting: np.ndarray, planes: np.ndarray) -> np.ndarray:
         [light["kind"], light["shadows"], light["radius"], 0], [*light["vector"], 0], [*light["radiance"], 0],
         [planes["count"], plane["object_id"], *plane["half_size"]],
         plane["world_to_local"][0], plane["world_to_local"][3],
-        [material["kind"], material["texture"], *material["uv_scale"]],
-        [*material["color_a"], material["scale"]], [*material["color_b"], 0], [*plane["normal"], 0],
+        [material["kind"], material["texture"], material["metallic"], material["roughness"]],
+        [*material["color_a"], material["scale"]], [*material["color_b"], 0],
+        [material["metallic_roughness_texture"], material["occlusion_texture"], material["emissive_texture"],
+         material["occlusion_strength"]],
+        [material["alpha_cutoff"], material["alpha"], 0, 0], [*material["emissive"], 0], [*plane["normal"], plane["material"]],
     ]
     return np.array([np.asarray(row, np.float64) for row in rows], np.float32)
 
@@ -106,28 +114,34 @@ def test_the_gl_reads_every_field_where_numpy_put_it(ctx: moderngl.Context, tmp_
     (tmp_path / "quad.vert").write_text(VERTEX)
     programs = ProgramCache(ctx, ShaderLibrary(tmp_path))
     lighting, planes = _numbered(LIGHTING), _numbered(PLANES)
-    buffers = [ctx.buffer(lighting.tobytes()), ctx.buffer(planes.tobytes())]
-    target = ctx.renderbuffer((14, 1), 4, dtype="f4")
+    materials = np.zeros(3, MATERIAL.dtype)  # (np.stack would pack the fields: no std140 padding)
+    materials[:] = _numbered(MATERIAL)
+    materials["kind"][-1] += 100  # the last record, not the first, is read
+    buffers = [ctx.buffer(lighting.tobytes()), ctx.buffer(planes.tobytes()), ctx.buffer(materials.tobytes())]
+    target = ctx.renderbuffer((17, 1), 4, dtype="f4")
     framebuffer = ctx.framebuffer([target])
     try:
         program = programs.get("quad.vert", "reader.frag")
         assert program["Lights"].size == LIGHTING.dtype.itemsize
         assert program["AnalyticPlanes"].size == PLANES.dtype.itemsize
+        assert program["MaterialRecords"].size == 3 * MATERIAL.dtype.itemsize
         bind_uniform_block(program, "Lights", UniformBlock.LIGHTS)
         bind_uniform_block(program, "AnalyticPlanes", UniformBlock.ANALYTIC_PLANES)
+        bind_uniform_block(program, "MaterialRecords", UniformBlock.MATERIALS)
         buffers[0].bind_to_uniform_block(UniformBlock.LIGHTS)
         buffers[1].bind_to_uniform_block(UniformBlock.ANALYTIC_PLANES)
+        buffers[2].bind_to_uniform_block(UniformBlock.MATERIALS)
         vertex_array = ctx.vertex_array(program, [])
         framebuffer.use()
         vertex_array.render(moderngl.TRIANGLES, vertices=3)
         vertex_array.release()
-        rows = np.frombuffer(framebuffer.read(components=4, dtype="f4"), np.float32).reshape(14, 4)
+        rows = np.frombuffer(framebuffer.read(components=4, dtype="f4"), np.float32).reshape(17, 4)
     finally:
         bind_default_framebuffer(ctx)
         for item in (framebuffer, target, *buffers):
             item.release()
         programs.release()
-    np.testing.assert_array_equal(rows, _expected_rows(lighting, planes))
+    np.testing.assert_array_equal(rows, _expected_rows(lighting, planes, materials))
 
 
 def test_no_program_holds_a_light_or_a_plane(ctx: moderngl.Context) -> None:

@@ -19,17 +19,14 @@ import numpy as np
 from ..geometry import ObjectGeometry
 from ..scene.model import BoxShape, CylinderShape, Scene, SphereShape, TorusKnotShape, TorusShape
 from .meshes import VERTEX_ATTRIBUTES, GpuMeshes, MeshArena, attribute_format
-from .uniforms import material_fields, texture_fields
 
 #: One object's instance attributes, as mesh.vert's INSTANCED variant reads them: the model
-#: matrix's three rows, the normal matrix's three columns, the material (shading.glsl's Material:
-#: colour a and the checker scale, colour b, the UV scale), and the integers (material kind,
-#: texture slot, object id, triangle offset).
+#: matrix's three rows, the normal matrix's three columns, and the integers (material index in
+#: the MaterialRecords table, object id, triangle offset, 0).
 INSTANCE_ATTRIBUTES = (("in_model_0", "4f"), ("in_model_1", "4f"), ("in_model_2", "4f"),
                        ("in_normal_matrix_0", "3f"), ("in_normal_matrix_1", "3f"), ("in_normal_matrix_2", "3f"),
-                       ("in_color_a", "4f"), ("in_color_b", "3f"), ("in_uv_scale", "2f"), ("in_ids", "4i"))
-INSTANCE_DTYPE = np.dtype([("model", "<f4", (3, 4)), ("normal_matrix", "<f4", (3, 3)), ("color_a", "<f4", 4),
-                           ("color_b", "<f4", 3), ("uv_scale", "<f4", 2), ("ids", "<i4", 4)])
+                       ("in_ids", "4i"))
+INSTANCE_DTYPE = np.dtype([("model", "<f4", (3, 4)), ("normal_matrix", "<f4", (3, 3)), ("ids", "<i4", 4)])
 COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first", "<u4"), ("base_vertex", "<i4"),
                           ("base_instance", "<u4")])
 
@@ -63,16 +60,11 @@ def instance_records(items: Sequence[ObjectGeometry], scene: Scene,
     """The instance attributes of `items`, in their order."""
     records = np.zeros(len(items), INSTANCE_DTYPE)
     for record, item in zip(records, items, strict=True):
-        kind, color_a, color_b, scale = material_fields(item.object.material)
-        slot, uv_scale = texture_fields(scene, item.object.material)
         record["model"] = item.model_matrix[:3]
         # Columns, as mat3(c0, c1, c2) builds them (uniforms.write_matrix writes the same matrix).
         record["normal_matrix"] = item.normal_matrix.T
-        record["color_a"] = (*color_a, scale)
-        record["color_b"] = color_b
-        record["uv_scale"] = uv_scale
         offset = triangle_offsets[item.index] if triangle_offsets is not None else 0
-        record["ids"] = (int(kind), slot, item.index, offset)
+        record["ids"] = (scene.material_index(item.object.material), item.index, offset, 0)
     return records
 
 

@@ -75,6 +75,7 @@ class UniformBlock(IntEnum):
     LIGHTS = 4  # ambient, lights and environment values, read by every program that shades (gpu/scene_blocks.py)
     ANALYTIC_PLANES = 5  # the floors and walls every reflected ray is intersected with (gpu/scene_blocks.py)
     TEXTURE_RECORDS = 6  # every image texture's array, layer, wraps and atlas rectangle (gpu/textures.py)
+    MATERIALS = 7  # every shaded material's record, read by every pass (gpu/scene_blocks.py)
 
 
 @unique

@@ -27,12 +27,13 @@ from dataclasses import dataclass
 
 import moderngl
 
-from ..constants import TEXTURE_RECORD
+from ..constants import MATERIAL, TEXTURE_RECORD
 from ..errors import GpuLimitError
 from ..methods.atlas import atlas_grid
 from ..plan import RenderPlan
 from ..scene.model import Scene
 from ..texture_layout import texture_layout
+from .scene_blocks import materials_bytes
 
 MIB = 2**20
 
@@ -225,6 +226,7 @@ def check_fits(ctx: moderngl.Context, scene: Scene, plan: RenderPlan) -> None:
     for surface in surfaces(scene, plan):
         _check_surface(surface, limits, backend)
     _check_textures(scene, limits, backend)
+    _check_materials(scene, limits)
     if limits.memory is None:
         return
     total = planned_bytes(plan)
@@ -233,6 +235,17 @@ def check_fits(ctx: moderngl.Context, scene: Scene, plan: RenderPlan) -> None:
         raise GpuLimitError(f"the frame and its images need {_mib(total)}, over the {_mib(limits.memory)} of "
                             f"{limits.memory_source} (the most: {largest}, {_mib(size)}); lower {setting} or raise "
                             "--max-memory")
+
+
+def _check_materials(scene: Scene, limits: GpuLimits) -> None:
+    """The scene's distinct materials against GL_MAX_UNIFORM_BLOCK_SIZE: every pass reads them from
+    one uniform block (lib/shading.glsl's MaterialRecords)."""
+    needed = materials_bytes(scene)
+    if needed > limits.max_uniform_block_size:
+        most = limits.max_uniform_block_size // MATERIAL.dtype.itemsize
+        raise GpuLimitError(f"the scene's {len(scene.materials)} distinct materials need a record block of {needed} "
+                            f"bytes, over this GL's GL_MAX_UNIFORM_BLOCK_SIZE of {limits.max_uniform_block_size} "
+                            f"(at most {most} materials); use fewer distinct materials")
 
 
 def texture_name(scene: Scene, slot: int) -> str:

@@ -68,6 +68,26 @@ class GpuMeshes:
             self._arenas.append(arena)
             self._arena_of.update(dict.fromkeys(fresh, arena))
 
+    def replace(self, pairs: Sequence[tuple[Mesh, Mesh]]) -> int:
+        """Deformed meshes (scene/gltf_deform.py): each (old, new) of one topology takes old's place
+        in its arena, its vertices written over old's (the index range stays); a new one of
+        another topology gets an arena of its own. Returns the bytes uploaded."""
+        uploaded, fresh = 0, []
+        for old, new in pairs:
+            arena = self._arena_of.get(old)
+            if arena is None or len(old.positions) != len(new.positions) or not np.array_equal(old.indices, new.indices):
+                fresh.append(new)
+                continue
+            vertices = new.interleaved()
+            arena.vertices.write(vertices.tobytes(), offset=arena.first_vertex[old] * vertices.strides[0])
+            uploaded += vertices.nbytes
+            arena.ranges[new], arena.first_vertex[new] = arena.ranges.pop(old), arena.first_vertex.pop(old)
+            arena.meshes[arena.meshes.index(old)] = new
+            del self._arena_of[old]
+            self._arena_of[new] = arena
+        self.load(fresh)
+        return uploaded + sum(len(mesh.positions) * 32 + len(mesh.indices) * 12 for mesh in fresh)
+
     def arena(self, mesh: Mesh) -> MeshArena:
         """The arena holding `mesh` (one of its own when it was not loaded)."""
         if mesh not in self._arena_of:

@@ -1,6 +1,6 @@
-"""The scene's lights and analytic planes, each in one std140 uniform buffer that every program
-reads: written when they move, bound once a frame (before the bakes: baked images are shaded
-too).
+"""The scene's lights, analytic planes and materials, each in one std140 uniform buffer that every
+program reads: written when they move (the materials when the scene is made), bound once a frame
+(before the bakes: baked images are shaded too).
 
 Before, each program held its own copy as plain uniforms, written program by program whenever a
 light moved; a program made later had to be remembered and written too. A uniform block has
@@ -16,8 +16,8 @@ import moderngl
 import numpy as np
 
 from .bindings import UniformBlock
-from .uniforms import material_fields, texture_fields
-from ..constants import LIGHTING, MAX_ANALYTIC_PLANES, MAX_LIGHTS, PLANES, LightKind, ShadowKind
+from .uniforms import material_records
+from ..constants import LIGHTING, MATERIAL, MAX_ANALYTIC_PLANES, MAX_LIGHTS, PLANES, LightKind, ShadowKind
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..scene.model import PlaneShape, Scene
@@ -69,33 +69,46 @@ def planes_record(scene: Scene, planes: Sequence[ObjectGeometry]) -> np.ndarray:
         entries["half_size"][i] = (shape.size[0] / 2.0, shape.size[1] / 2.0)
         entries["normal"][i] = normal / np.linalg.norm(normal)
         entries["object_id"][i] = plane.index
-        material = entries["material"]
-        kind, material["color_a"][i], material["color_b"][i], material["scale"][i] = material_fields(plane.object.material)
-        material["kind"][i] = kind
-        material["texture"][i], material["uv_scale"][i] = texture_fields(scene, plane.object.material)
+        entries["material"][i] = scene.material_index(plane.object.material)
     return record
 
 
 class SceneBlocks:
-    """The Lights and AnalyticPlanes blocks' buffers. `write` them when the lights or planes
-    move; `bind` them once a frame."""
+    """The Lights, AnalyticPlanes and MaterialRecords blocks' buffers. `write` them when the lights
+    or planes move (or the scene is edited); `bind` them once a frame."""
 
-    #: GPU memory of the two buffers (the plan's figure: plan.plan_memory).
+    #: GPU memory of the lights' and planes' buffers (the plan's figure: plan.plan_memory, which
+    #: adds the materials': materials_bytes).
     BYTES = LIGHTING.dtype.itemsize + PLANES.dtype.itemsize
 
     def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
         self.lights = ctx.buffer(reserve=LIGHTING.dtype.itemsize)
         self.planes = ctx.buffer(reserve=PLANES.dtype.itemsize)
+        self.materials = ctx.buffer(reserve=MATERIAL.dtype.itemsize)
 
     def write(self, scene: Scene, planes: Sequence[ObjectGeometry]) -> None:
-        """`scene`'s lights (where they are now) and the analytic planes `planes`."""
+        """`scene`'s lights (where they are now), the analytic planes `planes` and the materials."""
         self.lights.write(lighting_record(scene).tobytes())
         self.planes.write(planes_record(scene, planes).tobytes())
+        materials = material_records(scene).tobytes()
+        if len(materials) != self.materials.size:  # an edited scene with another number of materials
+            self.materials.release()
+            self.materials = self.ctx.buffer(reserve=len(materials))
+        self.materials.write(materials)
 
     def bind(self) -> None:
         self.lights.bind_to_uniform_block(UniformBlock.LIGHTS)
         self.planes.bind_to_uniform_block(UniformBlock.ANALYTIC_PLANES)
+        self.materials.bind_to_uniform_block(UniformBlock.MATERIALS)
 
     def release(self) -> None:
         self.lights.release()
         self.planes.release()
+        self.materials.release()
+
+
+def materials_bytes(scene: Scene) -> int:
+    """GPU memory of `scene`'s MaterialRecords table (a uniform block: at most the GL's
+    GL_MAX_UNIFORM_BLOCK_SIZE, 16 KiB at least, which plan.plan_limits states)."""
+    return max(1, len(scene.materials)) * MATERIAL.dtype.itemsize

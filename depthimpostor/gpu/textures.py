@@ -35,6 +35,7 @@ from ..textures import resample
 
 #: GL_SRGB8_ALPHA8: 8-bit sRGB colour, linear alpha (moderngl exports no name for it).
 GL_SRGB8_ALPHA8 = 0x8C43
+GL_RGBA8 = 0x8058
 GL_TEXTURE_2D_ARRAY, GL_RGBA, GL_UNSIGNED_BYTE = 0x8C1A, 0x1908, 0x1401
 
 
@@ -44,9 +45,10 @@ def array_unit(array: int, clamped: bool) -> int:
     return int(first) + array
 
 
-def _srgb_array(ctx: moderngl.Context, layers: np.ndarray, unit: int) -> moderngl.TextureArray:
+def _srgb_array(ctx: moderngl.Context, layers: np.ndarray, unit: int, srgb: bool = True) -> moderngl.TextureArray:
     """An sRGB texture array of `layers` ((n, H, W, 4) uint8, row 0 of each the top: v = 0 is the
-    image's top, glTF's convention), with mipmaps, left bound on `unit`."""
+    image's top, glTF's convention), with mipmaps, left bound on `unit`; `srgb` False: a GL_RGBA8
+    array of data (its texels sampled as stored)."""
     count, height, width = layers.shape[:3]
     array = ctx.texture_array((width, height, count), 4, dtype="f1")
     address = gl_function(ctx, "glTexImage3D")
@@ -56,7 +58,8 @@ def _srgb_array(ctx: moderngl.Context, layers: np.ndarray, unit: int) -> moderng
                                     ctypes.c_int, ctypes.c_int, ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)(address)
     data = np.ascontiguousarray(layers)
     array.use(unit)  # glTexImage3D acts on the array bound to the active unit
-    tex_image_3d(GL_TEXTURE_2D_ARRAY, 0, GL_SRGB8_ALPHA8, width, height, count, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+    tex_image_3d(GL_TEXTURE_2D_ARRAY, 0, GL_SRGB8_ALPHA8 if srgb else GL_RGBA8, width, height, count, 0, GL_RGBA,
+                 GL_UNSIGNED_BYTE,
                  data.ctypes.data)
     array.build_mipmaps()
     return array
@@ -109,9 +112,9 @@ class GpuTextures:
         arrays = []
         for k, array in enumerate(layout.arrays):
             width, height = array.size
-            layers = np.stack([image if image.shape[1::-1] == (width, height) else resample(image, array.size)
+            layers = np.stack([image if image.shape[1::-1] == (width, height) else resample(image, array.size, array.srgb)
                                for image in (layout.images[i] for i in array.images)])
-            arrays.append(_srgb_array(self.ctx, layers, array_unit(k, clamped=False)))
+            arrays.append(_srgb_array(self.ctx, layers, array_unit(k, clamped=False), array.srgb))
         records = self.ctx.buffer(layout.records().tobytes())
         return _Made(scene.textures, arrays, _atlas(self.ctx, layout), records)
 

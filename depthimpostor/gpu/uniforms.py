@@ -13,8 +13,10 @@ import moderngl
 import numpy as np
 
 from .bindings import TextureUnit, UniformBlock
-from ..constants import MATERIAL_ARRAYS, MAX_LIGHTS, MaterialKind
-from ..scene.model import CheckerMaterial, DiffuseMaterial, Material, Scene
+from ..constants import MATERIAL, MATERIAL_ARRAYS, MAX_LIGHTS, MaterialKind
+from ..scene.model import (
+    CheckerMaterial, DiffuseMaterial, MetallicRoughnessMaterial, Scene, SceneObject,
+)
 from ..texture_layout import texture_defines
 from ..textures import SRGB_TABLE
 from .textures import array_unit
@@ -24,14 +26,43 @@ def shading_defines(scene: Scene) -> dict[str, int]:
     """The variant of every shading program that the scene's lights and materials call for: its
     number of lights (more than MAX_LIGHTS is refused when the lights are written), the point
     lights' code only in scenes with one (DIRECTIONAL_LIGHTS: none), shadow rays only in scenes
-    where a light casts shadows on something, texture sampling only in scenes with image textures
+    where a light casts shadows on something, the MaterialRecords table at the scene's size (MATERIAL_COUNT),
+    texture sampling only in scenes with image textures
     (TEXTURE_COUNT of them, in TEXTURE_ARRAYS arrays, with the samplers they need:
     texture_layout.texture_defines)."""
     return {"LIGHT_COUNT": min(len(scene.lights), MAX_LIGHTS),  # a constant loop bound (lib/shading.glsl)
+            "MATERIAL_COUNT": max(1, len(scene.materials)),  # the MaterialRecords table's size
             **({"DIRECTIONAL_LIGHTS": 1} if scene.lights and all(light.type == "directional" for light in scene.lights)
                else {}),
             **({"SHADOWS": 1} if scene.has_shadows else {}),
+            # glTF's material model, only in the scenes that have it (lib/shading.glsl), and its
+            # alpha mask only where a material cuts parts away.
+            **({"METALLIC_ROUGHNESS": 1} if any(isinstance(m, MetallicRoughnessMaterial) for m in scene.materials)
+               else {}),
+            **alpha_mask_defines(scene),
             **texture_defines(scene)}
+
+
+def has_alpha_mask(scene: Scene) -> bool:
+    """Does a material of the scene cut parts of its surface away (glTF's alphaMode MASK)?"""
+    return any(isinstance(m, MetallicRoughnessMaterial) and m.masked for m in scene.materials)
+
+
+def alpha_mask_defines(scene: Scene) -> dict[str, int]:
+    """What a program that draws surfaces needs to cut masked parts away: ALPHA_MASK, the material
+    table and the textures (none in a scene without a masked material). The depth-only programs
+    (window_depth.frag's shadow maps and back faces, beyond_run.frag) take these alone; the shading
+    programs take them with shading_defines."""
+    if not has_alpha_mask(scene):
+        return {}
+    return {"ALPHA_MASK": 1, "MATERIAL_COUNT": max(1, len(scene.materials)), **texture_defines(scene)}
+
+
+def write_material_index(program: moderngl.Program, scene: Scene, obj: SceneObject) -> None:
+    """Where a program that cuts masked parts away (alpha_mask_defines) finds the object's material:
+    its index in the MaterialRecords table, or -1 for a mirror or glass (never masked)."""
+    if "u_material_index" in program:
+        write(program, "u_material_index", -1 if obj.is_reflector else scene.material_index(obj.material))
 
 
 def environment_defines(scene: Scene) -> dict[str, int]:
@@ -96,33 +127,34 @@ def write_matrix(program: moderngl.Program | moderngl.ComputeShader, name: str, 
     write(program, name, np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes())
 
 
-MaterialFields = tuple[MaterialKind, tuple[float, float, float], tuple[float, float, float], float]
-
-
-def material_fields(material: Material) -> MaterialFields:
-    """(kind, colour a, colour b, checker scale): shading.glsl's Material, from a scene material."""
-    if isinstance(material, CheckerMaterial):
-        return MaterialKind.CHECKER, material.color_a, material.color_b, material.scale
-    if isinstance(material, DiffuseMaterial):
-        return MaterialKind.DIFFUSE, material.color, material.color, 1.0
-    raise TypeError(f"{material!r} is not a diffuse material")
-
-
-def texture_fields(scene: Scene, material: Material) -> tuple[int, tuple[float, float]]:
-    """(texture slot or -1, UV scale): shading.glsl's Material.texture and uv_scale."""
-    texture = material.texture if isinstance(material, DiffuseMaterial) else None
-    return scene.texture_slot(material), texture.scale if texture is not None else (1.0, 1.0)
-
-
-def write_material(program: moderngl.Program, name: str, material: Material, scene: Scene) -> None:
-    kind, color_a, color_b, scale = material_fields(material)
-    write(program, f"{name}.kind", int(kind))
-    write(program, f"{name}.color_a", tuple(color_a))
-    write(program, f"{name}.color_b", tuple(color_b))
-    write(program, f"{name}.scale", float(scale))
-    slot, uv_scale = texture_fields(scene, material)
-    write(program, f"{name}.texture", slot)
-    write(program, f"{name}.uv_scale", uv_scale)
+def material_records(scene: Scene) -> np.ndarray:
+    """lib/shading.glsl's MaterialRecords table of `scene`: one constants.MATERIAL a material, in
+    the order of Scene.materials (an object's, instance's or plane's material index), and one
+    record at least (a GLSL array cannot be empty: a scene of mirrors alone)."""
+    records = np.zeros(max(1, len(scene.materials)), MATERIAL.dtype)
+    for record, material in zip(records, scene.materials, strict=False):
+        if isinstance(material, CheckerMaterial):
+            record["kind"], record["color_a"], record["color_b"] = MaterialKind.CHECKER, material.color_a, material.color_b
+            record["scale"] = material.scale
+        elif isinstance(material, DiffuseMaterial):
+            record["kind"], record["color_a"], record["color_b"] = MaterialKind.DIFFUSE, material.color, material.color
+            record["scale"] = 1.0
+            if isinstance(material, MetallicRoughnessMaterial):
+                record["kind"] = MaterialKind.METALLIC_ROUGHNESS
+                record["emissive"], record["metallic"], record["roughness"] = (material.emissive, material.metallic,
+                                                                               material.roughness)
+        else:
+            raise TypeError(f"{material!r} is not a material that is shaded")
+        record["alpha_cutoff"], record["alpha"] = -1.0, 1.0  # opaque
+        if isinstance(material, MetallicRoughnessMaterial) and material.alpha_cutoff is not None:
+            record["alpha_cutoff"], record["alpha"] = material.alpha_cutoff, material.alpha
+        record["texture"] = scene.texture_slot(material)
+        record["metallic_roughness_texture"] = record["occlusion_texture"] = record["emissive_texture"] = -1
+        if isinstance(material, MetallicRoughnessMaterial):
+            record["metallic_roughness_texture"], record["occlusion_texture"], record["emissive_texture"] = (
+                scene.slot_of(texture) for texture in material.maps)
+            record["occlusion_strength"] = material.occlusion_strength
+    return records
 
 
 def write_textures(program: moderngl.Program, scene: Scene) -> None:
@@ -138,7 +170,7 @@ def write_textures(program: moderngl.Program, scene: Scene) -> None:
 def write_scene_uniforms(program: moderngl.Program, scene: Scene) -> None:
     """Where a program finds what the renderer binds for every frame: the scene's textures (and
     the TextureRecords block of their arrays, layers, wraps and texel rectangles), the shadow maps and the environment map on their units,
-    and the Lights, AnalyticPlanes and ShadowMaps blocks on their bindings. None of it changes when
+    and the Lights, AnalyticPlanes, MaterialRecords and ShadowMaps blocks on their bindings. None of it changes when
     the lights or objects move (those are in the blocks' buffers: gpu/scene_blocks.py), so the
     program cache writes it once, into each program as it is made."""
     write_textures(program, scene)
@@ -148,3 +180,4 @@ def write_scene_uniforms(program: moderngl.Program, scene: Scene) -> None:
     bind_uniform_block(program, "AnalyticPlanes", UniformBlock.ANALYTIC_PLANES)
     bind_uniform_block(program, "ShadowMaps", UniformBlock.SHADOW_MAPS)
     bind_uniform_block(program, "TextureRecords", UniformBlock.TEXTURE_RECORDS)
+    bind_uniform_block(program, "MaterialRecords", UniformBlock.MATERIALS)

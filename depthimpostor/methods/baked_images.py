@@ -34,7 +34,7 @@ from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
 from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
-from ..gpu.uniforms import bind_texture, write
+from ..gpu.uniforms import alpha_mask_defines, bind_texture, write, write_material_index
 from .colour_mips import ColourMips
 from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, fit_depth_image_frusta, image_label, image_records, plural, record_table, write_table
 
@@ -343,7 +343,7 @@ class BakedImages:
     def bake_back_faces(self, image: DepthImage, framebuffer: moderngl.Framebuffer, tile: tuple[int, int, int, int]) -> int:
         """The nearest back face: the G layer alone, against a fresh depth buffer (images of
         reflectors at bounce k >= 2, which have no colour of their backs to show)."""
-        back_faces = self.programs.get(*BACK_FACE_PROGRAM)
+        back_faces = self.programs.get(*BACK_FACE_PROGRAM, alpha_mask_defines(self.scene))
         attachments = len(framebuffer.color_attachments)
         framebuffer.viewport = tile
         framebuffer.color_mask = color_mask(attachments)
@@ -351,6 +351,7 @@ class BakedImages:
         framebuffer.color_mask = color_mask(attachments, (False,) * 4, (False, True, False, False))
         with raster_state(self.ctx, BACK_FACES):
             for target in image.targets:
+                write_material_index(back_faces, self.scene, target.object)
                 self.meshes.draw(back_faces, target, image.camera.view_projection)
         return len(image.targets)
 
@@ -380,7 +381,7 @@ class BakedImages:
         image: the nearest front face behind the layers just baked, which it reads (they are not
         attached here)."""
         assert self.atlas.beyond_framebuffer is not None
-        program = self.programs.get(*BEYOND_PROGRAM)
+        program = self.programs.get(*BEYOND_PROGRAM, alpha_mask_defines(self.scene))
         framebuffer = self.atlas.beyond_framebuffer
         framebuffer.use()
         framebuffer.viewport = (0, 0, *self.atlas.size)
@@ -391,6 +392,7 @@ class BakedImages:
             for image in stale:
                 framebuffer.viewport = image.tile
                 for target in image.targets:
+                    write_material_index(program, self.scene, target.object)
                     self.meshes.draw(program, target, matrices[image.slot])
         return sum(len(image.targets) for image in stale)
 

@@ -115,6 +115,34 @@ def build_forest(lows: np.ndarray, highs: np.ndarray, centroids: np.ndarray, siz
                count[:used], order.copy(), len(parents_by_level), skip)
 
 
+def refit_triangle_forest(bvh: Bvh, triangles: np.ndarray) -> Bvh:
+    """`bvh` (a build_triangle_forest's) over the same triangles moved to (n, 3, 3) `triangles`:
+    the same tree, leaves and order, every box made again around the triangles where they are now
+    (a deforming mesh's refit: its topology is the same, its vertices moved). The tree was split for
+    where the triangles were, so it may fit less tightly than a new build, never wrongly."""
+    triangles = np.asarray(triangles, dtype=np.float64)
+    if triangles.shape != (len(bvh.order), 3, 3):
+        raise ValueError(f"refit_triangle_forest: expected ({len(bvh.order)}, 3, 3) triangles, got {triangles.shape}")
+    p0, p1, p2 = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    # The inner nodes a level at a time from the roots (a level's children are numbered after it).
+    inner = bvh.count == 0
+    is_child = np.zeros(bvh.node_count, bool)
+    is_child[bvh.first[inner]] = is_child[bvh.first[inner] + 1] = True
+    roots = np.flatnonzero(~is_child)
+    parents_by_level, level = [], roots
+    while len(level):
+        inner = level[bvh.count[level] == 0]
+        if not len(inner):
+            break
+        parents_by_level.append(inner)
+        level = np.concatenate([bvh.first[inner], bvh.first[inner] + 1])
+    lower, upper = np.zeros((bvh.node_count, 3)), np.zeros((bvh.node_count, 3))
+    _bound(np.minimum(np.minimum(p0, p1), p2), np.maximum(np.maximum(p0, p1), p2), bvh.order, bvh.first, bvh.count,
+           parents_by_level, lower, upper)
+    return Bvh(_float32_outward(lower, -np.inf), _float32_outward(upper, np.inf), bvh.first, bvh.count, bvh.order,
+               bvh.depth, bvh.skip)
+
+
 def _float32_outward(bound: np.ndarray, toward: float) -> np.ndarray:
     """`bound` in float32, rounded toward `toward` where float32 cannot hold it, so that a box still
     holds what it bounds (a triangle's float32 corners are exact; an instance's float64 box is not)."""

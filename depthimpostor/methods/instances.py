@@ -24,7 +24,6 @@ import numpy as np
 from ..constants import NO_OBJECT, TRIANGLE_INSTANCE, TRIANGLE_INSTANCE_DTYPE
 from ..geometry import ObjectGeometry
 from ..gpu.texel_records import texel_count, to_texels
-from ..gpu.uniforms import material_fields, texture_fields
 from ..scene.model import Scene
 from .bvh import Bvh, build_box_bvh, node_count
 
@@ -95,12 +94,7 @@ def instance_records(scene: Scene, reflected: list[ObjectGeometry], roots: list[
     transforms (what a move leaves as it is: `with_transforms` fills them in)."""
     records = np.zeros(len(reflected), TRIANGLE_INSTANCE_DTYPE)
     for slot, item in enumerate(reflected):
-        kind, color_a, color_b, scale = material_fields(item.object.material)
-        texture, uv_scale = texture_fields(scene, item.object.material)
-        records[slot]["color_a"] = (*color_a, scale)
-        records[slot]["color_b"] = (*color_b, 0.0)
-        records[slot]["kind_and_id"] = (int(kind), item.index, texture, 0)
-        records[slot]["texture"] = (*uv_scale, 0.0, 0.0)
+        records[slot]["ids"] = (scene.material_index(item.object.material), item.index, 0, 0)
     records["mesh"][:, 0] = roots
     return records
 
@@ -117,7 +111,7 @@ def nothing_record(root: int) -> np.ndarray:
     """The one instance of a mirror that reflects nothing: its degenerate triangle (untransformed:
     with_transforms of the identity)."""
     records = np.zeros(1, TRIANGLE_INSTANCE_DTYPE)
-    records["kind_and_id"] = (0, NO_OBJECT, -1, 0)
+    records["ids"] = (0, NO_OBJECT, 0, 0)
     records["mesh"] = (root, 0, 0, 0)
     return records
 

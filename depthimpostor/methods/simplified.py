@@ -102,8 +102,11 @@ class SimplifiedPass(TrianglePass):
     @classmethod
     def traced_meshes(cls, scene: Scene, reflected: list[ObjectGeometry]) -> list[Mesh]:
         """Each object's mesh decimated in its own space, once per distinct mesh (objects sharing a
-        mesh share its decimation, and so its bottom-level hierarchy)."""
-        return [_simplified_once(item.local_mesh, scene.render.simplified_triangles) for item in reflected]
+        mesh share its decimation, and so its bottom-level hierarchy). A glTF part that deforms is
+        traced whole: it has another mesh at each time, whose decimation (seconds for a large one)
+        would change its triangles, where the hierarchy is refitted over the same ones."""
+        return [item.local_mesh if item.object.deforms else _simplified_once(item.local_mesh, scene.render.simplified_triangles)
+                for item in reflected]
 
     def __init__(self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry]) -> None:
         self.original_triangle_count = sum(len(item.local_mesh.indices) for item in reflected)

@@ -24,7 +24,7 @@ from ..gpu.uniforms import bind_texture, write
 from ..meshes import Mesh
 from ..scene.model import Scene
 from .atlas import plural
-from .bvh import build_triangle_forest, node_count
+from .bvh import build_triangle_forest, node_count, refit_triangle_forest
 from .instances import (NODE_TEXELS, BvhLayout, front_texels, instance_records, node_texels, nothing_record,
                         with_transforms)
 
@@ -117,6 +117,8 @@ class TrianglePass:
                                             [len(mesh.indices) for mesh in self.distinct])
         self.layout = BvhLayout(len(meshes), self.bottom.node_count, tuple(len(mesh.indices) for mesh in self.distinct))
         self.triangle_count = sum(len(mesh.indices) for mesh in meshes) if self.reflected else 0
+        self.refits = 0  # bottom levels refitted for deformed meshes (`_refit`), and the bytes the last uploaded
+        self.refit_bytes = 0
         layout = self.layout
         roots = [layout.mesh_base + mesh for mesh in self.mesh_of]
         # Materials, ids and meshes: what a move keeps.
@@ -163,14 +165,47 @@ class TrianglePass:
 
     def move(self, geometry: dict[int, ObjectGeometry]) -> None:
         """The objects are now `geometry` (by object index): their records and the top level are
-        made again and written over the node texture's front; the meshes' hierarchies stay."""
+        made again and written over the node texture's front; the meshes' hierarchies stay, but
+        for those of a mesh that deforms (a glTF skin, morph targets: another mesh of the same
+        triangles), which are refitted (`_refit`)."""
         moved = [geometry[item.index] for item in self.reflected]
         if all(new is old for new, old in zip(moved, self.reflected, strict=True)):
             return
+        before = self.traced_meshes(self.scene, self.reflected)
         self.reflected = moved
+        after = self.traced_meshes(self.scene, moved)
+        if any(new is not old for new, old in zip(after, before, strict=True)):
+            self._refit(before, after)
+            return
         front = self._front()
         self._front_rows[: len(front)] = front
         self.nodes.write(self._front_rows.tobytes(), viewport=(0, 0, BVH_TEXTURE_WIDTH, _rows(len(front))))
+
+    def _refit(self, before: list[Mesh], after: list[Mesh]) -> None:
+        """Deformed meshes take their predecessors' places: the bottom levels are refitted (the same
+        trees and triangle order, every box made again: bvh.refit_triangle_forest) on the CPU, and
+        the node and triangle textures uploaded whole (what `refit_bytes` counts)."""
+        distinct = list(self.distinct)
+        for old, new in zip(before, after, strict=True):
+            if new is not old:
+                if len(new.indices) != len(old.indices):
+                    raise ValueError(f"TrianglePass: a deformed mesh must keep its {len(old.indices)} triangles, "
+                                     f"got {len(new.indices)}")
+                distinct[self.distinct[old]] = new
+        self.distinct = {mesh: j for j, mesh in enumerate(distinct)}
+        self.bottom = refit_triangle_forest(self.bottom, np.concatenate([m.positions[m.indices] for m in distinct]))
+        layout = self.layout
+        nodes = np.zeros((_rows(layout.node_texels) * BVH_TEXTURE_WIDTH, 4), np.float32)
+        nodes[: layout.front_texels] = self._front()
+        nodes[NODE_TEXELS * layout.mesh_base: layout.node_texels] = node_texels(self.bottom, 0, layout.mesh_base)
+        self._front_rows[:] = nodes[: len(self._front_rows)]
+        triangles = np.zeros((self.triangles.width * self.triangles.height, 4), np.float32)
+        texels = triangle_texels(distinct, self.bottom.order)
+        triangles[: len(texels)] = texels
+        self.nodes.write(nodes.tobytes())
+        self.triangles.write(triangles.tobytes())
+        self.refits += 1
+        self.refit_bytes = nodes.nbytes + triangles.nbytes
 
     @property
     def textures(self) -> list[moderngl.Texture]:

@@ -25,8 +25,11 @@ from ..constants import MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
 from ..geometry import ObjectGeometry
 from ..lights import light_sample_points
 from ..meshes import plane_uvs
-from ..scene.model import CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MirrorMaterial, Scene
-from ..textures import texture_bilinear
+from ..scene.model import (
+    CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MetallicRoughnessMaterial, MirrorMaterial, Scene,
+)
+from ..textures import texture_alpha_bilinear, texture_bilinear
+from .brdf import shade_metallic_roughness
 from .ggx import glossy_average
 
 if TYPE_CHECKING:
@@ -112,6 +115,24 @@ def material_albedo(material: Material, local_positions: Array, uvs: Array | Non
     raise TypeError(f"{material!r} is not a diffuse material")
 
 
+def material_masked(material: Material, uvs: Array | None) -> Array:
+    """shaders/lib/shading.glsl's material_masked in numpy: which points at `uvs` glTF's alphaMode
+    MASK cuts away (alpha, the factor's times the texture's, under the cutoff). All False for an
+    opaque material; None for uvs: a mesh without them (the texture is not drawn: the factor alone)."""
+    count = 0 if uvs is None else len(uvs)
+    if not isinstance(material, MetallicRoughnessMaterial) or material.alpha_cutoff is None:
+        return np.zeros(count, bool)
+    alpha = np.full(count, material.alpha)
+    if material.texture is not None and uvs is not None:
+        alpha *= texture_alpha_bilinear(material.texture, uvs)
+    return alpha < material.alpha_cutoff
+
+
+#: How many cut-away surfaces (alphaMode MASK) one ray of the truth passes through at most before it
+#: takes the next surface as seen: each is another Embree query of the rays still passing.
+MAX_MASKED_LAYERS = 32
+
+
 #: The grey albedo of a mirror's back (shaders/reflector.frag's u_backing_albedo, written from here by
 #: passes/reflectors.py): dark, as the painted back of a real mirror, and a diffuse surface like any.
 MIRROR_BACKING_ALBEDO = 0.2
@@ -156,6 +177,61 @@ def shade(scene: Scene, albedo: Array, positions: Array, normals: Array,
     return albedo * irradiance
 
 
+def _masked_hits(items: Sequence[ObjectGeometry], geometry_id: Array, primitive_id: Array, u: Array,
+                 v: Array) -> Array:
+    """Which hits (on items[`geometry_id`], triangle `primitive_id`, barycentrics u, v) a masked
+    material cuts away (alphaMode MASK), at the UVs triangles.glsl's triangle_uv gives them."""
+    cut = np.zeros(len(geometry_id), bool)
+    for index, item in enumerate(items):
+        material = item.object.material
+        if not (isinstance(material, MetallicRoughnessMaterial) and material.masked):
+            continue
+        chosen = np.flatnonzero(geometry_id == index)
+        if not len(chosen):
+            continue
+        mesh = item.world_mesh
+        uvs = np.zeros((len(chosen), 2))
+        if mesh.uvs is not None:
+            corners = mesh.indices[primitive_id[chosen]]
+            a, b = u[chosen, None], v[chosen, None]
+            uvs = (1 - a - b) * mesh.uvs[corners[:, 0]] + a * mesh.uvs[corners[:, 1]] + b * mesh.uvs[corners[:, 2]]
+        cut[chosen] = material_masked(material, uvs)
+    return cut
+
+
+def nearest_shown(embree: rtcore_scene.EmbreeScene, items: Sequence[ObjectGeometry], origins: Array,
+                  directions: Array, dists: Array | None = None) -> dict[str, Array]:
+    """Embree's nearest hits on `items` (its geometries: geomID, primID, u, v, tfar), past the points
+    a masked material cuts away (alphaMode MASK): a ray that meets one goes on from just beyond it,
+    as the shader's traversal passes it by. `dists` bounds each ray (a shadow ray's length)."""
+    def run(o: Array, d: Array, bound: Array | None) -> dict[str, Array]:
+        o, d = np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32)
+        if bound is None:
+            return dict(embree.run(o, d, output=1))
+        return dict(embree.run(o, d, dists=np.ascontiguousarray(bound, np.float32), output=1))
+
+    result = {key: np.array(value) for key, value in run(origins, directions, dists).items()}
+    if not any(isinstance(i.object.material, MetallicRoughnessMaterial) and i.object.material.masked for i in items):
+        return result
+    start = np.zeros(len(origins))  # where each ray's current query began, as a ray parameter
+    for _ in range(MAX_MASKED_LAYERS):
+        hits = np.flatnonzero(result["geomID"] != -1)
+        cut = hits[_masked_hits(items, result["geomID"][hits], result["primID"][hits], result["u"][hits],
+                                result["v"][hits])]
+        if not len(cut):
+            break
+        # On from just past the cut point (RAY_START_OFFSET of its distance, as a ray leaving a surface).
+        restart = (start[cut] + result["tfar"][cut]) * (1.0 + RAY_START_OFFSET) + RAY_START_OFFSET
+        left = None if dists is None else np.maximum(dists[cut] - restart, 0.0)
+        again = run(origins[cut] + directions[cut] * restart[:, None], directions[cut], left)
+        start[cut] = restart
+        for key in ("geomID", "primID", "u", "v", "tfar"):
+            result[key][cut] = again[key]
+    found = result["geomID"] != -1
+    result["tfar"] = np.where(found, start + result["tfar"], result["tfar"])
+    return result
+
+
 class TruthTracer:
     """Traces rays against the scene's reflected meshes (Embree) and analytic planes (exactly):
     the same two lists the renderer splits the scene into (`reflected_objects`, `analytic_planes`).
@@ -172,6 +248,9 @@ class TruthTracer:
         self.planes = list(planes)
         self._embree = _embree_scene(self.meshes)
         self._casters = _embree_scene(casters) if scene.has_shadows and casters else None
+        self._caster_items = list(casters)
+        self._masked_casters = any(isinstance(c.object.material, MetallicRoughnessMaterial) and c.object.material.masked
+                                   for c in casters)
 
     def visibility(self, light_index: int, positions: Array, normals: Array) -> Array:
         """The share of the light's rays (lights.py: its centre for hard shadows, the disk points
@@ -187,30 +266,43 @@ class TruthTracer:
         offsets = targets - origins
         lengths = np.linalg.norm(offsets, axis=2)
         directions = offsets / np.maximum(lengths, 1e-300)[..., None]
-        blocked = self._casters.run(
-            np.ascontiguousarray(origins.reshape(-1, 3), np.float32),
-            np.ascontiguousarray(directions.reshape(-1, 3), np.float32),
-            dists=np.ascontiguousarray(lengths.reshape(-1), np.float32), query="OCCLUDED",
-        ) != -1
+        if self._masked_casters:  # a cut-away point blocks nothing: the nearest caster not cut away
+            shown = nearest_shown(self._casters, self._caster_items, origins.reshape(-1, 3), directions.reshape(-1, 3),
+                                  lengths.reshape(-1))
+            blocked = shown["geomID"] != -1
+        else:
+            blocked = self._casters.run(
+                np.ascontiguousarray(origins.reshape(-1, 3), np.float32),
+                np.ascontiguousarray(directions.reshape(-1, 3), np.float32),
+                dists=np.ascontiguousarray(lengths.reshape(-1), np.float32), query="OCCLUDED",
+            ) != -1
         return 1.0 - blocked.reshape(lengths.shape).mean(axis=1)
 
     def trace(self, origins: Array, directions: Array) -> TruthHits:
         """The nearest hits, shaded (the environment where nothing was hit)."""
-        hits, albedo = self._intersect(origins, directions)
+        hits, albedo, materials, uvs = self._intersect(origins, directions)
         hit = hits.hit
         # A mirror's backing is shaded with its normal facing the ray, as reflector.frag does.
         normals = np.where(hits.backing[:, None], facing(hits.normal, directions), hits.normal)
         if hit.any():
             hits.color[hit] = shade(self.scene, albedo[hit], hits.position[hit], normals[hit], self.visibility)
+        # glTF's metallic-roughness materials, for the ray itself (lib/shading.glsl's shade_material).
+        for index, material in enumerate(self.scene.materials):
+            if isinstance(material, MetallicRoughnessMaterial) and (chosen := hit & (materials == index)).any():
+                hits.color[chosen] = shade_metallic_roughness(self.scene, material, albedo[chosen], uvs[chosen],
+                                                              hits.position[chosen], normals[chosen], -directions[chosen],
+                                                              self.visibility)
         return hits
 
     def intersect(self, origins: Array, directions: Array) -> TruthHits:
         """The nearest hits with no colour (zero): where a ray goes inside glass."""
-        hits, _ = self._intersect(origins, directions)
+        hits, _, _, _ = self._intersect(origins, directions)
         hits.color[:] = 0.0
         return hits
 
-    def _intersect(self, origins: Array, directions: Array) -> tuple[TruthHits, Array]:
+    def _intersect(self, origins: Array, directions: Array) -> tuple[TruthHits, Array, Array, Array]:
+        """The nearest hits (no colour), each one's albedo, its material's index in Scene.materials
+        (-1: a mirror's backing, glass, nothing), and the mesh's texture coordinates there (0 without)."""
         count = len(origins)
         hit = np.zeros(count, bool)
         t = np.full(count, np.inf)
@@ -218,20 +310,22 @@ class TruthTracer:
         position = np.zeros((count, 3))
         normal = np.zeros((count, 3))
         albedo = np.zeros((count, 3))
+        uvs = np.zeros((count, 2))
         backing = np.zeros(count, bool)
         if self.meshes and count:
-            self._trace_meshes(origins, directions, hit, t, object_id, normal, albedo, backing)
-        self._trace_planes(origins, directions, hit, t, object_id, normal, albedo, backing)
+            self._trace_meshes(origins, directions, hit, t, object_id, normal, albedo, backing, uvs)
+        self._trace_planes(origins, directions, hit, t, object_id, normal, albedo, backing, uvs)
+        objects = self.scene.objects
+        by_object = np.array([-1 if o.is_reflector else self.scene.material_index(o.material) for o in objects] + [-1])
+        materials = by_object[np.where(hit, object_id, len(objects))]
         position[hit] = origins[hit] + directions[hit] * t[hit, None]
         hits = TruthHits(hit, np.where(hit, t, 0.0), position, object_id, environment(self.scene, directions), normal,
                          backing)
-        return hits, albedo
+        return hits, albedo, materials, uvs
 
     def _trace_meshes(self, origins: Array, directions: Array, hit: Array, t: Array,
-                      object_id: Array, normal: Array, albedo: Array, backing: Array) -> None:
-        result = self._embree.run(
-            np.ascontiguousarray(origins, np.float32), np.ascontiguousarray(directions, np.float32), output=1
-        )
+                      object_id: Array, normal: Array, albedo: Array, backing: Array, texture_uvs: Array) -> None:
+        result = nearest_shown(self._embree, self.meshes, origins, directions)
         geometry_id = result["geomID"]
         for index, item in enumerate(self.meshes):
             mask = geometry_id == index
@@ -254,6 +348,7 @@ class TruthTracer:
                 if mesh.uvs is not None:  # as triangles.glsl: the corners' UVs by the hit's barycentrics
                     uvs = (1 - u - v) * mesh.uvs[triangles[:, 0]] + u * mesh.uvs[triangles[:, 1]] \
                         + v * mesh.uvs[triangles[:, 2]]
+                    texture_uvs[mask] = uvs
                 albedo[mask] = material_albedo(item.object.material, local, uvs)
             elif isinstance(item.object.material, MirrorMaterial):
                 # Seen from behind: the ray runs along the outward face normal.
@@ -262,7 +357,7 @@ class TruthTracer:
                 albedo[behind] = MIRROR_BACKING_ALBEDO
 
     def _trace_planes(self, origins: Array, directions: Array, hit: Array, t: Array,
-                      object_id: Array, normal: Array, albedo: Array, backing: Array) -> None:
+                      object_id: Array, normal: Array, albedo: Array, backing: Array, texture_uvs: Array) -> None:
         """The shader's nearest_plane_hit: the rectangle |x| <= w/2, |z| <= d/2 of local y = 0."""
         for item in self.planes:
             world_to_local = np.linalg.inv(item.model_matrix)
@@ -274,6 +369,9 @@ class TruthTracer:
             half = np.asarray(item.object.shape.size) / 2.0  # type: ignore[union-attr]
             inside = (np.abs(local[:, 0]) <= half[0]) & (np.abs(local[:, 2]) <= half[1])
             closer = (t_plane > 0.0) & np.isfinite(t_plane) & inside & (t_plane < t)
+            size = item.object.shape.size  # type: ignore[union-attr]
+            chosen = np.flatnonzero(closer)
+            closer[chosen[material_masked(item.object.material, plane_uvs(local[chosen], *size))]] = False
             if not closer.any():
                 continue
             plane_normal = item.normal_matrix @ np.array([0.0, 1.0, 0.0])
@@ -282,8 +380,8 @@ class TruthTracer:
             object_id[closer] = item.index
             backing[closer] = False  # a plane before a mirror's back hides it
             normal[closer] = plane_normal / np.linalg.norm(plane_normal)
-            albedo[closer] = material_albedo(item.object.material, local[closer],
-                                             plane_uvs(local[closer], *item.object.shape.size))  # type: ignore[union-attr]
+            texture_uvs[closer] = plane_uvs(local[closer], *size)
+            albedo[closer] = material_albedo(item.object.material, local[closer], texture_uvs[closer])
 
 
 def _dot(a: Array, b: Array) -> Array:

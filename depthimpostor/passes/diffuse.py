@@ -22,7 +22,7 @@ from ..gpu.gl_state import raster_state
 from ..methods.atlas import FRONT_FACES
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
-from ..gpu.uniforms import shading_defines, write, write_material, write_matrix
+from ..gpu.uniforms import shading_defines, write, write_matrix
 from ..node import Frame, GraphFacts, Node, Pass
 
 
@@ -49,6 +49,17 @@ def diffuse_defines(scene: Scene, write_depth_image: bool, write_triangle_ids: b
             **({"BACK_LAYER": 1} if back_layer else {}), **({"INSTANCED": 1} if instanced else {}),
             **({"WRITE_SURFACE": 1} if write_surface else {}), **({} if drawn_checker else {"NO_CHECKER": 1}),
             **shading_defines(scene)}
+
+
+def viewer_of(view_projection: np.ndarray) -> np.ndarray:
+    """diffuse.frag's u_eye: where the camera of `view_projection` is, (x, y, z, 1), or for an
+    orthographic one the unit direction toward it, (x, y, z, 0). Clip space's (0, 0, -1, 0) is the
+    point at infinity toward the near plane: back in the world it is the camera's centre (a
+    perspective: homogeneous, w != 0), or the direction toward the camera (orthographic: w = 0)."""
+    eye = np.linalg.inv(np.asarray(view_projection, np.float64)) @ np.array([0.0, 0.0, -1.0, 0.0])
+    if abs(eye[3]) > 1e-12 * float(np.linalg.norm(eye[:3])):
+        return np.array([*(eye[:3] / eye[3]), 1.0])
+    return np.array([*(eye[:3] / np.linalg.norm(eye[:3])), 0.0])
 
 
 class DiffusePass:
@@ -85,10 +96,14 @@ class DiffusePass:
     def draw(self, items: list[ObjectGeometry], view_projection: np.ndarray) -> int:
         """Draw the objects; returns the number of draw calls."""
         calls = 0
+        # Metallic-roughness shading depends on the viewer: the frame's camera, or a baked image's.
+        viewer = viewer_of(view_projection) if "METALLIC_ROUGHNESS" in self.defines else None
         if self.instanced is not None:
             still = [item for item in items if not item.object.moves]
             if still:
                 write_matrix(self.instanced, "u_view_projection", view_projection)
+                if viewer is not None:
+                    write(self.instanced, "u_eye", viewer)
                 batch = self._batch_of(still)
                 calls += batch.draw(self.instanced, 0, batch.first_closed)
                 # Closed solids seen from outside: their back faces hidden, so culled (half the triangles).
@@ -97,7 +112,9 @@ class DiffusePass:
             items = [item for item in items if item.object.moves]
         for item in items:
             program = self.program
-            write_material(program, "u_material", item.object.material, self.scene)
+            write(program, "u_material_index", self.scene.material_index(item.object.material))
+            if viewer is not None:
+                write(program, "u_eye", viewer)
             write(program, "u_object_id", item.index)
             if self.triangle_offsets is not None:
                 write(program, "u_triangle_offset", self.triangle_offsets[item.index])

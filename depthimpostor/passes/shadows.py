@@ -18,6 +18,7 @@ from ..gpu.gl_state import raster_state
 from ..gpu.bindings import TextureUnit, UniformBlock
 from ..constants import BACKGROUND_DEPTH, DEPTH_IMAGE_DTYPE, MAX_LIGHTS, NO_OBJECT
 from ..gpu.context import bind_default_framebuffer
+from ..gpu.uniforms import alpha_mask_defines, write_material_index
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..ppc import PPC, FrustumFitError
@@ -34,6 +35,11 @@ if TYPE_CHECKING:
 #: A shadow map's single float attachment takes the window depth at location 0.
 SHADOW_MAP_PROGRAM = BACK_FACE_PROGRAM
 SHADOW_MAP_DEFINES = {"OUTPUT_LOCATION": 0}
+
+
+def shadow_map_defines(scene: Scene) -> dict[str, int]:
+    """The shadow maps' program for `scene`: what a masked material cuts away casts no shadow."""
+    return {**SHADOW_MAP_DEFINES, **alpha_mask_defines(scene)}
 
 
 def fit_shadow_camera(scene: Scene, light_index: int, casters: list[ObjectGeometry], resolution: int) -> PPC:
@@ -80,7 +86,7 @@ class ShadowMaps:
         self.layers.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._depth_buffer = ctx.depth_renderbuffer(self.layers.size)
         self.framebuffer = ctx.framebuffer([self.layers], self._depth_buffer)
-        self.program = programs.get(*SHADOW_MAP_PROGRAM, SHADOW_MAP_DEFINES)
+        self.program = programs.get(*SHADOW_MAP_PROGRAM, shadow_map_defines(scene))
         self.uniform_buffer = ctx.buffer(self._records())
         self.bakes = 0  # shadow maps rendered so far (tests check that nothing re-bakes)
         self.stale: set[int] = set(self.cameras)  # lights whose map the next bake renders
@@ -138,6 +144,7 @@ class ShadowMaps:
 
     def _draw_casters(self, camera: PPC) -> int:
         for caster in self.casters:
+            write_material_index(self.program, self.scene, caster.object)
             self.meshes.draw(self.program, caster, camera.view_projection)
         return len(self.casters)
 

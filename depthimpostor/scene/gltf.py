@@ -26,14 +26,18 @@ from depthimpostor.scene import fields as f
 from depthimpostor.scene.fields import At, Vec3, show
 from depthimpostor.scene.gltf_file import (
     NOT_SURFACES, TRIANGLE_FAN, TRIANGLE_STRIP, TRIANGLES, Primitive, PrimitiveSize, check_header, decode_primitive,
-    extension, ignored_features, index, items, number_at, primitive_modes, primitive_size, read_json, scene_nodes, table,
+    extension, ignored_features, index, items, local_mesh, number_at, primitive_modes, primitive_size, read_json,
+    scene_nodes, table,
 )
+from depthimpostor.scene.gltf_animation import FileAnimation, read_animation
 from depthimpostor.scene.gltf_data import GltfData
+from depthimpostor.scene.gltf_deform import PartMotion, part_motion
 from depthimpostor.scene.gltf_planes import Rectangle, find_rectangle, plane_placement
 from depthimpostor.scene.limits import check_scene
 from depthimpostor.textures import texture_from_pixels
 from depthimpostor.scene.model import (
-    Animation, Camera, DiffuseMaterial, Environment, GlassMaterial, GltfOrigin, GltfShape, Light, Material, MirrorMaterial,
+    Animation, Camera, DiffuseMaterial, Environment, GlassMaterial, GltfOrigin, GltfShape, Light, Material,
+    MetallicRoughnessMaterial, MirrorMaterial, material_textures,
     PlaneShape, RenderSettings, Scene, SceneObject, Texture,
 )
 
@@ -41,6 +45,12 @@ from depthimpostor.scene.model import (
 MIRROR_METALLIC, MIRROR_ROUGHNESS = 0.9, 0.1
 #: The glass rule: a KHR_materials_transmission factor of at least this is glass.
 GLASS_TRANSMISSION = 0.5
+#: The largest KHR_materials_emissive_strength read (the extension sets none; a bound keeps the
+#: colours finite: 1e6 is brighter than any light a scene file can give).
+MAX_EMISSIVE_STRENGTH = 1.0e6
+#: The largest KHR_texture_transform rotation read, in radians (any angle is a turn of at most one
+#: circle; a bound keeps the sine and cosine meaningful).
+MAX_UV_ROTATION = 1.0e6
 #: Without a camera in the file: the TOML default camera's view direction, framing the whole scene.
 FRAMING_FOV_Y = Camera().fov_y
 #: Without lights in the file: one light from above, as the scene_format.md example has.
@@ -50,7 +60,7 @@ DEFAULT_LIGHT = Light("directional", direction=(-0.4, -1.0, -0.3))
 #: names a triangle by a float32 (MAX_NAMED_TRIANGLES), and no method draws more in useful time.
 MAX_PLACED_TRIANGLES = MAX_NAMED_TRIANGLES
 #: What one placed triangle costs the loader at most: its three corners' world-space position,
-#: normal and UV (float64) and its indices, as `_local_mesh` and `Mesh.transformed` make them.
+#: normal and UV (float64) and its indices, as `local_mesh` and `Mesh.transformed` make them.
 PLACED_TRIANGLE_BYTES = 3 * 8 * (3 + 3 + 2) + 3 * 8
 #: The most memory the loader's arrays may take, from the same counts: the accessors decoded (as
 #: float64 and int64) and the placed triangles. A file's accessors can share bytes, so a file of
@@ -70,8 +80,9 @@ class GltfPart:
     name: str  # the node's name (or "nodes[i]"), with the material's label where a node has several
     origin: GltfOrigin  # for messages: the node, mesh, primitives and material, by index and name
     material: int | None  # index into the file's materials; None: glTF's default (white, diffuse)
-    mesh: Mesh  # in the file's world space
+    mesh: Mesh  # in the file's world space (a part that deforms: at time 0)
     rectangle: Rectangle | None  # where the mesh is one flat rectangle: placed as a plane (gltf_planes.py)
+    motion: PartMotion | None = None  # how the file's animation, skin or morph targets move it; None: still
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,7 +138,7 @@ def read_gltf(path: Path, source: str) -> GltfFile:
     data = GltfData(resolved, header, source)
     walked = scene_nodes(header, source)
     primitives = _decoded(data, walked)
-    parts = _parts(header, source, primitives, ignored, walked)
+    parts = _parts(data, primitives, ignored, read_animation(data), walked)
     if not parts:
         raise SceneError(source, "", "expected a scene with at least one mesh node holding triangles, got none")
     used = _used_materials(header, source, primitives)
@@ -176,9 +187,11 @@ def _used_materials(header: Mapping[str, Any], source: str, primitives: dict[tup
     return used
 
 
-def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, int], Primitive],
-           ignored: tuple[str, ...], walked: list[tuple[int, np.ndarray]]) -> list[GltfPart]:
-    """One part per mesh node and material, in the order the node tree is walked."""
+def _parts(data: GltfData, primitives: dict[tuple[int, int], Primitive], ignored: tuple[str, ...],
+           animation: FileAnimation | None, walked: list[tuple[int, np.ndarray]]) -> list[GltfPart]:
+    """One part per mesh node and material, in the order the node tree is walked, each with how
+    it moves (gltf_deform.py) where the file animates, skins or morphs it."""
+    header, source = data.header, data.source
     meshes, nodes = items(header, "meshes", source), items(header, "nodes", source)
     materials = items(header, "materials", source)
     by_mode: dict[int, list[str]] = {}
@@ -197,7 +210,8 @@ def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, i
     names = [_name(node) for node in nodes]
     named = Counter(names)
     parts = []
-    for i, world in walked:
+    worlds = dict(walked)
+    for i, world in worlds.items():
         if "mesh" not in nodes[i]:
             continue
         m = index(nodes[i]["mesh"], len(meshes), At(source, f"nodes[{i}].mesh"))
@@ -208,7 +222,8 @@ def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, i
                 if material is not None:
                     index(material, len(materials), At(source, f"meshes[{m}].primitives[{p}].material"))
                 groups.setdefault(material, []).append((p, primitives[m, p]))
-        if abs(np.linalg.det(world[:3, :3])) <= 1e-12 * float(np.linalg.norm(world[:3, :3])) ** 3:
+        if abs(np.linalg.det(world[:3, :3])) <= 1e-12 * float(np.linalg.norm(world[:3, :3])) ** 3 \
+                and "skin" not in nodes[i]:  # (a skinned mesh is placed by its joints alone)
             continue  # scaled to nothing: glTF's way to hide a node, which has no surface to draw
         node = names[i] if names[i] and named[names[i]] == 1 else f"nodes[{i}]"
         for material, group in groups.items():
@@ -216,8 +231,12 @@ def _parts(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, i
             name = node if len(groups) == 1 else f"{node} ({label})"
             origin = GltfOrigin(source, i, names[i], m, _name(meshes[m]), tuple(p for p, _ in group), material,
                                 "" if material is None else _name(materials[material]), ignored=ignored)
-            mesh = _local_mesh([primitive for _, primitive in group]).transformed(world)
-            parts.append(GltfPart(name, origin, material, mesh, find_rectangle(mesh)))
+            motion = part_motion(data, animation, worlds, i, m, group)
+            if motion is not None and motion.deforms:
+                parts.append(GltfPart(name, origin, material, motion.mesh_at(0.0), None, motion))
+                continue
+            mesh = local_mesh([primitive for _, primitive in group]).transformed(world)
+            parts.append(GltfPart(name, origin, material, mesh, find_rectangle(mesh) if motion is None else None, motion))
     return parts
 
 
@@ -231,42 +250,11 @@ def _label(header: Mapping[str, Any], k: int) -> str:
     return _name(header["materials"][k]) or f"materials[{k}]"
 
 
-def _flat_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """One unit normal per face, (0, 1, 0) for a face of no area (any unit vector keeps NaN out)."""
-    a, b, c = (positions[faces[:, k]] for k in range(3))
-    normals = np.cross(b - a, c - a)
-    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
-    return np.where(lengths > 1e-30, normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
-
-
-def _local_mesh(group: list[Primitive]) -> Mesh:
-    """The primitives of one node and material as one mesh, in the node's space. A primitive with
-    the file's normals keeps them (and its shared vertices); one without gets flat normals, as the
-    glTF specification asks, each triangle with its own three vertices."""
-    positions, normals, uvs, faces, start = [], [], [], [], 0
-    any_uvs = any(p.uvs is not None for p in group)
-    for p in group:
-        if p.normals is not None:
-            lengths = np.linalg.norm(p.normals, axis=1, keepdims=True)
-            corners = np.arange(len(p.positions))
-            normal = np.where(lengths > 1e-13, p.normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
-            face = p.faces
-        else:
-            corners = p.faces.ravel()
-            normal = np.repeat(_flat_normals(p.positions, p.faces), 3, axis=0)
-            face = np.arange(len(corners)).reshape(-1, 3)
-        positions.append(p.positions[corners])
-        normals.append(normal)
-        uvs.append(p.uvs[corners] if p.uvs is not None else np.zeros((len(corners), 2)))
-        faces.append(face + start)
-        start += len(corners)
-    return Mesh(np.concatenate(positions), np.concatenate(normals), np.concatenate(faces),
-                np.concatenate(uvs) if any_uvs else None)
-
-
-def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData, at: At, source: str) -> Texture:
+def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData, at: At, source: str,
+             srgb: bool = True) -> Texture:
     """A baseColorTexture: its image (EXT_texture_webp's where given, else `source`), decoded as
-    written (image_files.py), and its sampler's wrap modes."""
+    written (image_files.py), its sampler's wrap modes, and its KHR_texture_transform (offset,
+    rotation, scale: a texCoord there is listed as ignored, as the texture info's own)."""
     textures = items(header, "textures", source)
     t = index(info.get("index"), len(textures), at.key("index"))
     texture_at = At(source, f"textures[{t}]")
@@ -288,14 +276,27 @@ def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData,
             if key in sampler and sampler[key] not in {int(mode) for mode in Wrap}:
                 raise sampler_at.key(key).error(f"expected a wrap mode {', '.join(str(int(m)) for m in Wrap)}, "
                                                 f"got {show(sampler[key])}")
-    return texture_from_pixels(pixels, sampler, name=f"{Path(source).name} images[{image}]")
+    texture_read = texture_from_pixels(pixels, sampler, name=f"{Path(source).name} images[{image}]")
+    if not srgb:
+        texture_read = dataclasses.replace(texture_read, srgb=False)
+    transform = extension(info, "KHR_texture_transform", at)
+    if transform is None:
+        return texture_read
+    transform_at = at.key("extensions").key("KHR_texture_transform")
+    offset = transform_at.key("offset").read(transform.get("offset", [0, 0]), f.numbers(2))
+    scale = transform_at.key("scale").read(transform.get("scale", [1, 1]), f.numbers(2))
+    rotation = number_at(transform, "rotation", 0.0, f.number(f.Bounds(-MAX_UV_ROTATION, MAX_UV_ROTATION)),
+                         transform_at)
+    return dataclasses.replace(texture_read, scale=(float(scale[0]), float(scale[1])),
+                               offset=(float(offset[0]), float(offset[1])), rotation=rotation)
 
 
 def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], data: GltfData | None,
               source: str) -> GltfMaterial:
     """The rules of scene_format.md: transmission >= 0.5 is glass (its ior from KHR_materials_ior,
     its tint the base colour); metallic >= 0.9 with roughness <= 0.1 is a mirror tinted by the base
-    colour; anything else is diffuse in the base colour, its texture drawn. A mirror's or glass's
+    colour; anything else is a metallic-roughness material (its base colour, texture, metallic and
+    roughness factors, and emission). A mirror's or glass's
     tint cannot hold a texture: its mean colour joins the factor there. `data` reads its texture,
     None for a material no triangle is drawn with (its texture need not be readable)."""
     at = At(source, f"materials[{k}]")
@@ -323,8 +324,46 @@ def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], data:
     elif metallic >= MIRROR_METALLIC and roughness <= MIRROR_ROUGHNESS:
         material = MirrorMaterial((tr, tg, tb))
     else:
-        material = DiffuseMaterial((r, g, b), texture)
+        mode = at.key("alphaMode").read(value.get("alphaMode", "OPAQUE"), f.choice(("OPAQUE", "MASK", "BLEND")))
+        cutoff = (number_at(value, "alphaCutoff", 0.5, f.number(f.Bounds(0.0, math.inf)), at) if mode == "MASK"
+                  else None)
+        maps = _maps(header, value, data, at, source)
+        material = MetallicRoughnessMaterial((r, g, b), texture, metallic, roughness, _emissive(value, at),
+                                             alpha=float(factor[3]), alpha_cutoff=cutoff, **maps)
     return GltfMaterial(_label(header, k), material, texture is not None and not isinstance(material, DiffuseMaterial))
+
+
+def _maps(header: Mapping[str, Any], value: Mapping[str, Any], data: GltfData | None, at: At,
+          source: str) -> dict[str, Any]:
+    """A material's metallic-roughness, occlusion (with its strength) and emissive maps: the first
+    two data (linear), the last colour (sRGB), as the specification stores them."""
+    if data is None:
+        return {}
+    pbr_at = at.key("pbrMetallicRoughness")
+    pbr = table(value.get("pbrMetallicRoughness", {}), pbr_at)
+    found: dict[str, Any] = {}
+    for holder, holder_at, key, field, srgb in (
+            (pbr, pbr_at, "metallicRoughnessTexture", "metallic_roughness_texture", False),
+            (value, at, "occlusionTexture", "occlusion_texture", False),
+            (value, at, "emissiveTexture", "emissive_texture", True)):
+        if key in holder:
+            info_at = holder_at.key(key)
+            info = table(holder[key], info_at)
+            found[field] = _texture(header, info, data, info_at, source, srgb)
+            if key == "occlusionTexture":
+                found["occlusion_strength"] = number_at(info, "strength", 1.0, f.number(f.UNIT), info_at)
+    return found
+
+
+def _emissive(value: Mapping[str, Any], at: At) -> Vec3:
+    """The light a material gives off: emissiveFactor times KHR_materials_emissive_strength's
+    emissiveStrength (glTF keeps the factor in [0, 1]; the extension scales it past 1)."""
+    factor = at.key("emissiveFactor").read(value.get("emissiveFactor", [0, 0, 0]), f.numbers(3, f.UNIT))
+    strength_at = at.key("extensions").key("KHR_materials_emissive_strength")
+    strength = number_at(extension(value, "KHR_materials_emissive_strength", at) or {}, "emissiveStrength", 1.0,
+                         f.number(f.Bounds(0.0, MAX_EMISSIVE_STRENGTH)), strength_at)
+    r, g, b = (float(c) * strength for c in factor)
+    return (r, g, b)
 
 
 def _lights(header: Mapping[str, Any], source: str, walked: list[tuple[int, np.ndarray]]) -> tuple[GltfLight, ...]:
@@ -433,15 +472,25 @@ def _as_plane(part: GltfPart, material: Material, position: Vec3, rotation: Vec3
     rectangle = part.rectangle
     if rectangle is None or isinstance(material, GlassMaterial) or animation is not None or len(set(scale)) != 1:
         return None
-    if isinstance(material, DiffuseMaterial) and material.texture is not None:
+    if material_textures(material):
         if rectangle.uv_scale is None:
             return None
         if rectangle.uv_scale != (1.0, 1.0):
-            texture = material.texture
-            repeats = (texture.scale[0] * rectangle.uv_scale[0], texture.scale[1] * rectangle.uv_scale[1])
-            key = (id(texture), *repeats)
-            scaled.setdefault(key, dataclasses.replace(texture, scale=repeats))
-            material = DiffuseMaterial(material.color, scaled[key])
+            uv_scale = rectangle.uv_scale
+
+            def rescaled(texture: Texture | None) -> Texture | None:
+                if texture is None:
+                    return None
+                repeats = (texture.scale[0] * uv_scale[0], texture.scale[1] * uv_scale[1])
+                return scaled.setdefault((id(texture), *repeats), dataclasses.replace(texture, scale=repeats))
+
+            assert isinstance(material, DiffuseMaterial)  # only they hold textures
+            material = dataclasses.replace(material, texture=rescaled(material.texture))
+            if isinstance(material, MetallicRoughnessMaterial):
+                material = dataclasses.replace(
+                    material, metallic_roughness_texture=rescaled(material.metallic_roughness_texture),
+                    occlusion_texture=rescaled(material.occlusion_texture),
+                    emissive_texture=rescaled(material.emissive_texture))
     placed = plane_placement(rectangle, position, rotation, scale[0])
     if placed is None:
         return None
@@ -465,17 +514,21 @@ def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str
         material = overrides.get(mapped.label, mapped.material)
         if mapped.textured and mapped.label not in overrides and mapped.label not in textured:
             textured.append(mapped.label)
-        if isinstance(material, DiffuseMaterial) and material.texture is not None and part.mesh.uvs is None:
-            # A textured material on a part without TEXCOORD_0: nothing says where the image goes.
-            tint = np.clip(np.multiply(material.color, material.texture.mean_color), 0.0, 1.0)
-            material = DiffuseMaterial((float(tint[0]), float(tint[1]), float(tint[2])))
+        if isinstance(material, DiffuseMaterial) and material_textures(material) and part.mesh.uvs is None:
+            # A textured material on a part without TEXCOORD_0: nothing says where the images go.
+            mean = material.texture.mean_color if material.texture is not None else (1.0, 1.0, 1.0)
+            tint = np.clip(np.multiply(material.color, mean), 0.0, 1.0)
+            material = dataclasses.replace(material, color=(float(tint[0]), float(tint[1]), float(tint[2])), texture=None)
+            if isinstance(material, MetallicRoughnessMaterial):
+                material = dataclasses.replace(material, metallic_roughness_texture=None, occlusion_texture=None,
+                                               emissive_texture=None)
             no_uvs.append(part.origin.describe())
         origin = dataclasses.replace(part.origin, file=model.source, placed_by=placed_by)
         plane = _as_plane(part, material, position, rotation, scale, animation, scaled)
         if plane is not None:
             objects.append(dataclasses.replace(plane, name=prefix + part.name, origin=origin))
             continue
-        objects.append(SceneObject(name=prefix + part.name, shape=GltfShape(model.path, part.mesh),
+        objects.append(SceneObject(name=prefix + part.name, shape=GltfShape(model.path, part.mesh, part.motion),
                                    material=material, position=position, rotation=rotation, scale=scale,
                                    animation=animation, origin=origin))
     if no_uvs:

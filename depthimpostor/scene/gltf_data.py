@@ -32,8 +32,9 @@ from depthimpostor.scene.fields import At, read_file_bytes, show
 #: glTF's component types (3.6.2.2), little-endian.
 COMPONENTS: dict[int, np.dtype[Any]] = {5120: np.dtype("<i1"), 5121: np.dtype("<u1"), 5122: np.dtype("<i2"), 5123: np.dtype("<u2"),
               5125: np.dtype("<u4"), 5126: np.dtype("<f4")}
-#: The element types read here: the vertex attributes and indices a mesh needs.
-WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+#: The element types read here: the vertex attributes and indices a mesh needs, and a skin's
+#: inverse bind matrices (MAT4, column-major).
+WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 #: What a sparse accessor's indices may be (3.6.2.3).
 INDEX_COMPONENTS = (5121, 5123, 5125)
 

@@ -2,7 +2,8 @@
 matrix of every node of its scene, and each triangle primitive's arrays, decoded by gltf_data.py.
 
 Everything is read here from the JSON, which is plain data, and the buffers (gltf_data.py): the
-extensions KHR_lights_punctual, KHR_materials_transmission and KHR_materials_ior
+extensions KHR_lights_punctual, KHR_materials_transmission, KHR_materials_ior and
+KHR_materials_emissive_strength
 (`ignored_features` names those used but not read), the exact material factors, the primitive
 modes, the node tree. (trimesh decoded the geometry once; it dropped sparse substitutions and
 texture errors, decoded every texture again, read every accessor and node before a count could be
@@ -29,6 +30,7 @@ import numpy as np
 
 from depthimpostor.constants import MAX_COORDINATE
 from depthimpostor.errors import SceneError
+from depthimpostor.meshes import Mesh
 from depthimpostor.scene.fields import At, Reader, leaves_folder, numbers, read_file_bytes, show
 from depthimpostor.scene.gltf_data import GltfData, Layout
 
@@ -37,7 +39,8 @@ GLTF_SUFFIXES = (".glb", ".gltf")
 #: required one changes what the file means in a way this reader would get wrong (Draco, quantized
 #: or basisu data would be misread), so the file is refused, naming it. Any other it merely uses is
 #: drawn as if absent, and `ignored_features` names it.
-SUPPORTED_REQUIRED = ("KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior", "EXT_texture_webp")
+SUPPORTED_REQUIRED = ("KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior",
+                      "KHR_materials_emissive_strength", "KHR_texture_transform", "EXT_texture_webp")
 
 # Primitive modes (glTF 2.0, 3.7.2.1): the triangles read, and what has no surface.
 TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN = 4, 5, 6
@@ -160,28 +163,31 @@ def _extension_names(value: Any) -> Iterator[str]:
 
 def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
     """The core material properties a material uses that are not drawn (scene_format.md says what
-    is): every texture but baseColorTexture on TEXCOORD_0, emission and transparency."""
+    is): the normal map, a texture on another set than TEXCOORD_0, and blending (alphaMode MASK is
+    drawn)."""
     pbr = material.get("pbrMetallicRoughness", {})
     pbr = pbr if isinstance(pbr, Mapping) else {}
-    for key in ("normalTexture", "occlusionTexture", "emissiveTexture"):
-        if key in material:
-            yield key
-    if "metallicRoughnessTexture" in pbr:
-        yield "metallicRoughnessTexture"
-    base = pbr.get("baseColorTexture")
-    if isinstance(base, Mapping) and base.get("texCoord", 0) != 0:
-        yield "baseColorTexture.texCoord"
-    emissive = material.get("emissiveFactor", [0, 0, 0])
-    if isinstance(emissive, list) and any(isinstance(c, (int, float)) and c != 0 for c in emissive):
-        yield "emissiveFactor"
-    if material.get("alphaMode", "OPAQUE") in ("MASK", "BLEND"):
-        yield f"alphaMode {material['alphaMode']}"
+    if "normalTexture" in material:
+        yield "normalTexture"
+    infos = [("baseColorTexture", pbr.get("baseColorTexture")), ("metallicRoughnessTexture", pbr.get("metallicRoughnessTexture")),
+             ("occlusionTexture", material.get("occlusionTexture")), ("emissiveTexture", material.get("emissiveTexture"))]
+    for key, info in infos:
+        if not isinstance(info, Mapping):
+            continue
+        if info.get("texCoord", 0) != 0:
+            yield f"{key}.texCoord"
+        extensions = info.get("extensions")
+        transform = extensions.get("KHR_texture_transform") if isinstance(extensions, Mapping) else None
+        if isinstance(transform, Mapping) and transform.get("texCoord", 0) != 0:
+            yield f"{key}.KHR_texture_transform.texCoord"
+    if material.get("alphaMode", "OPAQUE") == "BLEND":
+        yield "alphaMode BLEND"
 
 
 def ignored_features(header: Mapping[str, Any]) -> tuple[str, ...]:
     """What the file uses that this loader does not implement, each named once, in a stable order:
     the extensions it uses but SUPPORTED_REQUIRED lacks (sorted), then the core features read past
-    (material properties, vertex colours, morph targets, skins, animations). Such a file is drawn as
+    (material properties, vertex colours, the animations after the first). Such a file is drawn as
     if they were absent; `plan` lists them and loading warns once."""
     used = header.get("extensionsUsed", [])
     extensions = {name for name in used if isinstance(name, str)} if isinstance(used, list) else set()
@@ -198,11 +204,9 @@ def ignored_features(header: Mapping[str, Any]) -> tuple[str, ...]:
             attributes = primitive.get("attributes") if isinstance(primitive, Mapping) else None
             if isinstance(attributes, Mapping) and "COLOR_0" in attributes:
                 features["COLOR_0 (vertex colours)"] = None
-            if isinstance(primitive, Mapping) and primitive.get("targets"):
-                features["morph targets"] = None
-    for key in ("skins", "animations"):
-        if header.get(key):
-            features[key] = None
+    animations = header.get("animations", [])
+    if isinstance(animations, list) and len(animations) > 1:  # gltf_animation.py plays the first alone
+        features[f"{len(animations) - 1} animation(s) after the first (only animations[0] plays)"] = None
     return tuple(sorted(extensions - set(SUPPORTED_REQUIRED))) + tuple(features)
 
 
@@ -275,6 +279,39 @@ class Primitive:
     faces: np.ndarray  # (M, 3)
     normals: np.ndarray | None  # (N, 3) from the file's NORMAL, or None (glTF then asks for flat normals)
     uvs: np.ndarray | None  # (N, 2) TEXCOORD_0 in glTF's convention (v down from the image's top)
+
+
+def _flat_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """One unit normal per face, (0, 1, 0) for a face of no area (any unit vector keeps NaN out)."""
+    a, b, c = (positions[faces[:, k]] for k in range(3))
+    normals = np.cross(b - a, c - a)
+    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.where(lengths > 1e-30, normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
+
+
+def local_mesh(group: list[Primitive]) -> Mesh:
+    """The primitives of one node and material as one mesh, in the node's space. A primitive with
+    the file's normals keeps them (and its shared vertices); one without gets flat normals, as the
+    glTF specification asks, each triangle with its own three vertices."""
+    positions, normals, uvs, faces, start = [], [], [], [], 0
+    any_uvs = any(p.uvs is not None for p in group)
+    for p in group:
+        if p.normals is not None:
+            lengths = np.linalg.norm(p.normals, axis=1, keepdims=True)
+            corners = np.arange(len(p.positions))
+            normal = np.where(lengths > 1e-13, p.normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
+            face = p.faces
+        else:
+            corners = p.faces.ravel()
+            normal = np.repeat(_flat_normals(p.positions, p.faces), 3, axis=0)
+            face = np.arange(len(corners)).reshape(-1, 3)
+        positions.append(p.positions[corners])
+        normals.append(normal)
+        uvs.append(p.uvs[corners] if p.uvs is not None else np.zeros((len(corners), 2)))
+        faces.append(face + start)
+        start += len(corners)
+    return Mesh(np.concatenate(positions), np.concatenate(normals), np.concatenate(faces),
+                np.concatenate(uvs) if any_uvs else None)
 
 
 def primitive_modes(header: Mapping[str, Any], source: str) -> Iterator[tuple[int, int, Mapping[str, Any], int]]:

@@ -28,7 +28,8 @@ from depthimpostor.textures import read_texture
 from depthimpostor.scene.fields import NAME, RESOLUTION, SIZE, TRIANGLE_TARGET, At, Table, Variant, Vec3, read_file_bytes, read_variant, show
 from depthimpostor.scene.model import (
     EXPOSURE, IMPOSTOR_RESOLUTION, SAMPLES, TONE_MAPPING, ZERO, Animation, BoxShape, Camera, CheckerMaterial, CylinderShape, DiffuseMaterial,
-    Environment, GlassMaterial, Light, Material, MeshShape, MirrorMaterial, PlaneShape, RenderSettings, Scene,
+    Environment, GlassMaterial, Light, Material, MeshShape, MetallicRoughnessMaterial, MirrorMaterial, PlaneShape,
+    RenderSettings, Scene,
     SceneObject, Shape, SphereShape, Texture, TorusKnotShape, TorusShape,
 )
 
@@ -135,8 +136,21 @@ def _diffuse(t: Table) -> DiffuseMaterial:
     return DiffuseMaterial(t.opt("color", _COLOR, (1.0, 1.0, 1.0)), _texture(t))
 
 
+def _metallic_roughness(t: Table) -> MetallicRoughnessMaterial:
+    """glTF's material model written in TOML: a base colour (times an image texture), metallic,
+    roughness and emissive (docs/scene_format.md). What a glTF material becomes can be overridden
+    with it (a rough metal the glTF rules would make a mirror, say)."""
+    texture = _texture(t) if "texture" in t.data else None
+    default = MetallicRoughnessMaterial()
+    return MetallicRoughnessMaterial(
+        t.opt("color", _COLOR, (1.0, 1.0, 1.0) if texture is not None else default.color), texture,
+        t.opt("metallic", f.number(f.UNIT), default.metallic), t.opt("roughness", f.number(f.UNIT), default.roughness),
+        t.opt("emissive", _RADIANCE, default.emissive))
+
+
 _MATERIALS: dict[str, Variant[Material]] = {
     "diffuse": Variant(("color", "texture"), _diffuse),
+    "metallic_roughness": Variant(("color", "texture", "metallic", "roughness", "emissive"), _metallic_roughness),
     "checker": Variant(("color_a", "color_b", "scale"), lambda t: CheckerMaterial(
         t.req("color_a", _COLOR), t.req("color_b", _COLOR), t.opt("scale", _LENGTH, 1.0))),
     "mirror": Variant(("tint", "roughness"), lambda t: MirrorMaterial(

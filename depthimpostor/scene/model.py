@@ -13,7 +13,7 @@ from fractions import Fraction
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypeVar
+from typing import Protocol, TypeVar
 
 import numpy as np
 
@@ -250,15 +250,30 @@ class MeshShape:
     written: str  # as written in the scene file, for messages
 
 
+class ShapeMotion(Protocol):
+    """How a glTF part moves by its file's animation, skin or morph targets (scene/gltf_deform.py's
+    PartMotion): rigidly, `matrix(time)` acting on its mesh before the object's own placement, or,
+    where it `deforms`, as another mesh at each time (`mesh_at`, in the file's world space)."""
+
+    @property
+    def deforms(self) -> bool: ...
+
+    def matrix(self, time: float) -> np.ndarray: ...
+
+    def mesh_at(self, time: float) -> Mesh: ...
+
+
 @dataclass(frozen=True)
 class GltfShape:
     """One part of a glTF file: the triangles of one mesh node drawn with one of the file's
     materials (scene/gltf.py). `mesh` is in the file's world space, the node's transforms (and its
     parents') already applied, so that the object's own position, rotation and scale act on top.
-    Which node, mesh and material it is: the object's `origin`."""
+    Which node, mesh and material it is: the object's `origin`. `motion`: how the file moves it
+    (its mesh is then the part at time 0 where it deforms); None where it stays as written."""
 
     path: Path  # the file, resolved and absolute
     mesh: Mesh  # compared and hashed by identity (Mesh has eq=False): one part, one mesh
+    motion: ShapeMotion | None = dataclasses.field(default=None, compare=False)
 
 
 @dataclass(frozen=True)
@@ -295,6 +310,10 @@ class GltfOrigin:
 Shape = PlaneShape | BoxShape | SphereShape | CylinderShape | TorusShape | TorusKnotShape | MeshShape | GltfShape
 
 
+#: A texture's UV transform when it has none (Texture.uv_rows of the identity).
+IDENTITY_UV_ROWS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+
+
 @dataclass(frozen=True, eq=False)
 class Texture:
     """An image texture on a diffuse material: a glTF baseColorTexture, or a TOML `texture`. The
@@ -306,6 +325,21 @@ class Texture:
     mean_color: Vec3  # the mean of the image's RGB decoded to linear
     scale: tuple[float, float] = (1.0, 1.0)  # UV multipliers: how many times the image repeats across u and v
     name: str = ""  # what messages call it: the image file's name, or the glTF file's image
+    # KHR_texture_transform's offset and rotation (radians, counter-clockwise in UV space), applied
+    # after `scale`: uv' = T(offset) R(rotation) S(scale) uv, as the extension defines it.
+    offset: tuple[float, float] = (0.0, 0.0)
+    rotation: float = 0.0
+    # Colour, stored sRGB-encoded (decoded to linear when sampled: a base colour, an emissive map);
+    # False: data stored as it is (a metallic-roughness or occlusion map).
+    srgb: bool = True
+
+    @property
+    def uv_rows(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The UV transform's two rows (u' = a u + b v + c, v' = d u + e v + f): the material record's
+        uv_u and uv_v (lib/shading.glsl) and the truth's (textures.texture_bilinear)."""
+        cos, sin = math.cos(self.rotation), math.sin(self.rotation)
+        (su, sv), (ou, ov) = self.scale, self.offset
+        return (cos * su, sin * sv, ou), (-sin * su, cos * sv, ov)
 
     @property
     def wrap(self) -> tuple[int, int]:
@@ -319,6 +353,51 @@ class DiffuseMaterial:
     # An image texture (the per-vertex UVs are the object's mesh.uvs): the albedo is `color` times
     # its texel. Compared by identity.
     texture: Texture | None = None
+
+
+@dataclass(frozen=True)
+class MetallicRoughnessMaterial(DiffuseMaterial):
+    """glTF 2.0's material model (its specification's Appendix B: lib/brdf.glsl): `color` (times
+    the `texture`'s texel) is the base colour, `metallic` mixes a dielectric (a diffuse base under a
+    clear coat of F0 = 0.04) with a metal (F0 the base colour), `roughness` is the perceptual
+    roughness of both lobes (alpha = roughness^2), `emissive` the light it gives off. A diffuse
+    material for everything that only needs a colour (what a reflected ray's image holds, the
+    panel's edits): its shading alone depends on the viewer."""
+
+    metallic: float = 1.0
+    roughness: float = 1.0
+    emissive: Vec3 = (0.0, 0.0, 0.0)
+    # glTF's alphaMode MASK: where alpha (the base colour factor's times the texture's) is under
+    # `alpha_cutoff`, the surface is not there (every pass and the truth). None: opaque.
+    alpha: float = 1.0
+    alpha_cutoff: float | None = None
+    # glTF's other maps (linear data but the emissive map, which is colour): metalness in B and
+    # roughness in G (times the factors), ambient occlusion in R (mixed in by occlusion_strength:
+    # it darkens the ambient term alone), and the emission times `emissive`.
+    metallic_roughness_texture: Texture | None = None
+    occlusion_texture: Texture | None = None
+    occlusion_strength: float = 1.0
+    emissive_texture: Texture | None = None
+
+    @property
+    def maps(self) -> tuple[Texture | None, Texture | None, Texture | None]:
+        """The metallic-roughness, occlusion and emissive maps, in the material record's order."""
+        return self.metallic_roughness_texture, self.occlusion_texture, self.emissive_texture
+
+    @property
+    def masked(self) -> bool:
+        """Can parts of it be cut away (alphaMode MASK)?"""
+        return self.alpha_cutoff is not None
+
+
+def material_textures(material: object) -> tuple[Texture, ...]:
+    """Every image texture a material reads: its base colour's, then a metallic-roughness
+    material's other maps."""
+    texture = getattr(material, "texture", None)
+    found = [texture] if isinstance(texture, Texture) else []
+    if isinstance(material, MetallicRoughnessMaterial):
+        found += [m for m in material.maps if m is not None]
+    return tuple(found)
 
 
 @dataclass(frozen=True)
@@ -376,7 +455,18 @@ class SceneObject:
 
     @property
     def moves(self) -> bool:
-        return self.animation is not None
+        """Does it move: a TOML animation, or its glTF file's (gltf_deform.py)?"""
+        return self.animation is not None or self.motion is not None
+
+    @property
+    def motion(self) -> ShapeMotion | None:
+        """How its glTF file moves it (GltfShape.motion), or None."""
+        return self.shape.motion if isinstance(self.shape, GltfShape) else None
+
+    @property
+    def deforms(self) -> bool:
+        """Is its mesh another at each time (a glTF skin or morph targets), not only its transform?"""
+        return self.motion is not None and self.motion.deforms
 
     @property
     def is_mirror(self) -> bool:
@@ -407,12 +497,16 @@ class SceneObject:
         return self.is_mirror or self.is_glass
 
     def model_matrix(self, time: float = 0.0) -> np.ndarray:
-        """Local to world at `time` seconds, 4x4 float64 for column vectors: A(time) @ T @ Rz @ Ry @ Rx @ S,
-        so scale acts first and the animation A (the identity without one, or at time 0) last."""
+        """Local to world at `time` seconds, 4x4 float64 for column vectors: A(time) @ T @ Rz @ Ry @ Rx @ S
+        (@ G(time) for a glTF part its file moves rigidly: GltfShape.motion), so the file's motion acts
+        first, then scale, and the animation A (the identity without one, or at time 0) last."""
         rx, ry, rz = self.rotation
         m = np.eye(4)
         m[:3, :3] = axis_rotation(2, rz) @ axis_rotation(1, ry) @ axis_rotation(0, rx) @ np.diag(self.scale)
         m[:3, 3] = self.position
+        motion = self.motion
+        if motion is not None and not motion.deforms:
+            m = m @ motion.matrix(time)
         if self.animation is None:
             return m
         return self.animation.matrix(time, self.animation.pivot_of(self.position)) @ m
@@ -526,13 +620,13 @@ class Scene:
 
     @functools.cached_property
     def textures(self) -> tuple[Texture, ...]:
-        """The distinct image textures of the objects' materials (by identity), in object order:
-        texture slot k is the k-th (record k of gpu/textures.py's table: its array, layer, wraps).
-        Computed once: the fields are frozen."""
+        """The distinct image textures of the objects' materials (by identity), in object order, a
+        material's base colour texture before its other maps: texture slot k is the k-th (record k
+        of gpu/textures.py's table: its array, layer, wraps, transform). Computed once: the fields
+        are frozen."""
         seen: dict[int, Texture] = {}
         for obj in self.objects:
-            texture = getattr(obj.material, "texture", None)
-            if isinstance(texture, Texture):
+            for texture in material_textures(obj.material):
                 seen.setdefault(id(texture), texture)
         return tuple(seen.values())
 
@@ -541,9 +635,27 @@ class Scene:
         return {id(texture): k for k, texture in enumerate(self.textures)}
 
     def texture_slot(self, material: Material) -> int:
-        """The slot of the material's texture, or -1 for a material without one."""
-        texture = getattr(material, "texture", None)
+        """The slot of the material's (base colour) texture, or -1 for a material without one."""
+        return self.slot_of(getattr(material, "texture", None))
+
+    def slot_of(self, texture: Texture | None) -> int:
+        """The slot of one of the scene's textures, or -1 for none."""
         return -1 if texture is None else self._texture_slots[id(texture)]
+
+    @functools.cached_property
+    def materials(self) -> tuple[Material, ...]:
+        """The distinct materials of the objects that are shaded (neither mirrors nor glass), in
+        object order: material index k is the k-th (record k of lib/shading.glsl's MaterialRecords
+        table, which every pass reads: gpu/scene_blocks.py). Equal materials share one record."""
+        return tuple(dict.fromkeys(o.material for o in self.objects if not o.is_reflector))
+
+    @functools.cached_property
+    def _material_indices(self) -> dict[Material, int]:
+        return {material: k for k, material in enumerate(self.materials)}
+
+    def material_index(self, material: Material) -> int:
+        """The index of a shaded object's material in the MaterialRecords table."""
+        return self._material_indices[material]
 
     @property
     def diffuse_objects(self) -> tuple[SceneObject, ...]:

@@ -15,6 +15,12 @@ layout(std140) uniform TextureRecords {
     TextureRecord u_texture_records[TEXTURE_COUNT];
 };
 
+// The texture's UV: the mesh's, through the slot's UV transform (KHR_texture_transform's).
+vec2 texture_uv(int slot, vec2 mesh_uv) {
+    vec3 affine = vec3(mesh_uv, 1.0);
+    return vec2(dot(u_texture_records[slot].uv_u, affine), dot(u_texture_records[slot].uv_v, affine));
+}
+
 #ifdef RASTERIZED_TEXTURES
 #include "../generated/material_arrays.glsl"
 
@@ -38,7 +44,8 @@ float fold_coordinate(float u, int mode) {
 // sampler, its UV folded here, with the derivatives of the UV before folding: a fold turns the UV
 // back at a seam, where the folded UV's own derivatives would pick the finest level (a line of
 // aliasing along every seam) or, across fract's jump, the coarsest.
-vec3 material_texel(int slot, vec2 uv) {
+vec4 material_texel_rgba(int slot, vec2 mesh_uv) {
+    vec2 uv = texture_uv(slot, mesh_uv);
     ivec4 sampling = u_texture_records[slot].sampling;  // array, layer, wrap s, wrap t
 #ifdef FOLDED_TEXTURES
 #ifdef REPEATING_TEXTURES
@@ -46,11 +53,11 @@ vec3 material_texel(int slot, vec2 uv) {
 #endif
     {
         vec2 folded = vec2(fold_coordinate(uv.x, sampling.z), fold_coordinate(uv.y, sampling.w));
-        return material_array_clamped(sampling.x, vec3(folded, float(sampling.y)), dFdx(uv), dFdy(uv)).rgb;
+        return material_array_clamped(sampling.x, vec3(folded, float(sampling.y)), dFdx(uv), dFdy(uv));
     }
 #endif
 #ifdef REPEATING_TEXTURES
-    return material_array(sampling.x, vec3(uv, float(sampling.y))).rgb;
+    return material_array(sampling.x, vec3(uv, float(sampling.y)));
 #endif
 }
 
@@ -62,10 +69,13 @@ ivec2 texture_level0_size(int slot) {
     return u_texture_records[slot].texels.zw;
 }
 
-// Texel `texel` (in [0, size)) of the slot's level 0, decoded from sRGB by the exact table.
-vec3 texel_level0(int slot, ivec2 texel) {
+// Texel `texel` (in [0, size)) of the slot's level 0, its colour decoded from sRGB by the exact
+// table (data, srgb = 0: as stored, in [0, 1]), its alpha (linear) in [0, 1].
+vec4 texel_level0(int slot, ivec2 texel) {
     uvec4 encoded = texelFetch(u_material_texels, u_texture_records[slot].texels.xy + texel, 0);
-    return vec3(u_srgb_to_linear[encoded.r], u_srgb_to_linear[encoded.g], u_srgb_to_linear[encoded.b]);
+    if (u_texture_records[slot].srgb == 0) return vec4(encoded) / 255.0;
+    return vec4(u_srgb_to_linear[encoded.r], u_srgb_to_linear[encoded.g], u_srgb_to_linear[encoded.b],
+                float(encoded.a) / 255.0);
 }
 
 // i modulo n in [0, n) (numpy's np.mod). GLSL leaves % undefined for a negative operand, and
@@ -91,19 +101,26 @@ ivec2 wrap_texels(ivec2 index, ivec2 size, ivec2 mode) {
 // Level 0, bilinear, weights in float32: for traced rays, which have no derivatives to choose a
 // level from. The truth (textures.py's texture_bilinear) is this in numpy: see the comparison
 // rule there.
-vec3 material_texel(int slot, vec2 uv) {
+vec4 material_texel_rgba(int slot, vec2 mesh_uv) {
+    vec2 uv = texture_uv(slot, mesh_uv);
     ivec2 size = texture_level0_size(slot);
     vec2 x = uv * vec2(size) - 0.5;  // texel centres at half-integers
     vec2 base = floor(x);
     vec2 fraction = x - base;
     ivec2 i0 = ivec2(base);
     ivec2 mode = u_texture_records[slot].sampling.zw;
-    vec3 c00 = texel_level0(slot, wrap_texels(i0, size, mode));
-    vec3 c10 = texel_level0(slot, wrap_texels(i0 + ivec2(1, 0), size, mode));
-    vec3 c01 = texel_level0(slot, wrap_texels(i0 + ivec2(0, 1), size, mode));
-    vec3 c11 = texel_level0(slot, wrap_texels(i0 + ivec2(1, 1), size, mode));
-    vec3 top = c00 * (1.0 - fraction.x) + c10 * fraction.x;
-    vec3 bottom = c01 * (1.0 - fraction.x) + c11 * fraction.x;
+    vec4 c00 = texel_level0(slot, wrap_texels(i0, size, mode));
+    vec4 c10 = texel_level0(slot, wrap_texels(i0 + ivec2(1, 0), size, mode));
+    vec4 c01 = texel_level0(slot, wrap_texels(i0 + ivec2(0, 1), size, mode));
+    vec4 c11 = texel_level0(slot, wrap_texels(i0 + ivec2(1, 1), size, mode));
+    vec4 top = c00 * (1.0 - fraction.x) + c10 * fraction.x;
+    vec4 bottom = c01 * (1.0 - fraction.x) + c11 * fraction.x;
     return top * (1.0 - fraction.y) + bottom * fraction.y;
 }
 #endif
+
+// The texel's linear colour at the mesh's UV (material_texel_rgba's alpha is glTF's coverage:
+// alphaMode MASK).
+vec3 material_texel(int slot, vec2 mesh_uv) {
+    return material_texel_rgba(slot, mesh_uv).rgb;
+}

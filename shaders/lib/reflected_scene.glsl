@@ -205,15 +205,19 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
         if (t > 0.0 && all(lessThanEqual(abs(p.xz), plane.half_size)) && (!best.hit || t < best.t)) {
             // The plane's UVs as meshes.plane_uvs lays them out: the image over the whole rectangle.
             vec2 uv = p.xz / (2.0 * plane.half_size) + 0.5;
-            vec3 albedo = material_albedo(plane.material, p, uv);
+            Material material = u_materials[plane.material];
+#ifdef ALPHA_MASK
+            if (material_masked(material, uv)) continue;  // cut away: the ray goes on
+#endif
+            vec3 albedo = material_albedo(material, p, uv);
 #ifdef GLOSSY
             // A glossy mirror's cone: the checker box-filtered over its footprint on the plane.
-            if (g_cone_tan > 0.0 && plane.material.kind == MATERIAL_CHECKER) {
-                float share = checker_b_share(p.xz / plane.material.scale, plane_footprint(d, t) / plane.material.scale);
-                albedo = mix(plane.material.color_a, plane.material.color_b, share);
+            if (g_cone_tan > 0.0 && material.kind == MATERIAL_CHECKER) {
+                float share = checker_b_share(p.xz / material.scale, plane_footprint(d, t) / material.scale);
+                albedo = mix(material.color_a, material.color_b, share);
             }
 #endif
-            best = unlit_hit(t, p.xz, albedo, plane.normal, float(plane.object_id), 0);
+            best = unlit_hit(t, p.xz, albedo, plane.normal, plane.material, uv, float(plane.object_id), 0);
         }
     }
     return best;
@@ -327,7 +331,8 @@ RayHit trace_reflected(vec3 origin, vec3 direction) {
     // The share of the cone the object its axis hit does not cover (its silhouette's
     // neighbourhood in the footprint) sees what lies behind it: the plane beyond it, or the sky.
     if (hit.hit && !hit.unlit && g_cone_coverage < 1.0) {
-        vec3 behind = plane.hit ? shade(plane.color, origin + direction * plane.t, plane.normal)
+        vec3 behind = plane.hit ? shade_material(u_materials[plane.material], plane.color, plane.uv,
+                                                 origin + direction * plane.t, plane.normal, -direction)
                                 : prefiltered_environment(direction);
         hit.color = mix(behind, hit.color, g_cone_coverage);
     }
@@ -335,6 +340,8 @@ RayHit trace_reflected(vec3 origin, vec3 direction) {
 #else
     if (!hit.hit) hit.color = environment(direction);
 #endif
-    if (hit.hit && hit.unlit) hit.color = shade(hit.color, origin + direction * hit.t, hit.normal);
+    if (hit.hit && hit.unlit)
+        hit.color = shade_material(u_materials[hit.material], hit.color, hit.uv, origin + direction * hit.t, hit.normal,
+                                   -direction);
     return hit;
 }

@@ -1,9 +1,22 @@
-// The one shading model: color = albedo * (ambient + sum of lights' radiance * max(0, N.L)).
-// Diffuse shading does not depend on the viewer, so a depth image baked from a mirror's centre
-// holds exactly the colours a reflected ray should see. Shadows (the SHADOWS variant, for scenes
-// with a light that casts them) do not depend on the viewer either.
+// Two shading models. Diffuse and checker materials: color = albedo * (ambient + sum of lights'
+// radiance * max(0, N.L)), which does not depend on the viewer, so a depth image baked from a
+// mirror's centre holds exactly the colours a reflected ray should see. Shadows (the SHADOWS
+// variant, for scenes with a light that casts them) do not depend on the viewer either. glTF's
+// metallic-roughness materials (lib/brdf.glsl) do: a depth image holds them as seen from its
+// camera (the mirror's centre), traced rays and the truth shade them for the ray itself.
 #include "lighting.glsl"
 #include "../generated/material.glsl"
+
+// Every shaded material of the scene, one record each (gpu/scene_blocks.py writes them once):
+// an object, a batch's instance, a traced triangle's instance and an analytic plane carry its index.
+// MATERIAL_COUNT comes from the scene (gpu/uniforms.py's shading_defines); a program made without
+// it (the GPU ray query, the tests' probes: they shade nothing) declares one record.
+#ifndef MATERIAL_COUNT
+#define MATERIAL_COUNT 1
+#endif
+layout(std140) uniform MaterialRecords {
+    Material u_materials[MATERIAL_COUNT];
+};
 
 #ifdef SHADOWS
 #include "shadows.glsl"
@@ -31,12 +44,25 @@ vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
 #endif
 #ifdef TEXTURE_COUNT
     if (material.texture >= 0) {
-        vec2 scaled = uv * material.uv_scale;
-        return material.color_a * material_texel(material.texture, scaled);
+        return material.color_a * material_texel(material.texture, uv);
     }
 #endif
     return material.color_a;
 }
+
+#ifdef ALPHA_MASK
+// glTF's alphaMode MASK (the ALPHA_MASK variant: scenes with such a material): a point whose alpha,
+// the material's factor times its texture's, is under the material's cutoff is not there at all;
+// rasterized fragments discard it, traced rays pass through it. alpha_cutoff < 0: opaque.
+bool material_masked(Material material, vec2 uv) {
+    if (material.alpha_cutoff < 0.0) return false;
+    float alpha = material.alpha;
+#ifdef TEXTURE_COUNT
+    if (material.texture >= 0) alpha *= material_texel_rgba(material.texture, uv).a;
+#endif
+    return alpha < material.alpha_cutoff;
+}
+#endif
 
 // The lights shaded: a constant of the program where the pass gives one (LIGHT_COUNT, from the
 // scene: gpu/uniforms.py's shading_defines). llvmpipe runs a loop bounded by a uniform at about 5
@@ -47,20 +73,22 @@ vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
 #define LIGHT_COUNT u_lighting.light_count
 #endif
 
-// DIRECTIONAL_LIGHTS (a scene without point lights: shading_defines): the point lights' direction
-// is left out, and with it the surface's position where no shadow reads it.
+// The unit direction from `position` toward a light. DIRECTIONAL_LIGHTS (a scene without point
+// lights: shading_defines): the point lights' direction is left out, and with it the surface's
+// position where no shadow reads it.
+vec3 toward_light(Light light, vec3 position, vec3 normal) {
+#ifdef DIRECTIONAL_LIGHTS
+    return -light.vector;
+#else
+    return light.kind == LIGHT_DIRECTIONAL ? -light.vector : safe_normalize(light.vector - position, normal);
+#endif
+}
+
 vec3 shade(vec3 albedo, vec3 position, vec3 normal) {
     vec3 irradiance = vec3(u_lighting.ambient);
     for (int i = 0; i < LIGHT_COUNT; ++i) {
         Light light = u_lighting.lights[i];
-#ifdef DIRECTIONAL_LIGHTS
-        vec3 to_light = -light.vector;
-#else
-        vec3 to_light = light.kind == LIGHT_DIRECTIONAL
-            ? -light.vector
-            : safe_normalize(light.vector - position, normal);
-#endif
-        float cosine = max(0.0, dot(normal, to_light));
+        float cosine = max(0.0, dot(normal, toward_light(light, position, normal)));
 #ifdef SHADOWS
         // A surface facing away from the light gets none of it: no shadow ray needed.
         if (cosine > 0.0) cosine *= light_visibility(i, position, normal);
@@ -68,4 +96,55 @@ vec3 shade(vec3 albedo, vec3 position, vec3 normal) {
         irradiance += light.radiance * cosine;
     }
     return albedo * irradiance;
+}
+
+#ifdef METALLIC_ROUGHNESS
+#include "brdf.glsl"
+
+// A metallic-roughness surface of `base_color` (the material's factor times its texel: material_albedo)
+// at the mesh's texture coordinates `uv`, seen along `to_viewer` (unit, from the surface): the
+// ambient term as a uniform environment (darkened by the occlusion map), the lights through the
+// BRDF, and the emitted light. A variant of the scenes that have such a material
+// (METALLIC_ROUGHNESS: shading_defines); oracles/brdf.py's function of the same name.
+vec3 shade_metallic_roughness(Material material, vec3 base_color, vec2 uv, vec3 position, vec3 normal, vec3 to_viewer) {
+    float metallic = material.metallic, roughness = material.roughness, occlusion = 1.0;
+    vec3 emissive = material.emissive;
+#ifdef TEXTURE_COUNT
+    if (material.metallic_roughness_texture >= 0) {  // glTF: roughness in G, metalness in B
+        vec3 texel = material_texel(material.metallic_roughness_texture, uv);
+        roughness *= texel.g;
+        metallic *= texel.b;
+    }
+    if (material.occlusion_texture >= 0)
+        occlusion = 1.0 + material.occlusion_strength * (material_texel(material.occlusion_texture, uv).r - 1.0);
+    if (material.emissive_texture >= 0) emissive *= material_texel(material.emissive_texture, uv);
+#endif
+    vec3 c_diff = mix(base_color, vec3(0.0), metallic);
+    vec3 f0 = mix(vec3(DIELECTRIC_F0), base_color, metallic);
+    float lobe_roughness = max(roughness, MIN_ROUGHNESS);
+    float alpha = lobe_roughness * lobe_roughness;
+    float n_dot_v = abs(dot(normal, to_viewer));
+    vec3 color = u_lighting.ambient * occlusion * (c_diff + ambient_specular(f0, roughness, n_dot_v));
+    for (int i = 0; i < LIGHT_COUNT; ++i) {
+        Light light = u_lighting.lights[i];
+        vec3 to_light = toward_light(light, position, normal);
+        float cosine = dot(normal, to_light);
+        if (cosine <= 0.0) continue;
+#ifdef SHADOWS
+        cosine *= light_visibility(i, position, normal);
+#endif
+        color += metallic_roughness_brdf(c_diff, f0, alpha, normal, to_light, to_viewer) * light.radiance * cosine;
+    }
+    return color + emissive;
+}
+#endif
+
+// A surface of `material` (its colour at the point: `albedo`, material_albedo's; the mesh's texture
+// coordinates there: `uv`), seen along `to_viewer`: the one call every pass makes to shade a point.
+vec3 shade_material(Material material, vec3 albedo, vec2 uv, vec3 position, vec3 normal, vec3 to_viewer) {
+#ifdef METALLIC_ROUGHNESS
+    if (material.kind == MATERIAL_METALLIC_ROUGHNESS)
+        return shade_metallic_roughness(material, albedo, uv, position, normal, to_viewer);
+#endif
+    return shade(albedo, position, normal);
 }

@@ -86,6 +86,13 @@ vec3 triangle_normal(int i) {
     return cross(bvh_fetch(u_bvh_triangles, base + 1).xyz - p0, bvh_fetch(u_bvh_triangles, base + 2).xyz - p0);
 }
 
+// The mesh's texture coordinates on triangle i at barycentrics uv (those of p1 and p2).
+vec2 triangle_uv(int i, vec2 uv) {
+    int base = BVH_TRIANGLE_TEXELS * i;
+    vec4 uv01 = bvh_fetch(u_bvh_triangles, base + 6);
+    return (1.0 - uv.x - uv.y) * uv01.xy + uv.x * uv01.zw + uv.y * bvh_fetch(u_bvh_triangles, base + 7).xy;
+}
+
 // The hit on triangle i of instance `slot` at t (barycentrics uv), to be shaded as the rasterizer
 // shades the object (trace_reflected does, with the interpolated normal and the material's albedo
 // at the point).
@@ -98,20 +105,19 @@ RayHit triangle_hit(vec3 origin, vec3 direction, int slot, int i, float t, vec2 
     // a row vector times the matrix.
     vec3 normal = safe_normalize(local_normal * mat3(object.world_to_local), -direction);
     vec3 position = origin + direction * t;
-    Material material = Material(object.kind_and_id.x, object.color_a.xyz, object.color_b.xyz, object.color_a.w,
-                                 object.kind_and_id.z, object.texture.xy);
-    vec4 uv01 = bvh_fetch(u_bvh_triangles, base + 6);
-    vec2 texture_uv = (1.0 - uv.x - uv.y) * uv01.xy + uv.x * uv01.zw + uv.y * bvh_fetch(u_bvh_triangles, base + 7).xy;
+    Material material = u_materials[object.ids.x];
+    vec2 texture_uv = triangle_uv(i, uv);
     vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz, texture_uv);
-    return unlit_hit(t, uv, albedo, normal, float(object.kind_and_id.y), samples);
+    return unlit_hit(t, uv, albedo, normal, object.ids.x, texture_uv, float(object.ids.y), samples);
 }
 
 // The nearest triangle of one mesh that the ray (in the mesh's space) meets nearer than best_t,
 // through the mesh's hierarchy from node `root`: depth-first through the skip links (bvh.py), into
 // an inner node's left child when the ray meets its box, else past its subtree; the root's skip
-// link (-1) ends the walk. A triangle found updates best_* (best_slot: `slot`).
-void nearest_in_mesh(int root, int slot, vec3 origin, vec3 direction, inout float best_t, inout vec2 best_uv,
-                     inout int best_triangle, inout int best_slot, inout int visited) {
+// link (-1) ends the walk. A triangle found updates best_* (best_slot: `slot`). ALPHA_MASK: a
+// point the instance's `material` cuts away (glTF's alphaMode MASK) is passed through.
+void nearest_in_mesh(int root, int slot, int material, vec3 origin, vec3 direction, inout float best_t,
+                     inout vec2 best_uv, inout int best_triangle, inout int best_slot, inout int visited) {
     vec3 inverse_direction = 1.0 / direction;
     int node = root;
     while (node >= 0) {
@@ -133,6 +139,9 @@ void nearest_in_mesh(int root, int slot, vec3 origin, vec3 direction, inout floa
             vec2 uv;
             float t = intersect_triangle(origin, direction, i, uv);
             if (t > 0.0 && t < best_t) {
+#ifdef ALPHA_MASK
+                if (material_masked(u_materials[material], triangle_uv(i, uv))) continue;
+#endif
                 best_t = t;
                 best_triangle = i;
                 best_slot = slot;
@@ -172,8 +181,8 @@ int nearest_triangle(vec3 origin, vec3 direction, out float best_t, out vec2 bes
         TriangleInstance instance = triangle_instance(first);
         vec3 local_origin, local_direction;
         ray_in_instance(instance, origin, direction, local_origin, local_direction);
-        nearest_in_mesh(instance.mesh.x, first, local_origin, local_direction, best_t, best_uv, best_triangle, best_slot,
-                        visited);
+        nearest_in_mesh(instance.mesh.x, first, instance.ids.x, local_origin, local_direction, best_t, best_uv,
+                        best_triangle, best_slot, visited);
     }
     return best_triangle;
 }
