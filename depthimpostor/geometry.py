@@ -10,6 +10,8 @@ import numpy as np
 
 from . import meshes, textured_meshes
 from .meshes import Mesh, ritter_centres
+from .scene.gltf import gltf_trimesh
+from .scene.gltf_file import GLTF_SUFFIXES
 from .scene.model import (
     BoxShape,
     CylinderShape,
@@ -47,8 +49,8 @@ def mesh_for_shape(shape: Shape, textured: bool = False, level: int = 0) -> Mesh
         return meshes.torus(shape.major, shape.minor, *tessellation(shape, level))
     if isinstance(shape, TorusKnotShape):
         return meshes.torus_knot(shape.p, shape.q, shape.radius, shape.tube, *tessellation(shape, level))
-    if isinstance(shape, MeshShape):
-        return meshes.load_mesh_file(shape.path)
+    if isinstance(shape, MeshShape):  # a glTF file read as a `gltf` shape is, then joined
+        return meshes.load_mesh_file(shape.path, gltf_trimesh if shape.path.suffix.lower() in GLTF_SUFFIXES else None)
     if isinstance(shape, GltfShape):
         return shape.mesh  # read with the scene (scene/gltf.py), in the glTF file's world space
     raise TypeError(f"no mesh for shape {shape!r}")

@@ -24,6 +24,9 @@ chunks are not applied (the glTF specification says to ignore them; the texels a
 from __future__ import annotations
 
 import io
+import re
+import struct
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +36,10 @@ from .colour import encode_srgb
 
 #: What an image must be, as refusals say it.
 DECODABLE = "an image file Pillow can decode (PNG, JPEG, ...)"
+#: The most texels an image texture may have, read from its header before it is decoded (8192 x
+#: 8192): 256 MiB as the 8-bit RGBA texels, which the texture arrays, their mipmaps and the traced
+#: rays' atlas copy again. (Pillow's own guard, DecompressionBombError, stops at 179 million.)
+MAX_TEXELS = 2**26
 #: Modes whose `convert("RGBA")` is exact (8-bit samples, or fewer scaled to 8).
 CONVERTED = ("1", "L", "P", "RGB", "RGBA", "LA", "PA", "RGBX", "CMYK", "YCbCr")
 #: 16-bit unsigned greyscale, in Pillow's byte orders.
@@ -54,17 +61,44 @@ class ImageRefused(Exception):
 
 
 def read_image(file: Path | bytes) -> np.ndarray:
-    """The texels of an image file, or of its bytes (a glTF buffer view, a data URI)."""
+    """The texels of an image file, or of its bytes (a glTF buffer view, a data URI), its size
+    read from its header and checked against MAX_TEXELS before a pixel is decoded (Pillow's `open`
+    reads the header alone)."""
     try:
-        image = Image.open(file if isinstance(file, Path) else io.BytesIO(file))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # MAX_TEXELS is below it
+            image = Image.open(file if isinstance(file, Path) else io.BytesIO(file))
     except UnidentifiedImageError:
         raise ImageRefused(DECODABLE, "data in no image format Pillow knows") from None
-    except Image.DecompressionBombError as error:  # its message says the size and the limit
-        raise ImageRefused("an image Pillow agrees to open", str(error)) from None
+    except Image.DecompressionBombError as error:  # past Pillow's guard, which says the texels alone
+        raise ImageRefused(_AT_MOST, _bomb_size(file, str(error))) from None
     except Exception as error:  # a plugin's own error on a damaged header (SyntaxError, ValueError...)
         raise ImageRefused(DECODABLE, f"a damaged file: {type(error).__name__}: {error}") from error
     with image:
+        width, height = image.size
+        if width * height > MAX_TEXELS:
+            raise ImageRefused(_AT_MOST, f"{width}x{height}, {width * height:,} texels (its header, read before "
+                                         "decoding)")
         return decode_image(image)
+
+
+_AT_MOST = f"an image of at most {MAX_TEXELS:,} texels (8192x8192)"
+_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def _bomb_size(file: Path | bytes, message: str) -> str:
+    """What an image past Pillow's guard is: a PNG's width and height from its IHDR chunk (the
+    first, at byte 16), or the texels Pillow's message counts."""
+    if isinstance(file, Path):
+        with open(file, "rb") as opened:
+            head = opened.read(24)
+    else:
+        head = file[:24]
+    if head.startswith(_PNG_MAGIC) and len(head) == 24:
+        width, height = struct.unpack(">II", head[16:24])
+        return f"{width}x{height}, {width * height:,} texels (its header, read before decoding)"
+    texels = re.search(r"\((\d+) pixels\)", message)
+    return f"one of {int(texels[1]):,} texels (its header, read before decoding)" if texels else message
 
 
 def decode_image(image: Image.Image) -> np.ndarray:

@@ -287,8 +287,14 @@ def torus_knot(p: int, q: int, radius: float, tube: float,
 _MESH_CACHE: dict[Path, tuple[int, Mesh]] = {}
 
 
-def load_mesh_file(path: Path) -> Mesh:
-    """A model file (OBJ, PLY, STL, glTF, ... anything trimesh reads) as one smooth-shaded mesh.
+#: What reads a model file into a trimesh mesh in place of trimesh's own loader: given the
+#: resolved path and the path as shown (geometry.py gives glTF files to scene/gltf.py's reader).
+MeshReader = Callable[[Path, Path], Any]
+
+
+def load_mesh_file(path: Path, reader: MeshReader | None = None) -> Mesh:
+    """A model file (OBJ, PLY, STL, ... anything trimesh reads, or what `reader` reads) as one
+    smooth-shaded mesh.
 
     Parsed once per (resolved path, modification time): scenes and tests that name the same model
     share the result, and editing the file on disk makes the next call parse it again.
@@ -304,7 +310,7 @@ def load_mesh_file(path: Path) -> Mesh:
     cached = _MESH_CACHE.get(resolved)
     if cached is not None and cached[0] == modified:
         return cached[1]
-    mesh = _parse_mesh_file(resolved, shown)
+    mesh = _parse_mesh_file(resolved, shown, reader)
     _MESH_CACHE[resolved] = (modified, mesh)
     return mesh
 
@@ -314,15 +320,16 @@ def clear_mesh_cache() -> None:
     _MESH_CACHE.clear()
 
 
-def _parse_mesh_file(resolved: Path, shown: Path) -> Mesh:
+def _parse_mesh_file(resolved: Path, shown: Path, reader: MeshReader | None) -> Mesh:
     import trimesh  # only loading files needs it; the procedural shapes do not
 
     try:
-        # force="mesh" also flattens glTF and other scenes, applying their node transforms.
         # trimesh merges vertices by rounding coordinates to int64 steps of 1e-8, which numpy warns
         # about past 9e10; coordinates that large are refused below, in one line.
         with np.errstate(invalid="ignore", over="ignore"):
-            loaded = trimesh.load(str(resolved), force="mesh")
+            loaded = trimesh.load(str(resolved), force="mesh") if reader is None else reader(resolved, shown)
+    except DepthImpostorError:
+        raise
     except Exception as error:  # trimesh's parsers raise anything on a bad file; the user needs the name
         raise MeshError(f"{shown}: cannot read mesh file: {type(error).__name__}: {error}") from error
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:

@@ -26,17 +26,29 @@ Vec3 = tuple[float, float, float]
 
 def show(value: Any) -> str:
     """A value as TOML would write it, short enough for a one-line message."""
-    if isinstance(value, bool):
-        text = "true" if value else "false"
-    elif isinstance(value, str):
-        text = json.dumps(value)
-    elif isinstance(value, Mapping):
-        text = "{" + ", ".join(f"{k} = {show(v)}" for k, v in value.items()) + "}"
-    elif isinstance(value, (list, tuple)):
-        text = "[" + ", ".join(show(v) for v in value) + "]"
-    else:
-        text = str(value)
+    text = _shown(value, 81)
     return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _shown(value: Any, room: int) -> str:
+    """`show`'s text, cut once it passes `room` characters: a value read from a file may be a list
+    of millions or nested thousands deep (hostile JSON), and the message shows 80 characters."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value[:room])
+    if isinstance(value, Mapping):
+        opening, closing, parts = "{", "}", ((f"{k} = ", v) for k, v in value.items())
+    elif isinstance(value, (list, tuple)):
+        opening, closing, parts = "[", "]", (("", v) for v in value)
+    else:
+        return str(value)[:room]
+    text = opening
+    for k, (key, item) in enumerate(parts):
+        if len(text) > room:
+            return text
+        text += (", " if k else "") + key + _shown(item, room - len(text))
+    return text + closing
 
 
 @dataclass(frozen=True)
@@ -246,6 +258,15 @@ def read_variant(value: Any, at: At, variants: Mapping[str, Variant[T]], default
 #: The largest file a scene reads whole (a glTF file, its buffers in it): past it, more likely a
 #: mistake than a model, and over what a scene's meshes can take (scene/limits.py).
 MAX_FILE_BYTES = 2 * 2**30
+
+def leaves_folder(written: str) -> bool:
+    """Does a relative path climb out of the folder it is relative to (`..` past its start)? The
+    rule for every file a scene or glTF file names by a relative path (docs/scene_format.md,
+    "Paths"): it is in that folder or below it. Judged on the path as written, not on where links
+    lead: a link the user put in the folder is theirs to follow."""
+    normal = os.path.normpath(written)
+    return normal == os.pardir or normal.startswith(os.pardir + os.sep)
+
 
 #: What `read_file_bytes` says a file that is not a regular one is.
 _FILE_KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),

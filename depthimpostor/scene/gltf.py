@@ -12,21 +12,22 @@ import dataclasses
 import math
 import warnings
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
-from depthimpostor.constants import MAX_IOR, MAX_LIGHTS, Wrap
+from depthimpostor.constants import MAX_IOR, MAX_LIGHTS, MAX_NAMED_TRIANGLES, Wrap
 from depthimpostor.errors import SceneError, SceneWarning
 from depthimpostor.meshes import Mesh
 from depthimpostor.scene import fields as f
 from depthimpostor.scene.fields import At, Vec3, show
 from depthimpostor.scene.gltf_file import (
-    NOT_SURFACES, TRIANGLE_FAN, Primitive, check_header, decode_primitives, extension, ignored_features, index, items,
-    local_mesh, number_at, primitive_modes, read_json, scene_nodes, table,
+    NOT_SURFACES, TRIANGLE_FAN, TRIANGLE_STRIP, TRIANGLES, Primitive, PrimitiveSize, check_header, decode_primitive,
+    extension, ignored_features, index, items, local_mesh, number_at, primitive_modes, primitive_size, read_json,
+    scene_nodes, table,
 )
 from depthimpostor.scene.gltf_animation import FileAnimation, read_animation
 from depthimpostor.scene.gltf_data import GltfData
@@ -54,6 +55,17 @@ MAX_UV_ROTATION = 1.0e6
 FRAMING_FOV_Y = Camera().fov_y
 #: Without lights in the file: one light from above, as the scene_format.md example has.
 DEFAULT_LIGHT = Light("directional", direction=(-0.4, -1.0, -0.3))
+#: The most triangles a file may place, counted from its accessors before any is decoded (a node
+#: places its mesh's triangles again, so that a small file can claim billions): the hybrid method
+#: names a triangle by a float32 (MAX_NAMED_TRIANGLES), and no method draws more in useful time.
+MAX_PLACED_TRIANGLES = MAX_NAMED_TRIANGLES
+#: What one placed triangle costs the loader at most: its three corners' world-space position,
+#: normal and UV (float64) and its indices, as `local_mesh` and `Mesh.transformed` make them.
+PLACED_TRIANGLE_BYTES = 3 * 8 * (3 + 3 + 2) + 3 * 8
+#: The most memory the loader's arrays may take, from the same counts: the accessors decoded (as
+#: float64 and int64) and the placed triangles. A file's accessors can share bytes, so a file of
+#: megabytes can claim terabytes.
+MAX_DECODED_BYTES = 2 * 2**30
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,16 +136,45 @@ def read_gltf(path: Path, source: str) -> GltfFile:
         warnings.warn(SceneWarning(f"{source}: {len(ignored)} glTF feature(s) this loader does not implement, "
                                    f"drawn as if absent: {', '.join(ignored)}"), stacklevel=2)
     data = GltfData(resolved, header, source)
-    primitives = decode_primitives(data)
-    parts = _parts(data, primitives, ignored, read_animation(data))
+    walked = scene_nodes(header, source)
+    primitives = _decoded(data, walked)
+    parts = _parts(data, primitives, ignored, read_animation(data), walked)
     if not parts:
         raise SceneError(source, "", "expected a scene with at least one mesh node holding triangles, got none")
     used = _used_materials(header, source, primitives)
     materials = tuple(_material(header, k, value, data if k in used else None, source)
                       for k, value in enumerate(items(header, "materials", source)))
-    model = GltfFile(resolved, source, materials, tuple(parts), _lights(header, source), _camera(header, source))
+    model = GltfFile(resolved, source, materials, tuple(parts), _lights(header, source, walked),
+                     _camera(header, source, walked))
     _CACHE[resolved] = (modified, model)
     return model
+
+
+def _decoded(data: GltfData, walked: list[tuple[int, np.ndarray]]) -> dict[tuple[int, int], Primitive]:
+    """The triangle primitives of the meshes the scene's nodes place, by (mesh, primitive), decoded
+    once the counts of them all are known to fit: MAX_PLACED_TRIANGLES and MAX_DECODED_BYTES."""
+    header, source = data.header, data.source
+    sizes: dict[tuple[int, int], tuple[Mapping[str, Any], int, PrimitiveSize]] = {}
+    meshes, nodes = items(header, "meshes", source), items(header, "nodes", source)
+    placed = {index(nodes[i]["mesh"], len(meshes), At(source, f"nodes[{i}].mesh")) for i, _ in walked if "mesh" in nodes[i]}
+    for m, p, primitive, mode in primitive_modes(header, source):
+        if m in placed and mode in (TRIANGLES, TRIANGLE_STRIP):
+            sizes[m, p] = primitive, mode, primitive_size(data, primitive, mode, At(source, f"meshes[{m}].primitives[{p}]"))
+    by_mesh = Counter[int]()
+    for (m, _), (_, _, size) in sizes.items():
+        by_mesh[m] += size.triangles
+    triangles = sum(by_mesh[nodes[i]["mesh"]] for i, _ in walked if "mesh" in nodes[i])
+    if triangles > MAX_PLACED_TRIANGLES:
+        raise SceneError(source, "meshes", f"expected at most {MAX_PLACED_TRIANGLES:,} triangles placed by the scene's "
+                         f"nodes (a float32 names each in the hybrid method), got {triangles:,}, counted from the "
+                         "accessors before decoding")
+    decoded = sum(size.decoded_bytes for _, _, size in sizes.values()) + triangles * PLACED_TRIANGLE_BYTES
+    if decoded > MAX_DECODED_BYTES:
+        raise SceneError(source, "accessors", f"expected geometry that decodes into at most "
+                         f"{MAX_DECODED_BYTES / 2**30:g} GiB, got {decoded / 2**30:.3g} GiB, counted from the accessors "
+                         "before decoding (their counts, and the triangles the nodes place)")
+    return {key: decode_primitive(data, primitive, mode, At(source, f"meshes[{key[0]}].primitives[{key[1]}]"))
+            for key, (primitive, mode, _) in sizes.items()}
 
 
 def _used_materials(header: Mapping[str, Any], source: str, primitives: dict[tuple[int, int], Primitive]) -> set[int]:
@@ -141,26 +182,25 @@ def _used_materials(header: Mapping[str, Any], source: str, primitives: dict[tup
     used = set()
     for m, p, primitive, _ in primitive_modes(header, source):
         if (m, p) in primitives and "material" in primitive:
-            used.add(index(primitive["material"], len(header.get("materials", [])),
+            used.add(index(primitive["material"], len(items(header, "materials", source)),
                            At(source, f"meshes[{m}].primitives[{p}].material")))
     return used
 
 
 def _parts(data: GltfData, primitives: dict[tuple[int, int], Primitive], ignored: tuple[str, ...],
-           animation: FileAnimation | None) -> list[GltfPart]:
+           animation: FileAnimation | None, walked: list[tuple[int, np.ndarray]]) -> list[GltfPart]:
     """One part per mesh node and material, in the order the node tree is walked, each with how
     it moves (gltf_deform.py) where the file animates, skins or morphs it."""
     header, source = data.header, data.source
     meshes, nodes = items(header, "meshes", source), items(header, "nodes", source)
+    materials = items(header, "materials", source)
     by_mode: dict[int, list[str]] = {}
     for m, p, _, mode in primitive_modes(header, source):
         if mode == TRIANGLE_FAN:
             raise SceneError(source, f"meshes[{m}].primitives[{p}].mode", "expected triangles or a triangle strip "
-                             "(trimesh does not decode triangle fans: export them as triangles), got a fan (6)")
+                             "(export triangle fans as triangles), got a fan (6)")
         if mode in NOT_SURFACES:
             by_mode.setdefault(mode, []).append(f"meshes[{m}].primitives[{p}]")
-        elif (m, p) not in primitives:
-            raise SceneError(source, f"meshes[{m}].primitives[{p}].mode", f"expected a primitive mode 0 to 6, got {show(mode)}")
     if by_mode:
         skipped = sum(len(where) for where in by_mode.values())
         kinds = ", ".join(NOT_SURFACES[mode] for mode in sorted(by_mode))
@@ -170,7 +210,7 @@ def _parts(data: GltfData, primitives: dict[tuple[int, int], Primitive], ignored
     names = [_name(node) for node in nodes]
     named = Counter(names)
     parts = []
-    worlds = dict(scene_nodes(header, source))
+    worlds = dict(walked)
     for i, world in worlds.items():
         if "mesh" not in nodes[i]:
             continue
@@ -178,7 +218,10 @@ def _parts(data: GltfData, primitives: dict[tuple[int, int], Primitive], ignored
         groups: dict[int | None, list[tuple[int, Primitive]]] = {}
         for p, value in enumerate(meshes[m].get("primitives", [])):
             if (m, p) in primitives and len(primitives[m, p].faces):
-                groups.setdefault(value.get("material"), []).append((p, primitives[m, p]))
+                material = value.get("material")
+                if material is not None:
+                    index(material, len(materials), At(source, f"meshes[{m}].primitives[{p}].material"))
+                groups.setdefault(material, []).append((p, primitives[m, p]))
         if abs(np.linalg.det(world[:3, :3])) <= 1e-12 * float(np.linalg.norm(world[:3, :3])) ** 3 \
                 and "skin" not in nodes[i]:  # (a skinned mesh is placed by its joints alone)
             continue  # scaled to nothing: glTF's way to hide a node, which has no surface to draw
@@ -187,7 +230,7 @@ def _parts(data: GltfData, primitives: dict[tuple[int, int], Primitive], ignored
             label = "default" if material is None else _label(header, material)
             name = node if len(groups) == 1 else f"{node} ({label})"
             origin = GltfOrigin(source, i, names[i], m, _name(meshes[m]), tuple(p for p, _ in group), material,
-                                "" if material is None else _name(header["materials"][material]), ignored=ignored)
+                                "" if material is None else _name(materials[material]), ignored=ignored)
             motion = part_motion(data, animation, worlds, i, m, group)
             if motion is not None and motion.deforms:
                 parts.append(GltfPart(name, origin, material, motion.mesh_at(0.0), None, motion))
@@ -212,22 +255,22 @@ def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData,
     """A baseColorTexture: its image (EXT_texture_webp's where given, else `source`), decoded as
     written (image_files.py), its sampler's wrap modes, and its KHR_texture_transform (offset,
     rotation, scale: a texCoord there is listed as ignored, as the texture info's own)."""
-    textures = header.get("textures", [])
+    textures = items(header, "textures", source)
     t = index(info.get("index"), len(textures), at.key("index"))
     texture_at = At(source, f"textures[{t}]")
-    texture = table(textures[t], texture_at)
+    texture = textures[t]
     webp = extension(texture, "EXT_texture_webp", texture_at)
     image = webp.get("source") if webp is not None else texture.get("source")
     if image is None:
         others = ", ".join(table(texture.get("extensions", {}), texture_at.key("extensions")))
         raise texture_at.key("source").error("expected an image this loader reads (PNG, JPEG, WebP...), got none"
                                              + (f" (only {others}'s, which it does not read)" if others else ""))
-    pixels = data.image(index(image, len(header.get("images", [])), texture_at.key("source")))
+    pixels = data.image(index(image, len(items(header, "images", source)), texture_at.key("source")))
     sampler: dict[str, int] = {}
     if "sampler" in texture:
-        samplers = header.get("samplers", [])
+        samplers = items(header, "samplers", source)
         chosen = samplers[index(texture["sampler"], len(samplers), at.key("sampler"))]
-        sampler = {k: v for k, v in table(chosen, at).items() if isinstance(v, int)}
+        sampler = {k: v for k, v in chosen.items() if isinstance(v, int) and not isinstance(v, bool)}
         sampler_at = At(source, f"samplers[{texture['sampler']}]")
         for key in ("wrapS", "wrapT"):
             if key in sampler and sampler[key] not in {int(mode) for mode in Wrap}:
@@ -323,13 +366,15 @@ def _emissive(value: Mapping[str, Any], at: At) -> Vec3:
     return (r, g, b)
 
 
-def _lights(header: Mapping[str, Any], source: str) -> tuple[GltfLight, ...]:
+def _lights(header: Mapping[str, Any], source: str, walked: list[tuple[int, np.ndarray]]) -> tuple[GltfLight, ...]:
     """The KHR_lights_punctual lights placed on nodes of the scene, in tree order."""
     defined = extension(header, "KHR_lights_punctual", At(source, ""))
     lights = (defined or {}).get("lights", [])
+    if not isinstance(lights, list):
+        raise At(source, "extensions.KHR_lights_punctual.lights").error(f"expected an array, got {show(lights)}")
     nodes, placed = items(header, "nodes", source), []
-    for i, world in scene_nodes(header, source):
-        use = extension(nodes[i], "KHR_lights_punctual", At(source, f"nodes[{i}]"))
+    for i, world in walked:
+        use = extension(nodes[i], "KHR_lights_punctual", At(source, f"nodes[{i}]")) if "extensions" in nodes[i] else None
         if use is None:
             continue
         at = At(source, "extensions.KHR_lights_punctual.lights")
@@ -345,10 +390,11 @@ def _lights(header: Mapping[str, Any], source: str) -> tuple[GltfLight, ...]:
     return tuple(placed)
 
 
-def _camera(header: Mapping[str, Any], source: str) -> tuple[int, np.ndarray, float] | None:
+def _camera(header: Mapping[str, Any], source: str,
+            walked: list[tuple[int, np.ndarray]]) -> tuple[int, np.ndarray, float] | None:
     """The first node of the tree that holds a camera: a perspective one, or a refusal."""
     nodes, cameras = items(header, "nodes", source), items(header, "cameras", source)
-    for i, world in scene_nodes(header, source):
+    for i, world in walked:
         if "camera" not in nodes[i]:
             continue
         c = index(nodes[i]["camera"], len(cameras), At(source, f"nodes[{i}].camera"))
@@ -494,6 +540,26 @@ def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str
                                    f"are tinted by the mean colour of their baseColorTexture times baseColorFactor"),
                       stacklevel=3)
     return objects
+
+
+def gltf_trimesh(resolved: Path, shown: Path) -> Any:
+    """A glTF file's parts as one trimesh mesh in the file's world space (as trimesh's own
+    `force="mesh"` flattens a scene), for a `mesh` shape (meshes.load_mesh_file finishes it): read
+    here, its checks before any decoding are that shape's too (trimesh's reader walked a chain of
+    nodes in quadratic time, decoded every texture and read every accessor before a count could be
+    checked). UVs in trimesh's convention (v up), as meshes.py reads a file's."""
+    import trimesh
+
+    meshes = [part.mesh for part in read_gltf(resolved, str(shown)).parts]
+    starts = np.cumsum([0] + [len(mesh.positions) for mesh in meshes])
+    faces = np.concatenate([np.asarray(mesh.indices, np.int64) + start for mesh, start in zip(meshes, starts, strict=False)])
+    visual = None
+    if all(mesh.uvs is not None for mesh in meshes):
+        uvs = np.concatenate([np.asarray(mesh.uvs, np.float64) for mesh in meshes])
+        texture_visuals = cast(Callable[..., Any], trimesh.visual.TextureVisuals)  # trimesh has no hints
+        visual = texture_visuals(uv=np.stack([uvs[:, 0], 1.0 - uvs[:, 1]], axis=1))
+    positions = np.concatenate([np.asarray(mesh.positions, np.float64) for mesh in meshes])
+    return trimesh.Trimesh(positions, faces, visual=visual, process=False)
 
 
 def gltf_scene(path: Path, source: str) -> Scene:

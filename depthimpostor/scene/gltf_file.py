@@ -1,14 +1,15 @@
 """A glTF 2.0 file (.gltf or .glb) read into what the scene needs: its JSON, checked, the world
-matrix of every node of its scene, and each triangle primitive's arrays, decoded by trimesh.
+matrix of every node of its scene, and each triangle primitive's arrays, decoded by gltf_data.py.
 
-trimesh decodes the binary data (accessors, triangle strips, data URIs, external buffers), but
-for what it reads wrongly: sparse accessors, whose substitutions it drops, and images, whose
-errors it swallows, are read by gltf_data.py. What trimesh drops is read from the JSON, which is
-plain data: the extensions KHR_lights_punctual, KHR_materials_transmission, KHR_materials_ior and
+Everything is read here from the JSON, which is plain data, and the buffers (gltf_data.py): the
+extensions KHR_lights_punctual, KHR_materials_transmission, KHR_materials_ior and
 KHR_materials_emissive_strength
-(`ignored_features` names those used but not read), the exact material factors (trimesh rounds baseColorFactor to 8 bits), the primitive modes, and the node
-tree. The node tree's matrices are taken here too, because trimesh 5's scene graph leaves out the
-children of a node that holds a camera and places a camera by its own node's matrix alone.
+(`ignored_features` names those used but not read), the exact material factors, the primitive
+modes, the node tree. (trimesh decoded the geometry once; it dropped sparse substitutions and
+texture errors, decoded every texture again, read every accessor and node before a count could be
+checked, and placed a camera by its own node's matrix alone.) A hostile file is refused before it
+costs time or memory: the JSON's size in objects before it is parsed, every accessor's count and
+place before a byte is decoded (`primitive_size`), and the scene's sum of them (gltf.py).
 
 Every problem is a SceneError naming the file and the JSON path: `x.glb: nodes[2].matrix: ...`.
 """
@@ -16,7 +17,9 @@ Every problem is a SceneError naming the file and the JSON path: `x.glb: nodes[2
 from __future__ import annotations
 
 import json
+import re
 import struct
+import sys
 import urllib.parse
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
@@ -28,8 +31,8 @@ import numpy as np
 from depthimpostor.constants import MAX_COORDINATE
 from depthimpostor.errors import SceneError
 from depthimpostor.meshes import Mesh
-from depthimpostor.scene.fields import At, Reader, numbers, read_file_bytes, show
-from depthimpostor.scene.gltf_data import GltfData
+from depthimpostor.scene.fields import At, Reader, leaves_folder, numbers, read_file_bytes, show
+from depthimpostor.scene.gltf_data import GltfData, Layout
 
 GLTF_SUFFIXES = (".glb", ".gltf")
 #: The extensions read here. A file may require (`extensionsRequired`) these alone: any other
@@ -39,11 +42,17 @@ GLTF_SUFFIXES = (".glb", ".gltf")
 SUPPORTED_REQUIRED = ("KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior",
                       "KHR_materials_emissive_strength", "KHR_texture_transform", "EXT_texture_webp")
 
-# Primitive modes (glTF 2.0, 3.7.2.1): what trimesh decodes into triangles, and what has no surface.
+# Primitive modes (glTF 2.0, 3.7.2.1): the triangles read, and what has no surface.
 TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN = 4, 5, 6
 NOT_SURFACES = {0: "points", 1: "lines", 2: "a line loop", 3: "a line strip"}
 
 _GLB_MAGIC, _GLB_JSON = b"glTF", 0x4E4F534A
+
+#: The most JSON objects and values a glTF file's JSON may hold, counted in its bytes (every `{`,
+#: every `,`; within strings too, so an upper bound) before it is parsed: Python's JSON reader
+#: takes about 3 s and 300 MB for a million small objects (a million nodes). A real file keeps its
+#: data in buffers: its JSON holds thousands of objects, rarely a hundred thousand.
+MAX_JSON_OBJECTS, MAX_JSON_VALUES = 2**18, 2**22
 
 
 def read_json(path: Path, source: str) -> dict[str, Any]:
@@ -57,10 +66,17 @@ def read_json(path: Path, source: str) -> dict[str, Any]:
             raise SceneError(source, "", "expected a binary glTF file whose first chunk is its JSON, got a "
                                          "damaged or truncated file")
         data = data[20:20 + length]
+    for what, count, most in (("objects", data.count(b"{"), MAX_JSON_OBJECTS), ("values", data.count(b","), MAX_JSON_VALUES)):
+        if count > most:
+            raise SceneError(source, "", f"expected glTF JSON of at most {most:,} {what} (nodes, accessors, ...: its "
+                                         f"data belongs in buffers), got about {count:,}")
     try:
         header = json.loads(data.decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError) as err:
         raise SceneError(source, "", f"expected glTF JSON, got a file that is not JSON: {err}") from err
+    except RecursionError:
+        raise SceneError(source, "", "expected glTF JSON, got arrays or objects nested too deep to read "
+                                     f"(over {sys.getrecursionlimit()} levels)") from None
     if not isinstance(header, dict):
         raise SceneError(source, "", f"expected glTF JSON (an object at the top), got {show(header)}")
     return header
@@ -74,10 +90,13 @@ def table(value: Any, at: At) -> Mapping[str, Any]:
 
 def items(header: Mapping[str, Any], key: str, source: str) -> list[Mapping[str, Any]]:
     """The array of objects at `key` (empty when absent)."""
-    at, value = At(source, key), header.get(key, [])
+    value = header.get(key, [])
     if not isinstance(value, list):
-        raise at.error(f"expected an array, got {show(value)}")
-    return [table(v, at.index(i)) for i, v in enumerate(value)]
+        raise At(source, key).error(f"expected an array, got {show(value)}")
+    for i, item in enumerate(value):  # the place of an item is made for its message alone: lists are long
+        if not isinstance(item, dict):
+            table(item, At(source, key).index(i))
+    return value
 
 
 def index(value: Any, count: int, at: At) -> int:
@@ -99,23 +118,47 @@ def check_header(header: Mapping[str, Any], source: str, folder: Path) -> None:
     for key in ("buffers", "images"):
         for i, item in enumerate(items(header, key, source)):
             uri = item.get("uri")
-            if isinstance(uri, str) and not uri.startswith("data:") and not (folder / urllib.parse.unquote(uri)).is_file():
-                raise SceneError(source, f"{key}[{i}].uri", f"expected a file next to the glTF file (in {folder}), "
-                                 f"got {show(uri)}: no such file")
+            if isinstance(uri, str) and not uri.startswith("data:"):
+                _check_uri(uri, folder, At(source, f"{key}[{i}].uri"))
+
+
+#: A URI with a scheme (`file:`, `http:`...): glTF's other URIs are relative to the file.
+_SCHEME = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*:")
+
+
+def _check_uri(uri: str, folder: Path, at: At) -> None:
+    """A buffer's or image's URI: a relative path to a file in the glTF file's folder or below it,
+    as a TOML scene's relative paths are (fields.leaves_folder: the one rule, scene_format.md's
+    "Paths"). Not an absolute path or another scheme: a file from elsewhere must not read the
+    reader's files."""
+    path = urllib.parse.unquote(uri)
+    if _SCHEME.match(uri) or path.startswith("/"):
+        raise at.error(f"expected a data: URI or a path relative to the glTF file, got {show(uri)}")
+    if leaves_folder(path):
+        raise at.error(f"expected a file in the glTF file's folder or below it (in {folder}), got {show(uri)}, "
+                       "which leaves it")
+    try:
+        found = (folder / path).is_file()
+    except OSError as error:  # a name too long for the file system
+        raise at.error(f"expected a file next to the glTF file, got {show(uri)}: {error.strerror or error}") from None
+    if not found:
+        raise at.error(f"expected a file next to the glTF file (in {folder}), got {show(uri)}: no such file")
 
 
 def _extension_names(value: Any) -> Iterator[str]:
     """The name of every extension object anywhere in the JSON (files do not always list what they
-    use in `extensionsUsed`), but in `extras`, which is the application's own data."""
-    if isinstance(value, Mapping):
-        for key, item in value.items():
-            if key == "extensions" and isinstance(item, Mapping):
-                yield from (name for name in item if isinstance(name, str))
-            if key != "extras":
-                yield from _extension_names(item)
-    elif isinstance(value, list):
-        for item in value:
-            yield from _extension_names(item)
+    use in `extensionsUsed`), but in `extras`, which is the application's own data. (A stack, not
+    recursion: the JSON may nest as deep as the JSON reader went.)"""
+    stack = [value]
+    while stack:  # JSON's objects are dicts (no slower Mapping checks: a file may hold 10^5 of them)
+        item = stack.pop()
+        if type(item) is dict:
+            extensions = item.get("extensions")
+            if type(extensions) is dict:
+                yield from (name for name in extensions if isinstance(name, str))
+            stack.extend(child for key, child in item.items() if key != "extras" and type(child) in (dict, list))
+        elif type(item) is list:
+            stack.extend(child for child in item if type(child) in (dict, list))
 
 
 def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
@@ -158,12 +201,16 @@ def ignored_features(header: Mapping[str, Any]) -> tuple[str, ...]:
     for mesh in meshes if isinstance(meshes, list) else []:
         primitives = mesh.get("primitives", []) if isinstance(mesh, Mapping) else []
         for primitive in primitives if isinstance(primitives, list) else []:
-            if isinstance(primitive, Mapping) and "COLOR_0" in primitive.get("attributes", {}):
+            attributes = primitive.get("attributes") if isinstance(primitive, Mapping) else None
+            if isinstance(attributes, Mapping) and "COLOR_0" in attributes:
                 features["COLOR_0 (vertex colours)"] = None
     animations = header.get("animations", [])
     if isinstance(animations, list) and len(animations) > 1:  # gltf_animation.py plays the first alone
         features[f"{len(animations) - 1} animation(s) after the first (only animations[0] plays)"] = None
     return tuple(sorted(extensions - set(SUPPORTED_REQUIRED))) + tuple(features)
+
+
+_PLACEMENT = ("matrix", "translation", "rotation", "scale")
 
 
 def node_matrix(node: Mapping[str, Any], at: At) -> np.ndarray:
@@ -185,37 +232,48 @@ def node_matrix(node: Mapping[str, Any], at: At) -> np.ndarray:
     return matrix
 
 
-def scene_nodes(header: Mapping[str, Any], source: str) -> Iterator[tuple[int, np.ndarray]]:
+def scene_nodes(header: Mapping[str, Any], source: str) -> list[tuple[int, np.ndarray]]:
     """Every node of the file's scene (`scene`, or the first) with its world matrix, depth first in
-    the order the file lists them: parents before children, each child as parent @ local."""
+    the order the file lists them: parents before children, each child as parent @ local. (Walked
+    once per file: it is as long as the file's node list, which may be long.)"""
     nodes, scenes = items(header, "nodes", source), items(header, "scenes", source)
     if not scenes:
-        return
+        return []
     chosen = index(header.get("scene", 0), len(scenes), At(source, "scene"))
     roots = scenes[chosen].get("nodes", [])
     at = At(source, f"scenes[{chosen}].nodes")
+    if not isinstance(roots, list):
+        raise at.error(f"expected an array of node indices, got {show(roots)}")
     stack = [(index(root, len(nodes), at.index(i)), np.eye(4)) for i, root in enumerate(roots)][::-1]
     seen: set[int] = set()
+    walked = []
     while stack:
         i, parent = stack.pop()
         if i in seen:
             raise SceneError(source, f"nodes[{i}]", "expected a node tree (each node with one parent, no cycles), "
                                                     "got a node reached twice")
         seen.add(i)
-        world = parent @ node_matrix(nodes[i], At(source, f"nodes[{i}]"))
-        if not np.isfinite(world).all():
+        # A node with no transform is the identity: its children keep its parent's matrix (and a
+        # chain of 10^5 such nodes costs no matrix product, nor an At, a node).
+        local = None if nodes[i].keys().isdisjoint(_PLACEMENT) else node_matrix(nodes[i], At(source, f"nodes[{i}]"))
+        world = parent if local is None else parent @ local
+        if local is not None and not np.isfinite(world).all():
             raise SceneError(source, f"nodes[{i}]", "expected finite transforms, got a world matrix that overflows")
-        yield i, world
+        walked.append((i, world))
         children = nodes[i].get("children", [])
         if not isinstance(children, list):
             raise SceneError(source, f"nodes[{i}].children", f"expected an array of node indices, got {show(children)}")
-        child_at = At(source, f"nodes[{i}].children")
-        stack.extend((index(c, len(nodes), child_at.index(k)), world) for k, c in reversed(list(enumerate(children))))
+        for k in range(len(children) - 1, -1, -1):
+            child = children[k]
+            if not (type(child) is int and 0 <= child < len(nodes)):  # its place made for the message alone
+                index(child, len(nodes), At(source, f"nodes[{i}].children").index(k))
+            stack.append((child, world))
+    return walked
 
 
 @dataclass(frozen=True, eq=False)
 class Primitive:
-    """One triangle primitive's arrays, in its mesh's local space, as trimesh decoded them."""
+    """One triangle primitive's arrays, in its mesh's local space."""
 
     positions: np.ndarray  # (N, 3)
     faces: np.ndarray  # (M, 3)
@@ -263,80 +321,88 @@ def primitive_modes(header: Mapping[str, Any], source: str) -> Iterator[tuple[in
         if not isinstance(primitives, list):
             raise SceneError(source, f"meshes[{m}].primitives", f"expected an array, got {show(primitives)}")
         for p, value in enumerate(primitives):
-            primitive = table(value, At(source, f"meshes[{m}].primitives[{p}]"))
+            at = At(source, f"meshes[{m}].primitives[{p}]")
+            primitive = table(value, at)
             mode = primitive.get("mode", TRIANGLES)
+            if not (isinstance(mode, int) and not isinstance(mode, bool) and 0 <= mode <= TRIANGLE_FAN):
+                raise at.key("mode").error(f"expected a primitive mode 0 to 6, got {show(mode)}")
             yield m, p, primitive, mode
 
 
-def decode_primitives(data: GltfData) -> dict[tuple[int, int], Primitive]:
-    """Each triangle primitive, by (mesh, primitive). trimesh's scene keeps one geometry per
-    primitive it decodes (points, lines, triangles and strips; not loops, line strips or fans), in
-    the file's order, whether a node uses it or not: that order pairs them with the JSON's. Where
-    an accessor it reads is sparse, trimesh read its base alone: `data` reads it whole."""
-    path, header, source = data.path, data.header, data.source
-    import trimesh  # only glTF and model files need it
+#: The vertex attributes read, and their components: glTF requires these widths (3.7.2.1).
+ATTRIBUTES = {"POSITION": 3, "NORMAL": 3, "TEXCOORD_0": 2}
 
-    try:
-        with np.errstate(invalid="ignore", over="ignore"):
-            loaded = trimesh.load(str(path), force="scene")
-    except Exception as error:  # trimesh raises anything on a bad file; the user needs the name
-        raise SceneError(source, "", f"cannot read the glTF file: {type(error).__name__}: {error}") from error
-    if not isinstance(loaded, trimesh.Scene):  # force="scene" promises one
-        raise SceneError(source, "", f"cannot read the glTF file: trimesh gave a {type(loaded).__name__}")
-    decoded = [(m, p, primitive) for m, p, primitive, mode in primitive_modes(header, source) if mode in (0, 1, 4, 5)]
-    geometry = list(loaded.geometry.values())
-    if len(geometry) != len(decoded):
-        raise SceneError(source, "meshes", f"expected trimesh to decode the file's {len(decoded)} primitives, "
-                                           f"got {len(geometry)} (a damaged file, or one trimesh cannot read)")
-    result = {}
-    for (m, p, primitive), mesh in zip(decoded, geometry, strict=True):
-        if primitive.get("mode", TRIANGLES) not in (TRIANGLES, TRIANGLE_STRIP):
+
+@dataclass(frozen=True)
+class PrimitiveSize:
+    """What decoding a triangle primitive makes, from its accessors' counts alone."""
+
+    triangles: int
+    decoded_bytes: int  # its accessors as float64 / int64 arrays
+
+
+def primitive_size(data: GltfData, primitive: Mapping[str, Any], mode: int, at: At) -> PrimitiveSize:
+    """A triangle primitive's (TRIANGLES or TRIANGLE_STRIP) counts, every accessor it reads checked
+    (type, count, place in its buffer) and nothing decoded: what a file claims is summed before
+    any array is made."""
+    attributes = table(primitive.get("attributes", {}), at.key("attributes"))
+    if "POSITION" not in attributes:
+        raise at.key("attributes").error("expected a POSITION attribute, got none")
+    layouts: dict[str, Layout] = {}
+    for name, width in ATTRIBUTES.items():
+        if name not in attributes:
             continue
-        if not isinstance(mesh, trimesh.Trimesh):
-            raise SceneError(source, f"meshes[{m}].primitives[{p}]", f"expected triangles, got {type(mesh).__name__}")
-        visual = mesh.visual
-        uvs = getattr(visual, "uv", None)
-        if uvs is not None:
-            uvs = np.asarray(uvs, np.float64).copy()
-            uvs[:, 1] = 1.0 - uvs[:, 1]  # trimesh flips v for a lower-left origin; glTF's is the top-left
-        has_normals = "NORMAL" in primitive.get("attributes", {})
-        result[m, p] = _patched(data, primitive, Primitive(
-            positions=np.asarray(mesh.vertices, np.float64), faces=np.asarray(mesh.faces, np.int64),
-            normals=np.asarray(mesh.vertex_normals, np.float64) if has_normals else None, uvs=uvs),
-            At(source, f"meshes[{m}].primitives[{p}]"))
-    largest = max((float(np.abs(p.positions).max(initial=0.0)) for p in result.values()), default=0.0)
-    if not largest <= MAX_COORDINATE:  # also NaN
-        raise SceneError(source, "accessors", f"expected vertex coordinates of magnitude at most {MAX_COORDINATE:g} "
-                                              f"(float32 geometry squares distances), got {largest:g}")
-    return result
+        layout = data.layout(attributes[name], at.key("attributes").key(name))
+        if layout.width != width:
+            raise at.key("attributes").key(name).error(f"expected an accessor of VEC{width}, got one of {layout.width} "
+                                                       "components")
+        if name != "POSITION" and layout.count != layouts["POSITION"].count:
+            raise at.key("attributes").key(name).error(f"expected {layouts['POSITION'].count} elements, as POSITION "
+                                                       f"has, got {layout.count}")
+        layouts[name] = layout
+    corners, corners_at = layouts["POSITION"].count, at.key("attributes").key("POSITION")
+    if "indices" in primitive:
+        corners_at = at.key("indices")
+        indices = data.layout(primitive["indices"], corners_at)
+        if indices.width != 1 or indices.dtype.kind != "u":
+            raise corners_at.error("expected an accessor of SCALAR unsigned integers (5121, 5123 or 5125), got one of "
+                                   f"{indices.width} component(s) of {indices.dtype.name}")
+        corners = indices.count
+    if mode == TRIANGLES and corners % 3:
+        raise corners_at.error(f"expected a count divisible by 3 (the corners of triangles), got {corners}")
+    triangles = corners // 3 if mode == TRIANGLES else max(corners - 2, 0)
+    return PrimitiveSize(triangles, sum(layout.decoded_bytes for layout in layouts.values()) + 8 * corners)
 
 
-def _sparse(header: Mapping[str, Any], value: Any) -> bool:
-    """Is accessors[value] sparse? (A bad index is trimesh's to refuse: it read the file.)"""
-    accessors = header.get("accessors", [])
-    return isinstance(value, int) and 0 <= value < len(accessors) and "sparse" in accessors[value]
+def decode_primitive(data: GltfData, primitive: Mapping[str, Any], mode: int, at: At) -> Primitive:
+    """A triangle primitive's arrays (primitive_size checked its accessors): sparse substitutions
+    made, normalized integers scaled (gltf_data.py), strips turned into triangles."""
+    attributes = primitive["attributes"]
+    positions = data.accessor(attributes["POSITION"]).astype(np.float64)
+    normals, uvs = (data.accessor(attributes[name]).astype(np.float64) if name in attributes else None
+                    for name in ("NORMAL", "TEXCOORD_0"))
+    corners = data.accessor(primitive["indices"]).ravel() if "indices" in primitive \
+        else np.arange(len(positions), dtype=np.int64)
+    faces = corners.reshape(-1, 3) if mode == TRIANGLES else _strip_faces(corners)
+    if faces.size and int(faces.max()) >= len(positions):
+        raise at.key("indices").error(f"expected vertex indices below the POSITION count {len(positions)}, got "
+                                      f"{int(faces.max())}")
+    if not np.abs(positions).max(initial=0.0) <= MAX_COORDINATE:  # also NaN
+        raise at.key("attributes").key("POSITION").error(
+            f"expected vertex coordinates of magnitude at most {MAX_COORDINATE:g} (float32 geometry squares "
+            f"distances), got {float(np.abs(positions).max()):g}")
+    if uvs is not None and not np.isfinite(uvs).all():
+        raise at.key("attributes").key("TEXCOORD_0").error("expected finite texture coordinates, got NaN or infinity")
+    return Primitive(positions, np.asarray(faces, np.int64), normals, uvs)
 
 
-def _patched(data: GltfData, primitive: Mapping[str, Any], decoded: Primitive, at: At) -> Primitive:
-    """The primitive with each sparse accessor it uses (POSITION, NORMAL, TEXCOORD_0, indices)
-    read whole, substitutions made (trimesh keeps the accessors' order: process=False)."""
-    attributes, header = primitive.get("attributes", {}), data.header
-    arrays = {name: data.accessor(attributes[name]).astype(np.float64) for name in ("POSITION", "NORMAL", "TEXCOORD_0")
-              if name in attributes and _sparse(header, attributes[name])}
-    faces = decoded.faces
-    if _sparse(header, primitive.get("indices")):
-        import trimesh
-
-        flat = data.accessor(primitive["indices"]).ravel()
-        faces = trimesh.util.triangle_strips_to_faces([flat]) if primitive.get("mode", TRIANGLES) == TRIANGLE_STRIP \
-            else flat[:len(flat) - len(flat) % 3].reshape(-1, 3)
-    if not arrays and faces is decoded.faces:
-        return decoded
-    positions = arrays.get("POSITION", decoded.positions)
-    if faces.size and not 0 <= int(faces.min()) <= int(faces.max()) < len(positions):
-        raise at.key("indices").error(f"expected vertex indices in [0, {len(positions)}), got {int(faces.max())}")
-    return Primitive(positions, np.asarray(faces, np.int64), arrays.get("NORMAL", decoded.normals),
-                     arrays.get("TEXCOORD_0", decoded.uvs) if decoded.uvs is not None else None)
+def _strip_faces(corners: np.ndarray) -> np.ndarray:
+    """A triangle strip's triangles (glTF 3.7.2.1): (c0, c1, c2), then (c3, c2, c1)... each second
+    one turned so that all wind alike (written (c[i+2], c[i+1], c[i]), as trimesh writes them)."""
+    faces = np.stack([corners[:-2], corners[1:-1], corners[2:]], axis=1) if len(corners) >= 3 \
+        else np.zeros((0, 3), np.int64)
+    faces[1::2] = faces[1::2, ::-1]
+    return faces
 
 
 def number_at(value: Mapping[str, Any], key: str, default: float, reader: Reader[float], at: At) -> float:
@@ -346,5 +412,7 @@ def number_at(value: Mapping[str, Any], key: str, default: float, reader: Reader
 
 def extension(value: Mapping[str, Any], name: str, at: At) -> Mapping[str, Any] | None:
     """The object's extension `name`, or None."""
-    extensions = table(value.get("extensions", {}), at.key("extensions"))
+    if "extensions" not in value:
+        return None
+    extensions = table(value["extensions"], at.key("extensions"))
     return table(extensions[name], at.key("extensions").key(name)) if name in extensions else None

@@ -20,6 +20,8 @@ from depthimpostor.scene.model import axis_rotation
 #: Coplanarity, coverage and UV fit, relative to the rectangle's size (float32 positions and UVs
 #: carry about 1e-7 relative error; a genuinely bent or textured-otherwise part is far beyond this).
 RELATIVE_TOLERANCE = 1e-5
+#: Directions (radians) that differ by rounding alone: one edge's, computed from two triangles.
+ANGLE_ROUNDING = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,18 +64,29 @@ def find_rectangle(mesh: Mesh) -> Rectangle | None:
 
 def _corner_sides(p: np.ndarray, tri: np.ndarray, centre: np.ndarray, normal: np.ndarray,
                   near: float) -> list[np.ndarray]:
-    """The in-plane unit directions of the edges leaving the vertex farthest from `centre`. Were
-    the part a rectangle, that vertex is a corner (a convex shape's farthest point is a corner) and
-    the triangles filling its right angle have edges along both sides: so these few directions are
-    the only ones worth trying, and a large flat mesh costs one pass per direction, not per edge."""
+    """The in-plane unit directions along which the vertex farthest from `centre` may have its two
+    sides. Were the part a rectangle, that vertex is a corner (a convex shape's farthest point is a
+    corner), every edge leaving it lies within its right angle, and the two sides are the edges at
+    the angle's two ends: so only the most clockwise and the most counter-clockwise edge directions
+    are worth trying (in the order the triangles list them), and a large flat mesh costs two passes,
+    however many triangles share the corner (trying every edge was quadratic on a fan of them)."""
     corner = p[np.argmax(np.linalg.norm(p - centre, axis=1))]
-    directions = []
-    for triangle in tri[np.linalg.norm(tri - corner, axis=2).min(axis=1) <= near]:
-        for other in triangle:
-            along = other - corner - normal * float((other - corner) @ normal)
-            if np.linalg.norm(along) > near:
-                directions.append(along / np.linalg.norm(along))
-    return directions
+    touching = tri[np.linalg.norm(tri - corner, axis=2).min(axis=1) <= near].reshape(-1, 3) - corner
+    along = touching - np.outer(touching @ normal, normal)
+    lengths = np.linalg.norm(along, axis=1)
+    directions = along[lengths > near] / lengths[lengths > near, None]
+    if not len(directions):
+        return []
+    # Angles about the normal from the direction toward the centre, which lies inside the corner's
+    # angle: every edge is within a quarter turn of it either way, so no angle wraps around.
+    inward = centre - corner - normal * float((centre - corner) @ normal)
+    inward /= max(float(np.linalg.norm(inward)), 1e-300)
+    angles = np.arctan2(directions @ np.cross(normal, inward), directions @ inward)
+    # Each end's first edge in the triangles' order (one side, found by several triangles, differs
+    # by rounding from one to the next), as trying every edge in that order found it.
+    ends = {int(np.flatnonzero(angles <= angles.min() + ANGLE_ROUNDING)[0]),
+            int(np.flatnonzero(angles >= angles.max() - ANGLE_ROUNDING)[0])}
+    return [directions[k] for k in sorted(ends)]
 
 
 def _box(p: np.ndarray, origin: np.ndarray, x: np.ndarray, normal: np.ndarray, z: np.ndarray, area: float,

@@ -19,7 +19,7 @@ else:  # tomllib joined the standard library in 3.11; tomli is the same parser (
 
 from depthimpostor.constants import MAX_BOUNCES, MAX_IOR, Wrap
 from depthimpostor.errors import SceneError
-from depthimpostor.hdr import HDR_SUFFIXES, HdrImageError, read_hdr
+from depthimpostor.hdr import HDR_SUFFIXES, MAX_SIDE, HdrImageError, read_hdr
 from depthimpostor.scene import fields as f
 from depthimpostor.scene.gltf import gltf_objects, gltf_scene, read_gltf
 from depthimpostor.scene.gltf_file import GLTF_SUFFIXES
@@ -72,6 +72,7 @@ def _model_file(t: Table, suffixes: tuple[str, ...]) -> tuple[Path, str]:
 
 def find_file(written: str, at: At, kind: str) -> Path:
     """A file named in a scene (a model, a texture), looked for in model_folders, resolved."""
+    _check_inside(written, at, "or in $" + MODEL_PATH_VARIABLE)
     folders = model_folders(at.base_dir)
     for folder in folders:
         candidate = folder / Path(written).expanduser()  # joining an absolute path ignores the folder
@@ -80,6 +81,15 @@ def find_file(written: str, at: At, kind: str) -> Path:
     searched = ", ".join(str(folder.resolve()) for folder in folders)
     raise at.error(f"expected an existing {kind}, got {json.dumps(written)}: not found in the scene's "
                    f"folder or ${MODEL_PATH_VARIABLE} (searched: {searched})")
+
+
+def _check_inside(written: str, at: At, elsewhere: str = "") -> None:
+    """The rule for paths (scene_format.md, "Paths"), as a glTF file's URIs keep it: a relative
+    path names a file in its folder or below it (`..` may not climb out); an absolute one is taken
+    as written (the scene's author wrote it; a glTF file may not)."""
+    if not Path(written).expanduser().is_absolute() and f.leaves_folder(written):
+        raise at.error(f"expected a path inside the scene's folder {elsewhere + ' ' if elsewhere else ''}(or an absolute "
+                       f"path), got {json.dumps(written)}, which leaves it")
 
 
 def _mesh(t: Table) -> MeshShape:
@@ -234,14 +244,16 @@ def _constant(t: Table) -> Environment:
     return Environment("constant", color, color, color, color)
 
 
-#: The largest side of an environment map: GL 4.1 and later guarantee textures of 16384 texels a side.
-MAX_ENVIRONMENT_SIDE = 16384
+#: The largest side of an environment map: GL 4.1 and later guarantee textures of 16384 texels a
+#: side (hdr.py reads it from the file's header, before decoding).
+MAX_ENVIRONMENT_SIDE = MAX_SIDE
 
 
 def _equirect(t: Table) -> Environment:
     at, written = t.at.key("path"), t.req("path", NAME)
     if Path(written).suffix.lower() not in HDR_SUFFIXES:
         raise at.error(f"expected a path to a {' or '.join(HDR_SUFFIXES)} file, got {json.dumps(written)}")
+    _check_inside(written, at)
     path = t.at.base_dir / Path(written).expanduser()  # joining an absolute path ignores the folder
     if not path.is_file():
         raise at.error(f"expected an existing HDR image, got {json.dumps(written)}: not found "
