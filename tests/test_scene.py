@@ -430,7 +430,7 @@ BAD_CASES = [
     ("color_out_of_range", OK + an_object("b", extra='material = { type = "diffuse", color = [1.5, 0, 0] }'),
      "objects[1].material.color", "expected 3 numbers in [0, 1], got [1.5, 0, 0]"),
     ("unknown_material", an_object(extra='material = { type = "crystal" }'), "objects[0].material.type",
-     'expected one of: diffuse, checker, mirror, glass, got "crystal"'),
+     'expected one of: diffuse, metallic_roughness, checker, mirror, glass, got "crystal"'),
     ("glass_ior_below_air", an_object(extra='material = { type = "glass", ior = 0.9 }'), "objects[0].material.ior",
      "expected a number in [1, 4], got 0.9"),
     ("glass_plane", an_object(shape='{ type = "plane", size = [1.0, 1.0] }', extra='material = { type = "glass" }'),
