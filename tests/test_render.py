@@ -99,7 +99,9 @@ def test_scene_without_mirrors_allocates_no_impostor(ctx: moderngl.Context, tmp_
         variants = [defines for _, fragment, defines in renderer.programs.variants if fragment == "diffuse.frag"]
         # One batch of the still objects; without the checker's code where none has one (NO_CHECKER).
         checker = () if has_checker(scene.objects) else (("NO_CHECKER", "1"),)
-        assert variants == [(("INSTANCED", "1"), ("LIGHT_COUNT", str(len(scene.lights))), *checker, ("WRITE_DEPTH_IMAGE", "0"))]
+        materials = ("MATERIAL_COUNT", str(len(scene.materials)))  # the material table's size
+        assert variants == [(("INSTANCED", "1"), ("LIGHT_COUNT", str(len(scene.lights))), materials, *checker,
+                             ("WRITE_DEPTH_IMAGE", "0"))]
 
 
 def test_depth_images_are_baked_once_and_not_for_camera_moves(ctx: moderngl.Context) -> None:

@@ -82,12 +82,13 @@ def test_algorithm_switch_changes_the_variant_not_the_depth_images(ctx: moderngl
         assert renderer.programs.compute_variants == [("depth_pyramid.comp", ())]
         assert renderer.stats.depth_images_baked == 5
         mirror_variants = {d for _, fragment, d in renderer.programs.variants if fragment == "reflector.frag"}
-        # The scene's lights and planes are constants of every variant (lib/shading.glsl, lib/reflected_scene.glsl),
-        # and its lights are all directional (DIRECTIONAL_LIGHTS).
+        # The scene's lights, materials and planes are constants of every variant (lib/shading.glsl,
+        # lib/reflected_scene.glsl), and its lights are all directional (DIRECTIONAL_LIGHTS).
         assert all(light.type == "directional" for light in scene.lights)
         counts = (("LIGHT_COUNT", str(len(scene.lights))), ("PLANE_COUNT", str(len(scene.analytic_planes))))
+        materials = ("MATERIAL_COUNT", str(len(scene.materials)))
         assert mirror_variants == {(("ALGORITHM", str(int(a))), ("DEFERRED", "1"), ("DIRECTIONAL_LIGHTS", "1"), counts[0],
-                                    ("METHOD", str(int(Method.DEPTH))), counts[1])
+                                    materials, ("METHOD", str(int(Method.DEPTH))), counts[1])
                                    for a in Algorithm}
     assert_same_frame(frames[Algorithm.BASIC], fresh_frame(ctx, scene, Algorithm.BASIC))
     # The hierarchical traversal finds the optimized march's hits, bit for bit.
