@@ -1,5 +1,5 @@
 """KHR_texture_transform (issue 33 item 1): a texture's offset, rotation and scale, read from the
-glTF file, drawn by every pass (the material record's UV rows) and by the truth
+glTF file, drawn by every pass (its texture record's UV rows) and by the truth
 (textures.texture_bilinear) alike."""
 
 from __future__ import annotations

@@ -316,9 +316,11 @@ IDENTITY_UV_ROWS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
 
 @dataclass(frozen=True, eq=False)
 class Texture:
-    """An image texture on a diffuse material: a glTF baseColorTexture, or a TOML `texture`. The
-    albedo is the material's colour times the texel (decoded from sRGB to linear), at the mesh's
-    `uvs` times `scale`. Compared by identity: a scene's distinct textures are its texture slots."""
+    """An image texture: a glTF material's baseColorTexture or other map, or a TOML `texture`. A
+    base colour is the material's colour times the texel (decoded from sRGB to linear), at the
+    mesh's `uvs` through the texture's transform (`uv_rows`: `scale`, then a glTF file's
+    KHR_texture_transform offset and rotation). Compared by identity: a scene's distinct textures
+    are its texture slots."""
 
     image: np.ndarray = dataclasses.field(repr=False)  # (H, W, 4) uint8 RGBA as stored (sRGB), row 0 the top
     sampler: dict[str, int]  # the glTF sampler: magFilter, minFilter, wrapS, wrapT where given
@@ -335,8 +337,8 @@ class Texture:
 
     @property
     def uv_rows(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-        """The UV transform's two rows (u' = a u + b v + c, v' = d u + e v + f): the material record's
-        uv_u and uv_v (lib/shading.glsl) and the truth's (textures.texture_bilinear)."""
+        """The UV transform's two rows (u' = a u + b v + c, v' = d u + e v + f): its texture record's
+        uv_u and uv_v (lib/material_texture.glsl) and the truth's (textures.texture_bilinear)."""
         cos, sin = math.cos(self.rotation), math.sin(self.rotation)
         (su, sv), (ou, ov) = self.scale, self.offset
         return (cos * su, sin * sv, ou), (-sin * su, cos * sv, ov)
