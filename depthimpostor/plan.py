@@ -488,6 +488,13 @@ def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImageP
     if spec.names_triangles:
         triangles = sum(len(g.local_mesh.indices) for g in reflected)
         lines.append(f"reflected triangles: {triangles} of {MAX_NAMED_TRIANGLES} (a float32 depth-image sample names one)")
+    deforming = [obj for obj in scene.objects if obj.deforms]
+    if deforming:
+        refit = "the BVH refitted" if spec.traces is not None else "no BVH to refit"
+        rebake = "the images that show them re-baked" if spec.bakes_images else "no images to re-bake"
+        lines.append(f"deforming glTF parts (skins, morph targets): {len(deforming)}, made again on the CPU at every "
+                     f"time that moves them; the mesh buffer rewritten, {rebake}, {refit} "
+                     "(tools/deforming_cost.py measures each)")
     lines.append(f"materials: {len(scene.materials)}{material_kinds(scene)} (any number: one record of "
                  f"{MATERIAL.dtype.itemsize} bytes each in a uniform block, within GL_MAX_UNIFORM_BLOCK_SIZE (16 KiB at "
                  "GL's least), checked at render)")

@@ -331,3 +331,18 @@ def test_render_plays_the_files_animation_at_its_time(tmp_path: Path, capsys: py
         pictures.append(np.asarray(Image.open(out), np.int16))
     assert np.abs(pictures[1] - pictures[0]).max() > 64
     assert np.abs(pictures[2] - pictures[1]).max() <= 1
+
+
+@pytest.mark.parametrize(("method", "work"), [(Method.HYBRID, "the images that show them re-baked, the BVH refitted"),
+                                              (Method.RAYTRACE, "no images to re-bake, the BVH refitted"),
+                                              (Method.DEPTH, "the images that show them re-baked, no BVH to refit")])
+def test_plan_says_what_deforming_parts_cost_each_method(method: Method, work: str) -> None:
+    """Issue 33 item 5: a scene with a skin states the per-frame work it calls for, by method; a
+    scene without one says nothing of it."""
+    from depthimpostor.plan import plan_render
+
+    scene = load_scene(Path(__file__).parent / "data" / "gltf" / "RiggedSimple.glb")
+    lines = [line for line in plan_render(scene, method).limits if line.startswith("deforming glTF parts")]
+    assert len(lines) == 1 and ": 1, made again on the CPU" in lines[0] and work in lines[0]
+    still = load_scene(Path(__file__).parent.parent / "scenes" / "default.toml")
+    assert not any(line.startswith("deforming") for line in plan_render(still, method).limits)
