@@ -253,6 +253,9 @@ def _compare_frame(
     rays), and what the method kept to draw it."""
     algorithm = Algorithm[getattr(args, "algorithm", "optimized").upper()]
     with Renderer(ctx, scene, algorithm, reflection_data=True, method=method) as renderer:
+        time = getattr(args, "time", 0.0)
+        if time:  # an animated scene at --time: the truth follows the renderer's world there
+            renderer.set_time(time)
         renderer.render()
         return compare(renderer, truth), _kept(renderer)
 
@@ -304,6 +307,7 @@ def _compare(args: argparse.Namespace) -> int:
                 "algorithm": args.algorithm,
                 "method": method.option,
                 "stand_in": kept,
+                "time": args.time,
             }
             written += write_report(comparison, output / method.option if len(methods) > 1 else output, settings,
                                     out)
@@ -499,11 +503,15 @@ def build_parser() -> argparse.ArgumentParser:
     truth = commands.add_parser("truth", help="ray-trace the mirrors' reflections against the real triangles")
     _scene_arguments(truth)
     truth.add_argument("-o", "--output", default="truth.png", help="output PNG (default: truth.png)")
+    truth.add_argument("--time", type=_finite, default=0.0,
+                       help="scene time, in seconds, for animated scenes (default 0)")
     truth.set_defaults(run=_truth)
 
     comparison = commands.add_parser("compare", help="render and truth side by side, with error figures")
     _scene_arguments(comparison)
     comparison.add_argument("-o", "--output", default="report", help="output folder (default: report/)")
+    comparison.add_argument("--time", type=_finite, default=0.0,
+                            help="scene time, in seconds, for animated scenes (default 0)")
     _method_arguments(comparison, every=True)
     comparison.set_defaults(run=_compare)
 

@@ -346,3 +346,24 @@ def test_plan_says_what_deforming_parts_cost_each_method(method: Method, work: s
     assert len(lines) == 1 and ": 1, made again on the CPU" in lines[0] and work in lines[0]
     still = load_scene(Path(__file__).parent.parent / "scenes" / "default.toml")
     assert not any(line.startswith("deforming") for line in plan_render(still, method).limits)
+
+
+def test_truth_and_compare_take_the_scene_time(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`truth --time` and `compare --time`: the truth of an animated file at another time is another
+    picture, and the report states the time it measured."""
+    import json
+
+    path = str(bending_scene(tmp_path / "bending.glb"))
+    pictures = []
+    for time in ("0", "1"):
+        out = tmp_path / f"truth{time}.png"
+        code, _, stderr = run_in_process(["truth", path, "--time", time, "--size", "96x54", "-o", str(out)], capsys)
+        assert code == 0, stderr
+        pictures.append(np.asarray(Image.open(out), np.int16))
+    assert np.abs(pictures[1] - pictures[0]).max() > 64
+    report = tmp_path / "report"
+    code, _, stderr = run_in_process(["compare", path, "--time", "1", "--size", "96x54", "--method", "raytrace",
+                                      "-o", str(report)], capsys)
+    assert code == 0, stderr
+    written = json.loads(next(report.glob("*.json")).read_text())
+    assert written["settings"]["time"] == 1.0
