@@ -14,6 +14,17 @@ import math
 import numpy as np
 
 from .constants import SOFT_SHADOW_RAYS
+from .scene.model import Light
+
+def toward_light(light: Light, positions: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """lib/shading.glsl's toward_light in numpy: the unit direction from each of `positions` toward
+    `light` (a point light at the position itself: the normal), for every shading function."""
+    if light.type == "directional":
+        return np.broadcast_to(-np.asarray(light.direction, float) / np.linalg.norm(light.direction), positions.shape)
+    offset = np.asarray(light.position, float) - positions
+    length = np.linalg.norm(offset, axis=1, keepdims=True)
+    return np.where(length > 1e-20, offset / np.maximum(length, 1e-300), normals)
+
 
 #: The golden angle: successive spiral points turn by it, so no two line up.
 GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))

@@ -16,7 +16,7 @@ import moderngl
 import numpy as np
 
 from .bindings import UniformBlock
-from .uniforms import material_records
+from .uniforms import material_count, material_records
 from ..constants import LIGHTING, MATERIAL, MAX_ANALYTIC_PLANES, MAX_LIGHTS, PLANES, LightKind, ShadowKind
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
@@ -111,4 +111,4 @@ class SceneBlocks:
 def materials_bytes(scene: Scene) -> int:
     """GPU memory of `scene`'s MaterialRecords table (a uniform block: at most the GL's
     GL_MAX_UNIFORM_BLOCK_SIZE, 16 KiB at least, which plan.plan_limits states)."""
-    return max(1, len(scene.materials)) * MATERIAL.dtype.itemsize
+    return material_count(scene) * MATERIAL.dtype.itemsize

@@ -33,7 +33,7 @@ def shading_defines(scene: Scene) -> dict[str, int]:
     (TEXTURE_COUNT of them, in TEXTURE_ARRAYS arrays, with the samplers they need:
     texture_layout.texture_defines)."""
     return {"LIGHT_COUNT": min(len(scene.lights), MAX_LIGHTS),  # a constant loop bound (lib/shading.glsl)
-            "MATERIAL_COUNT": max(1, len(scene.materials)),  # the MaterialRecords table's size
+            "MATERIAL_COUNT": material_count(scene),  # the MaterialRecords table's size
             **({"DIRECTIONAL_LIGHTS": 1} if scene.lights and all(light.type == "directional" for light in scene.lights)
                else {}),
             **({"SHADOWS": 1} if scene.has_shadows else {}),
@@ -57,7 +57,7 @@ def alpha_mask_defines(scene: Scene) -> dict[str, int]:
     programs take them with shading_defines."""
     if not has_alpha_mask(scene):
         return {}
-    return {"ALPHA_MASK": 1, "MATERIAL_COUNT": max(1, len(scene.materials)), **texture_defines(scene)}
+    return {"ALPHA_MASK": 1, "MATERIAL_COUNT": material_count(scene), **texture_defines(scene)}
 
 
 def write_material_index(program: moderngl.Program, scene: Scene, obj: SceneObject) -> None:
@@ -156,11 +156,19 @@ def matrix_bytes(matrix: np.ndarray) -> bytes:
     return np.ascontiguousarray(matrix.T, dtype=np.float32).tobytes()
 
 
+def material_count(scene: Scene) -> int:
+    """The MaterialRecords table's size (MATERIAL_COUNT): one record at least, since a GLSL array
+    cannot be empty (a scene of mirrors alone has no material to shade)."""
+    return max(1, len(scene.materials))
+
+
 def material_records(scene: Scene) -> np.ndarray:
     """lib/shading.glsl's MaterialRecords table of `scene`: one constants.MATERIAL a material, in
-    the order of Scene.materials (an object's, instance's or plane's material index), and one
-    record at least (a GLSL array cannot be empty: a scene of mirrors alone)."""
-    records = np.zeros(max(1, len(scene.materials)), MATERIAL.dtype)
+    the order of Scene.materials (an object's, instance's or plane's material index)."""
+    records = np.zeros(material_count(scene), MATERIAL.dtype)
+    # What a diffuse or checker material leaves unused: no maps, opaque.
+    records["metallic_roughness_texture"] = records["occlusion_texture"] = records["emissive_texture"] = -1
+    records["alpha_cutoff"], records["alpha"] = -1.0, 1.0
     for record, material in zip(records, scene.materials, strict=False):
         if isinstance(material, CheckerMaterial):
             record["kind"], record["color_a"], record["color_b"] = MaterialKind.CHECKER, material.color_a, material.color_b
@@ -168,21 +176,18 @@ def material_records(scene: Scene) -> np.ndarray:
         elif isinstance(material, DiffuseMaterial):
             record["kind"], record["color_a"], record["color_b"] = MaterialKind.DIFFUSE, material.color, material.color
             record["scale"] = 1.0
-            if isinstance(material, MetallicRoughnessMaterial):
-                record["kind"] = MaterialKind.METALLIC_ROUGHNESS
-                record["emissive"], record["metallic"], record["roughness"] = (material.emissive, material.metallic,
-                                                                               material.roughness)
         else:
             raise TypeError(f"{material!r} is not a material that is shaded")
-        record["alpha_cutoff"], record["alpha"] = -1.0, 1.0  # opaque
-        if isinstance(material, MetallicRoughnessMaterial) and material.alpha_cutoff is not None:
-            record["alpha_cutoff"], record["alpha"] = material.alpha_cutoff, material.alpha
         record["texture"] = scene.texture_slot(material)
-        record["metallic_roughness_texture"] = record["occlusion_texture"] = record["emissive_texture"] = -1
         if isinstance(material, MetallicRoughnessMaterial):
+            record["kind"] = MaterialKind.METALLIC_ROUGHNESS
+            record["emissive"], record["metallic"], record["roughness"] = (material.emissive, material.metallic,
+                                                                           material.roughness)
             record["metallic_roughness_texture"], record["occlusion_texture"], record["emissive_texture"] = (
                 scene.slot_of(texture) for texture in material.maps)
             record["occlusion_strength"] = material.occlusion_strength
+            if material.alpha_cutoff is not None:
+                record["alpha_cutoff"], record["alpha"] = material.alpha_cutoff, material.alpha
     return records
 
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..constants import DFG_FIT_C0, DFG_FIT_C1, DFG_FIT_EXPONENT, DFG_FIT_SCALE, DIELECTRIC_F0, MIN_ROUGHNESS
 from ..scene.model import MetallicRoughnessMaterial, Scene
+from ..lights import toward_light
 from ..textures import texture_bilinear
 
 Array = np.ndarray
@@ -96,11 +97,7 @@ def shade_metallic_roughness(scene: Scene, material: MetallicRoughnessMaterial, 
     n_dot_v = np.abs(_dot(normals, to_viewer))
     color = scene.render.ambient * occlusion[:, None] * (c_diff + ambient_specular(f0, roughness, n_dot_v))
     for index, light in enumerate(scene.lights):
-        if light.type == "directional":
-            to_light = np.broadcast_to(-np.asarray(light.direction, float) / np.linalg.norm(light.direction),
-                                       positions.shape)
-        else:
-            to_light = _safe_unit(np.asarray(light.position, float) - positions, normals)
+        to_light = toward_light(light, positions, normals)
         cosine = _dot(normals, to_light)
         lit = cosine > 0.0
         if not lit.any():

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..constants import MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
 from ..geometry import ObjectGeometry
-from ..lights import light_sample_points
+from ..lights import light_sample_points, toward_light
 from ..meshes import plane_uvs
 from ..scene.model import (
     CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MetallicRoughnessMaterial, MirrorMaterial, Scene,
@@ -115,15 +115,14 @@ def material_albedo(material: Material, local_positions: Array, uvs: Array | Non
     raise TypeError(f"{material!r} is not a diffuse material")
 
 
-def material_masked(material: Material, uvs: Array | None) -> Array:
+def material_masked(material: Material, uvs: Array) -> Array:
     """shaders/lib/shading.glsl's material_masked in numpy: which points at `uvs` glTF's alphaMode
     MASK cuts away (alpha, the factor's times the texture's, under the cutoff). All False for an
-    opaque material; None for uvs: a mesh without them (the texture is not drawn: the factor alone)."""
-    count = 0 if uvs is None else len(uvs)
+    opaque material."""
     if not isinstance(material, MetallicRoughnessMaterial) or material.alpha_cutoff is None:
-        return np.zeros(count, bool)
-    alpha = np.full(count, material.alpha)
-    if material.texture is not None and uvs is not None:
+        return np.zeros(len(uvs), bool)
+    alpha = np.full(len(uvs), material.alpha)
+    if material.texture is not None:
         alpha *= texture_alpha_bilinear(material.texture, uvs)
     return alpha < material.alpha_cutoff
 
@@ -162,14 +161,7 @@ def shade(scene: Scene, albedo: Array, positions: Array, normals: Array,
     share of each light that reaches each point (shadows), where the scene has any."""
     irradiance = np.full(len(positions), scene.render.ambient, dtype=float)[:, None] * np.ones(3)
     for index, light in enumerate(scene.lights):
-        if light.type == "directional":
-            to_light = -np.asarray(light.direction, float) / np.linalg.norm(light.direction)
-            to_light = np.broadcast_to(to_light, positions.shape)
-        else:
-            offset = np.asarray(light.position, float) - positions
-            length = np.linalg.norm(offset, axis=1, keepdims=True)
-            to_light = np.where(length > 1e-20, offset / np.maximum(length, 1e-300), normals)
-        cosine = np.clip(np.einsum("ij,ij->i", normals, to_light), 0.0, None)
+        cosine = np.clip(np.einsum("ij,ij->i", normals, toward_light(light, positions, normals)), 0.0, None)
         if visibility is not None and light.casts_shadows:
             lit = cosine > 0.0  # as the shader: no shadow ray from a surface facing away
             cosine[lit] *= visibility(index, positions[lit], normals[lit])
