@@ -3,18 +3,16 @@
 from __future__ import annotations
 
 import random
-import tomllib
 
 import numpy as np
 import pytest
-from conftest import SCENES, assert_finite
+from conftest import SCENES, assert_finite, scene_from_toml
 
 from depthimpostor.oracles.compare import compare
 from depthimpostor.constants import Algorithm, Method
 from depthimpostor.errors import SceneError
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
-from depthimpostor.scene.loader import parse_scene
 
 
 def _compare(ctx, name: str, method: Method, algorithm: Algorithm = Algorithm.OPTIMIZED, truth=None):
@@ -168,7 +166,7 @@ def test_edges_between_samples_are_traced(ctx) -> None:
     where the image cannot say whether the ray meets the crate: the hybrid method traces those
     rays, and shows no wrong object. Before the texel blocks and the joins' extensions said so, 5
     of these 22,496 mirror pixels showed the floor where the truth sees a crate."""
-    scene = parse_scene(tomllib.loads(_crates()), "crates.toml", SCENES)
+    scene = scene_from_toml(_crates(), "crates.toml", SCENES)
     with Renderer(ctx, scene, reflection_data=True, method=Method.HYBRID) as renderer:
         renderer.render()
         assert_finite(renderer.read_color_float())
