@@ -24,6 +24,7 @@ a rectangle; the slots' records (constants.TEXTURE_RECORD, one table) differ in 
 
 from __future__ import annotations
 
+import collections
 import functools
 import hashlib
 from dataclasses import dataclass
@@ -120,18 +121,27 @@ class TextureLayout:
 def _distinct_images(textures: tuple[Texture, ...]) -> tuple[tuple[np.ndarray, ...], tuple[int, ...], tuple[bool, ...]]:
     """The distinct images (by content and colour space) in order of first use, each slot's, and
     whether each image is colour (sRGB) or data."""
-    index: dict[tuple[tuple[int, ...], bytes, bool], int] = {}
+    # Only images that share a shape and a colour space can be equal: the others are never hashed
+    # (hashing an 8192^2 image took a second), nor is an array met before under another slot.
+    shapes = collections.Counter((texture.image.shape, texture.srgb) for texture in textures)
+    index: dict[tuple[tuple[int, ...], bytes | int, bool], int] = {}
+    seen: dict[tuple[int, bool], int] = {}
     images: list[np.ndarray] = []
     srgb: list[bool] = []
     image_of = []
     for texture in textures:
-        digest = hashlib.blake2b(np.ascontiguousarray(texture.image).data, digest_size=16).digest()
-        key = (texture.image.shape, digest, texture.srgb)
-        if key not in index:
-            index[key] = len(images)
-            images.append(texture.image)
-            srgb.append(texture.srgb)
-        image_of.append(index[key])
+        known = seen.get((id(texture.image), texture.srgb))
+        if known is None:
+            shape = (texture.image.shape, texture.srgb)
+            content: bytes | int = (hashlib.blake2b(np.ascontiguousarray(texture.image).data, digest_size=16).digest()
+                                    if shapes[shape] > 1 else id(texture.image))
+            key = (texture.image.shape, content, texture.srgb)
+            if key not in index:
+                index[key] = len(images)
+                images.append(texture.image)
+                srgb.append(texture.srgb)
+            known = seen[(id(texture.image), texture.srgb)] = index[key]
+        image_of.append(known)
     return tuple(images), tuple(image_of), tuple(srgb)
 
 

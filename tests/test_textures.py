@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from PIL import Image, ImageDraw
 
-from conftest import assert_finite
+from conftest import assert_finite, scene_from_toml
 from depthimpostor.oracles.compare import compare
 from depthimpostor.constants import Method, Wrap
 from depthimpostor.renderer import Renderer
@@ -289,3 +289,28 @@ def test_a_mesh_file_without_texture_coordinates_refuses_a_texture(tmp_path: Pat
                                         encoding="utf-8")
     assert_one_line_error(*run_in_process(["plan", str(tmp_path / "bare.toml")], capsys), "objects[0].material.texture",
                           "bare.obj, which has none")
+
+
+def test_an_image_file_is_decoded_once_whatever_its_slots(tmp_path: Path) -> None:
+    """Two slots of one file (two scales, two wraps) are two textures of one decoded image (an
+    8192^2 image decoded twice cost seconds and 256 MiB), and the mean colour is the mean of the
+    decoded texels."""
+    rng = np.random.default_rng(7)
+    pixels = rng.integers(0, 256, (37, 53, 4), dtype=np.uint8)
+    Image.fromarray(pixels, "RGBA").save(tmp_path / "noise.png")
+    scene = scene_from_toml("""
+[[objects]]
+name = "floor"
+shape = { type = "plane", size = [4.0, 4.0] }
+material = { type = "diffuse", texture = { path = "noise.png", scale = [3.0, 3.0] } }
+[[objects]]
+name = "box"
+shape = { type = "box", size = [1.0, 1.0, 1.0] }
+material = { type = "diffuse", texture = { path = "noise.png", wrap = "clamp" } }
+position = [0.0, 0.5, 0.0]
+""", "noise.toml", tmp_path)
+    first, second = scene.textures
+    assert first is not second and first.scale != second.scale and first.image is second.image
+    decoded = ((pixels[..., :3] / 255.0 + 0.055) / 1.055) ** 2.4
+    decoded = np.where(pixels[..., :3] / 255.0 <= 0.04045, pixels[..., :3] / 255.0 / 12.92, decoded)
+    np.testing.assert_allclose(first.mean_color, decoded.reshape(-1, 3).mean(axis=0), rtol=1e-12)

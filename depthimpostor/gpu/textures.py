@@ -69,10 +69,13 @@ def _atlas(ctx: moderngl.Context, layout: TextureLayout) -> moderngl.Texture:
     """Every image's level 0 in its rectangle, as GL_RGBA8UI: texelFetch alone reads it (no
     filter; the shader wraps)."""
     width, height = layout.atlas_size
-    atlas = np.zeros((height, width, 4), np.uint8)
-    for image, (x, y, w, h) in zip(layout.images, layout.texel_rects, strict=True):
-        atlas[y:y + h, x:x + w] = image
-    texels = ctx.texture((width, height), 4, atlas.tobytes(), dtype="u1")
+    if len(layout.images) == 1 and layout.images[0].shape[1::-1] == (width, height):
+        atlas = np.ascontiguousarray(layout.images[0])  # the atlas is the one image: no copy of it
+    else:
+        atlas = np.zeros((height, width, 4), np.uint8)
+        for image, (x, y, w, h) in zip(layout.images, layout.texel_rects, strict=True):
+            atlas[y:y + h, x:x + w] = image
+    texels = ctx.texture((width, height), 4, atlas.data, dtype="u1")  # a view, not tobytes(): no second copy
     texels.filter = (moderngl.NEAREST, moderngl.NEAREST)  # an integer texture is incomplete otherwise
     return texels
 
@@ -112,8 +115,10 @@ class GpuTextures:
         arrays = []
         for k, array in enumerate(layout.arrays):
             width, height = array.size
-            layers = np.stack([image if image.shape[1::-1] == (width, height) else resample(image, array.size, array.srgb)
-                               for image in (layout.images[i] for i in array.images)])
+            images = [image if image.shape[1::-1] == (width, height) else resample(image, array.size, array.srgb)
+                      for image in (layout.images[i] for i in array.images)]
+            # One layer goes up as it is (np.stack would copy it: 256 MiB for an 8192^2 image).
+            layers = images[0][None] if len(images) == 1 else np.stack(images)
             arrays.append(_srgb_array(self.ctx, layers, array_unit(k, clamped=False), array.srgb))
         records = self.ctx.buffer(layout.records().tobytes())
         return _Made(scene.textures, arrays, _atlas(self.ctx, layout), records)
