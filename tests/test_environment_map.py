@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from conftest import SCENES, assert_finite
-from depthimpostor.oracles.compare import compare
+from depthimpostor.oracles.compare import LUMINANCE_WEIGHTS, colour_error, compare
 from depthimpostor.constants import Method
 from depthimpostor.errors import SceneError
 from depthimpostor.hdr import read_hdr, write_hdr
@@ -128,10 +128,25 @@ def test_hdr_sky_scene_raytrace_matches_the_truth(ctx: moderngl.Context) -> None
     assert scene.environment.image.max() > 10.0  # the sun
     with Renderer(ctx, scene, reflection_data=True, method=Method.RAYTRACE) as renderer:
         renderer.render()
-        figures = compare(renderer).figures
+        comparison = compare(renderer)
+        figures = comparison.figures
+        # The colour error is measured unclamped: a truth 5 % brighter everywhere (the sun's disc
+        # included, where both pictures exceed 1 and clamping saw no difference) is off by 5 % of
+        # the truth's luminance above 1, by 5 % of its value below.
+        brighter = dataclasses.replace(comparison.truth_frame, color=comparison.truth_frame.color * 1.05)
+        off = compare(renderer, truth=brighter)
     assert figures.mirror_pixels > 1000
     assert figures.wrong_object_share == 0.0
     assert figures.color_rmse < 1e-4
+    truth = comparison.truth[comparison.mirror_mask]
+    luminance = 1.05 * truth @ LUMINANCE_WEIGHTS  # the brighter truth's, which the error is measured against
+    both_above_1 = (comparison.render[comparison.mirror_mask] > 1.0).all(axis=1) & (truth > 1.0).all(axis=1)
+    assert both_above_1.sum() > 20  # the scene shows the sun's disc in its mirrors
+    expected = (0.05 * truth / np.maximum(luminance, 1.0)[:, None]).max(axis=1)
+    error = np.abs(colour_error(off.render, off.truth)[comparison.mirror_mask]).max(axis=1)
+    np.testing.assert_allclose(error, expected, rtol=1e-3, atol=1e-4)
+    assert error[both_above_1].min() > 0.02
+    assert off.figures.color_rmse > 100 * figures.color_rmse
 
 
 def test_radiance_and_exr_files_read_alike(tmp_path: Path) -> None:

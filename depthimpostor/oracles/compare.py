@@ -2,9 +2,12 @@
 
 Figures, over the mirror and glass pixels of one frame ("mirror pixels" below; a glass pixel's
 reflected ray is the one measured for objects and geometry, its colour blends in the refraction):
-- colour RMSE and PSNR in linear space (COLOUR_SPACE): the frame's linear float colour, each
-  channel clamped to [0, 1], before exposure, tone mapping and sRGB encoding, which are for
-  display alone (docs/colour.md); a figure does not change with them;
+- colour RMSE and PSNR in linear space (COLOUR_SPACE): the difference of the frame's linear float
+  colour and the truth's, unclamped, divided by the truth's luminance where that exceeds 1
+  (`colour_error`): absolute where a display shows values as they are, relative on highlights
+  and HDR skies, so that an error where both pictures exceed 1 is counted without a sun's disc
+  outweighing the rest of the frame; before exposure, tone mapping and sRGB encoding, which are
+  for display alone (docs/colour.md): a figure does not change with them;
 - the share of pixels whose reflected ray hit another object than the truth's (the environment
   counting as an object);
 - over the mirror pixels that show a reflected object (in the truth), the share that show the
@@ -46,8 +49,20 @@ from .truth import SpecularTruth, TruthTracer
 
 WORST_PIXELS = 8
 #: Where colour errors are measured, as the report states it.
-COLOUR_SPACE = ("linear: the frame's float colour, each channel clamped to [0, 1], before exposure, tone mapping "
-                "and sRGB encoding")
+COLOUR_SPACE = ("linear, unclamped: the frame's float colour minus the truth's, divided by the truth's luminance "
+                "(Rec. 709) where that exceeds 1, before exposure, tone mapping and sRGB encoding")
+#: Rec. 709 / sRGB primaries' luminance weights: what `colour_error` divides by above 1.
+LUMINANCE_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
+
+
+def colour_error(render: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """Per pixel and channel, the measured colour error (COLOUR_SPACE): render - truth, divided
+    by the truth's luminance where it exceeds 1. Below 1 (everything a display shows unchanged)
+    it is the plain difference, the figure measured before HDR; above, a relative error, so that
+    1 % off a sun of 50 weighs what 1 % off a white wall does. (Clamping both to [0, 1], as
+    compare did before, counted nothing where both exceed 1.)"""
+    scale = np.maximum(truth @ LUMINANCE_WEIGHTS, 1.0)
+    return (render - truth) / scale[..., None]
 #: A pixel showing a reflected object shows the wrong surface when its colour is off by more than
 #: this in its largest channel: 8-bit rounding and shading from interpolated normals stay far below
 #: it, a checker square of the wrong colour (or a side coloured like another) far above.
@@ -115,7 +130,7 @@ class TruthFrame:
 
 @dataclass(frozen=True, eq=False)
 class Comparison:
-    render: np.ndarray  # (h, w, 3) displayed colours in [0, 1]
+    render: np.ndarray  # (h, w, 3) linear float colours, as measured (unclamped)
     truth: np.ndarray
     mirror_mask: np.ndarray
     geometric_error: np.ndarray  # (h, w), NaN where not measured
@@ -183,7 +198,7 @@ def trace_truth(renderer: Renderer, data: ReflectionData, camera: PPC | None = N
         if progress is not None:
             progress(min(start + chunk, len(origins)) / (len(origins) + (chunk if renderer.scene.has_shadows else 0)))
     if surfaces:
-        color[mask] = np.clip(np.concatenate(surfaces), 0.0, 1.0)
+        color[mask] = np.concatenate(surfaces)
         object_id[mask] = np.concatenate(object_ids)
         position[mask] = np.concatenate(positions)
     direct = trace_direct(renderer, mask, camera) if renderer.scene.has_shadows else None
@@ -221,7 +236,7 @@ def _truth_image(render: np.ndarray, data: ReflectionData, truth: TruthFrame) ->
     direct = np.zeros_like(data.mirror_mask)
     if truth.direct is not None:
         direct = ~np.isnan(truth.direct[..., 0])
-        truth_image = np.where(direct[..., None], np.clip(np.nan_to_num(truth.direct), 0.0, 1.0), truth_image)
+        truth_image = np.where(direct[..., None], np.nan_to_num(truth.direct), truth_image)
     return truth_image, direct
 
 
@@ -235,16 +250,16 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None, frames: list[Su
 
     An anti-aliased frame (render.samples > 1) is compared sub-frame by sub-frame at the same
     sub-pixel positions: the truth is traced for each sub-frame's rays, each side's colours are
-    clamped and averaged alike, and the colour figures (RMSE, PSNR, direct and glass RMSE, worst
+    averaged alike, and the colour figures (RMSE, PSNR, direct and glass RMSE, worst
     pixels' colour error) are measured on the averages, over the pixels any sub-frame saw a mirror
-    in. The object and geometric figures are those of the first sub-frame alone: an average of
+    in (an average of linear colours: the box filter of anti-aliasing). The object and geometric figures are those of the first sub-frame alone: an average of
     object ids or hit points means nothing."""
     if frames is None:
         frames = (renderer.sub_frames() if renderer.scene.render.samples > 1
                   else [SubFrame(None, renderer.read_color_float(), renderer.read_reflection_data())])
     truths = _truths(renderer, frames, truth, progress)
     data = _reflection(frames[0])
-    renders = [np.clip(frame.color, 0.0, 1.0) for frame in frames]
+    renders = [frame.color for frame in frames]
     images = [_truth_image(r, _reflection(f), t) for r, f, t in zip(renders, frames, truths, strict=True)]
     render = np.mean(renders, axis=0)
     truth_image = np.mean([image for image, _ in images], axis=0)
@@ -253,16 +268,17 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None, frames: list[Su
     glass_ids = [g.index for g in renderer.world.glass]
     glass = np.logical_or.reduce([f.mirror_mask & np.isin(f.mirror_id, glass_ids) for f in map(_reflection, frames)])
     direct_pixels = int(direct.sum())
-    direct_rmse = float(np.sqrt(((render - truth_image)[direct] ** 2).mean())) if direct_pixels else 0.0
+    error = colour_error(render, truth_image)
+    direct_rmse = float(np.sqrt((error[direct] ** 2).mean())) if direct_pixels else 0.0
     truth_object, truth_position = truths[0].object_id, truths[0].position
     count = int(mask.sum())
-    squared = ((render - truth_image) ** 2)[mask]
+    squared = (error ** 2)[mask]
     rmse = float(np.sqrt(squared.mean())) if count else 0.0
     first_mask = data.mirror_mask
     wrong = (data.object_id != truth_object) & first_mask
     first_count = int(first_mask.sum())
     glass_pixels = int(glass.sum())
-    glass_rmse = float(np.sqrt(((render - truth_image)[glass] ** 2).mean())) if glass_pixels else 0.0
+    glass_rmse = float(np.sqrt((error[glass] ** 2).mean())) if glass_pixels else 0.0
 
     radius = {g.index: g.bounding_sphere[1] for g in renderer.world.reflected_objects}
     measured = first_mask & (data.object_id == truth_object) & np.isin(truth_object, list(radius))
@@ -272,7 +288,7 @@ def compare(renderer: Renderer, truth: TruthFrame | None = None, frames: list[Su
         geometric[measured] = np.linalg.norm(data.hit_position[measured] - truth_position[measured], axis=1) / radii
     values = geometric[measured]
 
-    color_error = np.abs(render - truth_image).max(axis=2)
+    color_error = np.abs(error).max(axis=2)
     worst = _worst_pixels(renderer.scene, mask, wrong, geometric, color_error, data.object_id, truth_object)
     shows_object = first_mask & np.isin(truth_object, list(radius))
     wrong_surface = shows_object & (wrong | (color_error > WRONG_SURFACE_COLOR_ERROR))
@@ -336,9 +352,9 @@ def heat_map(comparison: Comparison, limit: float = 0.25) -> np.ndarray:
     """Per-pixel colour error inside the mirrors (and the pixels seen directly, in scenes with
     shadows), black -> red -> yellow -> white at `limit`; the rest of the frame in dim grey for
     context."""
-    error = np.clip(np.abs(comparison.render - comparison.truth).max(axis=2) / limit, 0.0, 1.0)
+    error = np.clip(np.abs(colour_error(comparison.render, comparison.truth)).max(axis=2) / limit, 0.0, 1.0)
     heat = np.stack([np.clip(3 * error, 0, 1), np.clip(3 * error - 1, 0, 1), np.clip(3 * error - 2, 0, 1)], axis=2)
-    context = comparison.render.mean(axis=2, keepdims=True) * 0.35
+    context = np.clip(comparison.render.mean(axis=2, keepdims=True), 0.0, 1.0) * 0.35
     return np.where((comparison.mirror_mask | comparison.direct_mask)[..., None], heat, context)
 
 
