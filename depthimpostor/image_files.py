@@ -23,16 +23,20 @@ chunks are not applied (the glTF specification says to ignore them; the texels a
 
 from __future__ import annotations
 
+import contextvars
 import io
 import re
 import struct
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
 from .colour import encode_srgb
+from .host_memory import available_memory
 
 #: What an image must be, as refusals say it.
 DECODABLE = "an image file Pillow can decode (PNG, JPEG, ...)"
@@ -49,6 +53,53 @@ REFUSED = {"I": "32-bit integer samples: no range says what white is (save 8- or
            "I;16S": "signed 16-bit samples: no range says what black is (save unsigned 8- or 16-bit)",
            "LAB": "CIELab colour, which Pillow does not convert to sRGB exactly (save RGB)",
            "HSV": "HSV colour (save RGB)"}
+
+
+#: Bytes a decoded texel is kept in (8-bit RGBA), and the most a decode holds at once per texel
+#: (Pillow's image and the RGBA copy made of it) before the first is let go.
+DECODED_TEXEL_BYTES, DECODING_TEXEL_BYTES = 4, 8
+
+
+class _SceneImages:
+    """What the images of the scene being loaded may take: the machine's available memory when
+    it started loading, less what its images decoded so far keep."""
+
+    def __init__(self, available: int | None) -> None:
+        self.available, self.kept = available, 0
+
+
+_SCENE_IMAGES: contextvars.ContextVar[_SceneImages | None] = contextvars.ContextVar("scene_images", default=None)
+
+
+@contextmanager
+def scene_images_budget() -> Iterator[None]:
+    """While a scene loads, every image it decodes (textures, glTF images) is checked from its
+    header against what the scene's images left of the machine's available memory, before it is
+    decoded: each image fits alone (MAX_TEXELS), and all of them must fit together. (Nested: the
+    outermost load's budget holds.)"""
+    if _SCENE_IMAGES.get() is not None:
+        yield
+        return
+    token = _SCENE_IMAGES.set(_SceneImages(available_memory()))
+    try:
+        yield
+    finally:
+        _SCENE_IMAGES.reset(token)
+
+
+def _charge(width: int, height: int) -> None:
+    """Count an image about to be decoded against the scene's budget, or refuse it first."""
+    budget = _SCENE_IMAGES.get()
+    if budget is None or budget.available is None:
+        return
+    texels = width * height
+    if budget.kept + texels * DECODING_TEXEL_BYTES > budget.available:
+        raise ImageRefused(
+            f"images that fit in the machine's available memory once decoded ({budget.available / 2**20:,.1f} MiB "
+            f"when the scene began loading; its images so far keep {budget.kept / 2**20:,.1f} MiB)",
+            f"{width}x{height}, which takes {texels * DECODING_TEXEL_BYTES / 2**20:,.1f} MiB to decode (its header, "
+            "read before decoding)")
+    budget.kept += texels * DECODED_TEXEL_BYTES
 
 
 class ImageRefused(Exception):
@@ -79,6 +130,7 @@ def read_image(file: Path | bytes) -> np.ndarray:
         if width * height > MAX_TEXELS:
             raise ImageRefused(_AT_MOST, f"{width}x{height}, {width * height:,} texels (its header, read before "
                                          "decoding)")
+        _charge(width, height)
         return decode_image(image)
 
 

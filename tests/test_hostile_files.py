@@ -15,6 +15,7 @@ import moderngl
 import numpy as np
 import pytest
 
+from depthimpostor import image_files
 from depthimpostor.api import render_image
 from depthimpostor.errors import GpuLimitError
 from depthimpostor.gpu.limits import context_limits, use_limits
@@ -198,6 +199,26 @@ def test_a_10000_square_texture_is_refused_from_its_header(tmp_path: Path, capsy
     (tmp_path / "floor.png").write_bytes(png_stream(10000, 10000))
     refused(textured_scene(tmp_path), capsys, "objects[0].material.texture: expected an image of at most 67,108,864 "
             "texels (8192x8192), got", "10000x10000, 100,000,000 texels (its header, read before decoding)")
+
+
+def test_the_scenes_images_together_must_fit_in_memory(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each image within its own limit, but more of them than the machine's memory holds (ten
+    8192^2 textures: 2.5 GiB kept, more while each decodes): refused from the header of the one
+    that would not fit, before it is decoded, naming it (the budget here 3 MiB: three 512^2
+    images keep 1 MiB each and take 2 MiB while one decodes)."""
+    monkeypatch.setattr(image_files, "available_memory", lambda: 3 * 2**20)
+    for name in ("a.png", "b.png", "c.png"):
+        (tmp_path / name).write_bytes(png_stream(512, 512))
+    objects = "".join(f'[[objects]]\nname = "{name[0]}"\nshape = {{ type = "plane", size = [2.0, 2.0] }}\n'
+                      f'material = {{ type = "diffuse", texture = "{name}" }}\nposition = [{k}.0, 0.0, 0.0]\n'
+                      for k, name in enumerate(("a.png", "b.png", "c.png")))
+    (tmp_path / "s.toml").write_text(objects)
+    refused(tmp_path / "s.toml", capsys, "objects[2].material.texture: expected images that fit in the machine's "
+            "available memory once decoded (3.0 MiB when the scene began loading; its images so far keep 2.0 MiB)",
+            "c.png'", "512x512, which takes 2.0 MiB to decode (its header, read before decoding)")
+    (tmp_path / "s.toml").write_text(objects.replace('"c.png"', '"a.png"'))  # a file met before is not decoded again
+    assert run_in_process(["plan", str(tmp_path / "s.toml")], capsys)[0] == 0
 
 
 @pytest.mark.parametrize("size", [(65535, 65535), (16384, 16384)])

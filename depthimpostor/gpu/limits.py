@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import numbers
-import os
 import re
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -29,6 +28,7 @@ import moderngl
 
 from ..constants import MATERIAL, TEXTURE_RECORD
 from ..errors import GpuLimitError
+from ..host_memory import available_memory
 from ..methods.atlas import atlas_grid
 from ..plan import RenderPlan
 from ..scene.model import Scene
@@ -67,21 +67,6 @@ class GpuLimits:
         return dataclasses.replace(self, memory=memory, memory_source=source)
 
 
-def _available_memory() -> int | None:
-    """The machine's available memory (Linux's MemAvailable), or its physical memory."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (OSError, ValueError):
-        return None
-
-
 def _read_limits(ctx: moderngl.Context) -> GpuLimits:
     info = ctx.info
     renderer = str(info.get("GL_RENDERER", "")).lower()
@@ -93,7 +78,7 @@ def _read_limits(ctx: moderngl.Context) -> GpuLimits:
         limits = dataclasses.replace(limits, max_texture_bytes=_LLVMPIPE_TEXTURE_BYTES,
                                      max_renderbuffer_bytes=_LLVMPIPE_RENDERBUFFER_BYTES)
     if any(name in renderer for name in _SOFTWARE_RENDERERS):
-        available = _available_memory()
+        available = available_memory()
         if available is not None:
             limits = limits.with_memory(available, "the machine's available memory (a software renderer)")
     # A GPU's own memory is not in core GL; without --max-memory it is left to the driver.

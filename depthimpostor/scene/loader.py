@@ -20,6 +20,7 @@ else:  # tomllib joined the standard library in 3.11; tomli is the same parser (
 from depthimpostor.constants import MAX_BOUNCES, MAX_IOR, Wrap
 from depthimpostor.errors import SceneError
 from depthimpostor.hdr import HDR_SUFFIXES, MAX_SIDE, HdrImageError, read_hdr
+from depthimpostor.image_files import scene_images_budget
 from depthimpostor.scene import fields as f
 from depthimpostor.scene.gltf import gltf_objects, gltf_scene, read_gltf
 from depthimpostor.scene.gltf_file import GLTF_SUFFIXES
@@ -380,6 +381,11 @@ def _objects(top: Table) -> tuple[SceneObject, ...]:
 
 def parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
     """Validate already-parsed TOML data; `source` names it in errors, `base_dir` anchors model paths."""
+    with scene_images_budget():  # the images it decodes share the machine's memory (image_files.py)
+        return _parse_scene(data, source, base_dir)
+
+
+def _parse_scene(data: Mapping[str, Any], source: str, base_dir: Path) -> Scene:
     top = Table(data, At(source, "", Path(base_dir)), ("render", "camera", "environment", "lights", "objects"))
     scene = Scene(
         source=source,
@@ -404,7 +410,8 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
     SceneError naming the file and the field."""
     source = os.fspath(path)
     if Path(source).suffix.lower() in GLTF_SUFFIXES:
-        return gltf_scene(Path(source), source)
+        with scene_images_budget():
+            return gltf_scene(Path(source), source)
     try:
         text = read_file_bytes(Path(source), source, "a scene file", MAX_SCENE_FILE_BYTES).decode("utf-8")
     except UnicodeDecodeError as err:
