@@ -21,6 +21,7 @@ import moderngl
 from .constants import Algorithm, Method
 from .gpu.context import create_context, describe
 from .errors import DepthImpostorError, SceneError, SceneWarning
+from .interrupts import Terminated, deferred_interrupts, raise_pending
 from .oracles.compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
 from .colour import TONE_MAPPINGS
 from .outputs import (
@@ -559,13 +560,8 @@ INTERRUPTED_EXIT = 128 + signal.SIGINT
 TERMINATED_EXIT = 128 + signal.SIGTERM
 
 
-class _Terminated(BaseException):
-    """SIGTERM, raised where the command is (as SIGINT raises KeyboardInterrupt), so that every
-    `finally` and `with` block on the way out runs."""
-
-
 def _terminate(signum: int, frame: FrameType | None) -> None:
-    raise _Terminated
+    raise Terminated
 
 
 _python_format_warning = warnings.formatwarning
@@ -587,11 +583,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     own_signals = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if own_signals else None
     try:
-        return args.run(args)
+        with deferred_interrupts():  # an interrupt that lands in a finalizer is raised, not lost
+            status: int = args.run(args)
+            raise_pending()
+            return status
     except KeyboardInterrupt:
         print(file=sys.stderr)  # after a progress bar, or the terminal's ^C
         return INTERRUPTED_EXIT
-    except _Terminated:
+    except Terminated:
         return TERMINATED_EXIT
     except DepthImpostorError as error:
         print(f"depthimpostor: {error}", file=sys.stderr)

@@ -31,6 +31,7 @@ from PIL import GifImagePlugin, Image
 from tqdm import tqdm
 
 from .errors import OutputError, SceneError
+from .interrupts import raise_pending
 from .outputs import Outputs, check_file
 from .renderer import Renderer
 from .scene import Scene
@@ -128,6 +129,7 @@ def render_frames(renderer: Renderer, settings: VideoSettings) -> Iterator[np.nd
     """Each frame of the video as (height, width, 3) uint8, through the scene's display transform."""
     home = renderer.view
     for frame in range(settings.frames):
+        raise_pending()  # a Ctrl-C that landed in a finalizer during the last frame
         renderer.set_time(settings.time(frame))
         renderer.look_at(view_at(home, settings, frame))
         renderer.render()

@@ -18,6 +18,8 @@ import numpy as np
 import pytest
 
 from conftest import PROJECT_ROOT, SCENES
+from depthimpostor.interrupts import deferred_interrupts, raise_pending
+from depthimpostor.renderer import Renderer
 from depthimpostor.scene.model import Camera
 from depthimpostor.video import (
     CameraPath, VideoSettings, gif_durations, orbit_view, view_at, write_video,
@@ -268,3 +270,40 @@ def test_an_interrupted_video_ends_quietly_and_leaves_no_file(tmp_path: Path, su
     assert process.returncode == status, stderr
     assert stdout == "" and "Traceback" not in stderr and "Error" not in stderr
     assert list(tmp_path.iterdir()) == []
+
+
+class _InterruptedCleanup:
+    """An object whose finalizer is where a Ctrl-C lands (as one did in a generator context
+    manager's `finally`, closed by the garbage collector)."""
+
+    def __del__(self) -> None:
+        raise KeyboardInterrupt
+
+
+def test_a_ctrl_c_that_lands_in_a_finalizer_is_not_lost(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Python cannot raise an exception from a finalizer: it printed "Exception ignored in ..."
+    with a traceback and rendered on (a 1,000-second video to its end). Now the interrupt is
+    kept, silently, and raised at the video's next frame: exit 130 quietly, no file."""
+    drawn = []
+    render = Renderer.render
+
+    def render_and_interrupt_in_a_finalizer(self: Renderer) -> None:
+        render(self)
+        drawn.append(1)
+        if len(drawn) == 3:
+            _InterruptedCleanup()  # made and let go at once: its __del__ runs here
+
+    monkeypatch.setattr(Renderer, "render", render_and_interrupt_in_a_finalizer)
+    out = tmp_path / "v.gif"
+    code, stdout, stderr = run_in_process(["render", "--video", str(out), "--duration", "100", "--fps", "10",
+                                           "--size", "32x24", "--impostor-res", "32"], capsys)
+    assert code == 130 and stdout == ""
+    assert "Traceback" not in stderr and "Exception ignored" not in stderr, stderr
+    assert len(drawn) == 3
+    assert list(tmp_path.iterdir()) == []
+    with deferred_interrupts():  # and outside a video, at the next safe point
+        _InterruptedCleanup()
+        with pytest.raises(KeyboardInterrupt):
+            raise_pending()
+        raise_pending()  # raised once
