@@ -18,13 +18,14 @@ from typing import TypeVar
 
 import moderngl
 
+from .aov import AOVS, aov_path, compute_aovs, needs_reflection_data, parse_aovs, write_aovs
 from .constants import Algorithm, Method
 from .gpu.context import create_context, describe
 from .errors import DepthImpostorError, SceneError, SceneWarning
 from .oracles.compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
 from .colour import TONE_MAPPINGS
 from .outputs import (
-    Outputs, check_file, check_folder, is_float_image, is_stdout, write_float_image, write_image,
+    Outputs, check_file, check_folder, is_float_image, is_stdout, write_image,
 )
 from .gpu.limits import check_fits, limit_memory, parse_memory
 from .methods.registry import METHODS
@@ -136,25 +137,35 @@ def _render(args: argparse.Namespace) -> int:
             raise SceneError("command line", option, "expected only with --video")
     output = check_file(Path(args.output or DEFAULT_RENDER), "-o", float_image=True)
     linear = is_float_image(output)  # .exr, .hdr: the frame's linear float colour, for post-processing
+    aovs = parse_aovs(args.aov) if args.aov else ()
+    if aovs:
+        if is_stdout(output):
+            raise SceneError("command line", "--aov", "expected an -o file to write the AOVs beside, got standard output")
+        check_file(aov_path(output), "--aov", image=False)
     scene = _load(args)
     ctx = _context(args)
     renderer_name = describe(ctx)
     algorithm = Algorithm[args.algorithm.upper()]
     method = Method.from_option(args.method)
     try:
-        with Renderer(ctx, scene, algorithm, method=method) as renderer:
+        with Renderer(ctx, scene, algorithm, method=method, reflection_data=needs_reflection_data(aovs)) as renderer:
             for frame in range((args.frames or DEFAULT_FRAMES) + 1):  # the first frame bakes and warms up
                 renderer.set_time(args.time + frame / args.fps)
                 stats = renderer.render()
             image = renderer.read_color_float() if linear else renderer.read_color()
+            channels = compute_aovs(renderer, aovs) if aovs else {}
+            colour = renderer.read_color_float() if aovs else None
             stand_in = _stand_in(renderer)
             plan = renderer.plan
     finally:
         ctx.release()
     timed = stats.draw_seconds[1:]
     report = sys.stderr if is_stdout(output) else sys.stdout  # `-o /dev/stdout`: the image alone there
-    written = write_float_image(output, image) if linear else write_image(output, image)
-    print(written, file=report)
+    with Outputs() as out:  # the colour and its AOVs in place together
+        written = [out.float_image(output, image) if linear else out.image(output, image)]
+        if colour is not None:
+            written.append(write_aovs(out, aov_path(output), colour, channels))
+    print("\n".join(map(str, written)), file=report)
     # The first frame is a cold one (caches, lazily made programs and buffers): a time only with --frames.
     timing = (f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)})" if timed
               else f"first frame {1000 * stats.draw_seconds[0]:.1f} ms (cold; --frames N times N more)")
@@ -490,6 +501,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="--video: orbit (one turn of the scene camera about the world up axis through its "
                              "target, over the video) or fixed (the scene camera); default: fixed for a scene "
                              "that animates, orbit for a still one")
+    render.add_argument("--aov", type=_list_of(str),
+                        help="per-pixel outputs, comma-separated, written as named float channels of one OpenEXR "
+                             f"file beside the image (frame.png -> frame.aov.exr): {', '.join(AOVS)} "
+                             "(docs/batch.md says what each holds)")
     render.add_argument("--stats", action="store_true",
                         help="print the work done (passes run, images baked, draw calls) beside the plan")
     render.set_defaults(run=_render)
