@@ -134,23 +134,33 @@ def _truth(comparison: Comparison) -> dict[str, np.ndarray]:
     }
 
 
-def compute_aovs(renderer: Renderer, names: Sequence[str], truth: TruthFrame | None = None) -> dict[str, np.ndarray]:
-    """The AOVs `names` of the renderer's last frame, each (h, w) or (h, w, 3) float32, by name.
-    The renderer must have been made with reflection_data=True where any needs it
-    (needs_reflection_data); `truth` is an earlier frame's truth for the same rays, reused."""
+def compute_aovs(renderer: Renderer, names: Sequence[str],
+                 truth: TruthFrame | None = None) -> tuple[dict[str, np.ndarray], dict[str, float] | None]:
+    """The AOVs `names` of the renderer's last frame, each (h, w) or (h, w, 3) float32, by name;
+    and where the truth was traced for them, the frame's figures against it (FIGURES). The renderer
+    must have been made with reflection_data=True where any needs it (needs_reflection_data);
+    `truth` is an earlier frame's truth for the same rays, reused."""
     frames: list[SubFrame] = renderer.sub_frames()
     first = frames[0]
     camera = first.camera if first.camera is not None else renderer.camera
     height, width = first.color.shape[:2]
     sources = {AOVS[name].source for name in names}
     values: dict[str, np.ndarray] = {}
+    figures = None
     if "surface" in sources:
         values |= _surface(renderer, camera, (height, width))
     if "method" in sources:
         values |= _method(_reflection(first))
     if "truth" in sources:
-        values |= _truth(compare(renderer, truth, frames))
-    return {name: np.ascontiguousarray(values[name], dtype=np.float32) for name in names}
+        comparison = compare(renderer, truth, frames)
+        values |= _truth(comparison)
+        figures = {name: getattr(comparison.figures, name) for name in FIGURES}
+    return {name: np.ascontiguousarray(values[name], dtype=np.float32) for name in names}, figures
+
+
+#: The figures against the truth (oracles/compare.py's Figures) a frame with truth AOVs reports.
+FIGURES = ("mirror_pixels", "color_rmse", "psnr_db", "wrong_object_share", "wrong_surface_share",
+           "geometric_error_median", "geometric_error_p95")
 
 
 def _reflection(frame: SubFrame) -> ReflectionData:

@@ -10,11 +10,12 @@ import signal
 import statistics
 import sys
 import threading
+import time as time_module
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import FrameType
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import moderngl
 
@@ -36,6 +37,9 @@ from .resources import default_scene_path
 from .scene import Scene, load_scene
 from .scene.fields import SIZE, Reader
 from .scene.model import AUTO_RESOLUTION, EXPOSURE, IMPOSTOR_RESOLUTION, SAMPLES
+
+if TYPE_CHECKING:
+    from .video import VideoSettings
 
 T = TypeVar("T")
 
@@ -153,7 +157,7 @@ def _render(args: argparse.Namespace) -> int:
                 renderer.set_time(args.time + frame / args.fps)
                 stats = renderer.render()
             image = renderer.read_color_float() if linear else renderer.read_color()
-            channels = compute_aovs(renderer, aovs) if aovs else {}
+            channels = compute_aovs(renderer, aovs)[0] if aovs else {}
             colour = renderer.read_color_float() if aovs else None
             stand_in = _stand_in(renderer)
             plan = renderer.plan
@@ -190,6 +194,8 @@ def _render_video(args: argparse.Namespace) -> int:
     path = CameraPath(args.camera_path) if args.camera_path else CameraPath.default_for(scene)
     settings = VideoSettings(args.duration, args.fps, path, args.time)
     check_video_settings(settings, scene.render.size, output)
+    if args.workers is not None or args.address is not None:
+        return _render_video_on_workers(args, scene, output, settings)
     ctx = _context(args)
     renderer_name = describe(ctx)
     try:
@@ -204,6 +210,66 @@ def _render_video(args: argparse.Namespace) -> int:
     if args.stats:
         print(format_stats(stats, plan, args.time, args.fps))
     return 0
+
+
+def _scene_overrides(args: argparse.Namespace) -> tuple[tuple[str, object], ...]:
+    """What _load overrides in the scene, as a batch frame carries it to its worker."""
+    return (("size", args.size), ("impostor_resolution", args.impostor_res),
+            ("simplified_triangles", args.simplified_triangles), ("tone_mapping", getattr(args, "tone_mapping", None)),
+            ("exposure", getattr(args, "exposure", None)), ("samples", args.samples))
+
+
+def _render_video_on_workers(args: argparse.Namespace, scene: Scene, output: Path, settings: VideoSettings) -> int:
+    """`render --video --workers N`: the video's frames drawn by batch workers, out of order, and
+    put into the video in order: the same frames as one renderer draws them one after another."""
+    from .batch.jobs import Frame, video_views
+    from .batch.run import in_order, open_pool
+    from tqdm import tqdm
+
+    from .video import write_video
+
+    if args.stats:
+        raise SceneError("command line", "--stats", "expected without --workers (each worker has its own renderer)")
+    source = str(Path(args.scene or default_scene_path()).resolve())
+    frames = [Frame(output.name, k, source, args.method, args.algorithm, _scene_overrides(args), time, camera, (), None)
+              for k, (time, camera) in enumerate(video_views(settings))]
+    started = time_module.perf_counter()
+    with open_pool(args.workers, args.address, args.backend, args.max_memory) as pool:
+        shown = tqdm(in_order(pool.records(frames), len(frames)), total=len(frames), unit="frame", desc=output.name)
+        with shown:
+            print(write_video(output, shown, settings.fps), flush=True)
+        where = pool.description
+    seconds = time_module.perf_counter() - started
+    print(f"{settings.frames} frames, {settings.duration:g} s at {settings.fps:g} frames/s, camera "
+          f"{settings.camera_path.value}, {seconds:.1f} s on {where}, {scene.render.size[0]}x{scene.render.size[1]}")
+    return 0
+
+
+def _batch(args: argparse.Namespace) -> int:
+    """`depthimpostor batch jobs.toml`: every frame of every job, on Ray workers (docs/batch.md)."""
+    from .batch.jobs import load_batch
+    from .batch.run import open_pool, run_batch
+
+    batch = load_batch(args.jobs)
+    manifest = args.manifest or batch.manifest
+    with open_pool(args.workers, args.address, args.backend, args.max_memory) as pool:
+        summary = run_batch(batch.frames, pool, manifest)
+        where = pool.description
+    print(f"{summary.frames} frames: {summary.rendered} rendered, {summary.found} complete before, "
+          f"{len(summary.failed)} failed, in {summary.seconds:.1f} s on {where}; manifest {manifest}")
+    for job, (count, error) in summary.failed_jobs().items():
+        print(f"depthimpostor: batch: job {job}: {count} frame{'s' if count > 1 else ''} failed: {error}",
+              file=sys.stderr)
+    return 1 if summary.failed else 0
+
+
+def _workers_arguments(command: argparse.ArgumentParser, video: bool = False) -> None:
+    command.add_argument("--workers", type=_non_negative,
+                         help=("--video: draw the frames on this many batch workers (Ray processes), out of order, "
+                               "assembled in order; " if video else "worker processes (Ray actors), one per core by "
+                               "default (one per GPU on a cluster with GPUs); ") + "0: in this process, without Ray")
+    command.add_argument("--address", help="join the Ray cluster at this address (ray://host:10001, or auto) "
+                                           "instead of starting a local Ray (docs/batch.md)")
 
 
 def format_stats(stats: RenderStats, plan: RenderPlan, start: float, fps: float) -> str:
@@ -505,6 +571,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="per-pixel outputs, comma-separated, written as named float channels of one OpenEXR "
                              f"file beside the image (frame.png -> frame.aov.exr): {', '.join(AOVS)} "
                              "(docs/batch.md says what each holds)")
+    _workers_arguments(render, video=True)
     render.add_argument("--stats", action="store_true",
                         help="print the work done (passes run, images baked, draw calls) beside the plan")
     render.set_defaults(run=_render)
@@ -550,6 +617,16 @@ def build_parser() -> argparse.ArgumentParser:
     _backend_argument(bench)
     _max_memory_argument(bench)
     bench.set_defaults(run=_bench)
+
+    batch = commands.add_parser("batch", help="render the jobs of a batch file (TOML) on Ray workers, resumably "
+                                              "(docs/batch.md)")
+    batch.add_argument("jobs", type=Path, help="the batch file: [[jobs]] of scenes, cameras, times, methods, outputs")
+    batch.add_argument("--manifest", type=Path,
+                       help="the manifest (JSON lines, one per frame), overriding the batch file's")
+    _workers_arguments(batch)
+    _backend_argument(batch)
+    _max_memory_argument(batch)
+    batch.set_defaults(run=_batch)
 
     view = commands.add_parser("view", help="fly around a scene in a window (keys: H in the window)")
     _scene_arguments(view, headless=False)

@@ -26,7 +26,7 @@ def _aovs(ctx: moderngl.Context, method: Method) -> dict[str, np.ndarray]:
     scene = load_scene(SCENES / "default.toml").with_overrides(size=SIZE)
     with Renderer(ctx, scene, Algorithm.OPTIMIZED, method=method, reflection_data=needs_reflection_data(ALL)) as renderer:
         renderer.render()
-        return compute_aovs(renderer, ALL)
+        return compute_aovs(renderer, ALL)[0]
 
 
 @pytest.fixture(scope="module")
