@@ -72,7 +72,7 @@ AOVS: dict[str, Aov] = {
                      "against the real triangles instead (the hybrid's re-traced band), else 0"),
     "truth_reflected_object_id": Aov(("truth_reflected_object_id",), "truth", "the object the exact reflected ray "
                                      "hits (ray-traced truth); -1 for the environment and outside mirrors"),
-    "error": Aov(("error",), "truth", "the largest channel of |render - truth| in linear colour clamped to [0, 1] (as "
+    "error": Aov(("error",), "truth", "the largest channel of the absolute difference render - truth, in linear colour clamped to [0, 1] (as "
                  "compare measures it), over mirror pixels (and pixels seen directly in scenes with shadows); 0 "
                  "elsewhere, where the render is the truth"),
 }

@@ -230,6 +230,8 @@ def _render_video_on_workers(args: argparse.Namespace, scene: Scene, output: Pat
 
     if args.stats:
         raise SceneError("command line", "--stats", "expected without --workers (each worker has its own renderer)")
+    # What a Renderer would refuse (a method that refuses the scene), refused here before any worker starts.
+    plan_render(scene, Method.from_option(args.method), Algorithm[args.algorithm.upper()])
     source = str(Path(args.scene or default_scene_path()).resolve())
     frames = [Frame(output.name, k, source, args.method, args.algorithm, _scene_overrides(args), time, camera, (), None)
               for k, (time, camera) in enumerate(video_views(settings))]

@@ -10,7 +10,7 @@ import moderngl
 import numpy as np
 import pytest
 
-from conftest import SCENES
+from conftest import PROJECT_ROOT, SCENES
 from depthimpostor.aov import AOVS, aov_path, compute_aovs, needs_reflection_data, read_aovs
 from depthimpostor.cli import main
 from depthimpostor.constants import Algorithm, Method
@@ -127,3 +127,10 @@ def test_an_unknown_aov_is_refused_before_any_work(tmp_path: Path, capsys: pytes
     assert error.startswith("depthimpostor: command line: --aov: expected AOVs among depth, normal") and "'colour'" in error
     assert "\n" not in error
     assert not output.exists()
+
+
+def test_the_docs_table_names_every_aov_and_its_channels() -> None:
+    text = (PROJECT_ROOT / "docs" / "batch.md").read_text()
+    for name, aov in AOVS.items():
+        row = f"| `{name}` | {', '.join(f'`{channel}`' for channel in aov.channels)} | {aov.source} |"
+        assert row in text, row

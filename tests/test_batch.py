@@ -210,3 +210,13 @@ def test_batch_command_reports_a_failed_job_in_one_line(local_ray: None, tmp_pat
     assert "2 frames: 1 rendered, 0 complete before, 1 failed" in out
     assert err.strip().splitlines()[-1] == f"depthimpostor: batch: job bad: 1 frame failed: {tmp_path / 'nothing.toml'}: no such file"
     assert (tmp_path / "good.png").is_file() and (tmp_path / "jobs.manifest.jsonl").is_file()
+
+
+def test_a_video_whose_method_refuses_the_scene_is_refused_before_any_worker(tmp_path: Path,
+                                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """As the serial video: one line, exit 2, no file, and no Ray needed (refused before it starts)."""
+    video = tmp_path / "v.gif"
+    assert main(["render", str(SCENES / "two_mirrors.toml"), "--size", "32x18", "--duration", "0.1", "--video",
+                 str(video), "--method", "raytrace", "--workers", "2"]) == 2
+    assert "max_bounces: expected 1 with --method raytrace" in capsys.readouterr().err
+    assert not video.exists() and list(tmp_path.iterdir()) == []

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from ..errors import OutputError, SceneError
+from ..errors import DepthImpostorError, OutputError, SceneError
 from ..gpu.context import Backend
 from .jobs import Frame
 from .worker import FAILED, FOUND, RENDERED, FrameWorker, complete, one_line
@@ -281,8 +281,8 @@ def in_order(records: Iterable[dict[str, Any]], count: int) -> Iterator[np.ndarr
     early: dict[int, np.ndarray] = {}
     wanted = 0
     for record in records:
-        if record["status"] == FAILED:
-            raise SceneError(record["scene"], "", f"frame {record['frame']}: {record['error']}")
+        if record["status"] == FAILED:  # its error names the scene and field, or the worker's death
+            raise DepthImpostorError(f"frame {record['frame']}: {record['error']}")
         early[record["frame"]] = record["image"]
         while wanted in early:
             yield early.pop(wanted)

@@ -61,15 +61,18 @@ class FrameWorker:
         return self._ctx
 
     def identity(self) -> dict[str, Any]:
-        """Where frames are drawn: the manifest's `worker`."""
-        return {"host": socket.gethostname(), "pid": os.getpid(), "gl": describe(self.ctx)}
+        """Where a frame was drawn: the manifest's `worker` (the GL and EGL device once a context is made)."""
+        where: dict[str, Any] = {"host": socket.gethostname(), "pid": os.getpid()}
+        if self._ctx is not None:
+            where |= {"gl": describe(self._ctx), **({"device": self.device} if self.device is not None else {})}
+        return where
 
     def render(self, frame: Frame) -> dict[str, Any]:
         """Draw and write `frame` (or return its colour as `image` where it has no output file);
         its manifest record. Never raises for a frame that cannot be drawn: the record says why."""
-        record: dict[str, Any] = {**frame.settings(), "worker": {"host": socket.gethostname(), "pid": os.getpid()}}
+        record: dict[str, Any] = frame.settings()
         if complete(frame):
-            return {**record, "status": FOUND}
+            return {**record, "worker": self.identity(), "status": FOUND}
         started = time.perf_counter()
         try:
             renderer, made = self._renderer(frame)
@@ -77,9 +80,9 @@ class FrameWorker:
             result = self._draw(renderer, frame)
         except Exception as error:  # one frame's failure (a bad scene, a GL limit) is reported, the worker goes on
             self._forget(frame)
-            return {**record, "status": FAILED, "error": one_line(error)}
+            return {**record, "worker": self.identity(), "status": FAILED, "error": one_line(error)}
         seconds = {"setup": round(ready - started, 6) if made else 0.0, **result.pop("seconds")}
-        return {**record, "status": RENDERED, "seconds": seconds, **result}
+        return {**record, "worker": self.identity(), "status": RENDERED, "seconds": seconds, **result}
 
     def _renderer(self, frame: Frame) -> tuple[Renderer, bool]:
         key = frame.renderer_key()
