@@ -157,6 +157,8 @@ def sheet(folder: Path, output: Path, count: int) -> Path:
     draw = ImageDraw.Draw(picture)
     width = rows[0].shape[1] // 3
     for k, label in enumerate(["colour", "mirror mask", "reflected object (truth)"]):
+        box = draw.textbbox((k * width + 4, 2), label)
+        draw.rectangle((box[0] - 2, box[1] - 1, box[2] + 2, box[3] + 1), fill=(0, 0, 0))
         draw.text((k * width + 4, 2), label, fill=(255, 255, 255))
     output.parent.mkdir(parents=True, exist_ok=True)
     picture.save(output, optimize=True)
