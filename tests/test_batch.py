@@ -19,8 +19,9 @@ from PIL import Image
 
 from conftest import SCENES
 from depthimpostor.aov import read_aovs
-from depthimpostor.batch.jobs import Batch, load_batch
+from depthimpostor.batch.jobs import Batch, Frame, load_batch
 from depthimpostor.batch.run import LocalPool, RayPool, recorded_outputs, run_batch
+from depthimpostor.batch.worker import KEPT_RENDERERS, FrameWorker
 from depthimpostor.cli import main
 from depthimpostor.errors import SceneError
 
@@ -220,3 +221,22 @@ def test_a_video_whose_method_refuses_the_scene_is_refused_before_any_worker(tmp
                  str(video), "--method", "raytrace", "--workers", "2"]) == 2
     assert "max_bounces: expected 1 with --method raytrace" in capsys.readouterr().err
     assert not video.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_a_worker_keeps_its_most_recently_used_renderers(tmp_path: Path) -> None:
+    """Frames of six settings: each gets a renderer, the four most recent are kept (no Ray needed)."""
+    def frame(k: int, name: str) -> Frame:
+        return Frame("sizes", k, str(SCENES / "default.toml"), "depth", "optimized", (("size", (32 + 2 * k, 18)),), 0.0,
+                     None, (), str(tmp_path / f"{name}.png"))
+
+    worker = FrameWorker()
+    try:
+        made = [worker.render(frame(k, str(k))) for k in range(6)]
+        assert all(r["status"] == "rendered" and r["seconds"]["setup"] > 0 for r in made)
+        assert worker.kept == KEPT_RENDERERS == 4
+        assert worker.render(frame(5, "again5"))["seconds"]["setup"] == 0  # kept: drawn with it
+        assert worker.render(frame(0, "again0"))["seconds"]["setup"] > 0  # let go: made anew
+        assert worker.kept == 4
+        assert np.array_equal(np.asarray(Image.open(tmp_path / "again0.png")), np.asarray(Image.open(tmp_path / "0.png")))
+    finally:
+        worker.release()

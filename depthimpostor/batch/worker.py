@@ -14,6 +14,7 @@ import contextlib
 import os
 import socket
 import time
+from collections import OrderedDict
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +31,10 @@ from ..renderer import Renderer
 from ..scene import Scene, load_scene
 from .jobs import Frame, camera_for
 
+#: Renderers (and scenes) a worker keeps, the most recently used: a batch's frames come job by job,
+#: so a few cover the jobs in flight, and a dataset of thousands of scenes does not hold the GL
+#: memory of every one.
+KEPT_RENDERERS = 4
 #: A manifest record's status: drawn and written now, its files found complete, or failed (with `error`).
 RENDERED, FOUND, FAILED = "rendered", "found", "failed"
 
@@ -50,8 +55,8 @@ class FrameWorker:
     def __init__(self, backend: Backend | None = None, device: int | None = None, max_memory: int | None = None) -> None:
         self.backend, self.device, self.max_memory = backend, device, max_memory
         self._ctx: moderngl.Context | None = None
-        self._renderers: dict[tuple[object, ...], Renderer] = {}
-        self._scenes: dict[str, Scene] = {}
+        self._renderers: OrderedDict[tuple[object, ...], Renderer] = OrderedDict()
+        self._scenes: OrderedDict[str, Scene] = OrderedDict()
 
     @property
     def ctx(self) -> moderngl.Context:
@@ -66,6 +71,11 @@ class FrameWorker:
         if self._ctx is not None:
             where |= {"gl": describe(self._ctx), **({"device": self.device} if self.device is not None else {})}
         return where
+
+    @property
+    def kept(self) -> int:
+        """Renderers this worker keeps now (at most KEPT_RENDERERS)."""
+        return len(self._renderers)
 
     def render(self, frame: Frame) -> dict[str, Any]:
         """Draw and write `frame` (or return its colour as `image` where it has no output file);
@@ -87,16 +97,24 @@ class FrameWorker:
     def _renderer(self, frame: Frame) -> tuple[Renderer, bool]:
         key = frame.renderer_key()
         if key in self._renderers:
+            self._renderers.move_to_end(key)
             return self._renderers[key], False
         scene = self._scene(frame.scene).with_overrides(**dict(frame.overrides))
         renderer = Renderer(self.ctx, scene, Algorithm[frame.algorithm.upper()], method=Method.from_option(frame.method),
                             reflection_data=needs_reflection_data(frame.aovs))
         self._renderers[key] = renderer
+        while len(self._renderers) > KEPT_RENDERERS:  # the least recently used goes, with its GL memory
+            _, oldest = self._renderers.popitem(last=False)
+            oldest.release()
         return renderer, True
 
     def _scene(self, path: str) -> Scene:
-        if path not in self._scenes:
+        if path in self._scenes:
+            self._scenes.move_to_end(path)
+        else:
             self._scenes[path] = load_scene(path)
+            while len(self._scenes) > KEPT_RENDERERS:
+                self._scenes.popitem(last=False)
         return self._scenes[path]
 
     def _forget(self, frame: Frame) -> None:
