@@ -187,6 +187,9 @@ def _render_video(args: argparse.Namespace) -> int:
         if given:
             raise SceneError("command line", option, "expected no value with --video (the video's frames are "
                              "--duration x --fps from --time)")
+    if args.aov:
+        raise SceneError("command line", "--aov", "expected without --video (a video holds colour alone: "
+                         "`depthimpostor batch` writes each frame's AOVs, docs/batch.md)")
     output = check_video_file(Path(args.video))
     if args.duration is None:
         raise SceneError("command line", "--duration", "expected with --video: the video's length in seconds")

@@ -134,3 +134,10 @@ def test_the_docs_table_names_every_aov_and_its_channels() -> None:
     for name, aov in AOVS.items():
         row = f"| `{name}` | {', '.join(f'`{channel}`' for channel in aov.channels)} | {aov.source} |"
         assert row in text, row
+
+
+def test_aovs_are_refused_beside_a_video(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["render", "--size", "32x18", "--video", str(tmp_path / "v.gif"), "--duration", "0.1",
+                 "--aov", "depth"]) == 2
+    assert capsys.readouterr().err.startswith("depthimpostor: command line: --aov: expected without --video")
+    assert list(tmp_path.iterdir()) == []

@@ -59,10 +59,11 @@ MAX_BATCH_BYTES = 16 * 2**20
 
 _METHOD = choice([m.option for m in Method])
 _ALGORITHM = choice([a.name.lower() for a in Algorithm])
-_STRINGS: Reader[list[str]] = Reader("a list of strings", lambda v: list(v) if isinstance(v, list) and all(isinstance(x, str) for x in v) else None)
-_TIMES: Reader[list[float] | None] = Reader("a non-empty list of finite numbers (seconds)",
-                lambda v: [float(x) for x in v] if isinstance(v, list) and v and all(number().parse(x) is not None for x in v)
-                else None)
+_STRINGS: Reader[list[str]] = Reader(
+    "a list of strings", lambda v: list(v) if isinstance(v, list) and all(isinstance(x, str) for x in v) else None)
+_TIMES: Reader[list[float] | None] = Reader(
+    "a non-empty list of finite numbers (seconds)",
+    lambda v: [float(x) for x in v] if isinstance(v, list) and v and all(number().parse(x) is not None for x in v) else None)
 
 
 @dataclass(frozen=True)
