@@ -10,14 +10,16 @@ import signal
 import statistics
 import sys
 import threading
+import time as time_module
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import FrameType
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import moderngl
 
+from .aov import AOVS, aov_path, compute_aovs, needs_reflection_data, parse_aovs, write_aovs
 from .constants import Algorithm, Method
 from .gpu.context import create_context, describe
 from .errors import DepthImpostorError, SceneError, SceneWarning
@@ -25,7 +27,7 @@ from .interrupts import Terminated, deferred_interrupts, raise_pending
 from .oracles.compare import Comparison, Figures, TruthFrame, compare, format_table, markdown_table, side_by_side, write_report
 from .colour import TONE_MAPPINGS
 from .outputs import (
-    Outputs, check_file, check_folder, is_float_image, is_stdout, write_float_image, write_image,
+    Outputs, check_file, check_folder, is_float_image, is_stdout, write_image,
 )
 from .gpu.limits import check_fits, limit_memory, parse_memory
 from .methods.registry import METHODS
@@ -36,6 +38,9 @@ from .resources import default_scene_path
 from .scene import Scene, load_scene
 from .scene.fields import SIZE, Reader
 from .scene.model import AUTO_RESOLUTION, EXPOSURE, IMPOSTOR_RESOLUTION, SAMPLES
+
+if TYPE_CHECKING:
+    from .video import VideoSettings
 
 T = TypeVar("T")
 
@@ -137,25 +142,35 @@ def _render(args: argparse.Namespace) -> int:
             raise SceneError("command line", option, "expected only with --video")
     output = check_file(Path(args.output or DEFAULT_RENDER), "-o", float_image=True)
     linear = is_float_image(output)  # .exr, .hdr: the frame's linear float colour, for post-processing
+    aovs = parse_aovs(args.aov) if args.aov else ()
+    if aovs:
+        if is_stdout(output):
+            raise SceneError("command line", "--aov", "expected an -o file to write the AOVs beside, got standard output")
+        check_file(aov_path(output), "--aov", image=False)
     scene = _load(args)
     ctx = _context(args)
     renderer_name = describe(ctx)
     algorithm = Algorithm[args.algorithm.upper()]
     method = Method.from_option(args.method)
     try:
-        with Renderer(ctx, scene, algorithm, method=method) as renderer:
+        with Renderer(ctx, scene, algorithm, method=method, reflection_data=needs_reflection_data(aovs)) as renderer:
             for frame in range((args.frames or DEFAULT_FRAMES) + 1):  # the first frame bakes and warms up
                 renderer.set_time(args.time + frame / args.fps)
                 stats = renderer.render()
             image = renderer.read_color_float() if linear else renderer.read_color()
+            channels = compute_aovs(renderer, aovs)[0] if aovs else {}
+            colour = renderer.read_color_float() if aovs else None
             stand_in = _stand_in(renderer)
             plan = renderer.plan
     finally:
         ctx.release()
     timed = stats.draw_seconds[1:]
     report = sys.stderr if is_stdout(output) else sys.stdout  # `-o /dev/stdout`: the image alone there
-    written = write_float_image(output, image) if linear else write_image(output, image)
-    print(written, file=report)
+    with Outputs() as out:  # the colour and its AOVs in place together
+        written = [out.float_image(output, image) if linear else out.image(output, image)]
+        if colour is not None:
+            written.append(write_aovs(out, aov_path(output), colour, channels))
+    print("\n".join(map(str, written)), file=report)
     # The first frame is a cold one (caches, lazily made programs and buffers): a time only with --frames.
     timing = (f"frame {1000 * statistics.median(timed):.1f} ms (median of {len(timed)})" if timed
               else f"first frame {1000 * stats.draw_seconds[0]:.1f} ms (cold; --frames N times N more)")
@@ -173,6 +188,9 @@ def _render_video(args: argparse.Namespace) -> int:
         if given:
             raise SceneError("command line", option, "expected no value with --video (the video's frames are "
                              "--duration x --fps from --time)")
+    if args.aov:
+        raise SceneError("command line", "--aov", "expected without --video (a video holds colour alone: "
+                         "`depthimpostor batch` writes each frame's AOVs, docs/batch.md)")
     output = check_video_file(Path(args.video))
     if args.duration is None:
         raise SceneError("command line", "--duration", "expected with --video: the video's length in seconds")
@@ -180,6 +198,8 @@ def _render_video(args: argparse.Namespace) -> int:
     path = CameraPath(args.camera_path) if args.camera_path else CameraPath.default_for(scene)
     settings = VideoSettings(args.duration, args.fps, path, args.time)
     check_video_settings(settings, scene.render.size, output)
+    if args.workers is not None or args.address is not None:
+        return _render_video_on_workers(args, scene, output, settings)
     ctx = _context(args)
     renderer_name = describe(ctx)
     try:
@@ -194,6 +214,68 @@ def _render_video(args: argparse.Namespace) -> int:
     if args.stats:
         print(format_stats(stats, plan, args.time, args.fps))
     return 0
+
+
+def _scene_overrides(args: argparse.Namespace) -> tuple[tuple[str, object], ...]:
+    """What _load overrides in the scene, as a batch frame carries it to its worker."""
+    return (("size", args.size), ("impostor_resolution", args.impostor_res),
+            ("simplified_triangles", args.simplified_triangles), ("tone_mapping", getattr(args, "tone_mapping", None)),
+            ("exposure", getattr(args, "exposure", None)), ("samples", args.samples))
+
+
+def _render_video_on_workers(args: argparse.Namespace, scene: Scene, output: Path, settings: VideoSettings) -> int:
+    """`render --video --workers N`: the video's frames drawn by batch workers, out of order, and
+    put into the video in order: the same frames as one renderer draws them one after another."""
+    from .batch.jobs import Frame, video_views
+    from .batch.run import in_order, open_pool
+    from tqdm import tqdm
+
+    from .video import write_video
+
+    if args.stats:
+        raise SceneError("command line", "--stats", "expected without --workers (each worker has its own renderer)")
+    # What a Renderer would refuse (a method that refuses the scene), refused here before any worker starts.
+    plan_render(scene, Method.from_option(args.method), Algorithm[args.algorithm.upper()])
+    source = str(Path(args.scene or default_scene_path()).resolve())
+    frames = [Frame(output.name, k, source, args.method, args.algorithm, _scene_overrides(args), time, camera, (), None)
+              for k, (time, camera) in enumerate(video_views(settings))]
+    started = time_module.perf_counter()
+    with open_pool(args.workers, args.address, args.backend, args.max_memory) as pool:
+        shown = tqdm(in_order(pool.records(frames), len(frames)), total=len(frames), unit="frame", desc=output.name)
+        with shown:
+            print(write_video(output, shown, settings.fps), flush=True)
+        where = pool.description
+    seconds = time_module.perf_counter() - started
+    print(f"{settings.frames} frames, {settings.duration:g} s at {settings.fps:g} frames/s, camera "
+          f"{settings.camera_path.value}, {seconds:.1f} s on {where}, {scene.render.size[0]}x{scene.render.size[1]}")
+    return 0
+
+
+def _batch(args: argparse.Namespace) -> int:
+    """`depthimpostor batch jobs.toml`: every frame of every job, on Ray workers (docs/batch.md)."""
+    from .batch.jobs import load_batch
+    from .batch.run import open_pool, run_batch
+
+    batch = load_batch(args.jobs)
+    manifest = args.manifest or batch.manifest
+    with open_pool(args.workers, args.address, args.backend, args.max_memory) as pool:
+        summary = run_batch(batch.frames, pool, manifest)
+        where = pool.description
+    print(f"{summary.frames} frames: {summary.rendered} rendered, {summary.found} complete before, "
+          f"{len(summary.failed)} failed, in {summary.seconds:.1f} s on {where}; manifest {manifest}")
+    for job, (count, error) in summary.failed_jobs().items():
+        print(f"depthimpostor: batch: job {job}: {count} frame{'s' if count > 1 else ''} failed: {error}",
+              file=sys.stderr)
+    return 1 if summary.failed else 0
+
+
+def _workers_arguments(command: argparse.ArgumentParser, video: bool = False) -> None:
+    command.add_argument("--workers", type=_non_negative,
+                         help=("--video: draw the frames on this many batch workers (Ray processes), out of order, "
+                               "assembled in order; " if video else "worker processes (Ray actors), one per core by "
+                               "default (one per GPU on a cluster with GPUs); ") + "0: in this process, without Ray")
+    command.add_argument("--address", help="join the Ray cluster at this address (ray://host:10001, or auto) "
+                                           "instead of starting a local Ray (docs/batch.md)")
 
 
 def format_stats(stats: RenderStats, plan: RenderPlan, start: float, fps: float) -> str:
@@ -491,6 +573,11 @@ def build_parser() -> argparse.ArgumentParser:
                         help="--video: orbit (one turn of the scene camera about the world up axis through its "
                              "target, over the video) or fixed (the scene camera); default: fixed for a scene "
                              "that animates, orbit for a still one")
+    render.add_argument("--aov", type=_list_of(str),
+                        help="per-pixel outputs, comma-separated, written as named float channels of one OpenEXR "
+                             f"file beside the image (frame.png -> frame.aov.exr): {', '.join(AOVS)} "
+                             "(docs/batch.md says what each holds)")
+    _workers_arguments(render, video=True)
     render.add_argument("--stats", action="store_true",
                         help="print the work done (passes run, images baked, draw calls) beside the plan")
     render.set_defaults(run=_render)
@@ -536,6 +623,16 @@ def build_parser() -> argparse.ArgumentParser:
     _backend_argument(bench)
     _max_memory_argument(bench)
     bench.set_defaults(run=_bench)
+
+    batch = commands.add_parser("batch", help="render the jobs of a batch file (TOML) on Ray workers, resumably "
+                                              "(docs/batch.md)")
+    batch.add_argument("jobs", type=Path, help="the batch file: [[jobs]] of scenes, cameras, times, methods, outputs")
+    batch.add_argument("--manifest", type=Path,
+                       help="the manifest (JSON lines, one per frame), overriding the batch file's")
+    _workers_arguments(batch)
+    _backend_argument(batch)
+    _max_memory_argument(batch)
+    batch.set_defaults(run=_batch)
 
     view = commands.add_parser("view", help="fly around a scene in a window (keys: H in the window)")
     _scene_arguments(view, headless=False)

@@ -91,12 +91,19 @@ class OSMesaLoader:
             self._context = None
 
 
-def _egl_context() -> moderngl.Context:
-    # moderngl's stub types each **settings value as a dict; glcontext takes strings such as this one.
-    return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL_VERSION)  # type: ignore[arg-type]
+def _egl_context(device: int | None = None) -> moderngl.Context:
+    """`device`: the index among EGL's devices (EGL_EXT_device_enumeration, as glcontext enumerates
+    them); None: EGL's default display."""
+    if device is None:
+        # moderngl's stub types each **settings value as a dict; glcontext takes strings such as this one.
+        return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL_VERSION)  # type: ignore[arg-type]
+    return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL_VERSION,  # type: ignore[arg-type]
+                                              device_index=device)  # type: ignore[arg-type]
 
 
-def _osmesa_context() -> moderngl.Context:
+def _osmesa_context(device: int | None = None) -> moderngl.Context:
+    if device is not None:
+        raise ContextError(f"OSMesa renders on the CPU: it has no device {device} (EGL's devices are GPUs)")
     loader = OSMesaLoader()
     # moderngl's stub types each **settings value as a dict; `context` takes any loader object.
     ctx = moderngl.create_context(context=loader, require=REQUIRED_GL_VERSION)  # type: ignore[arg-type]
@@ -107,25 +114,27 @@ def _osmesa_context() -> moderngl.Context:
 _BACKENDS = {"egl": _egl_context, "osmesa": _osmesa_context}
 
 
-def create_context(backend: Backend | None = None) -> moderngl.Context:
+def create_context(backend: Backend | None = None, device: int | None = None) -> moderngl.Context:
     """Create a headless GL 3.3+ core context.
 
     `backend` "auto" (the default, or the DEPTHIMPOSTOR_GL_BACKEND environment variable) tries EGL
-    first and OSMesa second. Raises `ContextError` naming every backend tried, why each failed,
+    first and OSMesa second. `device` picks one of EGL's devices by its index in EGL's device
+    enumeration (a batch worker on a machine with several GPUs: batch/worker.py); with a device,
+    "auto" is EGL alone. Raises `ContextError` naming every backend tried, why each failed,
     and what to install.
     """
     choice = backend or os.environ.get("DEPTHIMPOSTOR_GL_BACKEND", "auto")
     if choice not in ("auto", *_BACKENDS):
         raise ContextError(f"unknown GL backend {choice!r}; expected one of: auto, {', '.join(_BACKENDS)}")
-    order = list(_BACKENDS) if choice == "auto" else [choice]
+    order = (["egl"] if device is not None else list(_BACKENDS)) if choice == "auto" else [choice]
     failures: list[str] = []
     for name in order:
         try:
-            ctx = _BACKENDS[name]()
+            ctx = _BACKENDS[name](device)
         except Exception as error:  # each backend fails in its own way (OSError, moderngl.Error, ...)
             failures.append(f"{name}: {error}".strip())
             continue
-        ctx.extra = {**(ctx.extra or {}), "backend": name}
+        ctx.extra = {**(ctx.extra or {}), "backend": name, **({"device": device} if device is not None else {})}
         return ctx
     raise ContextError(
         f"no OpenGL {REQUIRED_GL_VERSION // 100}.{REQUIRED_GL_VERSION % 100 // 10} core context could be created "

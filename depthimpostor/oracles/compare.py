@@ -146,23 +146,32 @@ class Comparison:
         return display_encode(linear, *self.display)
 
 
+def primary_rays(camera: PPC) -> tuple[np.ndarray, np.ndarray]:
+    """The origins and unit directions of the rays through every pixel's centre, row by row (top first)."""
+    rows, columns = np.mgrid[0:camera.height, 0:camera.width] + 0.5
+    directions = camera.ray_direction(columns.ravel(), rows.ravel())
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    return np.broadcast_to(camera.C, directions.shape), directions
+
+
+def primary_tracer(renderer: Renderer) -> TruthTracer:
+    """A tracer of primary rays against every object the eye can see: the shadow casters (with real
+    shadow rays), the others that cast no shadow (the planes drawn as meshes and the flat mirrors,
+    whose backs are seen directly), and the analytic planes (intersected exactly)."""
+    world = renderer.world
+    casters = world.shadow_casters
+    apart = {g.index for g in casters} | {g.index for g in world.analytic_planes}
+    seen = [*casters, *(g for g in world.geometry if g.index not in apart)]
+    return TruthTracer(renderer.scene, seen, world.analytic_planes, casters)
+
+
 def trace_direct(renderer: Renderer, mirror_mask: np.ndarray, camera: PPC | None = None) -> np.ndarray:
     """The truth of every pixel seen directly: a primary ray through its centre (of `camera`, the
     renderer's by default, or a sub-frame's), traced against every object and shaded with real
     shadow rays. NaN where the ray meets a mirror (on its reflecting side: its back is a diffuse
     backing) or glass, or the rasterizer saw one (mirror pixels have their own truth)."""
-    camera = renderer.camera if camera is None else camera
-    rows, columns = np.mgrid[0:camera.height, 0:camera.width] + 0.5
-    directions = camera.ray_direction(columns.ravel(), rows.ravel())
-    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-    origins = np.broadcast_to(camera.C, directions.shape)
-    casters = renderer.world.shadow_casters
-    # Every object but the analytic planes (intersected exactly): the casters, then the others that
-    # cast no shadow: the planes drawn as meshes and the flat mirrors, whose backs are seen directly.
-    world = renderer.world
-    apart = {g.index for g in casters} | {g.index for g in world.analytic_planes}
-    seen = [*casters, *(g for g in world.geometry if g.index not in apart)]
-    hits = TruthTracer(renderer.scene, seen, world.analytic_planes, casters).trace(origins, directions)
+    origins, directions = primary_rays(renderer.camera if camera is None else camera)
+    hits = primary_tracer(renderer).trace(origins, directions)
     reflectors = [g.index for g in renderer.world.reflectors]
     reflecting = np.isin(hits.object_id, reflectors) & ~hits.backing
     seen_mirror = reflecting.reshape(mirror_mask.shape) | mirror_mask

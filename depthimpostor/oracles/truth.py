@@ -286,6 +286,14 @@ class TruthTracer:
                                                               self.visibility)
         return hits
 
+    def surfaces(self, origins: Array, directions: Array) -> tuple[TruthHits, Array]:
+        """The nearest hits with no colour (zero), and each one's albedo (linear: factor times texel;
+        a mirror's backing its grey; 0 on a mirror's reflecting side, glass, and where nothing was
+        hit): the per-pixel outputs of `render --aov` (aov.py)."""
+        hits, albedo, _, _ = self._intersect(origins, directions)
+        hits.color[:] = 0.0
+        return hits, albedo
+
     def intersect(self, origins: Array, directions: Array) -> TruthHits:
         """The nearest hits with no colour (zero): where a ray goes inside glass."""
         hits, _, _, _ = self._intersect(origins, directions)

@@ -299,6 +299,11 @@ def _render(t: Table) -> RenderSettings:
                           samples=t.opt("samples", SAMPLES, d.samples))
 
 
+def read_camera(t: Table) -> Camera:
+    """A camera table (the scene's [camera], a batch job's cameras[k]), checked."""
+    return _camera(t)
+
+
 def _camera(t: Table) -> Camera:
     d = Camera()
     camera = Camera(eye=t.opt("eye", _POINT, d.eye), target=t.opt("target", _POINT, d.target),

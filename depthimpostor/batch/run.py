@@ -1,0 +1,291 @@
+"""Frames rendered by a pool of workers: Ray actors on this machine or a cluster, or this process.
+
+Ray (docs/batch.md says why Ray): each worker is an actor, a process that keeps its GL context and
+its renderers for its lifetime (worker.py), asking for one CPU (and one GPU where the cluster has
+GPUs; the actor then makes its context on the EGL device of its GPU). Frames go to the actors a few
+at a time each (FRAMES_IN_FLIGHT) and come back in the order they finish. A worker process that
+dies is restarted and the frames it held are sent again (Ray's max_restarts and max_task_retries:
+RETRIES); a frame whose files were written before the death is then found complete, not drawn
+again. A frame that fails (a bad scene) comes back as a record saying why; the others go on.
+
+`run_batch` writes the manifest: one JSON line per frame as it completes (its settings, the worker,
+its timings, the renderer's figures), appended and flushed line by line, so that a batch killed
+half-way keeps the lines of every frame it finished, and a rerun adds only the frames it draws.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from ..errors import DepthImpostorError, OutputError, SceneError
+from ..gpu.context import Backend
+from .jobs import Frame
+from .worker import FAILED, FOUND, RENDERED, FrameWorker, complete, one_line
+
+#: Frames held by each worker at a time: one drawing and one waiting, so that a worker never
+#: waits for the driver between frames, and a dead worker takes few frames with it.
+FRAMES_IN_FLIGHT = 2
+#: How often a dead worker process is restarted, and a frame it held sent again.
+RETRIES = 3
+#: The `batch` extra: what to install when Ray is missing.
+RAY_HINT = 'pip install "depthimpostor[batch]" (Ray); or --workers 0 to render in this process'
+
+
+class FramePool:
+    """Where frames are rendered; `records(frames)` yields each frame's record as it completes."""
+
+    workers = 1
+    description = "this process"
+
+    def records(self, frames: Sequence[Frame]) -> Iterator[dict[str, Any]]:
+        raise NotImplementedError
+
+    def __enter__(self) -> FramePool:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None, trace: TracebackType | None) -> None:
+        self.close()
+
+    def close(self) -> None:
+        pass
+
+
+class LocalPool(FramePool):
+    """One FrameWorker in this process, frames in order (`--workers 0`; the tests' serial reference)."""
+
+    def __init__(self, backend: Backend | None = None, max_memory: int | None = None) -> None:
+        self.worker = FrameWorker(backend, None, max_memory)
+
+    def records(self, frames: Sequence[Frame]) -> Iterator[dict[str, Any]]:
+        for frame in frames:
+            yield self.worker.render(frame)
+
+    def close(self) -> None:
+        self.worker.release()
+
+
+class RayWorker(FrameWorker):
+    """A FrameWorker in a Ray actor: its context on its GPU's EGL device where Ray gave it one."""
+
+    def __init__(self, backend: Backend | None, max_memory: int | None, threads: int | None) -> None:
+        import ray
+
+        gpus: list[Any] = ray.get_gpu_ids()
+        # Mesa's llvmpipe rasterizes with a thread per core; workers sharing the cores each get their share.
+        if threads is not None and not gpus:
+            os.environ.setdefault("LP_NUM_THREADS", str(threads))
+        super().__init__(backend, int(gpus[0]) if gpus else None, max_memory)
+
+    def pid(self) -> int:
+        return os.getpid()
+
+
+class RayPool(FramePool):
+    """Ray actors: on a local Ray started here (one per core, or `workers`), or on the cluster at `address`."""
+
+    def __init__(self, workers: int | None = None, address: str | None = None, backend: Backend | None = None,
+                 max_memory: int | None = None) -> None:
+        try:
+            import ray as ray_module
+        except ImportError:
+            raise SceneError("command line", "--workers", f"expected Ray to be installed: {RAY_HINT}") from None
+        # Ray's hints cover part of its API (cluster_resources has none, an actor's methods are
+        # typed as plain methods): it is used untyped.
+        ray: Any = ray_module
+        self._ray = ray
+        self._started = not ray.is_initialized()
+        if self._started:
+            cores = os.cpu_count() or 1
+            options: dict[str, Any] = {"include_dashboard": False, "logging_level": "ERROR",
+                                       "configure_logging": True, "log_to_driver": True}
+            if address is None:
+                ray.init(num_cpus=workers or cores, **options)
+            else:
+                ray.init(address=address, **options)
+        resources = ray.cluster_resources()
+        gpus = int(resources.get("GPU", 0))
+        self.workers = workers or gpus or int(resources.get("CPU", 1))
+        threads = max(1, (os.cpu_count() or 1) // self.workers) if address is None else None
+        actor = ray.remote(num_cpus=1, num_gpus=1 if gpus else 0, max_restarts=RETRIES,
+                           max_task_retries=RETRIES)(RayWorker)
+        self.actors: list[Any] = [actor.remote(backend, max_memory, threads) for _ in range(self.workers)]
+        where = address or "a local Ray"
+        self.description = f"{self.workers} Ray workers on {where}" + (f" ({gpus} GPUs)" if gpus else "")
+
+    def records(self, frames: Sequence[Frame]) -> Iterator[dict[str, Any]]:
+        ray: Any = self._ray
+        waiting = deque(frames)
+        held: dict[Any, tuple[Frame, Any]] = {}  # a frame's future: the frame and its actor
+        load = {id(actor): 0 for actor in self.actors}
+        actors = list(self.actors)
+        while waiting or held:
+            for actor in actors:
+                while waiting and load[id(actor)] < FRAMES_IN_FLIGHT:
+                    frame = waiting.popleft()
+                    held[actor.render.remote(frame)] = (frame, actor)
+                    load[id(actor)] += 1
+            if not held:  # every worker died: what is left cannot be drawn
+                for frame in waiting:
+                    yield {**frame.settings(), "status": FAILED, "error": "no worker left (every one died)"}
+                return
+            done, _ = ray.wait(list(held), num_returns=1)
+            frame, actor = held.pop(done[0])
+            load[id(actor)] -= 1
+            try:
+                yield ray.get(done[0])
+            except ray.exceptions.RayActorError as error:  # died RETRIES times: this worker is gone
+                if actor in actors:
+                    actors.remove(actor)
+                yield {**frame.settings(), "status": FAILED, "error": f"worker died: {one_line(error)}"}
+            except ray.exceptions.RayError as error:
+                yield {**frame.settings(), "status": FAILED, "error": one_line(error)}
+
+    def close(self) -> None:
+        for actor in self.actors:
+            self._ray.kill(actor)
+        self.actors = []
+        if self._started:
+            self._ray.shutdown()
+
+
+def open_pool(workers: int | None, address: str | None, backend: Backend | None = None,
+              max_memory: int | None = None) -> FramePool:
+    """`--workers 0`: this process; otherwise Ray (a local one, or the cluster at `address`)."""
+    if workers == 0:
+        if address is not None:
+            raise SceneError("command line", "--address", "expected with --workers 1 or more (0: this process)")
+        return LocalPool(backend, max_memory)
+    return RayPool(workers, address, backend, max_memory)
+
+
+@dataclass
+class BatchSummary:
+    frames: int = 0
+    rendered: int = 0
+    found: int = 0
+    failed: list[dict[str, Any]] = field(default_factory=list)
+    seconds: float = 0.0
+
+    def failed_jobs(self) -> dict[str, tuple[int, str]]:
+        """Each job with failed frames: how many, and the first one's error."""
+        jobs: dict[str, tuple[int, str]] = {}
+        for record in self.failed:
+            count, error = jobs.get(record["job"], (0, record.get("error", "")))
+            jobs[record["job"]] = (count + 1, error)
+        return jobs
+
+
+def recorded_outputs(manifest: Path) -> set[str]:
+    """The outputs the manifest lists as complete (a line cut short by a kill is passed over)."""
+    recorded: set[str] = set()
+    if not manifest.is_file():
+        return recorded
+    for line in manifest.read_text(encoding="utf-8").splitlines():
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if record.get("status") in (RENDERED, FOUND):
+            recorded.update(record.get("outputs", []))
+    return recorded
+
+
+class Manifest:
+    """JSON lines appended and flushed one at a time (a kill loses at most the line being written)."""
+
+    def __init__(self, path: Path, run: str) -> None:
+        self.path, self.run = path, run
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self._file = open(path, "a", encoding="utf-8")  # noqa: SIM115 - closed by close()
+            if self._file.tell() and not path.read_bytes().endswith(b"\n"):
+                self._file.write("\n")  # after a line a kill cut short: the next starts on its own
+        except OSError as error:
+            raise OutputError(f"cannot write the manifest {path}: {error.strerror or error}") from None
+
+    def write(self, record: dict[str, Any]) -> None:
+        line = json.dumps({**{k: v for k, v in record.items() if k != "image"}, "run": self.run}, default=_plain)
+        self._file.write(line + "\n")
+        self._file.flush()
+        os.fsync(self._file.fileno())
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def _plain(value: object) -> object:
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} is not JSON")
+
+
+def run_batch(frames: Sequence[Frame], pool: FramePool, manifest: Path | None, progress: bool = True,
+              on_record: Callable[[dict[str, Any]], None] | None = None) -> BatchSummary:
+    """Render the frames not yet complete on `pool`, each record into the manifest as it comes.
+    A frame complete on disk but missing from the manifest (its worker wrote it, then the batch
+    was killed) is recorded as found, without drawing it."""
+    started = time.perf_counter()
+    summary = BatchSummary(frames=len(frames))
+    run = f"{time.strftime('%Y-%m-%dT%H:%M:%S')}-{os.getpid()}"
+    log = Manifest(manifest, run) if manifest is not None else None
+    recorded = recorded_outputs(manifest) if manifest is not None else set()
+    todo = []
+    try:
+        for frame in frames:
+            if not complete(frame):
+                todo.append(frame)
+                continue
+            summary.found += 1
+            if log is not None and not {str(p) for p in frame.outputs} <= recorded:
+                log.write({**frame.settings(), "status": FOUND})
+        with tqdm(total=len(frames), initial=summary.found, unit="frame", disable=not progress,
+                  desc=pool.description) as bar:
+            for record in pool.records(todo):
+                _count(summary, record)
+                if log is not None:
+                    log.write(record)
+                if on_record is not None:
+                    on_record(record)
+                bar.update(1)
+    finally:
+        if log is not None:
+            log.close()
+    summary.seconds = time.perf_counter() - started
+    return summary
+
+
+def _count(summary: BatchSummary, record: dict[str, Any]) -> None:
+    status = record["status"]
+    if status == RENDERED:
+        summary.rendered += 1
+    elif status == FOUND:
+        summary.found += 1
+    else:
+        summary.failed.append(record)
+
+
+def in_order(records: Iterable[dict[str, Any]], count: int) -> Iterator[np.ndarray]:
+    """The `image` of records that come in any order, yielded in frame order (0, 1, ...): a
+    video's frames drawn out of order, assembled in order. A failed frame raises its error."""
+    early: dict[int, np.ndarray] = {}
+    wanted = 0
+    for record in records:
+        if record["status"] == FAILED:  # its error names the scene and field, or the worker's death
+            raise DepthImpostorError(f"frame {record['frame']}: {record['error']}")
+        early[record["frame"]] = record["image"]
+        while wanted in early:
+            yield early.pop(wanted)
+            wanted += 1
+    if wanted != count:
+        raise OutputError(f"expected {count} frames, got {wanted}")

@@ -1,0 +1,242 @@
+"""`depthimpostor batch` and `render --video --workers` on a real local Ray of two worker processes
+(one Ray for the module: it takes seconds to start): a batch draws what one process draws, bit for
+bit; a worker killed mid-batch loses nothing and draws nothing twice; a bad job fails alone; a
+batch stopped half-way resumes where it stopped. The batch file's refusals need no Ray."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import ray
+from PIL import Image
+
+from conftest import SCENES
+from depthimpostor.aov import read_aovs
+from depthimpostor.batch.jobs import Batch, Frame, load_batch
+from depthimpostor.batch.run import LocalPool, RayPool, recorded_outputs, run_batch
+from depthimpostor.batch.worker import KEPT_RENDERERS, FrameWorker
+from depthimpostor.cli import main
+from depthimpostor.errors import SceneError
+
+WORKERS = 2
+
+pytestmark = pytest.mark.xdist_group("ray")  # one pytest process holds the Ray (pyproject's --dist loadgroup)
+
+
+@pytest.fixture(scope="module")
+def local_ray() -> Iterator[None]:
+    # Room for the module's pool and a command's own workers beside it (each worker asks for a CPU).
+    ray.init(num_cpus=2 * WORKERS, include_dashboard=False, logging_level="ERROR")
+    yield
+    ray.shutdown()
+
+
+@pytest.fixture(scope="module")
+def pool(local_ray: None) -> Iterator[RayPool]:
+    """Two workers for the module's batches: each keeps its context and renderers between tests."""
+    with RayPool(WORKERS) as workers:
+        yield workers
+
+
+def _batch(folder: Path, frames: int = 6, extra: str = "") -> Batch:
+    folder.mkdir(parents=True, exist_ok=True)
+    jobs = folder / "jobs.toml"
+    jobs.write_text(f"""\
+[defaults]
+size = [64, 36]
+
+[[jobs]]
+name = "orbit"
+scene = "{SCENES / 'default.toml'}"
+frames = {frames}
+camera_path = "orbit"
+aov = ["reflector_id", "object_id", "depth"]
+output = "out/{{job}}/{{frame:03d}}.png"
+
+[[jobs]]
+name = "views"
+scene = "{SCENES / 'two_mirrors.toml'}"
+times = [0.0]
+cameras = [{{ eye = [0.0, 1.5, 5.0], target = [0.0, 1.0, 0.0] }}, {{ eye = [2.0, 2.0, 4.0], target = [0.0, 0.5, 0.0] }}]
+output = "out/{{job}}/{{frame}}.png"
+{extra}""")
+    return load_batch(jobs)
+
+
+def _pictures(folder: Path) -> dict[str, np.ndarray]:
+    found: dict[str, np.ndarray] = {}
+    for path in sorted((folder / "out").rglob("*.png")):
+        found[str(path.relative_to(folder))] = np.asarray(Image.open(path))
+    for path in sorted((folder / "out").rglob("*.exr")):
+        for name, channel in read_aovs(path).items():
+            found[f"{path.relative_to(folder)}:{name}"] = channel
+    return found
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory: pytest.TempPathFactory) -> dict[str, np.ndarray]:
+    """The reference: every frame drawn in order, in this process, by one worker."""
+    folder = tmp_path_factory.mktemp("serial")
+    batch = _batch(folder)
+    with LocalPool() as local:
+        summary = run_batch(batch.frames, local, batch.manifest, progress=False)
+    assert summary.rendered == len(batch.frames) == 8 and not summary.failed
+    return _pictures(folder)
+
+
+def _manifest(path: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+def test_a_batch_on_two_workers_equals_the_serial_run(pool: RayPool, serial: dict[str, np.ndarray], tmp_path: Path) -> None:
+    batch = _batch(tmp_path)
+    summary = run_batch(batch.frames, pool, batch.manifest, progress=False)
+    assert summary.rendered == 8 and summary.found == 0 and not summary.failed
+    drawn = _pictures(tmp_path)
+    assert drawn.keys() == serial.keys()
+    for name, image in serial.items():
+        assert np.array_equal(drawn[name], image), name  # bit for bit
+    records = _manifest(batch.manifest)
+    assert len({record["worker"]["pid"] for record in records}) == WORKERS  # both workers drew
+    assert sorted((r["job"], r["frame"]) for r in records) == sorted((f.job, f.index) for f in batch.frames)
+    drawn_record = next(r for r in records if r["job"] == "orbit")
+    assert drawn_record["status"] == "rendered" and drawn_record["figures"]["stand_in"].startswith("5 depth images")
+    assert set(drawn_record["seconds"]) == {"setup", "draw", "aov", "write"}
+    # A rerun finds every frame complete and listed: nothing drawn, nothing added to the manifest.
+    again = run_batch(batch.frames, pool, batch.manifest, progress=False)
+    assert again.rendered == 0 and again.found == 8
+    assert len(_manifest(batch.manifest)) == 8
+
+
+def test_a_worker_killed_mid_batch_loses_nothing(pool: RayPool, serial: dict[str, np.ndarray], tmp_path: Path) -> None:
+    batch = _batch(tmp_path, extra='\n[[jobs]]\nname = "more"\nscene = "' + str(SCENES / "default.toml")
+                   + '"\nframes = 10\noutput = "out/{job}/{frame:03d}.png"\n')
+    before = set(ray.get([actor.pid.remote() for actor in pool.actors]))
+    killed: list[int] = []
+
+    def kill_once(record: dict[str, Any]) -> None:
+        if not killed:  # the worker that drew the first frame dies while it holds more
+            killed.append(record["worker"]["pid"])
+            os.kill(killed[0], signal.SIGKILL)
+
+    summary = run_batch(batch.frames, pool, batch.manifest, progress=False, on_record=kill_once)
+    assert not summary.failed
+    assert all(path.is_file() for frame in batch.frames for path in frame.outputs)
+    records = _manifest(batch.manifest)
+    by_output: dict[str, list[str]] = {}
+    for record in records:
+        by_output.setdefault(record["outputs"][0], []).append(record["status"])
+    assert len(by_output) == len(batch.frames)  # every frame listed
+    assert all(statuses.count("rendered") <= 1 and len(statuses) == 1 for statuses in by_output.values())
+    # The killed worker was restarted (a new process), and drew the frames it held when it died.
+    assert {record["worker"]["pid"] for record in records} - before
+    drawn = _pictures(tmp_path)
+    for name, image in serial.items():
+        assert np.array_equal(drawn[name], image), name
+
+
+def test_a_bad_job_fails_alone(pool: RayPool, tmp_path: Path) -> None:
+    batch = _batch(tmp_path, frames=2, extra='\n[[jobs]]\nname = "bad"\nscene = "missing.toml"\nframes = 3\n'
+                                              'output = "out/{job}/{frame}.png"\n')
+    summary = run_batch(batch.frames, pool, batch.manifest, progress=False)
+    assert summary.rendered == 4
+    assert summary.failed_jobs() == {"bad": (3, f"{tmp_path / 'missing.toml'}: no such file")}
+    failed = [r for r in _manifest(batch.manifest) if r["status"] == "failed"]
+    assert len(failed) == 3 and all("\n" not in r["error"] for r in failed)
+    # Its frames were not written, and a rerun tries them again (and them alone).
+    again = run_batch(batch.frames, pool, batch.manifest, progress=False)
+    assert again.rendered == 0 and again.found == 4 and len(again.failed) == 3
+
+
+def test_a_stopped_batch_resumes_where_it_stopped(pool: RayPool, tmp_path: Path) -> None:
+    """The driver stopped half-way (Ctrl-C): the rerun draws what is missing, once each."""
+    batch = _batch(tmp_path, frames=8)
+
+    def stop_after_three(record: dict[str, Any]) -> None:
+        if len(_manifest(batch.manifest)) == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_batch(batch.frames, pool, batch.manifest, progress=False, on_record=stop_after_three)
+    first = recorded_outputs(batch.manifest)
+    summary = run_batch(batch.frames, pool, batch.manifest, progress=False)
+    assert not summary.failed and summary.rendered + summary.found == 10 and summary.rendered <= 7
+    records = _manifest(batch.manifest)
+    colours = [r["outputs"][0] for r in records]
+    assert len(colours) == len(set(colours)) == 10  # each frame once, none missing
+    assert {str(p) for p in batch.frames[0].outputs} <= first | recorded_outputs(batch.manifest)
+
+
+def test_a_video_on_two_workers_equals_the_serial_video(local_ray: None, tmp_path: Path) -> None:
+    arguments = [str(SCENES / "default.toml"), "--size", "64x36", "--duration", "0.4", "--fps", "20"]
+    assert main(["render", *arguments, "--video", str(tmp_path / "serial.gif")]) == 0
+    assert main(["render", *arguments, "--video", str(tmp_path / "workers.gif"), "--workers", "2"]) == 0
+    assert (tmp_path / "workers.gif").read_bytes() == (tmp_path / "serial.gif").read_bytes()
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    ('size = [64, 36]\n', "jobs.toml: jobs[0].name: missing required field"),
+    ('name = "a"\nscene = "s.toml"\noutput = "x.png"\nframe = 3\n', 'jobs[0]: unknown field "frame"'),
+    ('name = "a"\nscene = "s.toml"\noutput = "x.png"\nframes = 3\n', "expected a file name per frame"),
+    ('name = "a"\nscene = "s.toml"\noutput = "{jobs}.png"\n', "jobs[0].output: expected a template of the fields"),
+    ('name = "a"\nscene = "s.toml"\noutput = "{frame}.png"\ntimes = [0, 1]\ncameras = [{eye = [0, 0, 1]}, '
+     '{eye = [0, 0, 2]}, {eye = [0, 0, 3]}]\n', "jobs[0].times: expected 1 or 3 values"),
+    ('name = "a"\nscene = "s.toml"\noutput = "{frame}.png"\ntimes = [0]\nframes = 2\n',
+     "jobs[0].frames: expected no value beside times or cameras"),
+    ('name = "a"\nscene = "s.toml"\noutput = "{frame}.png"\nmethod = "mirror"\n', "jobs[0].method: expected one of: depth"),
+    ('name = "a"\nscene = "s.toml"\noutput = "{frame}.png"\naov = ["mask"]\n', "jobs[0].aov: expected AOVs among depth"),
+])
+def test_a_bad_batch_file_is_refused_in_one_line(tmp_path: Path, extra: str, message: str) -> None:
+    jobs = tmp_path / "jobs.toml"
+    jobs.write_text("[[jobs]]\n" + extra)
+    with pytest.raises(SceneError) as raised:
+        load_batch(jobs)
+    assert message in str(raised.value) and "\n" not in str(raised.value)
+
+
+def test_batch_command_reports_a_failed_job_in_one_line(local_ray: None, tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    jobs = tmp_path / "jobs.toml"
+    jobs.write_text(f'[[jobs]]\nname = "good"\nscene = "{SCENES / "default.toml"}"\nsize = [32, 18]\n'
+                    'output = "good.png"\n\n[[jobs]]\nname = "bad"\nscene = "nothing.toml"\noutput = "bad.png"\n')
+    assert main(["batch", str(jobs), "--workers", "2"]) == 1
+    out, err = capsys.readouterr()
+    assert "2 frames: 1 rendered, 0 complete before, 1 failed" in out
+    assert err.strip().splitlines()[-1] == f"depthimpostor: batch: job bad: 1 frame failed: {tmp_path / 'nothing.toml'}: no such file"
+    assert (tmp_path / "good.png").is_file() and (tmp_path / "jobs.manifest.jsonl").is_file()
+
+
+def test_a_video_whose_method_refuses_the_scene_is_refused_before_any_worker(tmp_path: Path,
+                                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """As the serial video: one line, exit 2, no file, and no Ray needed (refused before it starts)."""
+    video = tmp_path / "v.gif"
+    assert main(["render", str(SCENES / "two_mirrors.toml"), "--size", "32x18", "--duration", "0.1", "--video",
+                 str(video), "--method", "raytrace", "--workers", "2"]) == 2
+    assert "max_bounces: expected 1 with --method raytrace" in capsys.readouterr().err
+    assert not video.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_a_worker_keeps_its_most_recently_used_renderers(tmp_path: Path) -> None:
+    """Frames of six settings: each gets a renderer, the four most recent are kept (no Ray needed)."""
+    def frame(k: int, name: str) -> Frame:
+        return Frame("sizes", k, str(SCENES / "default.toml"), "depth", "optimized", (("size", (32 + 2 * k, 18)),), 0.0,
+                     None, (), str(tmp_path / f"{name}.png"))
+
+    worker = FrameWorker()
+    try:
+        made = [worker.render(frame(k, str(k))) for k in range(6)]
+        assert all(r["status"] == "rendered" and r["seconds"]["setup"] > 0 for r in made)
+        assert worker.kept == KEPT_RENDERERS == 4
+        assert worker.render(frame(5, "again5"))["seconds"]["setup"] == 0  # kept: drawn with it
+        assert worker.render(frame(0, "again0"))["seconds"]["setup"] > 0  # let go: made anew
+        assert worker.kept == 4
+        assert np.array_equal(np.asarray(Image.open(tmp_path / "again0.png")), np.asarray(Image.open(tmp_path / "0.png")))
+    finally:
+        worker.release()
