@@ -455,14 +455,25 @@ DEFAULT_RENDER, DEFAULT_FRAMES = "render.png", 0
 ALL_METHODS = "all"
 
 
+#: `--algorithm`'s help: what each intersection algorithm does (constants.Algorithm's).
+ALGORITHM_HELP = {
+    Algorithm.BASIC: "the lecture's linear march, unprojecting every step",
+    Algorithm.OPTIMIZED: "the lecture's linear march in 2-D image space (the default)",
+    Algorithm.HIERARCHICAL: "the optimized march's steps, spans that cannot hit skipped by a min/max pyramid",
+    Algorithm.AUTO: "per image, whichever of optimized and hierarchical bench measured faster at its size",
+}
+
+
 def _method_arguments(command: argparse.ArgumentParser, every: bool = False) -> None:
+    marching = ", ".join(spec.option for spec in METHODS.values() if spec.marches_depth_images)
     command.add_argument("--algorithm", choices=[a.name.lower() for a in Algorithm], default="optimized",
-                         help="ray/depth-image intersection: the lecture's basic or optimized algorithm")
+                         help=f"ray/depth-image intersection of the methods that march depth images ({marching}): "
+                              + "; ".join(f"{a.name.lower()}: {ALGORITHM_HELP[a]}" for a in Algorithm))
     command.add_argument("--method", choices=[m.option for m in Method] + ([ALL_METHODS] if every else []),
                          default="depth",
-                         help="how reflected objects are stood in for: depth images, a cube map (looked up by "
-                              "direction, or parallax-corrected), billboards, simplified triangles, or the real "
-                              "triangles ray-traced" + ("; all: every one, side by side" if every else ""))
+                         help="how reflected objects are stood in for: "
+                              + "; ".join(f"{spec.option}: {spec.label}" for spec in METHODS.values())
+                              + ("; all: every one, side by side" if every else ""))
 
 
 def build_parser() -> argparse.ArgumentParser:
