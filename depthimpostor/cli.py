@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import math
 import os
@@ -345,6 +346,7 @@ def _bench(args: argparse.Namespace) -> int:
     from tqdm import tqdm  # the progress bar is the benchmark's alone
 
     from .bench import BenchSettings, check_bench, machine_lines, run_bench, total_configurations, write_results
+    from .peers import PeerRow
 
     scenes = [load_scene(path) for path in args.scenes] or [load_scene(default_scene_path())]
     scenes = [scene.with_overrides(samples=args.samples) for scene in scenes]
@@ -363,17 +365,22 @@ def _bench(args: argparse.Namespace) -> int:
         raise SceneError("command line", "--algorithms", f"expected algorithms among "
                          f"{[a.name.lower() for a in Algorithm]}, got {unknown}")
     algorithms = tuple(Algorithm[name.upper()] for name in dict.fromkeys(args.algorithms))
-    settings = BenchSettings(methods, algorithms, tuple(args.resolutions), size, args.frames, args.warmup, args.bakes)
+    settings = BenchSettings(methods, algorithms, tuple(args.resolutions), size, args.frames, args.warmup, args.bakes,
+                             peers=args.peers)
+    if args.peers and importlib.util.find_spec("mitsuba") is None:
+        raise SceneError("command line", "--peers", 'expected Mitsuba 3 installed (pip install -e ".[peers]", or '
+                         "pip install mitsuba)")
+    peer_rows: list[PeerRow] = []
     ctx = _context(args)
     try:
         check_bench(ctx, scenes, settings)  # before any work
         header = machine_lines(ctx, settings, scenes)
         print("\n".join(header), flush=True)
         with tqdm(total=total_configurations(scenes, settings), unit="configuration") as progress:
-            rows = run_bench(ctx, scenes, settings, progress)
+            rows = run_bench(ctx, scenes, settings, progress, peer_rows)
     finally:
         ctx.release()
-    for path in write_results(rows, output, header):
+    for path in write_results(rows, output, header, peer_rows):
         print(path)
     return 0
 
@@ -541,6 +548,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--frames", type=_positive, default=10, help="timed frames per configuration (default 10)")
     bench.add_argument("--warmup", type=_non_negative, default=2, help="untimed frames before them (default 2)")
     bench.add_argument("--bakes", type=_positive, default=3, help="timed re-bakes per configuration (default 3)")
+    bench.add_argument("--peers", action="store_true",
+                       help="also time, in the same rounds, Mitsuba 3 (1 sample a pixel, exact mirrors; the "
+                            "optional extra: pip install -e \".[peers]\") and this renderer with no reflections, "
+                            "with their error against the same truth: peers.md (docs/methods_and_results.md)")
     bench.add_argument("-o", "--output", default="results", help="output folder (default: results/)")
     _samples_argument(bench)
     _backend_argument(bench)

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import time
 from collections import Counter
-from contextlib import AbstractContextManager, nullcontext
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import moderngl
@@ -365,15 +366,18 @@ class RenderGraph:
         stats.frames += 1
         stats.sub_frames += 1
 
-    def _gl_timer(self, index: int) -> AbstractContextManager[object]:
+    @contextmanager
+    def _gl_timer(self, index: int) -> Iterator[None]:
         """A GL time query around part `index` of the eye's passes (0: before the mirror pass, 1:
         the mirror pass), where the mirror pass is timed; else nothing. Two queries in turn rather
         than one around the frame and one inside it: GL runs one time query at a time."""
         if not self.options.time_mirror_pass:
-            return nullcontext()
+            yield
+            return
         if not self._gl_queries:  # moderngl's queries live as long as their context: made once
             self._gl_queries = (self.ctx.query(time=True), self.ctx.query(time=True))
-        return self._gl_queries[index]
+        with self._gl_queries[index]:
+            yield
 
     def _run(self, node: Node, frame: Frame) -> None:
         """A node run, and counted in the stats' passes where it did anything."""

@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import inspect
 import pkgutil
@@ -174,10 +175,8 @@ def _annotations(owner: object) -> set[str]:
     names: set[str] = set()
     for klass in getattr(owner, "__mro__", ()):
         names |= set(getattr(klass, "__annotations__", {}))
-        try:
+        with contextlib.suppress(OSError, TypeError):  # a class without source (a builtin's)
             names |= set(re.findall(r"self\.(\w+)\s*[:=]", inspect.getsource(klass)))
-        except (OSError, TypeError):
-            pass
     return names
 
 
