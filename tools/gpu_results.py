@@ -271,7 +271,8 @@ def _row(rows: Sequence[BenchRow], scene: str, method: str, algorithm: str, reso
     return None
 
 
-def criteria_markdown(rows: Sequence[BenchRow], gl: str, resolutions: Sequence[int | str]) -> str:
+def criteria_markdown(rows: Sequence[BenchRow], gl: str, resolutions: Sequence[int | str],
+                      size: tuple[int, int] = BENCH_SIZE) -> str:
     """The four GPU criteria, each with the figures it is judged on and its verdict."""
     software = is_software(gl)
     judged = "wall clock around ctx.finish() (software rasterizer: its GL time queries under-report)" if software \
@@ -288,7 +289,7 @@ def criteria_markdown(rows: Sequence[BenchRow], gl: str, resolutions: Sequence[i
     lines = [f"GL: {gl}  ", f"Mirror-pass times in ms as wall clock / GL time query; judged on the {judged}.", ""]
 
     lines += ["## 1. The depth method's mirror pass on the bunny (target under "
-              f"{TARGET_MIRROR_MS:g} ms at 1920x1080)", "", "| algorithm | images | mirror pass ms | frame ms | verdict |",
+              f"{TARGET_MIRROR_MS:g} ms at 1920x1080; measured at {size[0]}x{size[1]})", "", "| algorithm | images | mirror pass ms | frame ms | verdict |",
               "|---|---:|---:|---:|---|"]
     for algorithm in ("optimized", "hierarchical"):
         for resolution in resolutions:
@@ -380,7 +381,7 @@ def main() -> int:
             scene_started = time.perf_counter()
             rows += run_bench(ctx, [scene], settings)
             write_results(rows, output, bench_header)
-            criteria = criteria_markdown(rows, gl, resolutions)
+            criteria = criteria_markdown(rows, gl, resolutions, settings.size)
             (output / "criteria.md").write_text(criteria, encoding="utf-8")
             print(f"bench: {scene.source} in {time.perf_counter() - scene_started:.0f} s", flush=True)
         print(criteria, flush=True)
