@@ -38,6 +38,7 @@ from .gpu.context import describe
 from .errors import GpuLimitError
 from .gpu.limits import check_fits, context_limits, planned_bytes
 from .outputs import Outputs
+from .peers import Peer, PeerRow, make_peers, mirror_rmse, peers_markdown
 from .methods.planar import all_flat_mirrors
 from .methods.registry import METHODS
 from .plan import plan_render
@@ -70,6 +71,7 @@ class BenchSettings:
     frames: int  # timed frames per configuration
     warmup: int  # untimed frames before them
     bakes: int  # timed re-bakes per configuration (after an untimed first bake)
+    peers: bool = False  # time Mitsuba 3 and the no-reflection renderer in the same rounds (peers.py)
 
 
 @dataclass(frozen=True)
@@ -85,7 +87,8 @@ class BenchRow:
     frame_ms_p10: float
     frame_ms_p90: float
     mirror_pass_ms_median: float  # the mirror pass alone
-    gl_time_query_ms: float  # median; under-reports on llvmpipe
+    gl_time_query_ms: float  # median of the frame's eye passes (no bake); under-reports on llvmpipe
+    gl_mirror_pass_ms: float  # median of the mirror pass, by a GL time query; under-reports on llvmpipe
     bake_ms_median: float  # 0 for the methods that bake nothing
     memory_mib: float
     samples_per_ray_mean: float
@@ -156,35 +159,37 @@ def _renderers(ctx: moderngl.Context, configured: Sequence[tuple[Scene, Techniqu
             renderer.release()
 
 
-def _time_group(ctx: moderngl.Context, renderers: list[Renderer], settings: BenchSettings) -> list[dict[str, float]]:
+def _time_group(ctx: moderngl.Context, renderers: list[Renderer], settings: BenchSettings,
+                peers: Sequence[Peer] = ()) -> list[dict[str, float]]:
     """Bake and frame times of renderers timed together: every round renders each once, starting
-    one further along each time."""
-    gl_times: list[list[float]] = [[] for _ in renderers]
+    one further along each time. The `peers` are drawn in the same rounds (their times are theirs)."""
     for renderer in renderers:
         renderer.render()  # the first bake: llvmpipe compiles shaders on first use
         for _ in range(settings.bakes if renderer.graph.baked_images is not None else 0):
             renderer.bake_again()
             renderer.render()
     first_timed = [len(renderer.stats.draw_seconds) + settings.warmup for renderer in renderers]
-    query = ctx.query(time=True)  # moderngl queries live as long as their context: one, reused
+    for peer in peers:
+        peer.render()  # untimed, as the renderers' first frame: Mitsuba compiles its kernels, we our shaders
+    timed: list[Renderer | Peer] = [*renderers, *peers]
     for round_index in range(settings.warmup + settings.frames):
-        for offset in range(len(renderers)):
-            index = (round_index + offset) % len(renderers)
-            with query:
-                renderers[index].render()
-            if round_index >= settings.warmup:
-                gl_times[index].append(query.elapsed / 1e6)
+        for offset in range(len(timed)):
+            timed[(round_index + offset) % len(timed)].render()
     timings = []
-    for renderer, first, gl_time in zip(renderers, first_timed, gl_times, strict=False):
+    for renderer, first in zip(renderers, first_timed, strict=True):
         frames = [1000.0 * seconds for seconds in renderer.stats.draw_seconds[first:]]
         mirror_passes = [1000.0 * seconds for seconds in renderer.stats.mirror_seconds[first:]]
+        # The GL time queries the render graph ran around the same frames (time_mirror_pass).
+        gl_frames = [1000.0 * seconds for seconds in renderer.stats.gl_draw_seconds[first:]]
+        gl_mirror_passes = [1000.0 * seconds for seconds in renderer.stats.gl_mirror_seconds[first:]]
         bakes = [1000.0 * seconds for seconds in renderer.stats.bake_seconds[1:]]
         timings.append({
             "frame_ms_median": statistics.median(frames),
             "frame_ms_p10": _percentile(frames, 10),
             "frame_ms_p90": _percentile(frames, 90),
             "mirror_pass_ms_median": statistics.median(mirror_passes),
-            "gl_time_query_ms": statistics.median(gl_time),
+            "gl_time_query_ms": statistics.median(gl_frames),
+            "gl_mirror_pass_ms": statistics.median(gl_mirror_passes),
             "bake_ms_median": statistics.median(bakes) if bakes else 0.0,
         })
     return timings
@@ -272,9 +277,11 @@ def check_bench(ctx: moderngl.Context, scenes: Sequence[Scene], settings: BenchS
 
 
 def run_bench(
-    ctx: moderngl.Context, scenes: Sequence[Scene], settings: BenchSettings, progress: object | None = None
+    ctx: moderngl.Context, scenes: Sequence[Scene], settings: BenchSettings, progress: object | None = None,
+    peer_rows: list[PeerRow] | None = None,
 ) -> list[BenchRow]:
-    """Every scene x technique x resolution; `progress` is a tqdm bar (or anything with update())."""
+    """Every scene x technique x resolution; `progress` is a tqdm bar (or anything with update()).
+    With settings.peers, each peer's row of each scene is appended to `peer_rows`."""
     rows: list[BenchRow] = []
     for scene in scenes:
         name = Path(scene.source).stem
@@ -283,8 +290,12 @@ def run_bench(
         # for a few seconds (this one did, by a third, when resolutions were timed one after the
         # other) then slows every configuration alike. The cost is memory: every configuration's
         # images exist at once (about 4.4 GiB for the 8 x 9 scene at 64 to 1024).
-        with _renderers(ctx, [(variant, technique) for variant, _, technique in configured]) as renderers:
-            timings = _time_group(ctx, renderers, settings)
+        with _renderers(ctx, [(variant, technique) for variant, _, technique in configured]) as renderers, \
+                _peers(ctx, configured[0][0], renderers[0], settings) as peers:
+            timings = _time_group(ctx, renderers, settings, peers)
+            peer_timings = [_frame_times(peer.seconds[1 + settings.warmup:]) for peer in peers]
+            peer_images = [peer.image() for peer in peers]
+            peer_names = [(peer.name, getattr(peer, "variant", "")) for peer in peers]
         # Measured after all timing, as a precaution: the truth's ray tracer (Embree, on TBB
         # threads, which may spin a while after their work) should not share the cores with
         # frames being timed. (Not shown to matter: the slow groups seen while this was written
@@ -297,7 +308,27 @@ def run_bench(
                                  resolution=row_resolution, **measured, **timing))  # type: ignore[arg-type]
             if progress is not None:
                 progress.update(1)  # type: ignore[attr-defined]
+        if truth is not None and peer_rows is not None:
+            peer_rows += [PeerRow(name, peer, variant, mirror_rmse(image, truth), **timing)
+                          for (peer, variant), image, timing in zip(peer_names, peer_images, peer_timings, strict=True)]
     return rows
+
+
+@contextmanager
+def _peers(ctx: moderngl.Context, scene: Scene, renderer: Renderer, settings: BenchSettings) -> Iterator[list[Peer]]:
+    """The peers of `scene` (as `renderer` sees it: its world and camera), where asked for."""
+    peers = make_peers(ctx, scene, renderer.world, renderer.camera) if settings.peers else []
+    try:
+        yield peers
+    finally:
+        for peer in peers:
+            peer.release()
+
+
+def _frame_times(seconds: Sequence[float]) -> dict[str, float]:
+    frames = [1000.0 * value for value in seconds]
+    return {"frame_ms_median": statistics.median(frames), "frame_ms_p10": _percentile(frames, 10),
+            "frame_ms_p90": _percentile(frames, 90)}
 
 
 def total_configurations(scenes: Sequence[Scene], settings: BenchSettings) -> int:
@@ -404,8 +435,10 @@ def plot(rows: Sequence[BenchRow], folder: Path, header: Sequence[str], out: Out
     return written
 
 
-def write_results(rows: Sequence[BenchRow], folder: Path, header: Sequence[str]) -> list[Path]:
-    """bench.csv, bench.md and the plots, put in place together once all are written."""
+def write_results(rows: Sequence[BenchRow], folder: Path, header: Sequence[str],
+                  peer_rows: Sequence[PeerRow] = ()) -> list[Path]:
+    """bench.csv, bench.md, the plots and (with peers) peers.md, put in place together once all are written."""
     with Outputs() as out:
+        peers = [out.text(folder / "peers.md", peers_markdown(rows, peer_rows, header))] if peer_rows else []
         return [out.text(folder / "bench.csv", csv_text(rows, header)),
-                out.text(folder / "bench.md", markdown(rows, header)), *plot(rows, folder, header, out)]
+                out.text(folder / "bench.md", markdown(rows, header)), *plot(rows, folder, header, out), *peers]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import math
 import os
@@ -428,6 +429,7 @@ def _bench(args: argparse.Namespace) -> int:
     from tqdm import tqdm  # the progress bar is the benchmark's alone
 
     from .bench import BenchSettings, check_bench, machine_lines, run_bench, total_configurations, write_results
+    from .peers import PeerRow
 
     scenes = [load_scene(path) for path in args.scenes] or [load_scene(default_scene_path())]
     scenes = [scene.with_overrides(samples=args.samples) for scene in scenes]
@@ -446,17 +448,22 @@ def _bench(args: argparse.Namespace) -> int:
         raise SceneError("command line", "--algorithms", f"expected algorithms among "
                          f"{[a.name.lower() for a in Algorithm]}, got {unknown}")
     algorithms = tuple(Algorithm[name.upper()] for name in dict.fromkeys(args.algorithms))
-    settings = BenchSettings(methods, algorithms, tuple(args.resolutions), size, args.frames, args.warmup, args.bakes)
+    settings = BenchSettings(methods, algorithms, tuple(args.resolutions), size, args.frames, args.warmup, args.bakes,
+                             peers=args.peers)
+    if args.peers and importlib.util.find_spec("mitsuba") is None:
+        raise SceneError("command line", "--peers", 'expected Mitsuba 3 installed (pip install -e ".[peers]", or '
+                         "pip install mitsuba)")
+    peer_rows: list[PeerRow] = []
     ctx = _context(args)
     try:
         check_bench(ctx, scenes, settings)  # before any work
         header = machine_lines(ctx, settings, scenes)
         print("\n".join(header), flush=True)
         with tqdm(total=total_configurations(scenes, settings), unit="configuration") as progress:
-            rows = run_bench(ctx, scenes, settings, progress)
+            rows = run_bench(ctx, scenes, settings, progress, peer_rows)
     finally:
         ctx.release()
-    for path in write_results(rows, output, header):
+    for path in write_results(rows, output, header, peer_rows):
         print(path)
     return 0
 
@@ -538,14 +545,25 @@ DEFAULT_RENDER, DEFAULT_FRAMES = "render.png", 0
 ALL_METHODS = "all"
 
 
+#: `--algorithm`'s help: what each intersection algorithm does (constants.Algorithm's).
+ALGORITHM_HELP = {
+    Algorithm.BASIC: "the lecture's linear march, unprojecting every step",
+    Algorithm.OPTIMIZED: "the lecture's linear march in 2-D image space (the default)",
+    Algorithm.HIERARCHICAL: "the optimized march's steps, spans that cannot hit skipped by a min/max pyramid",
+    Algorithm.AUTO: "per image, whichever of optimized and hierarchical bench measured faster at its size",
+}
+
+
 def _method_arguments(command: argparse.ArgumentParser, every: bool = False) -> None:
+    marching = ", ".join(spec.option for spec in METHODS.values() if spec.marches_depth_images)
     command.add_argument("--algorithm", choices=[a.name.lower() for a in Algorithm], default="optimized",
-                         help="ray/depth-image intersection: the lecture's basic or optimized algorithm")
+                         help=f"ray/depth-image intersection of the methods that march depth images ({marching}): "
+                              + "; ".join(f"{a.name.lower()}: {ALGORITHM_HELP[a]}" for a in Algorithm))
     command.add_argument("--method", choices=[m.option for m in Method] + ([ALL_METHODS] if every else []),
                          default="depth",
-                         help="how reflected objects are stood in for: depth images, a cube map (looked up by "
-                              "direction, or parallax-corrected), billboards, simplified triangles, or the real "
-                              "triangles ray-traced" + ("; all: every one, side by side" if every else ""))
+                         help="how reflected objects are stood in for: "
+                              + "; ".join(f"{spec.option}: {spec.label}" for spec in METHODS.values())
+                              + ("; all: every one, side by side" if every else ""))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -618,6 +636,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--frames", type=_positive, default=10, help="timed frames per configuration (default 10)")
     bench.add_argument("--warmup", type=_non_negative, default=2, help="untimed frames before them (default 2)")
     bench.add_argument("--bakes", type=_positive, default=3, help="timed re-bakes per configuration (default 3)")
+    bench.add_argument("--peers", action="store_true",
+                       help="also time, in the same rounds, Mitsuba 3 (1 sample a pixel, exact mirrors; the "
+                            "optional extra: pip install -e \".[peers]\") and this renderer with no reflections, "
+                            "with their error against the same truth: peers.md (docs/methods_and_results.md)")
     bench.add_argument("-o", "--output", default="results", help="output folder (default: results/)")
     _samples_argument(bench)
     _backend_argument(bench)

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import time
 from collections import Counter
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import moderngl
@@ -60,6 +62,10 @@ class RenderStats:
     draw_seconds: list[float] = field(default_factory=list)  # one entry per frame
     # The mirror pass's share of each frame, when the renderer was asked to time it.
     mirror_seconds: list[float] = field(default_factory=list)
+    # The same two, as GL time queries measured them (when the mirror pass is timed): a GPU's own
+    # clock, without the wait for ctx.finish(); llvmpipe's under-report (bench.py).
+    gl_draw_seconds: list[float] = field(default_factory=list)
+    gl_mirror_seconds: list[float] = field(default_factory=list)
     # Frames drawn at a sub-pixel position (render.samples per frame; 1 per frame without
     # anti-aliasing). A frame's draw time is the sum of its sub-frames'.
     sub_frames: int = 0
@@ -88,6 +94,7 @@ class RenderGraph:
         self.diffuse: DiffusePass | None = None
         self._diffuse_key: tuple[bool, bool] | None = None  # what the diffuse pass was made for
         self.nodes: tuple[Node, ...] = ()
+        self._gl_queries: tuple[moderngl.Query, ...] = ()  # the mirror pass's GL timers (_gl_timer)
         self.build()
 
     def _compile(self) -> None:
@@ -326,6 +333,11 @@ class RenderGraph:
             self.ctx.finish()
             stats.bake_seconds.append(time.perf_counter() - start)
 
+        timed = self.options.time_mirror_pass
+        eye_nodes = [node for node in self.nodes if not node.bakes]
+        # Where the mirror pass begins (the first node of its time), where it is timed apart.
+        split = next((i for i, node in enumerate(eye_nodes) if node.mirror_time), len(eye_nodes)) if timed \
+            else len(eye_nodes)
         self.ctx.finish()
         start = time.perf_counter()
         targets.framebuffer.use()
@@ -333,20 +345,39 @@ class RenderGraph:
         targets.color_framebuffer.use()
         mirror_start: float | None = None  # when the mirror pass began, where it is timed apart
         with eye_depth(self.ctx):
-            for node in self.nodes:
-                if node.bakes:
-                    continue
-                if node.mirror_time and self.options.time_mirror_pass and mirror_start is None:
-                    self.ctx.finish()
-                    mirror_start = time.perf_counter()
-                self._run(node, frame)
+            with self._gl_timer(0):
+                for node in eye_nodes[:split]:
+                    self._run(node, frame)
+            if split < len(eye_nodes):
+                self.ctx.finish()
+                mirror_start = time.perf_counter()
+                with self._gl_timer(1):
+                    for node in eye_nodes[split:]:
+                        self._run(node, frame)
         self.ctx.finish()
         end = time.perf_counter()
         stats.draw_seconds.append(end - start)
-        if self.options.time_mirror_pass:
+        if timed:
             stats.mirror_seconds.append(end - mirror_start if mirror_start is not None else 0.0)
+            eye, mirror = (query.elapsed / 1e9 for query in self._gl_queries)
+            mirror = mirror if mirror_start is not None else 0.0
+            stats.gl_draw_seconds.append(eye + mirror)
+            stats.gl_mirror_seconds.append(mirror)
         stats.frames += 1
         stats.sub_frames += 1
+
+    @contextmanager
+    def _gl_timer(self, index: int) -> Iterator[None]:
+        """A GL time query around part `index` of the eye's passes (0: before the mirror pass, 1:
+        the mirror pass), where the mirror pass is timed; else nothing. Two queries in turn rather
+        than one around the frame and one inside it: GL runs one time query at a time."""
+        if not self.options.time_mirror_pass:
+            yield
+            return
+        if not self._gl_queries:  # moderngl's queries live as long as their context: made once
+            self._gl_queries = (self.ctx.query(time=True), self.ctx.query(time=True))
+        with self._gl_queries[index]:
+            yield
 
     def _run(self, node: Node, frame: Frame) -> None:
         """A node run, and counted in the stats' passes where it did anything."""

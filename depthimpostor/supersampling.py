@@ -40,6 +40,7 @@ def draw_supersampled(draw: Callable[[PPC], None], camera: PPC, samples: int, ta
     sub-frames. The stats count one frame, whose time is its sub-frames' (reading them back is not
     counted)."""
     frames, draws, mirrors = stats.frames, len(stats.draw_seconds), len(stats.mirror_seconds)
+    gl_draws, gl_mirrors = len(stats.gl_draw_seconds), len(stats.gl_mirror_seconds)
     total = np.zeros((*targets.size[::-1], 4))
     kept: list[SubFrame] = []
     for dx, dy in SAMPLE_OFFSETS[samples]:
@@ -52,6 +53,8 @@ def draw_supersampled(draw: Callable[[PPC], None], camera: PPC, samples: int, ta
     targets.write_color(total / samples)
     stats.frames = frames + 1  # each sub-frame was counted in sub_frames, and as a frame
     stats.draw_seconds[draws:] = [sum(stats.draw_seconds[draws:])]
-    if stats.mirror_seconds[mirrors:]:
-        stats.mirror_seconds[mirrors:] = [sum(stats.mirror_seconds[mirrors:])]
+    for timed, first in ((stats.mirror_seconds, mirrors), (stats.gl_draw_seconds, gl_draws),
+                         (stats.gl_mirror_seconds, gl_mirrors)):
+        if timed[first:]:
+            timed[first:] = [sum(timed[first:])]
     return kept

@@ -1,5 +1,5 @@
 """Image textures on the CPU: decoding images into `Texture`s, and the numpy sampling the truth
-uses, the same algorithm as shaders/lib/material_texture.glsl's `texture_bilinear`.
+uses, the same algorithm as shaders/lib/material_texture.glsl's `material_texel_rgba` for traced rays.
 
 The comparison rule. The rasterized passes (the camera view and every baked image) sample with
 mipmaps and trilinear filtering, as a renderer should. The ray-traced paths (triangles.glsl, the

@@ -1,5 +1,5 @@
 #version 430 core
-// One level of the min/max depth pyramid (passes/pyramid.py explains the footprints and the
+// One level of the min/max depth pyramid (methods/pyramid.py explains the footprints and the
 // layout): level 1 from the depth images' texels, every coarser level from the one below.
 #include "lib/solid_run.glsl"
 

@@ -47,7 +47,7 @@ uniform int u_object_id;
 #endif
 #ifdef WRITE_TRIANGLE_ID
 // The hybrid method's depth images: the triangle seen, as its place in the list the BVH is built
-// from (passes/triangles.py: the object's offset plus its index in the object's mesh). A float
+// from (methods/triangles.py: the object's offset plus its index in the object's mesh). A float
 // holds every integer below 2^24 exactly; TrianglePass refuses more triangles. Both channels
 // hold it: the visible surface's pass keeps R, the back layer's (BACK_LAYER) G.
 layout(location = 2) out vec2 out_triangle;

@@ -44,7 +44,7 @@ uniform float u_backing_albedo;  // grey, written by passes/reflectors.py from t
 layout(location = 0) out vec4 out_color;
 #ifdef WRITE_DEPTH_IMAGE
 // Baking a depth image of this mirror for another mirror's reflections of reflections
-// (passes/bounces.py): the window depth and the object id, as diffuse.frag writes them.
+// (methods/bounces.py): the window depth and the object id, as diffuse.frag writes them.
 layout(location = 1) out vec2 out_depth_and_object;
 #endif
 #ifdef WRITE_REFLECTION_DATA

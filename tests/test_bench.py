@@ -51,6 +51,8 @@ def test_bench_writes_every_file_with_finite_figures(tmp_path: Path, capsys: pyt
                 continue  # an exact frame has no finite PSNR
             assert math.isfinite(number), (row["method"], row["resolution"], name, value)
         assert float(row["frame_ms_median"]) > float(row["mirror_pass_ms_median"]) > 0 and int(row["mirror_pixels"]) > 0
+        # The GL time queries of the same frames: the mirror pass is a part of the eye's passes.
+        assert float(row["gl_time_query_ms"]) >= float(row["gl_mirror_pass_ms"]) > 0
         assert float(row["samples_per_ray_max"]) >= float(row["samples_per_ray_mean"]) >= 0
     depth = {row["resolution"]: row for row in rows if row["method"] == "depth" and row["algorithm"] == "optimized"}
     assert float(depth["32"]["memory_mib"]) > float(depth["16"]["memory_mib"])

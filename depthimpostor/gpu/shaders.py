@@ -243,6 +243,10 @@ class ProgramCache:
         """Every vertex + fragment program compiled so far."""
         return [program for program in self._programs.values() if isinstance(program, moderngl.Program)]
 
+    def compiled(self) -> list[tuple[ProgramKey, moderngl.Program | moderngl.ComputeShader]]:
+        """Every program compiled so far (compute shaders too), with its key."""
+        return list(self._programs.items())
+
     @property
     def keys(self) -> set[ProgramKey]:
         """Every program compiled so far, as `program_key` names it."""

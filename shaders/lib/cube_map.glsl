@@ -14,7 +14,7 @@ uniform vec3 u_proxy_lower;
 uniform vec3 u_proxy_upper;
 
 // The face looking along the direction's major axis, in the order the faces are baked:
-// +x, -x, +y, -y, +z, -z (passes/cubemaps.py). Ties go to the first axis; either face holds the
+// +x, -x, +y, -y, +z, -z (methods/cubemaps.py). Ties go to the first axis; either face holds the
 // direction, on its border.
 int cube_face(vec3 direction) {
     vec3 magnitude = abs(direction);

@@ -1,5 +1,5 @@
 // Ray / depth-image intersection: the lecture's two algorithms and the hierarchical traversal,
-// shared by the mirror pass and the GPU ray query. depthimpostor/reference.py implements the
+// shared by the mirror pass and the GPU ray query. depthimpostor/oracles/reference.py implements the
 // lecture's two with the same function names; the hierarchical one finds the optimized one's hit.
 // The marches take the texture of depth layers they read as an argument (`layers`): the mirror's
 // depth images are in u_impostor_depth, with back colours in u_impostor_back_color; the lights'
@@ -174,10 +174,10 @@ RayHit with_unseen(RayHit hit, float unseen_t, int unseen) {
 // steepest, or within a texel of samples that are not one surface (hit_unseen). The
 // record is the ray parameter of the step's start (the ray left seen space somewhere after it)
 // and the kind. Only the variants that act on it track it (TRACK_UNSEEN: the hybrid method and the
-// ray query); the reference (depthimpostor/reference.py) has the same functions.
+// ray query); the reference (depthimpostor/oracles/reference.py) has the same functions.
 
 #ifdef TRACK_UNSEEN
-// Where a second solid run begins behind the first (passes/impostors.py, beyond_run.frag): up to
+// Where a second solid run begins behind the first (methods/baked_images.py, beyond_run.frag): up to
 // there the space behind the first run is seen empty too. 0 where that is not known.
 uniform sampler2D u_impostor_beyond;
 #endif
@@ -441,7 +441,7 @@ RayHit intersect_optimized(sampler2D layers, bool back_colors, DepthImage image,
 }
 
 #if ALGORITHM == ALGORITHM_HIERARCHICAL || ALGORITHM == ALGORITHM_AUTO
-// The min/max depth pyramid (passes/pyramid.py): mip m holds level m + 1 of every image, each
+// The min/max depth pyramid (methods/pyramid.py): mip m holds level m + 1 of every image, each
 // texel (nearest surface, farthest back of a solid run) over its block grown by one texel.
 uniform sampler2D u_impostor_pyramid;
 
