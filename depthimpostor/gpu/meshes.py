@@ -5,16 +5,22 @@ objects drawn in one call (gpu/batches.py)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import moderngl
 import numpy as np
 
+from ..constants import EXTRA_ATTRIBUTES
 from ..geometry import ObjectGeometry
 from ..meshes import Mesh
 from .uniforms import write_matrix
 
 #: Per-vertex attributes of mesh.vert, and how many floats each takes.
 VERTEX_ATTRIBUTES = (("in_position", 3), ("in_normal", 3), ("in_uv", 2))
+#: mesh.vert's inputs for glTF's other attributes (constants.EXTRA_ATTRIBUTES), which only the
+#: programs of scenes that use them read (TEXCOORD_1, VERTEX_COLORS, NORMAL_MAP): they live in a
+#: second buffer of the arena, made when a program first reads them.
+EXTRA_VERTEX_ATTRIBUTES = {"uvs1": "in_uv1", "colors": "in_color", "tangents": "in_tangent"}
 
 
 def attribute_format(program: moderngl.Program, attributes: Sequence[tuple[str, str]],
@@ -44,10 +50,49 @@ class MeshArena:
             index_start += count
         self.vertices = ctx.buffer(np.concatenate([mesh.interleaved() for mesh in self.meshes]).tobytes())
         self.indices = ctx.buffer(np.concatenate(indices).tobytes())
+        self.ctx = ctx
+        self._extras: dict[tuple[str, ...], moderngl.Buffer] = {}
+
+    def extras(self, names: tuple[str, ...]) -> moderngl.Buffer:
+        """The buffer of the glTF attributes `names` (EXTRA_VERTEX_ATTRIBUTES' keys, in its order)
+        of every vertex, interleaved: made once, when a program first reads them."""
+        if names not in self._extras:
+            self._extras[names] = self.ctx.buffer(np.concatenate([extra_vertices(mesh, names) for mesh in self.meshes]).tobytes())
+        return self._extras[names]
+
+    def write_extras(self, mesh: Mesh) -> int:
+        """`mesh`'s attributes written over its place in every extra buffer made (a deformed mesh's);
+        returns the bytes written."""
+        written = 0
+        for names, buffer in self._extras.items():
+            values = extra_vertices(mesh, names)
+            buffer.write(values.tobytes(), offset=self.first_vertex[mesh] * values.strides[0])
+            written += values.nbytes
+        return written
 
     def release(self) -> None:
         self.vertices.release()
         self.indices.release()
+        for buffer in self._extras.values():
+            buffer.release()
+        self._extras.clear()
+
+
+def extra_vertices(mesh: Mesh, names: tuple[str, ...]) -> np.ndarray:
+    """(N, floats) float32 rows of the mesh's attributes `names` (their defaults where it lacks one)."""
+    return np.ascontiguousarray(np.hstack([mesh.attribute(name) for name in names]), dtype=np.float32)
+
+
+def vertex_buffers(program: moderngl.Program, arena: MeshArena) -> list[tuple[Any, ...]]:
+    """moderngl's vertex array content for `program` over `arena`'s vertices: the interleaved
+    position, normal and UV, and the extra buffer of the glTF attributes the program reads."""
+    fmt, names = attribute_format(program, [(name, f"{n}f") for name, n in VERTEX_ATTRIBUTES])
+    content: list[tuple[Any, ...]] = [(arena.vertices, fmt, *names)]
+    extras = tuple(name for name, attribute in EXTRA_VERTEX_ATTRIBUTES.items() if attribute in program)
+    if extras:
+        content.append((arena.extras(extras), " ".join(f"{EXTRA_ATTRIBUTES[name]}f" for name in extras),
+                        *(EXTRA_VERTEX_ATTRIBUTES[name] for name in extras)))
+    return content
 
 
 class GpuMeshes:
@@ -82,6 +127,7 @@ class GpuMeshes:
             arena.vertices.write(vertices.tobytes(), offset=arena.first_vertex[old] * vertices.strides[0])
             uploaded += vertices.nbytes
             arena.ranges[new], arena.first_vertex[new] = arena.ranges.pop(old), arena.first_vertex.pop(old)
+            uploaded += arena.write_extras(new)
             arena.meshes[arena.meshes.index(old)] = new
             del self._arena_of[old]
             self._arena_of[new] = arena
@@ -97,9 +143,8 @@ class GpuMeshes:
     def vertex_array(self, program: moderngl.Program, arena: MeshArena) -> moderngl.VertexArray:
         key = (arena, program.glo)
         if key not in self._vertex_arrays:
-            fmt, names = attribute_format(program, [(name, f"{n}f") for name, n in VERTEX_ATTRIBUTES])
             self._vertex_arrays[key] = self.ctx.vertex_array(
-                program, [(arena.vertices, fmt, *names)], index_buffer=arena.indices, index_element_size=4)
+                program, vertex_buffers(program, arena), index_buffer=arena.indices, index_element_size=4)
         return self._vertex_arrays[key]
 
     def draw(self, program: moderngl.Program, item: ObjectGeometry, view_projection: np.ndarray) -> None:
@@ -123,10 +168,12 @@ class GpuMeshes:
         self._vertex_arrays.clear()
 
     @staticmethod
-    def bytes_for(meshes: list[Mesh]) -> int:
+    def bytes_for(meshes: list[Mesh], attributes: tuple[str, ...] = ()) -> int:
         """GPU memory of the buffers of `meshes` (each one once): interleaved float32 positions,
-        normals and UVs, and uint32 indices."""
-        return sum(len(mesh.positions) * 32 + len(mesh.indices) * 12 for mesh in {id(m): m for m in meshes}.values())
+        normals and UVs, uint32 indices, and the glTF `attributes` the scene's programs read
+        (uniforms.mesh_attributes: every vertex carries them, a mesh without its defaults)."""
+        vertex = 32 + 4 * sum(EXTRA_ATTRIBUTES[name] for name in attributes)
+        return sum(len(mesh.positions) * vertex + len(mesh.indices) * 12 for mesh in {id(m): m for m in meshes}.values())
 
     def release(self) -> None:
         self.forget_vertex_arrays()
