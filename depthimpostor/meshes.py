@@ -170,8 +170,11 @@ def plane(width: float, depth: float, subdivisions: int = 1) -> Mesh:
     zz, xx = np.meshgrid(z, x, indexing="ij")
     positions = np.stack([xx, np.zeros_like(xx), zz], axis=-1).reshape(-1, 3)
     normals = np.tile((0.0, 1.0, 0.0), (len(positions), 1))
+    # Its tangents, for a normal map on a glTF rectangle placed as a plane: u grows along +x, v down
+    # the image along +z, so N x T = -z is up the image (w = 1): reflected_scene.glsl's plane_tangent.
+    tangents = np.tile((1.0, 0.0, 0.0, 1.0), (len(positions), 1))
     return Mesh(positions, normals, _grid_triangles(subdivisions + 1, subdivisions + 1, False, False),
-                plane_uvs(positions, width, depth))
+                plane_uvs(positions, width, depth), tangents=tangents)
 
 
 def plane_uvs(local: np.ndarray, width: float, depth: float) -> np.ndarray:
