@@ -19,7 +19,7 @@ from .uniforms import write_matrix
 VERTEX_ATTRIBUTES = (("in_position", 3), ("in_normal", 3), ("in_uv", 2))
 #: mesh.vert's inputs for glTF's other attributes (constants.EXTRA_ATTRIBUTES), which only the
 #: programs of scenes that use them read (TEXCOORD_1, VERTEX_COLORS, NORMAL_MAP): they live in a
-#: second buffer of the arena, made when a program first reads them.
+#: second buffer of the arena, of the scene's attributes (uniforms.mesh_attributes) alone.
 EXTRA_VERTEX_ATTRIBUTES = {"uvs1": "in_uv1", "colors": "in_color", "tangents": "in_tangent"}
 
 
@@ -35,8 +35,9 @@ class MeshArena:
     """Meshes packed into one vertex and one index buffer; indices are stored with the mesh's
     first vertex added, so that a mesh is drawn as the range `ranges[mesh]` of the index buffer."""
 
-    def __init__(self, ctx: moderngl.Context, meshes: Sequence[Mesh]) -> None:
+    def __init__(self, ctx: moderngl.Context, meshes: Sequence[Mesh], attributes: tuple[str, ...] = ()) -> None:
         self.meshes = list({id(mesh): mesh for mesh in meshes}.values())
+        self.attributes = attributes  # the glTF attributes of the extra buffer (None without any)
         self.ranges: dict[Mesh, tuple[int, int]] = {}  # (first index, index count)
         self.first_vertex: dict[Mesh, int] = {}  # where each mesh's vertices start
         vertex_start = index_start = 0
@@ -50,32 +51,23 @@ class MeshArena:
             index_start += count
         self.vertices = ctx.buffer(np.concatenate([mesh.interleaved() for mesh in self.meshes]).tobytes())
         self.indices = ctx.buffer(np.concatenate(indices).tobytes())
-        self.ctx = ctx
-        self._extras: dict[tuple[str, ...], moderngl.Buffer] = {}
-
-    def extras(self, names: tuple[str, ...]) -> moderngl.Buffer:
-        """The buffer of the glTF attributes `names` (EXTRA_VERTEX_ATTRIBUTES' keys, in its order)
-        of every vertex, interleaved: made once, when a program first reads them."""
-        if names not in self._extras:
-            self._extras[names] = self.ctx.buffer(np.concatenate([extra_vertices(mesh, names) for mesh in self.meshes]).tobytes())
-        return self._extras[names]
+        self.extras = (ctx.buffer(np.concatenate([extra_vertices(mesh, attributes) for mesh in self.meshes]).tobytes())
+                       if attributes else None)
 
     def write_extras(self, mesh: Mesh) -> int:
-        """`mesh`'s attributes written over its place in every extra buffer made (a deformed mesh's);
+        """`mesh`'s attributes written over its place in the extra buffer (a deformed mesh's);
         returns the bytes written."""
-        written = 0
-        for names, buffer in self._extras.items():
-            values = extra_vertices(mesh, names)
-            buffer.write(values.tobytes(), offset=self.first_vertex[mesh] * values.strides[0])
-            written += values.nbytes
-        return written
+        if self.extras is None:
+            return 0
+        values = extra_vertices(mesh, self.attributes)
+        self.extras.write(values.tobytes(), offset=self.first_vertex[mesh] * values.strides[0])
+        return values.nbytes
 
     def release(self) -> None:
         self.vertices.release()
         self.indices.release()
-        for buffer in self._extras.values():
-            buffer.release()
-        self._extras.clear()
+        if self.extras is not None:
+            self.extras.release()
 
 
 def extra_vertices(mesh: Mesh, names: tuple[str, ...]) -> np.ndarray:
@@ -88,10 +80,10 @@ def vertex_buffers(program: moderngl.Program, arena: MeshArena) -> list[tuple[An
     position, normal and UV, and the extra buffer of the glTF attributes the program reads."""
     fmt, names = attribute_format(program, [(name, f"{n}f") for name, n in VERTEX_ATTRIBUTES])
     content: list[tuple[Any, ...]] = [(arena.vertices, fmt, *names)]
-    extras = tuple(name for name, attribute in EXTRA_VERTEX_ATTRIBUTES.items() if attribute in program)
-    if extras:
-        content.append((arena.extras(extras), " ".join(f"{EXTRA_ATTRIBUTES[name]}f" for name in extras),
-                        *(EXTRA_VERTEX_ATTRIBUTES[name] for name in extras)))
+    extras = [(EXTRA_VERTEX_ATTRIBUTES[name], f"{EXTRA_ATTRIBUTES[name]}f") for name in arena.attributes]
+    if arena.extras is not None and any(name in program for name, _ in extras):
+        fmt, names = attribute_format(program, extras)
+        content.append((arena.extras, fmt, *names))
     return content
 
 
@@ -99,8 +91,11 @@ class GpuMeshes:
     """Owns the vertex/index buffers of the world's meshes (`load`) and of meshes drawn that are
     not in it (made on first draw), and the vertex arrays that bind them."""
 
-    def __init__(self, ctx: moderngl.Context) -> None:
+    def __init__(self, ctx: moderngl.Context, attributes: tuple[str, ...] = ()) -> None:
+        """`attributes`: the glTF vertex attributes the scene's programs read (uniforms.mesh_attributes),
+        which every arena's extra buffer holds for every vertex."""
         self.ctx = ctx
+        self.attributes = attributes
         self._arenas: list[MeshArena] = []
         self._arena_of: dict[Mesh, MeshArena] = {}  # keyed by identity (Mesh has eq=False)
         self._vertex_arrays: dict[tuple[MeshArena, int], moderngl.VertexArray] = {}
@@ -109,7 +104,7 @@ class GpuMeshes:
         """Put the meshes not yet on the GPU into one arena (the renderer loads the world's)."""
         fresh = [mesh for mesh in {id(m): m for m in meshes}.values() if mesh not in self._arena_of]
         if fresh:
-            arena = MeshArena(self.ctx, fresh)
+            arena = MeshArena(self.ctx, fresh, self.attributes)
             self._arenas.append(arena)
             self._arena_of.update(dict.fromkeys(fresh, arena))
 
@@ -132,7 +127,7 @@ class GpuMeshes:
             del self._arena_of[old]
             self._arena_of[new] = arena
         self.load(fresh)
-        return uploaded + sum(len(mesh.positions) * 32 + len(mesh.indices) * 12 for mesh in fresh)
+        return uploaded + self.bytes_for(fresh, self.attributes)
 
     def arena(self, mesh: Mesh) -> MeshArena:
         """The arena holding `mesh` (one of its own when it was not loaded)."""
