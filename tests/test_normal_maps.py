@@ -22,7 +22,7 @@ from depthimpostor.scene import Scene, load_scene
 from depthimpostor.scene.gltf import read_gltf
 from depthimpostor.scene.gltf_file import ignored_features, read_json
 from depthimpostor.scene.tangents import generated_tangents
-from gltf_files import GltfWriter, quaternion
+from gltf_files import GltfWriter, quaternion, skinned_column
 
 UNSIGNED_BYTE = 5121
 
@@ -288,3 +288,29 @@ def test_memory_counts_the_extra_attributes(tmp_path: Path) -> None:
     vertices = 24
     extra = plan_render(with_extras, Method.RAYTRACE).memory["meshes"] - plan_render(without, Method.RAYTRACE).memory["meshes"]
     assert extra == vertices * 4 * (2 + 4 + 4), extra
+
+
+def test_a_skinned_parts_tangents_turn_with_it(tmp_path: Path) -> None:
+    """A normal-mapped column whose top a joint bends (gltf_files.skinned_column): its tangents are
+    made again from its deformed mesh at each time, unit and perpendicular to its normals, the top's
+    turned with the bend and the foot's as they were."""
+    w = GltfWriter()
+    material = w._append("materials", {"pbrMetallicRoughness": {"metallicFactor": 0.0},
+                                       "normalTexture": {"index": w.texture(_bumps())}})
+    skinned_column(w, material)
+    primitive = w.json["meshes"][-1]["primitives"][0]
+    count = w.json["accessors"][primitive["attributes"]["POSITION"]]["count"]
+    corners = np.arange(count)
+    primitive["attributes"]["TEXCOORD_0"] = w.accessor(np.stack([(corners % 4) / 4.0, 1.0 - (corners // 4) / 8.0], axis=1),
+                                                       "VEC2")
+    part = read_gltf(w.write(tmp_path / "column.glb"), "column.glb").parts[0]
+    assert part.motion is not None and part.motion.deforms
+    rest, bent = part.motion.mesh_at(0.0), part.motion.mesh_at(1.0)
+    for mesh in (rest, bent):
+        assert mesh.tangents is not None
+        np.testing.assert_allclose(np.linalg.norm(mesh.tangents[:, :3], axis=1), 1.0, atol=1e-5)
+        assert np.abs(np.einsum("ij,ij->i", mesh.tangents[:, :3], mesh.normals)).max() < 1e-5
+    assert rest.tangents is not None and bent.tangents is not None
+    top, foot = rest.positions[:, 1] > 1.9, rest.positions[:, 1] < 0.1
+    assert np.abs(bent.tangents[top, :3] - rest.tangents[top, :3]).max() > 0.3
+    np.testing.assert_allclose(bent.tangents[foot], rest.tangents[foot], atol=1e-5)

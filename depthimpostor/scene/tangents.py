@@ -43,9 +43,12 @@ def generated_tangents(positions: Array, normals: Array, faces: Array, uvs: Arra
     for k in range(3):
         np.add.at(tangent, corners[:, k], along_u)
         np.add.at(down, corners[:, k], along_v)
+    summed = np.linalg.norm(tangent, axis=1)
     tangent -= n * np.einsum("ij,ij->i", tangent, n)[:, None]
     length = np.linalg.norm(tangent, axis=1)
-    # No UV gradient at the vertex: any direction perpendicular to the normal.
+    # No UV gradient at the vertex, or one along the normal (what is left of it is rounding): any
+    # direction perpendicular to the normal.
+    length = np.where(length > 1e-6 * summed, length, 0.0)
     fallback = np.cross(n, np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]]))
     fallback /= np.maximum(np.linalg.norm(fallback, axis=1, keepdims=True), 1e-300)
     tangent = np.where((length > 1e-20)[:, None], tangent / np.maximum(length, 1e-300)[:, None], fallback)
