@@ -345,6 +345,33 @@ BVH_TEXTURE_WIDTH = 1024
 #: Texels one triangle takes in the BVH's triangle texture, in its mesh's space: its corners p0 p1
 #: p2, its corner normals n0 n1 n2, and its corner UVs (u0 v0 u1 v1), (u2 v2 0 0).
 BVH_TRIANGLE_TEXELS = 8
+#: The optional vertex attributes of a mesh beyond position, normal and TEXCOORD_0 (meshes.Mesh's
+#: fields) and their widths, in the order the GPU's extra vertex buffer (gpu/meshes.py) and the
+#: triangle texture hold them.
+EXTRA_ATTRIBUTES = {"uvs1": 2, "colors": 4, "tangents": 4}
+#: What a mesh without one of them reads in a scene whose other meshes have it (lib/mesh_point.glsl's
+#: mesh_point too): no second UV set, white (a vertex colour multiplies the base colour), no
+#: tangent (only a normal-mapped material reads one, and its meshes have them).
+EXTRA_DEFAULTS = {"uvs1": (0.0, 0.0), "colors": (1.0, 1.0, 1.0, 1.0), "tangents": (0.0, 0.0, 0.0, 1.0)}
+#: Texels a triangle takes past those for each glTF vertex attribute a scene may add (meshes.py's
+#: EXTRA_ATTRIBUTES), in this order: TEXCOORD_1's first two corners (u0 v0 u1 v1) in one, the
+#: third's in the free half of the last UV texel; the three corners' colours; their tangents.
+TRIANGLE_ATTRIBUTE_TEXELS = {"uvs1": 1, "colors": 3, "tangents": 3}
+
+
+def triangle_texel_layout(attributes: tuple[str, ...]) -> dict[str, int]:
+    """Where the triangle texture holds a scene's extra vertex attributes (`attributes`, a subset
+    of TRIANGLE_ATTRIBUTE_TEXELS's names): lib/triangles.glsl's defines, TRIANGLE_TEXELS (texels a
+    triangle) and each attribute's first texel (TRIANGLE_UVS1_TEXEL...); methods/triangles.py
+    writes them there. Nothing for a scene without any: BVH_TRIANGLE_TEXELS a triangle."""
+    if not attributes:
+        return {}
+    layout, texel = {}, BVH_TRIANGLE_TEXELS
+    for name, texels in TRIANGLE_ATTRIBUTE_TEXELS.items():
+        if name in attributes:
+            layout[f"TRIANGLE_{name.upper()}_TEXEL"] = texel
+            texel += texels
+    return {"TRIANGLE_TEXELS": texel, **layout}
 
 
 #: How a mirror's lists of candidate images by ray are laid out (methods/image_cells.py): the
@@ -372,6 +399,7 @@ TEXTURE_RECORD = Struct("TextureRecord", (
     ("uv_u", "vec3"),  # the UV transform (Texture.uv_rows): u' = dot(uv_u, (u, v, 1)), v' = dot(uv_v, (u, v, 1))
     ("srgb", "int"),  # 1: colour, decoded from sRGB; 0: data, as stored
     ("uv_v", "vec3"),
+    ("uv_set", "int"),  # the mesh's UV set it reads: 0 (TEXCOORD_0) or 1 (TEXCOORD_1)
 ))
 
 #: A surface's material as lib/shading.glsl's material_albedo reads it: MATERIAL_DIFFUSE or
@@ -396,6 +424,8 @@ MATERIAL = Struct("Material", (
     ("alpha_cutoff", "float"),  # glTF's alphaMode MASK: the cutoff (< 0: opaque)
     ("alpha", "float"),  # and the base colour factor's alpha, times the texture's
     ("occlusion_strength", "float"),
+    ("normal_texture", "int"),  # the normal map's slot (or -1), and its scale of x and y
+    ("normal_scale", "float"),
 ))
 
 #: One light of the Lights block: LIGHT_DIRECTIONAL or LIGHT_POINT, SHADOW_NONE, SHADOW_HARD or
@@ -498,6 +528,8 @@ def glsl_constants() -> dict[str, str]:
         "EMPTY_SPAN_MAX": f"{EMPTY_SPAN_MAX!r}",
         "BVH_TEXTURE_WIDTH": str(BVH_TEXTURE_WIDTH),
         "BVH_TRIANGLE_TEXELS": str(BVH_TRIANGLE_TEXELS),
+        **{f"DEFAULT_{name.upper()}": f"vec{len(value)}(" + ", ".join(f"{c!r}" for c in value) + ")"
+           for name, value in EXTRA_DEFAULTS.items()},
         "SOFT_SHADOW_RAYS": str(SOFT_SHADOW_RAYS),
         "SHADOW_NORMAL_OFFSET_TEXELS": f"{SHADOW_NORMAL_OFFSET_TEXELS!r}",
         "MAX_INTERNAL_REFLECTIONS": str(MAX_INTERNAL_REFLECTIONS),

@@ -23,7 +23,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from depthimpostor.constants import MAX_COORDINATE
+from depthimpostor.constants import EXTRA_ATTRIBUTES, EXTRA_DEFAULTS, MAX_COORDINATE
 from depthimpostor.errors import DepthImpostorError
 
 
@@ -47,6 +47,14 @@ class Mesh:
     # image's top-left corner (its first row), v grows downwards. glTF parts, planes and boxes
     # have them (textures.py; scene_format.md says which shapes have none).
     uvs: np.ndarray | None = None
+    # glTF's other vertex attributes, where a file gives them (scene/gltf_file.py), else None:
+    # (N, 4) float32 tangents (xyz unit, w the bitangent's sign: B = w N x T, glTF 3.7.2.1), from
+    # the file's TANGENT or generated where a normal map needs them (scene/tangents.py); (N, 4)
+    # float32 linear RGBA vertex colours (COLOR_0, alpha 1 where the file gives RGB); (N, 2) float32
+    # TEXCOORD_1, in the convention of `uvs`.
+    tangents: np.ndarray | None = None
+    colors: np.ndarray | None = None
+    uvs1: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         positions = _frozen(self.positions, np.float32, "positions")
@@ -66,6 +74,14 @@ class Mesh:
                 raise ValueError(f"Mesh: uvs must be finite, of shape ({len(positions)}, 2), got {uvs.shape}")
             uvs.flags.writeable = False
             object.__setattr__(self, "uvs", uvs)
+        for name, width in EXTRA_ATTRIBUTES.items():
+            values = getattr(self, name)
+            if values is not None:
+                array = np.array(values, dtype=np.float32, order="C", copy=True)
+                if array.shape != (len(positions), width) or not np.isfinite(array).all():
+                    raise ValueError(f"Mesh: {name} must be finite, of shape ({len(positions)}, {width}), got {array.shape}")
+                array.flags.writeable = False
+                object.__setattr__(self, name, array)
         # The dataclass is frozen; these assignments only replace the arrays by checked copies.
         object.__setattr__(self, "positions", positions)
         object.__setattr__(self, "normals", normals)
@@ -92,7 +108,25 @@ class Mesh:
         # Row vectors times inv(L) are (inv(L)^T n)^T: the inverse transpose without a transpose.
         normals = _normalized_rows(self.normals.astype(np.float64) @ np.linalg.inv(linear))
         indices = self.indices[:, ::-1] if determinant < 0.0 else self.indices
-        return Mesh(positions, normals, indices, self.uvs)
+        tangents = None
+        if self.tangents is not None:
+            # A tangent is a direction along the surface: it goes through the matrix itself. A
+            # mirroring matrix turns N x T the other way round, so the bitangent's sign turns too.
+            along = self.tangents[:, :3].astype(np.float64) @ linear.T
+            lengths = np.linalg.norm(along, axis=1, keepdims=True)
+            along = np.where(lengths > 0.0, along / np.maximum(lengths, 1e-300), 0.0)
+            tangents = np.c_[along, self.tangents[:, 3] * np.sign(determinant)]
+        return Mesh(positions, normals, indices, self.uvs, tangents, self.colors, self.uvs1)
+
+    def with_attributes_of(self, other: Mesh) -> Mesh:
+        """This mesh with `other`'s UVs and other vertex attributes (another mesh of the same
+        vertices: a deformed or transformed copy)."""
+        return Mesh(self.positions, self.normals, self.indices, other.uvs, other.tangents, other.colors, other.uvs1)
+
+    @property
+    def extra_attributes(self) -> tuple[str, ...]:
+        """The names of the glTF attributes it has beyond position, normal and TEXCOORD_0."""
+        return tuple(name for name in EXTRA_ATTRIBUTES if getattr(self, name) is not None)
 
     def bounding_sphere(self) -> tuple[np.ndarray, float]:
         """A sphere containing every vertex: the smaller of Ritter's sphere and the box-centred one.
@@ -118,6 +152,13 @@ class Mesh:
         uvs = self.uvs if self.uvs is not None else np.zeros((len(self.positions), 2), np.float32)
         return np.ascontiguousarray(np.hstack([self.positions, self.normals, uvs]), dtype=np.float32)
 
+    def attribute(self, name: str) -> np.ndarray:
+        """(N, width) float32 values of one of EXTRA_ATTRIBUTES: its own, or EXTRA_DEFAULTS."""
+        values: np.ndarray | None = getattr(self, name)
+        if values is not None:
+            return values
+        return np.tile(np.asarray(EXTRA_DEFAULTS[name], np.float32), (len(self.positions), 1))
+
 
 def plane(width: float, depth: float, subdivisions: int = 1) -> Mesh:
     """A `width` x `depth` rectangle in XZ facing +Y, split into `subdivisions`^2 quads."""
@@ -129,8 +170,11 @@ def plane(width: float, depth: float, subdivisions: int = 1) -> Mesh:
     zz, xx = np.meshgrid(z, x, indexing="ij")
     positions = np.stack([xx, np.zeros_like(xx), zz], axis=-1).reshape(-1, 3)
     normals = np.tile((0.0, 1.0, 0.0), (len(positions), 1))
+    # Its tangents, for a normal map on a glTF rectangle placed as a plane: u grows along +x, v down
+    # the image along +z, so N x T = -z is up the image (w = 1): reflected_scene.glsl's plane_tangent.
+    tangents = np.tile((1.0, 0.0, 0.0, 1.0), (len(positions), 1))
     return Mesh(positions, normals, _grid_triangles(subdivisions + 1, subdivisions + 1, False, False),
-                plane_uvs(positions, width, depth))
+                plane_uvs(positions, width, depth), tangents=tangents)
 
 
 def plane_uvs(local: np.ndarray, width: float, depth: float) -> np.ndarray:

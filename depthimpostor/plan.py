@@ -16,7 +16,8 @@ from typing import Any
 
 from .constants import (
     depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MATERIAL, MAX_ANALYTIC_PLANES, MAX_BOUNCES, MAX_LIGHTS,
-    MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, HIERARCHICAL_MIN_SIDE, Algorithm, Method, image_algorithm, lists_images,
+    MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, EXTRA_ATTRIBUTES, HIERARCHICAL_MIN_SIDE, Algorithm,
+    Method, image_algorithm, lists_images, triangle_texel_layout,
 )
 from .culling import Reach
 from .geometry import ObjectGeometry
@@ -48,9 +49,9 @@ from .methods.registry import METHODS
 from .methods.colour_mips import COLOUR_MIPS_PROGRAM
 from .methods.pyramid import PYRAMID_PROGRAM, PyramidLayout, pyramid_bytes
 from .passes.shadows import shadow_map_defines, SHADOW_MAP_PROGRAM, fit_shadow_camera, shadow_map_bytes
-from .gpu.uniforms import alpha_mask_defines, environment_defines
+from .gpu.uniforms import alpha_mask_defines, environment_defines, mesh_attributes
 from .scene.limits import check_method, check_model_reach, check_model_uvs, check_scene
-from .scene.model import MeshShape, MetallicRoughnessMaterial, Scene
+from .scene.model import GltfShape, MeshShape, MetallicRoughnessMaterial, Scene
 from .gpu.shaders import ProgramKey, program_key
 from .graph import Pass, RenderNode, build_graph, format_graph, in_order, node_class
 from .lod import bake_meshes
@@ -451,12 +452,34 @@ def material_kinds(scene: Scene) -> str:
         return ""
     masked = sum(m.masked for m in pbr)
     maps = sum(any(t is not None for t in m.maps) for m in pbr)
+    normal_maps = sum(m.normal_texture is not None for m in pbr)
     parts = [f"{len(pbr)} metallic-roughness (their shading compiled in: METALLIC_ROUGHNESS)"]
     if maps:
-        parts.append(f"{maps} with metallic-roughness, occlusion or emissive maps")
+        parts.append(f"{maps} with metallic-roughness, occlusion, emissive or normal maps")
+    if normal_maps:
+        parts.append(f"{normal_maps} normal-mapped (the shading normal turned in the tangents' frame: NORMAL_MAP)")
     if masked:
         parts.append(f"{masked} alpha-masked (every surface pass cuts them: ALPHA_MASK)")
     return ", of which " + ", ".join(parts)
+
+
+#: What each glTF vertex attribute past the UVs is for, for `plan`.
+ATTRIBUTE_USES = {"uvs1": "TEXCOORD_1 (a texture reads the second UV set: TEXCOORD_1)",
+                  "colors": "COLOR_0 (vertex colours multiply the base colour: VERTEX_COLORS)",
+                  "tangents": "tangents (a normal map turns the shading normal: NORMAL_MAP)"}
+
+
+def mesh_attributes_line(scene: Scene, attributes: tuple[str, ...], traced: bool) -> str:
+    """`plan`'s line on the glTF vertex attributes the scene's surfaces read (uniforms.mesh_attributes),
+    each compiled in only where used, and what they cost: floats a vertex in the mesh buffers (every
+    vertex of the scene carries them) and texels a triangle in the BVH."""
+    floats = sum(EXTRA_ATTRIBUTES[name] for name in attributes)
+    made = sum(1 for o in scene.objects if isinstance(o.shape, GltfShape) and o.shape.mesh.tangents is not None)
+    bvh = (f", {triangle_texel_layout(attributes)['TRIANGLE_TEXELS'] - BVH_TRIANGLE_TEXELS} more texels a triangle in "
+           "the BVH" if traced else "")
+    return (f"vertex attributes: {', '.join(ATTRIBUTE_USES[name] for name in attributes)}; {4 * floats} more bytes a "
+            f"vertex in the mesh buffers{bvh}" + (f"; {made} part(s) with tangents (the file's, or generated: "
+                                                  "scene/tangents.py)" if "tangents" in attributes else ""))
 
 
 def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImagePlan]], memory: dict[str, int],
@@ -501,6 +524,9 @@ def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImageP
     if scene.textures:
         lines.append(f"image textures: {len(scene.textures)} (any number: in texture arrays, within GL_MAX_TEXTURE_SIZE, "
                      "GL_MAX_ARRAY_TEXTURE_LAYERS and GL_MAX_UNIFORM_BLOCK_SIZE, checked at render)")
+    attributes = mesh_attributes(scene)
+    if attributes:
+        lines.append(mesh_attributes_line(scene, attributes, spec.traces is not None))
     lines.append(f"memory: {sum(memory.values()) / 2**20:.2f} MiB, against the driver's or --max-memory's budget "
                  "(checked at render)")
     return tuple(lines)
@@ -522,7 +548,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     The renderer's own options add outputs: `reflection_data` and `count_samples`."""
     width, height = scene.render.size
     memory = {"frame colour and depth": width * height * (16 + 4),
-              "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry]),
+              "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry], mesh_attributes(scene)),
               "lights and planes": SceneBlocks.BYTES, "materials": materials_bytes(scene)}
     # The diffuse pass's batch of the objects that do not move (gpu/batches.py; a context without
     # OpenGL 4.3 draws them one by one, and makes none).
@@ -560,7 +586,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
         levels = bake_meshes([(plan.camera, plan.targets) for plans in (image_plans or {}).values() for plan in plans
                               if not plan.level]) if not stand_in.keeps_triangle_ids else []
         if levels:
-            memory["bake levels"] = GpuMeshes.bytes_for(levels)
+            memory["bake levels"] = GpuMeshes.bytes_for(levels, mesh_attributes(scene))
         # Each mirror's table: its records and, in a scene of many objects, the lists of candidate
         # images by ray past them (methods/image_cells.py); the bounce images' tables likewise.
         tables, bounce_tables = stand_in.table_bytes(scene, reflectors, image_plans or {})

@@ -25,6 +25,7 @@ from .gpu.context import bind_default_framebuffer
 from .gpu.batches import batches_supported
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
+from .gpu.uniforms import mesh_attributes
 from .gpu.shaders import ProgramCache
 from .gpu.textures import GpuTextures
 from .graph import Pass, node_class
@@ -85,7 +86,7 @@ class RenderGraph:
                  options: GraphOptions, stats: RenderStats) -> None:
         self.ctx, self.programs, self.options, self.stats = ctx, programs, options, stats
         self.world, self.plan = world, plan
-        self.meshes = GpuMeshes(ctx)
+        self.meshes = GpuMeshes(ctx, mesh_attributes(world.scene))  # with the glTF attributes the scene reads
         self.meshes.load([g.local_mesh for g in world.geometry])  # the world's meshes in one arena
         self.textures = GpuTextures(ctx)  # the scene's image textures, bound for every frame
         self.scene_blocks = SceneBlocks(ctx)  # the lights and analytic planes, bound for every frame

@@ -81,6 +81,7 @@ class TextureLayout:
             records["texels"][slot] = self.texel_rects[image]
             records["uv_u"][slot], records["uv_v"][slot] = texture.uv_rows
             records["srgb"][slot] = int(texture.srgb)
+            records["uv_set"][slot] = texture.uv_set
         return records
 
     @property

@@ -28,7 +28,7 @@ uniform vec4 u_eye;
 in vec3 v_world_position;
 in vec3 v_local_position;
 in vec3 v_world_normal;
-in vec2 v_uv;
+#include "lib/mesh_varyings.glsl"
 
 layout(location = 0) out vec4 out_color;
 #if WRITE_DEPTH_IMAGE
@@ -59,13 +59,14 @@ uniform int u_triangle_offset;
 void main() {
     vec3 normal = safe_normalize(v_world_normal, vec3(0.0, 1.0, 0.0));
     Material material = u_materials[MATERIAL_INDEX];
+    MeshPoint point = fragment_point();
 #ifdef ALPHA_MASK
-    if (material_masked(material, v_uv)) discard;  // glTF's alphaMode MASK: the surface is not there
+    if (material_masked(material, point)) discard;  // glTF's alphaMode MASK: the surface is not there
 #endif
-    vec3 albedo = material_albedo(material, v_local_position, v_uv);
+    vec3 albedo = material_albedo(material, v_local_position, point);
 #ifdef METALLIC_ROUGHNESS
     vec3 to_viewer = safe_normalize(u_eye.xyz - v_world_position * u_eye.w, normal);
-    out_color = vec4(shade_material(material, albedo, v_uv, v_world_position, normal, to_viewer), 1.0);
+    out_color = vec4(shade_material(material, albedo, point, v_world_position, normal, to_viewer), 1.0);
 #else
     out_color = vec4(shade(albedo, v_world_position, normal), 1.0);
 #endif

@@ -20,6 +20,20 @@ uniform mat3 u_normal_matrix;  // inverse transpose of u_model's upper 3x3
 in vec3 in_position;
 in vec3 in_normal;
 in vec2 in_uv;  // texture coordinates (zero for a mesh without them)
+// glTF's other attributes, where the scene's materials read them (lib/mesh_point.glsl), from the
+// meshes' extra vertex buffer (gpu/meshes.py: constants.EXTRA_DEFAULTS for a mesh without one).
+#ifdef TEXCOORD_1
+in vec2 in_uv1;
+out vec2 v_uv1;
+#endif
+#ifdef VERTEX_COLORS
+in vec4 in_color;
+out vec4 v_color;
+#endif
+#ifdef NORMAL_MAP
+in vec4 in_tangent;
+out vec4 v_tangent;
+#endif
 
 out vec3 v_world_position;
 out vec3 v_local_position;
@@ -40,5 +54,17 @@ void main() {
     v_local_position = in_position;
     v_world_normal = normal_matrix * in_normal;
     v_uv = in_uv;
+#ifdef TEXCOORD_1
+    v_uv1 = in_uv1;
+#endif
+#ifdef VERTEX_COLORS
+    v_color = in_color;
+#endif
+#ifdef NORMAL_MAP
+    // A tangent lies along the surface: it goes through the model matrix itself (a normal through
+    // its inverse transpose), and a mirroring matrix turns the bitangent's sign (Mesh.transformed).
+    mat3 linear = mat3(model);
+    v_tangent = vec4(linear * in_tangent.xyz, determinant(linear) < 0.0 ? -in_tangent.w : in_tangent.w);
+#endif
     gl_Position = u_view_projection * world;
 }

@@ -13,6 +13,7 @@ import pytest
 from conftest import SCENES, assert_finite
 from depthimpostor.constants import Method
 from depthimpostor.oracles.compare import compare
+from depthimpostor.oracles.mesh_points import MeshPoints
 from depthimpostor.oracles.truth import TruthTracer, material_masked
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
@@ -51,10 +52,10 @@ def test_the_truth_cuts_away_what_the_mask_says() -> None:
     texture = texture_from_pixels(_striped(), {})
     masked = MetallicRoughnessMaterial((1.0, 1.0, 1.0), texture, alpha_cutoff=0.5)
     uvs = np.array([[1.5 / 16, 0.5], [5.5 / 16, 0.5], [9.5 / 16, 0.2]])
-    assert material_masked(masked, uvs).tolist() == [False, True, False]
+    assert material_masked(masked, MeshPoints.of_uvs(uvs)).tolist() == [False, True, False]
     faded = dataclasses.replace(masked, alpha=0.4)  # the factor's alpha alone is under the cutoff
-    assert material_masked(faded, uvs).all()
-    assert not material_masked(dataclasses.replace(masked, alpha_cutoff=None), uvs).any()
+    assert material_masked(faded, MeshPoints.of_uvs(uvs)).all()
+    assert not material_masked(dataclasses.replace(masked, alpha_cutoff=None), MeshPoints.of_uvs(uvs)).any()
 
 
 @pytest.fixture(scope="module")

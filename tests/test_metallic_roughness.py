@@ -21,6 +21,7 @@ from depthimpostor.gpu.context import bind_default_framebuffer
 from depthimpostor.gpu.scene_blocks import lighting_record
 from depthimpostor.oracles.brdf import ambient_specular, metallic_roughness_brdf, shade_metallic_roughness
 from depthimpostor.oracles.compare import compare
+from depthimpostor.oracles.mesh_points import MeshPoints
 from depthimpostor.passes.diffuse import viewer_of
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
@@ -46,7 +47,7 @@ void main() {
     int i = int(gl_FragCoord.x);
     vec3 base = u_inputs[4 * i].xyz, position = u_inputs[4 * i + 1].xyz;
     vec3 normal = u_inputs[4 * i + 2].xyz, to_viewer = u_inputs[4 * i + 3].xyz;
-    out_color = vec4(shade_material(u_materials[u_material], base, vec2(0.0), position, normal, to_viewer), 1.0);
+    out_color = vec4(shade_material(u_materials[u_material], base, mesh_point(vec2(0.0)), position, normal, to_viewer), 1.0);
 }
 """
 VERTEX = """#version 330 core
@@ -105,7 +106,7 @@ def test_the_glsl_and_numpy_shading_are_one_function(ctx: moderngl.Context, tmp_
             framebuffer.use()
             vertex_array.render(moderngl.TRIANGLES, vertices=3)
             gl = np.frombuffer(framebuffer.read(components=4, dtype="f4"), np.float32).reshape(pixels, 4)[:, :3]
-            expected = shade_metallic_roughness(scene, material, base, np.zeros((pixels, 2)), positions, normals, to_viewer)
+            expected = shade_metallic_roughness(scene, material, base, MeshPoints.defaults(pixels), positions, normals, to_viewer)
             assert_finite(gl)
             np.testing.assert_allclose(gl, expected, rtol=2e-4, atol=2e-5, err_msg=f"materials[{index}]")
         vertex_array.release()

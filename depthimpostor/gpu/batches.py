@@ -18,7 +18,7 @@ import numpy as np
 
 from ..geometry import ObjectGeometry
 from ..scene.model import BoxShape, CylinderShape, Scene, SphereShape, TorusKnotShape, TorusShape
-from .meshes import VERTEX_ATTRIBUTES, GpuMeshes, MeshArena, attribute_format
+from .meshes import GpuMeshes, MeshArena, attribute_format, vertex_buffers
 
 #: One object's instance attributes, as mesh.vert's INSTANCED variant reads them: the model
 #: matrix's three rows, the normal matrix's three columns, and the integers (material index in
@@ -110,11 +110,9 @@ class ObjectBatch:
         if count == 0:
             return 0
         if program.glo not in self._vertex_arrays:
-            vertex_format, vertex_names = attribute_format(program, [(name, f"{n}f") for name, n in VERTEX_ATTRIBUTES])
             instance_format, instance_names = attribute_format(program, INSTANCE_ATTRIBUTES, "/i")
             self._vertex_arrays[program.glo] = self.ctx.vertex_array(
-                program, [(self.arena.vertices, vertex_format, *vertex_names),
-                          (self.instances, instance_format, *instance_names)],
+                program, [*vertex_buffers(program, self.arena), (self.instances, instance_format, *instance_names)],
                 index_buffer=self.arena.indices, index_element_size=4)
         self._vertex_arrays[program.glo].render_indirect(self.commands, moderngl.TRIANGLES, count=count, first=first)
         return 1

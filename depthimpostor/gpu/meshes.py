@@ -5,16 +5,22 @@ objects drawn in one call (gpu/batches.py)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import moderngl
 import numpy as np
 
+from ..constants import EXTRA_ATTRIBUTES
 from ..geometry import ObjectGeometry
 from ..meshes import Mesh
 from .uniforms import write_matrix
 
 #: Per-vertex attributes of mesh.vert, and how many floats each takes.
 VERTEX_ATTRIBUTES = (("in_position", 3), ("in_normal", 3), ("in_uv", 2))
+#: mesh.vert's inputs for glTF's other attributes (constants.EXTRA_ATTRIBUTES), which only the
+#: programs of scenes that use them read (TEXCOORD_1, VERTEX_COLORS, NORMAL_MAP): they live in a
+#: second buffer of the arena, of the scene's attributes (uniforms.mesh_attributes) alone.
+EXTRA_VERTEX_ATTRIBUTES = {"uvs1": "in_uv1", "colors": "in_color", "tangents": "in_tangent"}
 
 
 def attribute_format(program: moderngl.Program, attributes: Sequence[tuple[str, str]],
@@ -29,8 +35,9 @@ class MeshArena:
     """Meshes packed into one vertex and one index buffer; indices are stored with the mesh's
     first vertex added, so that a mesh is drawn as the range `ranges[mesh]` of the index buffer."""
 
-    def __init__(self, ctx: moderngl.Context, meshes: Sequence[Mesh]) -> None:
+    def __init__(self, ctx: moderngl.Context, meshes: Sequence[Mesh], attributes: tuple[str, ...] = ()) -> None:
         self.meshes = list({id(mesh): mesh for mesh in meshes}.values())
+        self.attributes = attributes  # the glTF attributes of the extra buffer (None without any)
         self.ranges: dict[Mesh, tuple[int, int]] = {}  # (first index, index count)
         self.first_vertex: dict[Mesh, int] = {}  # where each mesh's vertices start
         vertex_start = index_start = 0
@@ -44,18 +51,51 @@ class MeshArena:
             index_start += count
         self.vertices = ctx.buffer(np.concatenate([mesh.interleaved() for mesh in self.meshes]).tobytes())
         self.indices = ctx.buffer(np.concatenate(indices).tobytes())
+        self.extras = (ctx.buffer(np.concatenate([extra_vertices(mesh, attributes) for mesh in self.meshes]).tobytes())
+                       if attributes else None)
+
+    def write_extras(self, mesh: Mesh) -> int:
+        """`mesh`'s attributes written over its place in the extra buffer (a deformed mesh's);
+        returns the bytes written."""
+        if self.extras is None:
+            return 0
+        values = extra_vertices(mesh, self.attributes)
+        self.extras.write(values.tobytes(), offset=self.first_vertex[mesh] * values.strides[0])
+        return values.nbytes
 
     def release(self) -> None:
         self.vertices.release()
         self.indices.release()
+        if self.extras is not None:
+            self.extras.release()
+
+
+def extra_vertices(mesh: Mesh, names: tuple[str, ...]) -> np.ndarray:
+    """(N, floats) float32 rows of the mesh's attributes `names` (their defaults where it lacks one)."""
+    return np.ascontiguousarray(np.hstack([mesh.attribute(name) for name in names]), dtype=np.float32)
+
+
+def vertex_buffers(program: moderngl.Program, arena: MeshArena) -> list[tuple[Any, ...]]:
+    """moderngl's vertex array content for `program` over `arena`'s vertices: the interleaved
+    position, normal and UV, and the extra buffer of the glTF attributes the program reads."""
+    fmt, names = attribute_format(program, [(name, f"{n}f") for name, n in VERTEX_ATTRIBUTES])
+    content: list[tuple[Any, ...]] = [(arena.vertices, fmt, *names)]
+    extras = [(EXTRA_VERTEX_ATTRIBUTES[name], f"{EXTRA_ATTRIBUTES[name]}f") for name in arena.attributes]
+    if arena.extras is not None and any(name in program for name, _ in extras):
+        fmt, names = attribute_format(program, extras)
+        content.append((arena.extras, fmt, *names))
+    return content
 
 
 class GpuMeshes:
     """Owns the vertex/index buffers of the world's meshes (`load`) and of meshes drawn that are
     not in it (made on first draw), and the vertex arrays that bind them."""
 
-    def __init__(self, ctx: moderngl.Context) -> None:
+    def __init__(self, ctx: moderngl.Context, attributes: tuple[str, ...] = ()) -> None:
+        """`attributes`: the glTF vertex attributes the scene's programs read (uniforms.mesh_attributes),
+        which every arena's extra buffer holds for every vertex."""
         self.ctx = ctx
+        self.attributes = attributes
         self._arenas: list[MeshArena] = []
         self._arena_of: dict[Mesh, MeshArena] = {}  # keyed by identity (Mesh has eq=False)
         self._vertex_arrays: dict[tuple[MeshArena, int], moderngl.VertexArray] = {}
@@ -64,7 +104,7 @@ class GpuMeshes:
         """Put the meshes not yet on the GPU into one arena (the renderer loads the world's)."""
         fresh = [mesh for mesh in {id(m): m for m in meshes}.values() if mesh not in self._arena_of]
         if fresh:
-            arena = MeshArena(self.ctx, fresh)
+            arena = MeshArena(self.ctx, fresh, self.attributes)
             self._arenas.append(arena)
             self._arena_of.update(dict.fromkeys(fresh, arena))
 
@@ -82,11 +122,12 @@ class GpuMeshes:
             arena.vertices.write(vertices.tobytes(), offset=arena.first_vertex[old] * vertices.strides[0])
             uploaded += vertices.nbytes
             arena.ranges[new], arena.first_vertex[new] = arena.ranges.pop(old), arena.first_vertex.pop(old)
+            uploaded += arena.write_extras(new)
             arena.meshes[arena.meshes.index(old)] = new
             del self._arena_of[old]
             self._arena_of[new] = arena
         self.load(fresh)
-        return uploaded + sum(len(mesh.positions) * 32 + len(mesh.indices) * 12 for mesh in fresh)
+        return uploaded + self.bytes_for(fresh, self.attributes)
 
     def arena(self, mesh: Mesh) -> MeshArena:
         """The arena holding `mesh` (one of its own when it was not loaded)."""
@@ -97,9 +138,8 @@ class GpuMeshes:
     def vertex_array(self, program: moderngl.Program, arena: MeshArena) -> moderngl.VertexArray:
         key = (arena, program.glo)
         if key not in self._vertex_arrays:
-            fmt, names = attribute_format(program, [(name, f"{n}f") for name, n in VERTEX_ATTRIBUTES])
             self._vertex_arrays[key] = self.ctx.vertex_array(
-                program, [(arena.vertices, fmt, *names)], index_buffer=arena.indices, index_element_size=4)
+                program, vertex_buffers(program, arena), index_buffer=arena.indices, index_element_size=4)
         return self._vertex_arrays[key]
 
     def draw(self, program: moderngl.Program, item: ObjectGeometry, view_projection: np.ndarray) -> None:
@@ -123,10 +163,12 @@ class GpuMeshes:
         self._vertex_arrays.clear()
 
     @staticmethod
-    def bytes_for(meshes: list[Mesh]) -> int:
+    def bytes_for(meshes: list[Mesh], attributes: tuple[str, ...] = ()) -> int:
         """GPU memory of the buffers of `meshes` (each one once): interleaved float32 positions,
-        normals and UVs, and uint32 indices."""
-        return sum(len(mesh.positions) * 32 + len(mesh.indices) * 12 for mesh in {id(m): m for m in meshes}.values())
+        normals and UVs, uint32 indices, and the glTF `attributes` the scene's programs read
+        (uniforms.mesh_attributes: every vertex carries them, a mesh without its defaults)."""
+        vertex = 32 + 4 * sum(EXTRA_ATTRIBUTES[name] for name in attributes)
+        return sum(len(mesh.positions) * vertex + len(mesh.indices) * 12 for mesh in {id(m): m for m in meshes}.values())
 
     def release(self) -> None:
         self.forget_vertex_arrays()

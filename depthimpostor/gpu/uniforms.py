@@ -15,9 +15,9 @@ import moderngl
 import numpy as np
 
 from .bindings import TextureUnit, UniformBlock
-from ..constants import MATERIAL, MATERIAL_ARRAYS, MAX_LIGHTS, MaterialKind
+from ..constants import EXTRA_ATTRIBUTES, MATERIAL, MATERIAL_ARRAYS, MAX_LIGHTS, MaterialKind, triangle_texel_layout
 from ..scene.model import (
-    CheckerMaterial, DiffuseMaterial, MetallicRoughnessMaterial, Scene, SceneObject,
+    CheckerMaterial, DiffuseMaterial, GltfShape, MetallicRoughnessMaterial, Scene, SceneObject,
 )
 from ..texture_layout import texture_defines
 from ..textures import SRGB_TABLE
@@ -42,7 +42,33 @@ def shading_defines(scene: Scene) -> dict[str, int]:
             **({"METALLIC_ROUGHNESS": 1} if any(isinstance(m, MetallicRoughnessMaterial) for m in scene.materials)
                else {}),
             **alpha_mask_defines(scene),
+            **mesh_attribute_defines(scene),
             **texture_defines(scene)}
+
+
+def mesh_attributes(scene: Scene) -> tuple[str, ...]:
+    """The glTF vertex attributes past position, normal and TEXCOORD_0 (meshes.EXTRA_ATTRIBUTES, in
+    its order) that the scene's shaded surfaces read: TEXCOORD_1 where a texture reads that set,
+    COLOR_0 where a shaded object's mesh has vertex colours, tangents where a material has a normal
+    map. Every mesh then carries them (meshes.EXTRA_DEFAULTS where its own lack them); a scene
+    without any carries none, and its programs are those of before."""
+    shaded = scene.diffuse_objects
+    used = {"uvs1": any(texture.uv_set == 1 for texture in scene.textures),
+            "colors": any(isinstance(o.shape, GltfShape) and o.shape.mesh.colors is not None for o in shaded),
+            "tangents": any(isinstance(m, MetallicRoughnessMaterial) and m.normal_texture is not None
+                            for m in scene.materials)}
+    return tuple(name for name in EXTRA_ATTRIBUTES if used[name])
+
+
+#: The define each extra vertex attribute compiles in (lib/mesh_point.glsl's MeshPoint fields).
+ATTRIBUTE_DEFINES = {"uvs1": "TEXCOORD_1", "colors": "VERTEX_COLORS", "tangents": "NORMAL_MAP"}
+
+
+def mesh_attribute_defines(scene: Scene) -> dict[str, int]:
+    """The variant of every program that reads the mesh at a surface point (mesh_attributes): the
+    MeshPoint fields it carries, and where the triangle texture holds them (constants.triangle_texel_layout)."""
+    attributes = mesh_attributes(scene)
+    return {**{ATTRIBUTE_DEFINES[name]: 1 for name in attributes}, **triangle_texel_layout(attributes)}
 
 
 def has_alpha_mask(scene: Scene) -> bool:
@@ -57,7 +83,8 @@ def alpha_mask_defines(scene: Scene) -> dict[str, int]:
     programs take them with shading_defines."""
     if not has_alpha_mask(scene):
         return {}
-    return {"ALPHA_MASK": 1, "MATERIAL_COUNT": material_count(scene), **texture_defines(scene)}
+    return {"ALPHA_MASK": 1, "MATERIAL_COUNT": material_count(scene), **mesh_attribute_defines(scene),
+            **texture_defines(scene)}
 
 
 def write_material_index(program: moderngl.Program, scene: Scene, obj: SceneObject) -> None:
@@ -168,6 +195,7 @@ def material_records(scene: Scene) -> np.ndarray:
     records = np.zeros(material_count(scene), MATERIAL.dtype)
     # What a diffuse or checker material leaves unused: no maps, opaque.
     records["metallic_roughness_texture"] = records["occlusion_texture"] = records["emissive_texture"] = -1
+    records["normal_texture"] = -1
     records["alpha_cutoff"], records["alpha"] = -1.0, 1.0
     for record, material in zip(records, scene.materials, strict=False):
         if isinstance(material, CheckerMaterial):
@@ -183,8 +211,9 @@ def material_records(scene: Scene) -> np.ndarray:
             record["kind"] = MaterialKind.METALLIC_ROUGHNESS
             record["emissive"], record["metallic"], record["roughness"] = (material.emissive, material.metallic,
                                                                            material.roughness)
-            record["metallic_roughness_texture"], record["occlusion_texture"], record["emissive_texture"] = (
-                scene.slot_of(texture) for texture in material.maps)
+            (record["metallic_roughness_texture"], record["occlusion_texture"], record["emissive_texture"],
+             record["normal_texture"]) = (scene.slot_of(texture) for texture in material.maps)
+            record["normal_scale"] = material.normal_scale
             record["occlusion_strength"] = material.occlusion_strength
             if material.alpha_cutoff is not None:
                 record["alpha_cutoff"], record["alpha"] = material.alpha_cutoff, material.alpha

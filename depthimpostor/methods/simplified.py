@@ -45,14 +45,15 @@ def simplified_mesh(mesh: Mesh, target_triangles: int) -> Mesh:
         np.asarray(welded.vertices, np.float64), np.asarray(welded.faces, np.int32), target_count=target_triangles
     )
     simplified = crease_shaded(np.asarray(points, np.float64), np.asarray(faces, np.int64))
-    return simplified if mesh.uvs is None else with_carried_uvs(mesh, mesh.uvs, simplified)
+    return simplified if mesh.uvs is None and not mesh.extra_attributes else with_carried_uvs(mesh, mesh.uvs, simplified)
 
 
-def with_carried_uvs(original: Mesh, original_uvs: np.ndarray, simplified: Mesh) -> Mesh:
+def with_carried_uvs(original: Mesh, original_uvs: np.ndarray | None, simplified: Mesh) -> Mesh:
     """`simplified` (3 vertices a triangle, crease_shaded's) with UVs from `original`: each triangle
     takes the UV layout of the original triangle whose centroid is nearest its own, extended
     linearly over its plane. One chart a triangle keeps a seam from smearing the whole image across
-    a triangle that straddles it (the welding before decimation joins the seam's two sides)."""
+    a triangle that straddles it (the welding before decimation joins the seam's two sides). The
+    glTF attributes past them (TEXCOORD_1, colours, tangents) are carried alike."""
     corners = original.positions[original.indices].astype(np.float64)  # (n, 3, 3)
     centroids = corners.mean(axis=1)
     mine = simplified.positions.reshape(-1, 3, 3).astype(np.float64)
@@ -65,9 +66,17 @@ def with_carried_uvs(original: Mesh, original_uvs: np.ndarray, simplified: Mesh)
     gram = np.einsum("mij,mkj->mik", edges, edges)
     rhs = np.einsum("mij,mcj->mci", edges, mine - p0[:, None, :])
     weights = np.linalg.solve(gram[:, None].repeat(3, axis=1), rhs[..., None])[..., 0]  # (m, 3 corners, 2)
-    uv = original_uvs[original.indices[nearest]].astype(np.float64)  # (m, 3, 2)
-    uvs = uv[:, None, 0] + weights[..., :1] * (uv[:, None, 1] - uv[:, None, 0]) + weights[..., 1:] * (uv[:, None, 2] - uv[:, None, 0])
-    return Mesh(simplified.positions, simplified.normals, simplified.indices, uvs.reshape(-1, 2))
+
+    def carried(values: np.ndarray | None) -> np.ndarray | None:
+        if values is None:
+            return None
+        v = values[original.indices[nearest]].astype(np.float64)  # (m, 3, width)
+        extended = v[:, None, 0] + weights[..., :1] * (v[:, None, 1] - v[:, None, 0]) + weights[..., 1:] * (v[:, None, 2] - v[:, None, 0])
+        return extended.reshape(-1, values.shape[1])
+
+    colors = carried(original.colors)
+    return Mesh(simplified.positions, simplified.normals, simplified.indices, carried(original_uvs),
+                carried(original.tangents), None if colors is None else np.clip(colors, 0.0, 1.0), carried(original.uvs1))
 
 
 def crease_shaded(positions: np.ndarray, faces: np.ndarray) -> Mesh:

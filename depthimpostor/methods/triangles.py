@@ -16,11 +16,11 @@ import math
 import moderngl
 import numpy as np
 
-from ..constants import BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS
+from ..constants import BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, triangle_texel_layout
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
 from ..gpu.bindings import TextureUnit
-from ..gpu.uniforms import bind_texture, write
+from ..gpu.uniforms import bind_texture, mesh_attributes, write
 from ..meshes import Mesh
 from ..scene.model import Scene
 from .atlas import plural
@@ -59,9 +59,10 @@ def distinct_meshes(meshes: list[Mesh]) -> dict[Mesh, int]:
     return distinct
 
 
-def triangle_texels(meshes: list[Mesh], order: np.ndarray) -> np.ndarray:
-    """(triangles * BVH_TRIANGLE_TEXELS, 4) texels of every triangle of `meshes`, mesh after mesh, in
-    the `order` of their hierarchies' leaves."""
+def triangle_texels(meshes: list[Mesh], order: np.ndarray, attributes: tuple[str, ...] = ()) -> np.ndarray:
+    """(triangles * texels a triangle, 4) texels of every triangle of `meshes`, mesh after mesh, in
+    the `order` of their hierarchies' leaves: BVH_TRIANGLE_TEXELS, then the glTF `attributes` the
+    scene uses where constants.triangle_texel_layout puts them (EXTRA_DEFAULTS for a mesh without)."""
     indices = np.concatenate([mesh.indices for mesh in meshes])[order]
     starts = np.cumsum([0] + [len(mesh.positions) for mesh in meshes[:-1]])
     indices = indices + np.repeat(starts, [len(mesh.indices) for mesh in meshes])[order, None]
@@ -69,12 +70,26 @@ def triangle_texels(meshes: list[Mesh], order: np.ndarray) -> np.ndarray:
     normals = np.concatenate([mesh.normals for mesh in meshes])
     uvs = np.concatenate([mesh.uvs if mesh.uvs is not None else np.zeros((len(mesh.positions), 2), np.float32)
                           for mesh in meshes])
-    ordered = np.zeros((len(indices), BVH_TRIANGLE_TEXELS, 4), np.float32)
+    layout = triangle_texel_layout(attributes)
+    ordered = np.zeros((len(indices), layout.get("TRIANGLE_TEXELS", BVH_TRIANGLE_TEXELS), 4), np.float32)
     ordered[:, :3, :3] = positions[indices]
     ordered[:, 3:6, :3] = normals[indices]
     ordered[:, 6, :] = uvs[indices[:, :2]].reshape(-1, 4)
     ordered[:, 7, :2] = uvs[indices[:, 2]]
+    for name in attributes:
+        values = np.concatenate([mesh.attribute(name) for mesh in meshes])[indices]  # (triangles, 3, width)
+        texel = layout[f"TRIANGLE_{name.upper()}_TEXEL"]
+        if name == "uvs1":
+            ordered[:, texel, :] = values[:, :2].reshape(-1, 4)
+            ordered[:, 7, 2:] = values[:, 2]
+        else:
+            ordered[:, texel:texel + 3, :] = values
     return ordered.reshape(-1, 4)
+
+
+def triangle_stride(scene: Scene) -> int:
+    """Texels a triangle takes in the scene's triangle texture (its glTF attributes' included)."""
+    return triangle_texel_layout(mesh_attributes(scene)).get("TRIANGLE_TEXELS", BVH_TRIANGLE_TEXELS)
 
 
 class TrianglePass:
@@ -95,11 +110,11 @@ class TrianglePass:
         distinct = list(distinct_meshes(meshes))
         layout = BvhLayout(len(meshes), sum(node_count(len(m.indices)) for m in distinct),
                            tuple(len(m.indices) for m in distinct))
-        return cls._bytes(layout, sum(len(m.indices) for m in meshes) if named else None)
+        return cls._bytes(layout, sum(len(m.indices) for m in meshes) if named else None, triangle_stride(scene))
 
     @staticmethod
-    def _bytes(layout: BvhLayout, named: int | None) -> int:
-        rows = _rows(layout.node_texels) + _rows(BVH_TRIANGLE_TEXELS * sum(layout.mesh_triangles))
+    def _bytes(layout: BvhLayout, named: int | None, stride: int) -> int:
+        rows = _rows(layout.node_texels) + _rows(stride * sum(layout.mesh_triangles))
         return (rows + (_rows(named) if named is not None else 0)) * BVH_TEXTURE_WIDTH * 16
 
     def __init__(self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry], places: bool = False) -> None:
@@ -132,7 +147,8 @@ class TrianglePass:
         self._front_rows[: len(nodes)] = nodes[: len(self._front_rows)]
         made = [self.nodes]
         try:
-            self.triangles = _texture(ctx, triangle_texels(list(self.distinct), self.bottom.order), scene.source)
+            self.triangles = _texture(ctx, triangle_texels(list(self.distinct), self.bottom.order,
+                                                           mesh_attributes(scene)), scene.source)
             made.append(self.triangles)
             self.places = self._places_texture(meshes) if places else None
         except BaseException:
@@ -200,7 +216,7 @@ class TrianglePass:
         nodes[NODE_TEXELS * layout.mesh_base: layout.node_texels] = node_texels(self.bottom, 0, layout.mesh_base)
         self._front_rows[:] = nodes[: len(self._front_rows)]
         triangles = np.zeros((self.triangles.width * self.triangles.height, 4), np.float32)
-        texels = triangle_texels(distinct, self.bottom.order)
+        texels = triangle_texels(distinct, self.bottom.order, mesh_attributes(self.scene))
         triangles[: len(texels)] = texels
         self.nodes.write(nodes.tobytes())
         self.triangles.write(triangles.tobytes())

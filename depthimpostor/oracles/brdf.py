@@ -16,7 +16,7 @@ import numpy as np
 from ..constants import DFG_FIT_C0, DFG_FIT_C1, DFG_FIT_EXPONENT, DFG_FIT_SCALE, DIELECTRIC_F0, MIN_ROUGHNESS
 from ..scene.model import MetallicRoughnessMaterial, Scene
 from ..lights import toward_light
-from ..textures import texture_bilinear
+from .mesh_points import MeshPoints, texel
 
 Array = np.ndarray
 
@@ -72,12 +72,12 @@ def ambient_specular(f0: Array, roughness: float | Array, n_dot_v: Array) -> Arr
     return f0 * scale[:, None] + bias[:, None]
 
 
-def shade_metallic_roughness(scene: Scene, material: MetallicRoughnessMaterial, base_color: Array, uvs: Array,
+def shade_metallic_roughness(scene: Scene, material: MetallicRoughnessMaterial, base_color: Array, points: MeshPoints,
                              positions: Array, normals: Array, to_viewer: Array,
                              visibility: Callable[[int, Array, Array], Array] | None = None) -> Array:
     """lib/shading.glsl's shade_metallic_roughness: (n, 3) colours of surfaces of `material` whose
-    colour at the point is `base_color`, at the mesh's texture coordinates `uvs` (its maps sampled
-    there as traced rays sample them: level 0, bilinear), seen along `to_viewer` (unit, from the
+    colour at the point is `base_color`, at the mesh points `points` (its maps sampled at their
+    UVs as traced rays sample them: level 0, bilinear), seen along `to_viewer` (unit, from the
     surface); `visibility(light, positions, normals)` the share of each light that reaches each point."""
     count = len(positions)
     metallic = np.full(count, material.metallic)
@@ -85,12 +85,12 @@ def shade_metallic_roughness(scene: Scene, material: MetallicRoughnessMaterial, 
     occlusion = np.ones(count)
     emissive = np.broadcast_to(np.asarray(material.emissive, float), (count, 3))
     if material.metallic_roughness_texture is not None:  # glTF: roughness in G, metalness in B
-        texel = texture_bilinear(material.metallic_roughness_texture, uvs)
-        roughness, metallic = roughness * texel[:, 1], metallic * texel[:, 2]
+        values = texel(material.metallic_roughness_texture, points)
+        roughness, metallic = roughness * values[:, 1], metallic * values[:, 2]
     if material.occlusion_texture is not None:
-        occlusion = 1.0 + material.occlusion_strength * (texture_bilinear(material.occlusion_texture, uvs)[:, 0] - 1.0)
+        occlusion = 1.0 + material.occlusion_strength * (texel(material.occlusion_texture, points)[:, 0] - 1.0)
     if material.emissive_texture is not None:
-        emissive = emissive * texture_bilinear(material.emissive_texture, uvs)
+        emissive = emissive * texel(material.emissive_texture, points)
     c_diff = base_color * (1.0 - metallic)[:, None]
     f0 = DIELECTRIC_F0 * (1.0 - metallic)[:, None] + base_color * metallic[:, None]
     alpha = np.maximum(roughness, MIN_ROUGHNESS) ** 2
@@ -109,3 +109,18 @@ def shade_metallic_roughness(scene: Scene, material: MetallicRoughnessMaterial, 
         color[lit] += metallic_roughness_brdf(c_diff[lit], f0[lit], alpha[lit], normals[lit], to_light[lit],
                                               to_viewer[lit]) * radiance * weight[:, None]
     return color + emissive
+
+
+def mapped_normal(material: MetallicRoughnessMaterial, points: MeshPoints, normals: Array) -> Array:
+    """lib/shading.glsl's mapped_normal: the unit shading normals turned by the material's normal
+    map (RGB * 2 - 1, x and y times normal_scale) in the frame of the points' tangents (made
+    perpendicular to the normals), bitangents w N x T, and the normals. As they are without a map."""
+    if material.normal_texture is None:
+        return normals
+    tangent = points.tangent[:, :3] - normals * _dot(normals, points.tangent[:, :3])[:, None]
+    any_side = np.where((np.abs(normals[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    tangent = _safe_unit(tangent, _safe_unit(np.cross(normals, any_side), any_side))
+    bitangent = np.where(points.tangent[:, 3:] < 0.0, -1.0, 1.0) * np.cross(normals, tangent)
+    values = texel(material.normal_texture, points) * 2.0 - 1.0
+    values[:, :2] *= material.normal_scale
+    return _safe_unit(tangent * values[:, :1] + bitangent * values[:, 1:2] + normals * values[:, 2:], normals)

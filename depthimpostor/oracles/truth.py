@@ -28,8 +28,8 @@ from ..meshes import plane_uvs
 from ..scene.model import (
     CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MetallicRoughnessMaterial, MirrorMaterial, Scene,
 )
-from ..textures import texture_alpha_bilinear, texture_bilinear
-from .brdf import shade_metallic_roughness
+from .brdf import mapped_normal, shade_metallic_roughness
+from .mesh_points import MeshPoints, texel, texel_alpha
 from .ggx import glossy_average
 
 if TYPE_CHECKING:
@@ -100,31 +100,42 @@ def equirect_lookup(env: Environment, directions: Array) -> Array:
     return env.intensity * (top + (bottom - top) * fy)
 
 
-def material_albedo(material: Material, local_positions: Array, uvs: Array | None = None) -> Array:
+def material_albedo(material: Material, local_positions: Array, points: MeshPoints | None = None) -> Array:
     """shaders/lib/shading.glsl's material_albedo in numpy for traced rays (checker in the local XZ
-    plane; a texture sampled at `uvs` on level 0, bilinearly: textures.py's comparison rule)."""
+    plane; a texture sampled at the points' UVs on level 0, bilinearly: textures.py's comparison
+    rule; times the points' vertex colours)."""
     if isinstance(material, CheckerMaterial):
         cell = np.floor(local_positions[:, [0, 2]] / material.scale).astype(np.int64)
         even = ((cell[:, 0] + cell[:, 1]) & 1) == 0
         return np.where(even[:, None], material.color_a, material.color_b)
     if isinstance(material, DiffuseMaterial):
         color = np.broadcast_to(np.asarray(material.color, float), local_positions.shape).copy()
-        if material.texture is not None and uvs is not None:
-            color *= texture_bilinear(material.texture, uvs)
+        if material.texture is not None and points is not None:
+            color *= texel(material.texture, points)
+        if points is not None:
+            color *= points.color[:, :3]
         return color
     raise TypeError(f"{material!r} is not a diffuse material")
 
 
-def material_masked(material: Material, uvs: Array) -> Array:
-    """shaders/lib/shading.glsl's material_masked in numpy: which points at `uvs` glTF's alphaMode
-    MASK cuts away (alpha, the factor's times the texture's, under the cutoff). All False for an
-    opaque material."""
+def material_masked(material: Material, points: MeshPoints) -> Array:
+    """shaders/lib/shading.glsl's material_masked in numpy: which points glTF's alphaMode MASK cuts
+    away (alpha, the factor's times the texture's and the vertex colour's, under the cutoff). All
+    False for an opaque material."""
     if not isinstance(material, MetallicRoughnessMaterial) or material.alpha_cutoff is None:
-        return np.zeros(len(uvs), bool)
-    alpha = np.full(len(uvs), material.alpha)
+        return np.zeros(len(points.uv), bool)
+    alpha = np.full(len(points.uv), material.alpha)
     if material.texture is not None:
-        alpha *= texture_alpha_bilinear(material.texture, uvs)
+        alpha *= texel_alpha(material.texture, points)
+    alpha *= points.color[:, 3]
     return alpha < material.alpha_cutoff
+
+
+def plane_tangent(item: ObjectGeometry) -> Array:
+    """reflected_scene.glsl's plane_tangent: an analytic plane's tangent (local +x in the world, w
+    turned by a mirroring placement)."""
+    linear = item.model_matrix[:3, :3]
+    return np.r_[linear[:, 0], -1.0 if np.linalg.det(linear) < 0.0 else 1.0]
 
 
 #: How many cut-away surfaces (alphaMode MASK) one ray of the truth passes through at most before it
@@ -182,12 +193,8 @@ def _masked_hits(items: Sequence[ObjectGeometry], geometry_id: Array, primitive_
         if not len(chosen):
             continue
         mesh = item.world_mesh
-        uvs = np.zeros((len(chosen), 2))
-        if mesh.uvs is not None:
-            corners = mesh.indices[primitive_id[chosen]]
-            a, b = u[chosen, None], v[chosen, None]
-            uvs = (1 - a - b) * mesh.uvs[corners[:, 0]] + a * mesh.uvs[corners[:, 1]] + b * mesh.uvs[corners[:, 2]]
-        cut[chosen] = material_masked(material, uvs)
+        points = MeshPoints.on_triangles(mesh, mesh.indices[primitive_id[chosen]], u[chosen], v[chosen])
+        cut[chosen] = material_masked(material, points)
     return cut
 
 
@@ -272,17 +279,19 @@ class TruthTracer:
 
     def trace(self, origins: Array, directions: Array) -> TruthHits:
         """The nearest hits, shaded (the environment where nothing was hit)."""
-        hits, albedo, materials, uvs = self._intersect(origins, directions)
+        hits, albedo, materials, points = self._intersect(origins, directions)
         hit = hits.hit
         # A mirror's backing is shaded with its normal facing the ray, as reflector.frag does.
         normals = np.where(hits.backing[:, None], facing(hits.normal, directions), hits.normal)
         if hit.any():
             hits.color[hit] = shade(self.scene, albedo[hit], hits.position[hit], normals[hit], self.visibility)
-        # glTF's metallic-roughness materials, for the ray itself (lib/shading.glsl's shade_material).
+        # glTF's metallic-roughness materials, for the ray itself (lib/shading.glsl's shade_material:
+        # the normal turned by the material's normal map first).
         for index, material in enumerate(self.scene.materials):
             if isinstance(material, MetallicRoughnessMaterial) and (chosen := hit & (materials == index)).any():
-                hits.color[chosen] = shade_metallic_roughness(self.scene, material, albedo[chosen], uvs[chosen],
-                                                              hits.position[chosen], normals[chosen], -directions[chosen],
+                mapped = mapped_normal(material, points[chosen], normals[chosen])
+                hits.color[chosen] = shade_metallic_roughness(self.scene, material, albedo[chosen], points[chosen],
+                                                              hits.position[chosen], mapped, -directions[chosen],
                                                               self.visibility)
         return hits
 
@@ -300,9 +309,9 @@ class TruthTracer:
         hits.color[:] = 0.0
         return hits
 
-    def _intersect(self, origins: Array, directions: Array) -> tuple[TruthHits, Array, Array, Array]:
+    def _intersect(self, origins: Array, directions: Array) -> tuple[TruthHits, Array, Array, MeshPoints]:
         """The nearest hits (no colour), each one's albedo, its material's index in Scene.materials
-        (-1: a mirror's backing, glass, nothing), and the mesh's texture coordinates there (0 without)."""
+        (-1: a mirror's backing, glass, nothing), and the mesh's attributes there (the defaults without)."""
         count = len(origins)
         hit = np.zeros(count, bool)
         t = np.full(count, np.inf)
@@ -310,21 +319,21 @@ class TruthTracer:
         position = np.zeros((count, 3))
         normal = np.zeros((count, 3))
         albedo = np.zeros((count, 3))
-        uvs = np.zeros((count, 2))
+        points = MeshPoints.defaults(count)
         backing = np.zeros(count, bool)
         if self.meshes and count:
-            self._trace_meshes(origins, directions, hit, t, object_id, normal, albedo, backing, uvs)
-        self._trace_planes(origins, directions, hit, t, object_id, normal, albedo, backing, uvs)
+            self._trace_meshes(origins, directions, hit, t, object_id, normal, albedo, backing, points)
+        self._trace_planes(origins, directions, hit, t, object_id, normal, albedo, backing, points)
         objects = self.scene.objects
         by_object = np.array([-1 if o.is_reflector else self.scene.material_index(o.material) for o in objects] + [-1])
         materials = by_object[np.where(hit, object_id, len(objects))]
         position[hit] = origins[hit] + directions[hit] * t[hit, None]
         hits = TruthHits(hit, np.where(hit, t, 0.0), position, object_id, environment(self.scene, directions), normal,
                          backing)
-        return hits, albedo, materials, uvs
+        return hits, albedo, materials, points
 
     def _trace_meshes(self, origins: Array, directions: Array, hit: Array, t: Array,
-                      object_id: Array, normal: Array, albedo: Array, backing: Array, texture_uvs: Array) -> None:
+                      object_id: Array, normal: Array, albedo: Array, backing: Array, points: MeshPoints) -> None:
         result = nearest_shown(self._embree, self.meshes, origins, directions)
         geometry_id = result["geomID"]
         for index, item in enumerate(self.meshes):
@@ -341,15 +350,13 @@ class TruthTracer:
             t[mask] = result["tfar"][mask]
             object_id[mask] = item.index
             normal[mask] = smooth
-            points = origins[mask] + directions[mask] * t[mask, None]
-            local = (np.linalg.inv(item.model_matrix) @ np.c_[points, np.ones(len(points))].T).T[:, :3]
+            where = origins[mask] + directions[mask] * t[mask, None]
+            local = (np.linalg.inv(item.model_matrix) @ np.c_[where, np.ones(len(where))].T).T[:, :3]
             if isinstance(item.object.material, (DiffuseMaterial, CheckerMaterial)):
-                uvs = None
-                if mesh.uvs is not None:  # as triangles.glsl: the corners' UVs by the hit's barycentrics
-                    uvs = (1 - u - v) * mesh.uvs[triangles[:, 0]] + u * mesh.uvs[triangles[:, 1]] \
-                        + v * mesh.uvs[triangles[:, 2]]
-                    texture_uvs[mask] = uvs
-                albedo[mask] = material_albedo(item.object.material, local, uvs)
+                # As triangles.glsl's triangle_point: the corners' attributes by the hit's barycentrics.
+                found = MeshPoints.on_triangles(mesh, triangles, u[:, 0], v[:, 0])
+                points.put(mask, found)
+                albedo[mask] = material_albedo(item.object.material, local, found)
             elif isinstance(item.object.material, MirrorMaterial):
                 # Seen from behind: the ray runs along the outward face normal.
                 behind = np.flatnonzero(mask)[_dot(directions[mask], face_normals(mesh.positions, triangles)) > 0.0]
@@ -357,7 +364,7 @@ class TruthTracer:
                 albedo[behind] = MIRROR_BACKING_ALBEDO
 
     def _trace_planes(self, origins: Array, directions: Array, hit: Array, t: Array,
-                      object_id: Array, normal: Array, albedo: Array, backing: Array, texture_uvs: Array) -> None:
+                      object_id: Array, normal: Array, albedo: Array, backing: Array, points: MeshPoints) -> None:
         """The shader's nearest_plane_hit: the rectangle |x| <= w/2, |z| <= d/2 of local y = 0."""
         for item in self.planes:
             world_to_local = np.linalg.inv(item.model_matrix)
@@ -371,7 +378,7 @@ class TruthTracer:
             closer = (t_plane > 0.0) & np.isfinite(t_plane) & inside & (t_plane < t)
             size = item.object.shape.size  # type: ignore[union-attr]
             chosen = np.flatnonzero(closer)
-            closer[chosen[material_masked(item.object.material, plane_uvs(local[chosen], *size))]] = False
+            closer[chosen[material_masked(item.object.material, MeshPoints.of_uvs(plane_uvs(local[chosen], *size)))]] = False
             if not closer.any():
                 continue
             plane_normal = item.normal_matrix @ np.array([0.0, 1.0, 0.0])
@@ -380,8 +387,10 @@ class TruthTracer:
             object_id[closer] = item.index
             backing[closer] = False  # a plane before a mirror's back hides it
             normal[closer] = plane_normal / np.linalg.norm(plane_normal)
-            texture_uvs[closer] = plane_uvs(local[closer], *size)
-            albedo[closer] = material_albedo(item.object.material, local[closer], texture_uvs[closer])
+            found = MeshPoints.of_uvs(plane_uvs(local[closer], *size))
+            found.tangent[:] = plane_tangent(item)
+            points.put(closer, found)
+            albedo[closer] = material_albedo(item.object.material, local[closer], found)
 
 
 def _dot(a: Array, b: Array) -> Array:

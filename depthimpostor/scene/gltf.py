@@ -27,7 +27,7 @@ from depthimpostor.scene.fields import At, Vec3, show
 from depthimpostor.scene.gltf_file import (
     NOT_SURFACES, TRIANGLE_FAN, TRIANGLE_STRIP, TRIANGLES, Primitive, PrimitiveSize, check_header, decode_primitive,
     extension, ignored_features, index, items, local_mesh, number_at, primitive_modes, primitive_size, read_json,
-    scene_nodes, table,
+    scene_nodes, table, texture_set,
 )
 from depthimpostor.scene.gltf_animation import FileAnimation, read_animation
 from depthimpostor.scene.gltf_data import GltfData
@@ -51,6 +51,9 @@ MAX_EMISSIVE_STRENGTH = 1.0e6
 #: The largest KHR_texture_transform rotation read, in radians (any angle is a turn of at most one
 #: circle; a bound keeps the sine and cosine meaningful).
 MAX_UV_ROTATION = 1.0e6
+#: The largest normalTexture scale read either way (the specification bounds none; a scale of 1e3
+#: already lays the mapped normal flat along the tangent plane wherever the map is not flat).
+MAX_NORMAL_SCALE = 1.0e3
 #: Without a camera in the file: the TOML default camera's view direction, framing the whole scene.
 FRAMING_FOV_Y = Camera().fov_y
 #: Without lights in the file: one light from above, as the scene_format.md example has.
@@ -231,13 +234,21 @@ def _parts(data: GltfData, primitives: dict[tuple[int, int], Primitive], ignored
             name = node if len(groups) == 1 else f"{node} ({label})"
             origin = GltfOrigin(source, i, names[i], m, _name(meshes[m]), tuple(p for p, _ in group), material,
                                 "" if material is None else _name(materials[material]), ignored=ignored)
-            motion = part_motion(data, animation, worlds, i, m, group)
+            tangent_set = _normal_map_set(materials, material)
+            motion = part_motion(data, animation, worlds, i, m, group, tangent_set)
             if motion is not None and motion.deforms:
                 parts.append(GltfPart(name, origin, material, motion.mesh_at(0.0), None, motion))
                 continue
-            mesh = local_mesh([primitive for _, primitive in group]).transformed(world)
+            mesh = local_mesh([primitive for _, primitive in group], tangent_set).transformed(world)
             parts.append(GltfPart(name, origin, material, mesh, find_rectangle(mesh) if motion is None else None, motion))
     return parts
+
+
+def _normal_map_set(materials: list[Mapping[str, Any]], material: int | None) -> int | None:
+    """The UV set materials[material]'s normalTexture reads (its tangents are made from it), or None
+    where it has none."""
+    info = materials[material].get("normalTexture") if material is not None else None
+    return texture_set(info) if isinstance(info, Mapping) else None
 
 
 def _name(value: Mapping[str, Any]) -> str:
@@ -253,8 +264,9 @@ def _label(header: Mapping[str, Any], k: int) -> str:
 def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData, at: At, source: str,
              srgb: bool = True) -> Texture:
     """A baseColorTexture: its image (EXT_texture_webp's where given, else `source`), decoded as
-    written (image_files.py), its sampler's wrap modes, and its KHR_texture_transform (offset,
-    rotation, scale: a texCoord there is listed as ignored, as the texture info's own)."""
+    written (image_files.py), its sampler's wrap modes, the UV set it reads (texCoord, or its
+    KHR_texture_transform's: gltf_file.texture_set) and its KHR_texture_transform (offset,
+    rotation, scale)."""
     textures = items(header, "textures", source)
     t = index(info.get("index"), len(textures), at.key("index"))
     texture_at = At(source, f"textures[{t}]")
@@ -277,8 +289,8 @@ def _texture(header: Mapping[str, Any], info: Mapping[str, Any], data: GltfData,
                 raise sampler_at.key(key).error(f"expected a wrap mode {', '.join(str(int(m)) for m in Wrap)}, "
                                                 f"got {show(sampler[key])}")
     texture_read = texture_from_pixels(pixels, sampler, name=f"{Path(source).name} images[{image}]")
-    if not srgb:
-        texture_read = dataclasses.replace(texture_read, srgb=False)
+    if not srgb or texture_set(info):
+        texture_read = dataclasses.replace(texture_read, srgb=srgb, uv_set=texture_set(info))
     transform = extension(info, "KHR_texture_transform", at)
     if transform is None:
         return texture_read
@@ -335,8 +347,9 @@ def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], data:
 
 def _maps(header: Mapping[str, Any], value: Mapping[str, Any], data: GltfData | None, at: At,
           source: str) -> dict[str, Any]:
-    """A material's metallic-roughness, occlusion (with its strength) and emissive maps: the first
-    two data (linear), the last colour (sRGB), as the specification stores them."""
+    """A material's metallic-roughness, occlusion (with its strength), emissive and normal (with its
+    scale) maps: all data (linear) but the emissive map, colour (sRGB), as the specification
+    stores them."""
     if data is None:
         return {}
     pbr_at = at.key("pbrMetallicRoughness")
@@ -345,13 +358,17 @@ def _maps(header: Mapping[str, Any], value: Mapping[str, Any], data: GltfData | 
     for holder, holder_at, key, field, srgb in (
             (pbr, pbr_at, "metallicRoughnessTexture", "metallic_roughness_texture", False),
             (value, at, "occlusionTexture", "occlusion_texture", False),
-            (value, at, "emissiveTexture", "emissive_texture", True)):
+            (value, at, "emissiveTexture", "emissive_texture", True),
+            (value, at, "normalTexture", "normal_texture", False)):
         if key in holder:
             info_at = holder_at.key(key)
             info = table(holder[key], info_at)
             found[field] = _texture(header, info, data, info_at, source, srgb)
             if key == "occlusionTexture":
                 found["occlusion_strength"] = number_at(info, "strength", 1.0, f.number(f.UNIT), info_at)
+            if key == "normalTexture":
+                found["normal_scale"] = number_at(info, "scale", 1.0, f.number(f.Bounds(-MAX_NORMAL_SCALE,
+                                                                                         MAX_NORMAL_SCALE)), info_at)
     return found
 
 
@@ -472,6 +489,8 @@ def _as_plane(part: GltfPart, material: Material, position: Vec3, rotation: Vec3
     rectangle = part.rectangle
     if rectangle is None or isinstance(material, GlassMaterial) or animation is not None or len(set(scale)) != 1:
         return None
+    if part.mesh.colors is not None or any(texture.uv_set for texture in material_textures(material)):
+        return None  # a plane has one UV set of its own, and no vertex colours
     if material_textures(material):
         if rectangle.uv_scale is None:
             return None
@@ -490,7 +509,7 @@ def _as_plane(part: GltfPart, material: Material, position: Vec3, rotation: Vec3
                 material = dataclasses.replace(
                     material, metallic_roughness_texture=rescaled(material.metallic_roughness_texture),
                     occlusion_texture=rescaled(material.occlusion_texture),
-                    emissive_texture=rescaled(material.emissive_texture))
+                    emissive_texture=rescaled(material.emissive_texture), normal_texture=rescaled(material.normal_texture))
     placed = plane_placement(rectangle, position, rotation, scale[0])
     if placed is None:
         return None
@@ -521,7 +540,7 @@ def gltf_objects(model: GltfFile, overrides: Mapping[str, Material], prefix: str
             material = dataclasses.replace(material, color=(float(tint[0]), float(tint[1]), float(tint[2])), texture=None)
             if isinstance(material, MetallicRoughnessMaterial):
                 material = dataclasses.replace(material, metallic_roughness_texture=None, occlusion_texture=None,
-                                               emissive_texture=None)
+                                               emissive_texture=None, normal_texture=None)
             no_uvs.append(part.origin.describe())
         origin = dataclasses.replace(part.origin, file=model.source, placed_by=placed_by)
         plane = _as_plane(part, material, position, rotation, scale, animation, scaled)

@@ -92,6 +92,9 @@ class PartMotion:
     primitives: tuple[DeformingPrimitive, ...]  # the part's, in its mesh's order
     skin: Skin | None
     default_weights: np.ndarray | None  # the node's or mesh's morph weights; None: no targets
+    # The UV set its material's normal map reads (None: no normal map): a deformed mesh's tangents
+    # are generated from it at each time (scene/tangents.py; a file's TANGENT is not skinned or morphed).
+    tangent_set: int | None = None
 
     @property
     def deforms(self) -> bool:
@@ -123,8 +126,8 @@ class PartMotion:
                                                                               item.primitive.normals)
             if joint_matrices is not None and item.joints is not None and item.weights is not None:
                 positions, normals = skinned(item.joints, item.weights, positions, normals, joint_matrices)
-            deformed.append(dataclasses.replace(item.primitive, positions=positions, normals=normals))
-        mesh = local_mesh(deformed)
+            deformed.append(dataclasses.replace(item.primitive, positions=positions, normals=normals, tangents=None))
+        mesh = local_mesh(deformed, self.tangent_set)
         if self.skin is not None:
             return mesh
         return mesh.transformed((worlds if worlds is not None else self.rest_worlds)[self.node])
@@ -201,9 +204,10 @@ def deforming_primitive(data: GltfData, primitive: Mapping[str, Any], decoded: P
 
 
 def part_motion(data: GltfData, animation: FileAnimation | None, rest_worlds: Mapping[int, np.ndarray], node: int,
-                mesh: int, group: list[tuple[int, Primitive]]) -> PartMotion | None:
+                mesh: int, group: list[tuple[int, Primitive]], tangent_set: int | None = None) -> PartMotion | None:
     """How the part of nodes[node] made of `group` ((primitive index, decoded)) moves; None where it
-    stays as written (no skin, no morph targets, its node not moved by the animation)."""
+    stays as written (no skin, no morph targets, its node not moved by the animation). `tangent_set`:
+    the UV set of its material's normal map (None: none), for its tangents."""
     header, source = data.header, data.source
     nodes, meshes = items(header, "nodes", source), items(header, "meshes", source)
     primitives = meshes[mesh].get("primitives", [])
@@ -227,7 +231,7 @@ def part_motion(data: GltfData, animation: FileAnimation | None, rest_worlds: Ma
         _check_weight_channels(animation, node, targets, source)
     deforming = tuple(deforming_primitive(data, primitives[p], decoded, skin,
                                           At(source, f"meshes[{mesh}].primitives[{p}]")) for p, decoded in group)
-    return PartMotion(animation, node, rest_worlds, deforming, skin, default_weights)
+    return PartMotion(animation, node, rest_worlds, deforming, skin, default_weights, tangent_set)
 
 
 def _check_weight_channels(animation: FileAnimation | None, node: int, targets: int, source: str) -> None:

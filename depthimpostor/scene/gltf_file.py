@@ -33,6 +33,7 @@ from depthimpostor.errors import SceneError
 from depthimpostor.meshes import Mesh
 from depthimpostor.scene.fields import At, Reader, leaves_folder, numbers, read_file_bytes, show
 from depthimpostor.scene.gltf_data import GltfData, Layout
+from depthimpostor.scene.tangents import generated_tangents
 
 GLTF_SUFFIXES = (".glb", ".gltf")
 #: The extensions read here. A file may require (`extensionsRequired`) these alone: any other
@@ -161,33 +162,50 @@ def _extension_names(value: Any) -> Iterator[str]:
             stack.extend(child for child in item if type(child) in (dict, list))
 
 
+#: The UV sets a texture may read (TEXCOORD_0 and TEXCOORD_1): a texture info's texCoord past them
+#: is listed as ignored and reads TEXCOORD_0.
+UV_SETS = 2
+
+
 def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
     """The core material properties a material uses that are not drawn (scene_format.md says what
-    is): the normal map, a texture on another set than TEXCOORD_0, and blending (alphaMode MASK is
-    drawn)."""
+    is): a texture on a UV set past TEXCOORD_1, and blending (alphaMode MASK is drawn)."""
     pbr = material.get("pbrMetallicRoughness", {})
     pbr = pbr if isinstance(pbr, Mapping) else {}
-    if "normalTexture" in material:
-        yield "normalTexture"
     infos = [("baseColorTexture", pbr.get("baseColorTexture")), ("metallicRoughnessTexture", pbr.get("metallicRoughnessTexture")),
-             ("occlusionTexture", material.get("occlusionTexture")), ("emissiveTexture", material.get("emissiveTexture"))]
+             ("normalTexture", material.get("normalTexture")), ("occlusionTexture", material.get("occlusionTexture")),
+             ("emissiveTexture", material.get("emissiveTexture"))]
     for key, info in infos:
         if not isinstance(info, Mapping):
             continue
-        if info.get("texCoord", 0) != 0:
-            yield f"{key}.texCoord"
+        if not _read_set(info.get("texCoord", 0)):
+            yield f"{key}.texCoord {info.get('texCoord')} (TEXCOORD_0 and TEXCOORD_1 are read)"
         extensions = info.get("extensions")
         transform = extensions.get("KHR_texture_transform") if isinstance(extensions, Mapping) else None
-        if isinstance(transform, Mapping) and transform.get("texCoord", 0) != 0:
-            yield f"{key}.KHR_texture_transform.texCoord"
+        if isinstance(transform, Mapping) and not _read_set(transform.get("texCoord", 0)):
+            yield f"{key}.KHR_texture_transform.texCoord {transform.get('texCoord')} (TEXCOORD_0 and TEXCOORD_1 are read)"
     if material.get("alphaMode", "OPAQUE") == "BLEND":
         yield "alphaMode BLEND"
+
+
+def _read_set(value: Any) -> bool:
+    """Is a texCoord one of the UV sets read (a whole number below UV_SETS)?"""
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value < UV_SETS
+
+
+def texture_set(info: Mapping[str, Any]) -> int:
+    """The UV set a texture info reads: KHR_texture_transform's texCoord where it gives one (the
+    extension's overrides the info's), else the info's; 0 for one not read (listed as ignored)."""
+    extensions = info.get("extensions")
+    transform = extensions.get("KHR_texture_transform") if isinstance(extensions, Mapping) else None
+    value = transform["texCoord"] if isinstance(transform, Mapping) and "texCoord" in transform else info.get("texCoord", 0)
+    return value if _read_set(value) else 0
 
 
 def ignored_features(header: Mapping[str, Any]) -> tuple[str, ...]:
     """What the file uses that this loader does not implement, each named once, in a stable order:
     the extensions it uses but SUPPORTED_REQUIRED lacks (sorted), then the core features read past
-    (material properties, vertex colours, the animations after the first). Such a file is drawn as
+    (material properties, the animations after the first). Such a file is drawn as
     if they were absent; `plan` lists them and loading warns once."""
     used = header.get("extensionsUsed", [])
     extensions = {name for name in used if isinstance(name, str)} if isinstance(used, list) else set()
@@ -197,13 +215,6 @@ def ignored_features(header: Mapping[str, Any]) -> tuple[str, ...]:
     for material in materials if isinstance(materials, list) else []:
         if isinstance(material, Mapping):
             features |= dict.fromkeys(_material_features(material))
-    meshes = header.get("meshes", [])
-    for mesh in meshes if isinstance(meshes, list) else []:
-        primitives = mesh.get("primitives", []) if isinstance(mesh, Mapping) else []
-        for primitive in primitives if isinstance(primitives, list) else []:
-            attributes = primitive.get("attributes") if isinstance(primitive, Mapping) else None
-            if isinstance(attributes, Mapping) and "COLOR_0" in attributes:
-                features["COLOR_0 (vertex colours)"] = None
     animations = header.get("animations", [])
     if isinstance(animations, list) and len(animations) > 1:  # gltf_animation.py plays the first alone
         features[f"{len(animations) - 1} animation(s) after the first (only animations[0] plays)"] = None
@@ -279,6 +290,9 @@ class Primitive:
     faces: np.ndarray  # (M, 3)
     normals: np.ndarray | None  # (N, 3) from the file's NORMAL, or None (glTF then asks for flat normals)
     uvs: np.ndarray | None  # (N, 2) TEXCOORD_0 in glTF's convention (v down from the image's top)
+    tangents: np.ndarray | None = None  # (N, 4) TANGENT: xyz and the bitangent's sign w
+    colors: np.ndarray | None = None  # (N, 4) COLOR_0, linear RGBA (alpha 1 where the file gives RGB)
+    uvs1: np.ndarray | None = None  # (N, 2) TEXCOORD_1
 
 
 def _flat_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -289,12 +303,19 @@ def _flat_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.where(lengths > 1e-30, normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
 
 
-def local_mesh(group: list[Primitive]) -> Mesh:
+def local_mesh(group: list[Primitive], tangent_set: int | None = None) -> Mesh:
     """The primitives of one node and material as one mesh, in the node's space. A primitive with
     the file's normals keeps them (and its shared vertices); one without gets flat normals, as the
-    glTF specification asks, each triangle with its own three vertices."""
+    glTF specification asks, each triangle with its own three vertices (and the file's tangents,
+    which the specification then says to ignore, are generated). `tangent_set` (the UV set its
+    material's normal map reads; None: no normal map) asks for tangents: the file's where it gives
+    them, else generated (scene/tangents.py). TEXCOORD_1 and COLOR_0 where any primitive has them
+    (the others: zeros, and white)."""
     positions, normals, uvs, faces, start = [], [], [], [], 0
+    extras: dict[str, list[np.ndarray]] = {"tangents": [], "colors": [], "uvs1": []}
     any_uvs = any(p.uvs is not None for p in group)
+    wanted = {"tangents": tangent_set is not None, "colors": any(p.colors is not None for p in group),
+              "uvs1": any(p.uvs1 is not None for p in group)}
     for p in group:
         if p.normals is not None:
             lengths = np.linalg.norm(p.normals, axis=1, keepdims=True)
@@ -309,9 +330,27 @@ def local_mesh(group: list[Primitive]) -> Mesh:
         normals.append(normal)
         uvs.append(p.uvs[corners] if p.uvs is not None else np.zeros((len(corners), 2)))
         faces.append(face + start)
+        if wanted["colors"]:
+            extras["colors"].append(p.colors[corners] if p.colors is not None else np.ones((len(corners), 4)))
+        if wanted["uvs1"]:
+            extras["uvs1"].append(p.uvs1[corners] if p.uvs1 is not None else np.zeros((len(corners), 2)))
+        if tangent_set is not None:
+            extras["tangents"].append(_tangents(p, corners, normal, face, tangent_set))
         start += len(corners)
     return Mesh(np.concatenate(positions), np.concatenate(normals), np.concatenate(faces),
-                np.concatenate(uvs) if any_uvs else None)
+                np.concatenate(uvs) if any_uvs else None,
+                **{name: np.concatenate(values) for name, values in extras.items() if wanted[name]})
+
+
+def _tangents(p: Primitive, corners: np.ndarray, normals: np.ndarray, faces: np.ndarray, uv_set: int) -> np.ndarray:
+    """A primitive's tangents at `corners`: the file's (with its normals: glTF ignores them
+    beside flat normals), else generated from the UV set the normal map reads (zeros where the
+    primitive has not that set: the map then reads one texel, and the tangents are arbitrary)."""
+    if p.tangents is not None and p.normals is not None:
+        return p.tangents[corners]
+    uvs = p.uvs1 if uv_set == 1 else p.uvs
+    chosen = uvs[corners] if uvs is not None else np.zeros((len(corners), 2))
+    return generated_tangents(p.positions[corners], normals, faces, chosen)
 
 
 def primitive_modes(header: Mapping[str, Any], source: str) -> Iterator[tuple[int, int, Mapping[str, Any], int]]:
@@ -329,8 +368,13 @@ def primitive_modes(header: Mapping[str, Any], source: str) -> Iterator[tuple[in
             yield m, p, primitive, mode
 
 
-#: The vertex attributes read, and their components: glTF requires these widths (3.7.2.1).
-ATTRIBUTES = {"POSITION": 3, "NORMAL": 3, "TEXCOORD_0": 2}
+#: The vertex attributes read, and their components: glTF requires these widths (3.7.2.1; COLOR_0
+#: is RGB or RGBA).
+ATTRIBUTES: dict[str, tuple[int, ...]] = {"POSITION": (3,), "NORMAL": (3,), "TEXCOORD_0": (2,), "TEXCOORD_1": (2,),
+                                          "TANGENT": (4,), "COLOR_0": (3, 4)}
+#: The component types glTF allows where an attribute is not float (3.7.2.1): normalized unsigned
+#: bytes or shorts (signed ones for tangents are KHR_mesh_quantization's, which is not read).
+NORMALIZED_ATTRIBUTES = ("TEXCOORD_0", "TEXCOORD_1", "COLOR_0")
 
 
 @dataclass(frozen=True)
@@ -349,13 +393,19 @@ def primitive_size(data: GltfData, primitive: Mapping[str, Any], mode: int, at: 
     if "POSITION" not in attributes:
         raise at.key("attributes").error("expected a POSITION attribute, got none")
     layouts: dict[str, Layout] = {}
-    for name, width in ATTRIBUTES.items():
+    for name, widths in ATTRIBUTES.items():
         if name not in attributes:
             continue
         layout = data.layout(attributes[name], at.key("attributes").key(name))
-        if layout.width != width:
-            raise at.key("attributes").key(name).error(f"expected an accessor of VEC{width}, got one of {layout.width} "
-                                                       "components")
+        if layout.width not in widths:
+            raise at.key("attributes").key(name).error(f"expected an accessor of {' or '.join(f'VEC{w}' for w in widths)}, "
+                                                       f"got one of {layout.width} components")
+        if name in NORMALIZED_ATTRIBUTES and layout.dtype.kind != "f" and not (
+                layout.normalized and layout.dtype.kind == "u" and layout.dtype.itemsize <= 2):
+            raise at.key("attributes").key(name).error(f"expected floats, or normalized unsigned bytes or shorts, got "
+                                                       f"{'normalized ' if layout.normalized else ''}{layout.dtype.name}")
+        if name == "TANGENT" and layout.dtype.kind != "f":
+            raise at.key("attributes").key(name).error(f"expected floats, got {layout.dtype.name}")
         if name != "POSITION" and layout.count != layouts["POSITION"].count:
             raise at.key("attributes").key(name).error(f"expected {layouts['POSITION'].count} elements, as POSITION "
                                                        f"has, got {layout.count}")
@@ -379,8 +429,10 @@ def decode_primitive(data: GltfData, primitive: Mapping[str, Any], mode: int, at
     made, normalized integers scaled (gltf_data.py), strips turned into triangles."""
     attributes = primitive["attributes"]
     positions = data.accessor(attributes["POSITION"]).astype(np.float64)
-    normals, uvs = (data.accessor(attributes[name]).astype(np.float64) if name in attributes else None
-                    for name in ("NORMAL", "TEXCOORD_0"))
+    normals, uvs, uvs1, tangents, colors = (data.accessor(attributes[name]).astype(np.float64) if name in attributes
+                                            else None for name in ("NORMAL", "TEXCOORD_0", "TEXCOORD_1", "TANGENT", "COLOR_0"))
+    if colors is not None and colors.shape[1] == 3:
+        colors = np.c_[colors, np.ones(len(colors))]
     corners = data.accessor(primitive["indices"]).ravel() if "indices" in primitive \
         else np.arange(len(positions), dtype=np.int64)
     faces = corners.reshape(-1, 3) if mode == TRIANGLES else _strip_faces(corners)
@@ -391,9 +443,20 @@ def decode_primitive(data: GltfData, primitive: Mapping[str, Any], mode: int, at
         raise at.key("attributes").key("POSITION").error(
             f"expected vertex coordinates of magnitude at most {MAX_COORDINATE:g} (float32 geometry squares "
             f"distances), got {float(np.abs(positions).max()):g}")
-    if uvs is not None and not np.isfinite(uvs).all():
-        raise at.key("attributes").key("TEXCOORD_0").error("expected finite texture coordinates, got NaN or infinity")
-    return Primitive(positions, np.asarray(faces, np.int64), normals, uvs)
+    for name, values in (("TEXCOORD_0", uvs), ("TEXCOORD_1", uvs1), ("TANGENT", tangents), ("COLOR_0", colors)):
+        if values is not None and not np.isfinite(values).all():
+            raise at.key("attributes").key(name).error("expected finite values, got NaN or infinity")
+    if tangents is not None:
+        tangents = _unit_tangents(tangents)
+    return Primitive(positions, np.asarray(faces, np.int64), normals, uvs, tangents, colors, uvs1)
+
+
+def _unit_tangents(tangents: np.ndarray) -> np.ndarray:
+    """A file's tangents at unit length, their sign w +-1 (glTF asks for both; a zero tangent stays
+    zero: the normal map then reads the normal's own direction there)."""
+    lengths = np.linalg.norm(tangents[:, :3], axis=1, keepdims=True)
+    along = np.where(lengths > 1e-13, tangents[:, :3] / np.maximum(lengths, 1e-300), 0.0)
+    return np.c_[along, np.where(tangents[:, 3] < 0.0, -1.0, 1.0)]
 
 
 def _strip_faces(corners: np.ndarray) -> np.ndarray:

@@ -332,8 +332,10 @@ class Texture:
     offset: tuple[float, float] = (0.0, 0.0)
     rotation: float = 0.0
     # Colour, stored sRGB-encoded (decoded to linear when sampled: a base colour, an emissive map);
-    # False: data stored as it is (a metallic-roughness or occlusion map).
+    # False: data stored as it is (a metallic-roughness, normal or occlusion map).
     srgb: bool = True
+    # The mesh's UV set it reads: 0 (TEXCOORD_0, `uvs`) or 1 (TEXCOORD_1, `uvs1`): glTF's texCoord.
+    uv_set: int = 0
 
     @property
     def uv_rows(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
@@ -380,11 +382,16 @@ class MetallicRoughnessMaterial(DiffuseMaterial):
     occlusion_texture: Texture | None = None
     occlusion_strength: float = 1.0
     emissive_texture: Texture | None = None
+    # glTF's normalTexture: a tangent-space normal (RGB = (x, y, z) * 0.5 + 0.5, linear data) that
+    # turns the shading normal (not the geometry: lib/shading.glsl's mapped_normal), its x and y
+    # times normal_scale. It reads the mesh's tangents (the file's, or generated: scene/tangents.py).
+    normal_texture: Texture | None = None
+    normal_scale: float = 1.0
 
     @property
-    def maps(self) -> tuple[Texture | None, Texture | None, Texture | None]:
-        """The metallic-roughness, occlusion and emissive maps, in the material record's order."""
-        return self.metallic_roughness_texture, self.occlusion_texture, self.emissive_texture
+    def maps(self) -> tuple[Texture | None, Texture | None, Texture | None, Texture | None]:
+        """The metallic-roughness, occlusion, emissive and normal maps, in the material record's order."""
+        return self.metallic_roughness_texture, self.occlusion_texture, self.emissive_texture, self.normal_texture
 
     @property
     def masked(self) -> bool:

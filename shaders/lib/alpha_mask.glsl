@@ -7,11 +7,12 @@
 #include "common.glsl"
 #include "shading.glsl"
 
+#include "mesh_varyings.glsl"
+
 uniform int u_material_index;  // in the MaterialRecords table (uniforms.write_material_index); -1: a reflector
-in vec2 v_uv;
 
 void discard_masked() {
-    if (u_material_index >= 0 && material_masked(u_materials[u_material_index], v_uv)) discard;
+    if (u_material_index >= 0 && material_masked(u_materials[u_material_index], fragment_point())) discard;
 }
 #else
 void discard_masked() {}

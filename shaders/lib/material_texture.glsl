@@ -9,15 +9,21 @@
 // decode may be approximate (llvmpipe's is off by up to 0.0012, 2.5 % of the darkest values), and
 // traced rays are held to the truth's float noise. texelFetch with the wrap done here on integer
 // coordinates never reads a neighbour's texels.
+#include "mesh_point.glsl"
 #include "../generated/texture_record.glsl"
 
 layout(std140) uniform TextureRecords {
     TextureRecord u_texture_records[TEXTURE_COUNT];
 };
 
-// The texture's UV: the mesh's, through the slot's UV transform (KHR_texture_transform's).
-vec2 texture_uv(int slot, vec2 mesh_uv) {
-    vec3 affine = vec3(mesh_uv, 1.0);
+// The texture's UV: the mesh's (the UV set it reads: TEXCOORD_1 where the scene has a texture that
+// reads it), through the slot's UV transform (KHR_texture_transform's).
+vec2 texture_uv(int slot, MeshPoint point) {
+#ifdef TEXCOORD_1
+    vec3 affine = vec3(u_texture_records[slot].uv_set == 1 ? point.uv1 : point.uv, 1.0);
+#else
+    vec3 affine = vec3(point.uv, 1.0);
+#endif
     return vec2(dot(u_texture_records[slot].uv_u, affine), dot(u_texture_records[slot].uv_v, affine));
 }
 
@@ -44,8 +50,8 @@ float fold_coordinate(float u, int mode) {
 // sampler, its UV folded here, with the derivatives of the UV before folding: a fold turns the UV
 // back at a seam, where the folded UV's own derivatives would pick the finest level (a line of
 // aliasing along every seam) or, across fract's jump, the coarsest.
-vec4 material_texel_rgba(int slot, vec2 mesh_uv) {
-    vec2 uv = texture_uv(slot, mesh_uv);
+vec4 material_texel_rgba(int slot, MeshPoint point) {
+    vec2 uv = texture_uv(slot, point);
     ivec4 sampling = u_texture_records[slot].sampling;  // array, layer, wrap s, wrap t
 #ifdef FOLDED_TEXTURES
 #ifdef REPEATING_TEXTURES
@@ -101,8 +107,8 @@ ivec2 wrap_texels(ivec2 index, ivec2 size, ivec2 mode) {
 // Level 0, bilinear, weights in float32: for traced rays, which have no derivatives to choose a
 // level from. The truth (textures.py's texture_bilinear) is this in numpy: see the comparison
 // rule there.
-vec4 material_texel_rgba(int slot, vec2 mesh_uv) {
-    vec2 uv = texture_uv(slot, mesh_uv);
+vec4 material_texel_rgba(int slot, MeshPoint point) {
+    vec2 uv = texture_uv(slot, point);
     ivec2 size = texture_level0_size(slot);
     vec2 x = uv * vec2(size) - 0.5;  // texel centres at half-integers
     vec2 base = floor(x);
@@ -119,8 +125,8 @@ vec4 material_texel_rgba(int slot, vec2 mesh_uv) {
 }
 #endif
 
-// The texel's linear colour at the mesh's UV (material_texel_rgba's alpha is glTF's coverage:
+// The texel's linear colour at the mesh point (material_texel_rgba's alpha is glTF's coverage:
 // alphaMode MASK).
-vec3 material_texel(int slot, vec2 mesh_uv) {
-    return material_texel_rgba(slot, mesh_uv).rgb;
+vec3 material_texel(int slot, MeshPoint point) {
+    return material_texel_rgba(slot, point).rgb;
 }

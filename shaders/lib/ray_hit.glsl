@@ -1,4 +1,5 @@
 // What a reflected ray found, whichever method found it.
+#include "mesh_point.glsl"
 #ifndef UNBOUNDED_RAY
 // No bound on a ray's parameter (the depth-image marches: but the frustum's, which is bounded).
 #define UNBOUNDED_RAY 3.0e38
@@ -27,24 +28,24 @@ struct RayHit {
     bool unlit;
     vec3 normal;
     int material;  // an unlit hit's material: its index in MaterialRecords (lib/shading.glsl)
-    vec2 uv;  // and the mesh's texture coordinates there
+    MeshPoint point;  // and the mesh's attributes there (its texture coordinates...)
 };
 
 RayHit make_hit(bool hit, float t, vec2 image_position, vec3 color, float object_id, int samples) {
     return RayHit(hit, t, image_position, color, object_id, samples, ivec2(0), 0, UNBOUNDED_RAY, UNSEEN_NONE, false,
-                  false, vec3(0.0), 0, vec2(0.0));
+                  false, vec3(0.0), 0, mesh_point(vec2(0.0)));
 }
 
 // A hit whose colour is left to trace_reflected's one call of shade() (a shader that holds one copy
 // of the shading code instead of one per kind of surface is faster on llvmpipe, which runs every
 // copy for every pixel).
-RayHit unlit_hit(float t, vec2 image_position, vec3 albedo, vec3 normal, int material, vec2 uv, float object_id,
-                 int samples) {
+RayHit unlit_hit(float t, vec2 image_position, vec3 albedo, vec3 normal, int material, MeshPoint point,
+                 float object_id, int samples) {
     RayHit hit = make_hit(true, t, image_position, albedo, object_id, samples);
     hit.unlit = true;
     hit.normal = normal;
     hit.material = material;
-    hit.uv = uv;
+    hit.point = point;
     return hit;
 }
 

@@ -189,6 +189,16 @@ RayHit nearest_object_hit(vec3 origin, vec3 direction, float t_limit) {
 #endif
 }
 
+#ifdef NORMAL_MAP
+// A plane's tangent, for a normal map on it: its UVs (meshes.plane_uvs) grow along local +x (dP/du)
+// and down the image along local +z, so that N x T = -z points up the image (w = 1), in the world
+// by the plane's local-to-world map (w turned by a mirroring one). The truth's plane_tangent.
+vec4 plane_tangent(AnalyticPlane plane) {
+    mat3 local_to_world = inverse(mat3(plane.world_to_local));
+    return vec4(local_to_world[0], determinant(local_to_world) < 0.0 ? -1.0 : 1.0);
+}
+#endif
+
 // A plane shape is the rectangle |x| <= w/2, |z| <= d/2 of its local y = 0 plane. The local ray
 // keeps the world ray's parameter t because the transform is affine.
 RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
@@ -204,12 +214,15 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
         // t > 0: the ray starts on the mirror, never behind it.
         if (t > 0.0 && all(lessThanEqual(abs(p.xz), plane.half_size)) && (!best.hit || t < best.t)) {
             // The plane's UVs as meshes.plane_uvs lays them out: the image over the whole rectangle.
-            vec2 uv = p.xz / (2.0 * plane.half_size) + 0.5;
+            MeshPoint point = mesh_point(p.xz / (2.0 * plane.half_size) + 0.5);
+#ifdef NORMAL_MAP
+            point.tangent = plane_tangent(plane);
+#endif
             Material material = u_materials[plane.material];
 #ifdef ALPHA_MASK
-            if (material_masked(material, uv)) continue;  // cut away: the ray goes on
+            if (material_masked(material, point)) continue;  // cut away: the ray goes on
 #endif
-            vec3 albedo = material_albedo(material, p, uv);
+            vec3 albedo = material_albedo(material, p, point);
 #ifdef GLOSSY
             // A glossy mirror's cone: the checker box-filtered over its footprint on the plane.
             if (g_cone_tan > 0.0 && material.kind == MATERIAL_CHECKER) {
@@ -217,7 +230,7 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
                 albedo = mix(material.color_a, material.color_b, share);
             }
 #endif
-            best = unlit_hit(t, p.xz, albedo, plane.normal, plane.material, uv, float(plane.object_id), 0);
+            best = unlit_hit(t, p.xz, albedo, plane.normal, plane.material, point, float(plane.object_id), 0);
         }
     }
     return best;
@@ -331,7 +344,7 @@ RayHit trace_reflected(vec3 origin, vec3 direction) {
     // The share of the cone the object its axis hit does not cover (its silhouette's
     // neighbourhood in the footprint) sees what lies behind it: the plane beyond it, or the sky.
     if (hit.hit && !hit.unlit && g_cone_coverage < 1.0) {
-        vec3 behind = plane.hit ? shade_material(u_materials[plane.material], plane.color, plane.uv,
+        vec3 behind = plane.hit ? shade_material(u_materials[plane.material], plane.color, plane.point,
                                                  origin + direction * plane.t, plane.normal, -direction)
                                 : prefiltered_environment(direction);
         hit.color = mix(behind, hit.color, g_cone_coverage);
@@ -341,7 +354,7 @@ RayHit trace_reflected(vec3 origin, vec3 direction) {
     if (!hit.hit) hit.color = environment(direction);
 #endif
     if (hit.hit && hit.unlit)
-        hit.color = shade_material(u_materials[hit.material], hit.color, hit.uv, origin + direction * hit.t, hit.normal,
+        hit.color = shade_material(u_materials[hit.material], hit.color, hit.point, origin + direction * hit.t, hit.normal,
                                    -direction);
     return hit;
 }

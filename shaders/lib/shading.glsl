@@ -5,6 +5,7 @@
 // metallic-roughness materials (lib/brdf.glsl) do: a depth image holds them as seen from its
 // camera (the mirror's centre), traced rays and the truth shade them for the ray itself.
 #include "lighting.glsl"
+#include "mesh_point.glsl"
 #include "../generated/material.glsl"
 
 // Every shaded material of the scene, one record each (gpu/scene_blocks.py writes them once):
@@ -29,36 +30,45 @@ layout(std140) uniform MaterialRecords {
 // The checker is laid out in the object's local XZ plane (the plane shape's own plane): a 3-D
 // checker would flicker on a plane at y = 0, where floor(y / scale) jumps between -1 and 0. A
 // textured diffuse material's colour is color_a times the texel: trilinear in rasterized
-// fragments, level 0 bilinear for traced rays (material_texture.glsl).
+// fragments, level 0 bilinear for traced rays (material_texture.glsl); times the vertex colour
+// where the scene's meshes have them (VERTEX_COLORS: glTF's COLOR_0 multiplies the base colour).
 //
 // NO_CHECKER: a program that draws no checker material (diffuse.frag's, for objects without one:
 // passes/diffuse.py) leaves the checker out, and with it the local position it reads. llvmpipe runs
 // the body of an `if` whatever the condition: the test alone would not spare it. (With
 // DIRECTIONAL_LIGHTS, a fifth of the 8 x 9 scene's bake: tools/bake_cost.py.)
-vec3 material_albedo(Material material, vec3 local_position, vec2 uv) {
+vec3 material_albedo(Material material, vec3 local_position, MeshPoint point) {
 #ifndef NO_CHECKER
     if (material.kind == MATERIAL_CHECKER) {
         ivec2 cell = ivec2(floor(local_position.xz / material.scale));
         return ((cell.x + cell.y) & 1) == 0 ? material.color_a : material.color_b;
     }
 #endif
+    vec3 color = material.color_a;
 #ifdef TEXTURE_COUNT
     if (material.texture >= 0) {
-        return material.color_a * material_texel(material.texture, uv);
+        color *= material_texel(material.texture, point);
     }
 #endif
-    return material.color_a;
+#ifdef VERTEX_COLORS
+    color *= point.color.rgb;
+#endif
+    return color;
 }
 
 #ifdef ALPHA_MASK
 // glTF's alphaMode MASK (the ALPHA_MASK variant: scenes with such a material): a point whose alpha,
-// the material's factor times its texture's, is under the material's cutoff is not there at all;
-// rasterized fragments discard it, traced rays pass through it. alpha_cutoff < 0: opaque.
-bool material_masked(Material material, vec2 uv) {
+// the material's factor times its texture's (and its vertex colour's), is under the material's
+// cutoff is not there at all; rasterized fragments discard it, traced rays pass through it.
+// alpha_cutoff < 0: opaque.
+bool material_masked(Material material, MeshPoint point) {
     if (material.alpha_cutoff < 0.0) return false;
     float alpha = material.alpha;
 #ifdef TEXTURE_COUNT
-    if (material.texture >= 0) alpha *= material_texel_rgba(material.texture, uv).a;
+    if (material.texture >= 0) alpha *= material_texel_rgba(material.texture, point).a;
+#endif
+#ifdef VERTEX_COLORS
+    alpha *= point.color.a;
 #endif
     return alpha < material.alpha_cutoff;
 }
@@ -102,22 +112,23 @@ vec3 shade(vec3 albedo, vec3 position, vec3 normal) {
 #include "brdf.glsl"
 
 // A metallic-roughness surface of `base_color` (the material's factor times its texel: material_albedo)
-// at the mesh's texture coordinates `uv`, seen along `to_viewer` (unit, from the surface): the
-// ambient term as a uniform environment (darkened by the occlusion map), the lights through the
-// BRDF, and the emitted light. A variant of the scenes that have such a material
-// (METALLIC_ROUGHNESS: shading_defines); oracles/brdf.py's function of the same name.
-vec3 shade_metallic_roughness(Material material, vec3 base_color, vec2 uv, vec3 position, vec3 normal, vec3 to_viewer) {
+// at the mesh point `point`, seen along `to_viewer` (unit, from the surface): the ambient term as a
+// uniform environment (darkened by the occlusion map), the lights through the BRDF, and the
+// emitted light. A variant of the scenes that have such a material (METALLIC_ROUGHNESS:
+// shading_defines); oracles/brdf.py's function of the same name.
+vec3 shade_metallic_roughness(Material material, vec3 base_color, MeshPoint point, vec3 position, vec3 normal,
+                              vec3 to_viewer) {
     float metallic = material.metallic, roughness = material.roughness, occlusion = 1.0;
     vec3 emissive = material.emissive;
 #ifdef TEXTURE_COUNT
     if (material.metallic_roughness_texture >= 0) {  // glTF: roughness in G, metalness in B
-        vec3 texel = material_texel(material.metallic_roughness_texture, uv);
+        vec3 texel = material_texel(material.metallic_roughness_texture, point);
         roughness *= texel.g;
         metallic *= texel.b;
     }
     if (material.occlusion_texture >= 0)
-        occlusion = 1.0 + material.occlusion_strength * (material_texel(material.occlusion_texture, uv).r - 1.0);
-    if (material.emissive_texture >= 0) emissive *= material_texel(material.emissive_texture, uv);
+        occlusion = 1.0 + material.occlusion_strength * (material_texel(material.occlusion_texture, point).r - 1.0);
+    if (material.emissive_texture >= 0) emissive *= material_texel(material.emissive_texture, point);
 #endif
     vec3 c_diff = mix(base_color, vec3(0.0), metallic);
     vec3 f0 = mix(vec3(DIELECTRIC_F0), base_color, metallic);
@@ -137,14 +148,37 @@ vec3 shade_metallic_roughness(Material material, vec3 base_color, vec2 uv, vec3 
     }
     return color + emissive;
 }
+
+#ifdef NORMAL_MAP
+// glTF's normalTexture: the shading normal turned by the map's tangent-space normal (RGB * 2 - 1,
+// its x and y times the material's normal_scale) in the frame of the point's tangent T (made
+// perpendicular to `normal`), bitangent B = w N x T (w: the tangent's sign; glTF 3.7.2.1) and
+// `normal`. The shading alone reads it: what a surface reflects and where a ray meets it are the
+// geometry's. A tangent of no length (a mesh without tangents) gives a frame about any direction
+// perpendicular to the normal. oracles/brdf.py's mapped_normal.
+vec3 mapped_normal(Material material, MeshPoint point, vec3 normal) {
+    if (material.normal_texture < 0) return normal;
+    vec3 tangent = point.tangent.xyz - normal * dot(normal, point.tangent.xyz);
+    vec3 any_side = abs(normal.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
+    tangent = safe_normalize(tangent, safe_normalize(cross(normal, any_side), any_side));
+    vec3 bitangent = (point.tangent.w < 0.0 ? -1.0 : 1.0) * cross(normal, tangent);
+    vec3 texel = material_texel(material.normal_texture, point) * 2.0 - 1.0;
+    texel.xy *= material.normal_scale;
+    return safe_normalize(tangent * texel.x + bitangent * texel.y + normal * texel.z, normal);
+}
+#endif
 #endif
 
-// A surface of `material` (its colour at the point: `albedo`, material_albedo's; the mesh's texture
-// coordinates there: `uv`), seen along `to_viewer`: the one call every pass makes to shade a point.
-vec3 shade_material(Material material, vec3 albedo, vec2 uv, vec3 position, vec3 normal, vec3 to_viewer) {
+// A surface of `material` (its colour at the point: `albedo`, material_albedo's; the mesh's
+// attributes there: `point`), seen along `to_viewer`: the one call every pass makes to shade a point.
+vec3 shade_material(Material material, vec3 albedo, MeshPoint point, vec3 position, vec3 normal, vec3 to_viewer) {
 #ifdef METALLIC_ROUGHNESS
-    if (material.kind == MATERIAL_METALLIC_ROUGHNESS)
-        return shade_metallic_roughness(material, albedo, uv, position, normal, to_viewer);
+    if (material.kind == MATERIAL_METALLIC_ROUGHNESS) {
+#ifdef NORMAL_MAP
+        normal = mapped_normal(material, point, normal);
+#endif
+        return shade_metallic_roughness(material, albedo, point, position, normal, to_viewer);
+    }
 #endif
     return shade(albedo, position, normal);
 }

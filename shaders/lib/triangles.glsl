@@ -14,8 +14,13 @@
 // instance records, then every mesh's bottom level (a leaf's `first`: its first triangle).
 uniform sampler2D u_bvh_nodes;
 uniform int u_instance_records;
-// BVH_TRIANGLE_TEXELS a triangle, in its mesh's space: p0, p1, p2, n0, n1, n2, (uv0, uv1), (uv2, 0, 0)
+// TRIANGLE_TEXELS a triangle, in its mesh's space: p0, p1, p2, n0, n1, n2, (uv0, uv1), (uv2, 0, 0),
+// then the glTF attributes the scene uses (constants.triangle_texel_layout): TEXCOORD_1's
+// (uv1_0, uv1_1) with uv1_2 in the zw of texel 7, the corners' colours, their tangents.
 uniform sampler2D u_bvh_triangles;
+#ifndef TRIANGLE_TEXELS
+#define TRIANGLE_TEXELS BVH_TRIANGLE_TEXELS
+#endif
 #include "../generated/triangle_instance.glsl"
 
 vec4 bvh_fetch(sampler2D data, int index) {
@@ -70,7 +75,7 @@ float ray_triangle(vec3 origin, vec3 direction, vec3 p0, vec3 p1, vec3 p2, out v
 // The ray (in the triangle's mesh space) against triangle i of the triangle texture: t (or -1) and
 // the barycentrics.
 float intersect_triangle(vec3 origin, vec3 direction, int i, out vec2 uv) {
-    int base = BVH_TRIANGLE_TEXELS * i;
+    int base = TRIANGLE_TEXELS * i;
     return ray_triangle(origin, direction, bvh_fetch(u_bvh_triangles, base).xyz, bvh_fetch(u_bvh_triangles, base + 1).xyz,
                         bvh_fetch(u_bvh_triangles, base + 2).xyz, uv);
 }
@@ -81,23 +86,44 @@ float intersect_triangle(vec3 origin, vec3 direction, int i, out vec2 uv) {
 // local-to-world map, so dot(world normal, world direction) = dot(normal, local direction), and a
 // mirroring transform keeps it outward.
 vec3 triangle_normal(int i) {
-    int base = BVH_TRIANGLE_TEXELS * i;
+    int base = TRIANGLE_TEXELS * i;
     vec3 p0 = bvh_fetch(u_bvh_triangles, base).xyz;
     return cross(bvh_fetch(u_bvh_triangles, base + 1).xyz - p0, bvh_fetch(u_bvh_triangles, base + 2).xyz - p0);
 }
 
-// The mesh's texture coordinates on triangle i at barycentrics uv (those of p1 and p2).
-vec2 triangle_uv(int i, vec2 uv) {
-    int base = BVH_TRIANGLE_TEXELS * i;
+// Texel `texel` of triangle i's three corners (texel, texel + 1, texel + 2) at barycentrics uv.
+vec4 triangle_corners(int i, int texel, vec2 uv) {
+    int base = TRIANGLE_TEXELS * i + texel;
+    return (1.0 - uv.x - uv.y) * bvh_fetch(u_bvh_triangles, base) + uv.x * bvh_fetch(u_bvh_triangles, base + 1)
+           + uv.y * bvh_fetch(u_bvh_triangles, base + 2);
+}
+
+// The mesh point on triangle i at barycentrics uv (those of p1 and p2): its texture coordinates,
+// and the attributes the scene uses, interpolated as the rasterizer interpolates them (the
+// tangent still in the mesh's space: triangle_hit takes it into the world).
+MeshPoint triangle_point(int i, vec2 uv) {
+    int base = TRIANGLE_TEXELS * i;
     vec4 uv01 = bvh_fetch(u_bvh_triangles, base + 6);
-    return (1.0 - uv.x - uv.y) * uv01.xy + uv.x * uv01.zw + uv.y * bvh_fetch(u_bvh_triangles, base + 7).xy;
+    vec4 uv2 = bvh_fetch(u_bvh_triangles, base + 7);
+    MeshPoint point = mesh_point((1.0 - uv.x - uv.y) * uv01.xy + uv.x * uv01.zw + uv.y * uv2.xy);
+#ifdef TEXCOORD_1
+    vec4 uv1_01 = bvh_fetch(u_bvh_triangles, base + TRIANGLE_UVS1_TEXEL);
+    point.uv1 = (1.0 - uv.x - uv.y) * uv1_01.xy + uv.x * uv1_01.zw + uv.y * uv2.zw;
+#endif
+#ifdef VERTEX_COLORS
+    point.color = triangle_corners(i, TRIANGLE_COLORS_TEXEL, uv);
+#endif
+#ifdef NORMAL_MAP
+    point.tangent = triangle_corners(i, TRIANGLE_TANGENTS_TEXEL, uv);
+#endif
+    return point;
 }
 
 // The hit on triangle i of instance `slot` at t (barycentrics uv), to be shaded as the rasterizer
 // shades the object (trace_reflected does, with the interpolated normal and the material's albedo
 // at the point).
 RayHit triangle_hit(vec3 origin, vec3 direction, int slot, int i, float t, vec2 uv, int samples) {
-    int base = BVH_TRIANGLE_TEXELS * i;
+    int base = TRIANGLE_TEXELS * i;
     TriangleInstance object = triangle_instance(slot);
     vec3 local_normal = (1.0 - uv.x - uv.y) * bvh_fetch(u_bvh_triangles, base + 3).xyz
                         + uv.x * bvh_fetch(u_bvh_triangles, base + 4).xyz + uv.y * bvh_fetch(u_bvh_triangles, base + 5).xyz;
@@ -106,9 +132,16 @@ RayHit triangle_hit(vec3 origin, vec3 direction, int slot, int i, float t, vec2 
     vec3 normal = safe_normalize(local_normal * mat3(object.world_to_local), -direction);
     vec3 position = origin + direction * t;
     Material material = u_materials[object.ids.x];
-    vec2 texture_uv = triangle_uv(i, uv);
-    vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz, texture_uv);
-    return unlit_hit(t, uv, albedo, normal, object.ids.x, texture_uv, float(object.ids.y), samples);
+    MeshPoint point = triangle_point(i, uv);
+#ifdef NORMAL_MAP
+    // A tangent goes into the world by local-to-world itself (the normal by its inverse transpose),
+    // a mirroring map turning the bitangent's sign (as mesh.vert does it).
+    mat3 local_to_world = inverse(mat3(object.world_to_local));
+    point.tangent = vec4(local_to_world * point.tangent.xyz,
+                         determinant(local_to_world) < 0.0 ? -point.tangent.w : point.tangent.w);
+#endif
+    vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz, point);
+    return unlit_hit(t, uv, albedo, normal, object.ids.x, point, float(object.ids.y), samples);
 }
 
 // The nearest triangle of one mesh that the ray (in the mesh's space) meets nearer than best_t,
@@ -140,7 +173,7 @@ void nearest_in_mesh(int root, int slot, int material, vec3 origin, vec3 directi
             float t = intersect_triangle(origin, direction, i, uv);
             if (t > 0.0 && t < best_t) {
 #ifdef ALPHA_MASK
-                if (material_masked(u_materials[material], triangle_uv(i, uv))) continue;
+                if (material_masked(u_materials[material], triangle_point(i, uv))) continue;
 #endif
                 best_t = t;
                 best_triangle = i;
