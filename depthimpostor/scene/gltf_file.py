@@ -163,7 +163,7 @@ def _extension_names(value: Any) -> Iterator[str]:
 
 def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
     """The core material properties a material uses that are not drawn (scene_format.md says what
-    is): the normal map, a texture on another set than TEXCOORD_0, and blending (alphaMode MASK is
+    is): the normal map and a texture on another set than TEXCOORD_0 (alphaMode MASK and BLEND are
     drawn)."""
     pbr = material.get("pbrMetallicRoughness", {})
     pbr = pbr if isinstance(pbr, Mapping) else {}
@@ -180,8 +180,6 @@ def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
         transform = extensions.get("KHR_texture_transform") if isinstance(extensions, Mapping) else None
         if isinstance(transform, Mapping) and transform.get("texCoord", 0) != 0:
             yield f"{key}.KHR_texture_transform.texCoord"
-    if material.get("alphaMode", "OPAQUE") == "BLEND":
-        yield "alphaMode BLEND"
 
 
 def ignored_features(header: Mapping[str, Any]) -> tuple[str, ...]:
