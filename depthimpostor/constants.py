@@ -174,6 +174,19 @@ MAX_INTERNAL_REFLECTIONS = 2
 #: A path inside glass whose share of the light is below this (one 8-bit step of a colour <= 1)
 #: is not followed further.
 MIN_PATH_WEIGHT = 1.0 / 256.0
+#: glTF's alphaMode BLEND along a traced ray (the reflector shader's and the truth's): blended
+#: surfaces composited front to back ("over") before the ray takes the next surface it meets as
+#: opaque. Each is another trace of the ray from just past the last one; four panes of alpha 0.5
+#: leave 1/16 of what lies behind them, which the fifth surface then stands for whole.
+BLEND_LAYERS = 4
+#: What holds one surface a texel (baked images: depth images, cube maps, billboards; shadow maps)
+#: holds a blended surface where its alpha is at least this, as opaque, and nothing where it is
+#: less (glTF's MASK at this cutoff): the surface stands for at most half of what it covers.
+BLEND_IMAGE_CUTOFF = 0.5
+#: Where a traced ray goes on past a blended surface it composited (as a share of the hit's ray
+#: parameter, and in world units beside it): the truth's RAY_START_OFFSET, so that float32 does not
+#: meet the same surface again.
+BLEND_RESTART_OFFSET = 1e-4
 #: The sRGB transfer function (IEC 61966-2-1): a linear value c <= SRGB_LINEAR_LIMIT is encoded as
 #: SRGB_LINEAR_SLOPE * c, a larger one as (1 + SRGB_OFFSET) * c^(1 / SRGB_GAMMA) - SRGB_OFFSET.
 SRGB_LINEAR_LIMIT = 0.0031308
@@ -426,6 +439,7 @@ MATERIAL = Struct("Material", (
     ("occlusion_strength", "float"),
     ("normal_texture", "int"),  # the normal map's slot (or -1), and its scale of x and y
     ("normal_scale", "float"),
+    ("blend", "int"),  # 1: glTF's alphaMode BLEND (alpha_cutoff is then BLEND_IMAGE_CUTOFF, for the images)
 ))
 
 #: One light of the Lights block: LIGHT_DIRECTIONAL or LIGHT_POINT, SHADOW_NONE, SHADOW_HARD or
@@ -534,6 +548,8 @@ def glsl_constants() -> dict[str, str]:
         "SHADOW_NORMAL_OFFSET_TEXELS": f"{SHADOW_NORMAL_OFFSET_TEXELS!r}",
         "MAX_INTERNAL_REFLECTIONS": str(MAX_INTERNAL_REFLECTIONS),
         "MIN_PATH_WEIGHT": f"{MIN_PATH_WEIGHT!r}",
+        "BLEND_LAYERS": str(BLEND_LAYERS),
+        "BLEND_RESTART_OFFSET": f"{BLEND_RESTART_OFFSET!r}",
         "SRGB_LINEAR_LIMIT": f"{SRGB_LINEAR_LIMIT!r}",
         "SRGB_LINEAR_SLOPE": f"{SRGB_LINEAR_SLOPE!r}",
         "SRGB_OFFSET": f"{SRGB_OFFSET!r}",

@@ -23,6 +23,7 @@ from .passes.environment import EnvironmentNode
 from .passes.glass import GlassInteriorsNode
 from .passes.reflectors import ReflectorsNode
 from .passes.shadows import ShadowMapsNode
+from .passes.transparent import TransparentNode
 
 __all__ = ["FRAME", "NODES", "GraphError", "Pass", "RenderNode", "build_graph", "check_graph", "format_graph",
            "in_order", "node_class"]
@@ -39,6 +40,7 @@ NODES: tuple[type[Node], ...] = (
     EyeImagesNode,
     GlassInteriorsNode,
     ReflectorsNode,
+    TransparentNode,  # over everything opaque, the mirrors' reflections included
 )
 
 _BY_STAGE: dict[Pass, type[Node]] = {node.stage: node for node in NODES}

@@ -47,6 +47,7 @@ class Pass(Enum):
     EYE_IMAGES = "images seen from the eye"  # planar reflections' renders, SSR's frame copy (methods/seen_from_eye.py)
     GLASS_INTERIORS = "glass interiors"
     REFLECTORS = "mirrors and glass"
+    TRANSPARENT = "blended objects"  # glTF's alphaMode BLEND, over the frame (passes/transparent.py)
 
 
 #: What every frame starts with: its colour and depth targets, cleared.

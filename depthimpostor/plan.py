@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .constants import (
+    BLEND_IMAGE_CUTOFF,
     depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MATERIAL, MAX_ANALYTIC_PLANES, MAX_BOUNCES, MAX_LIGHTS,
     MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, EXTRA_ATTRIBUTES, HIERARCHICAL_MIN_SIDE, Algorithm,
     Method, image_algorithm, lists_images, triangle_texel_layout,
@@ -298,7 +299,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     mirrors = [g for g in geometry if g.object.is_mirror]
     glass = [g for g in geometry if g.object.is_glass]
     reflectors = [g for g in geometry if g.object.is_reflector]
-    diffuse = [g for g in geometry if not g.object.is_reflector]
+    diffuse = [g for g in geometry if not g.object.is_reflector and not g.object.is_blended]
+    blended = [g for g in geometry if not g.object.is_reflector and g.object.is_blended]
     reflected = world.reflected_objects  # the planes past the exact ones among them
     check_stand_in(scene, method, reflectors, reflected)
     passes: list[PlannedPass] = []
@@ -418,6 +420,13 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         if glass:
             variant(Pass.REFLECTORS, DEFERRED_REFLECTOR_PROGRAM, reflector_defines(scene, defines, True),
                     f"glass (GLASS), {method.option} method, deferred")
+    if blended:
+        passes.append(PlannedPass(Pass.TRANSPARENT, f"{plural(len(blended), 'object')} with blended materials "
+                                  f"({_names(blended)}: glTF's alphaMode BLEND), over the frame back to front: one "
+                                  f"draw call each (two for a closed solid), no memory"))
+        variant(Pass.TRANSPARENT, DIFFUSE_PROGRAM, diffuse_defines(scene, False, transparent=True),
+                "blended objects over the frame (ALPHA_BLEND: their alpha out)" + (
+                    " (SHADOWS: a light casts shadows)" if scene.has_shadows else ""))
     memory = plan_memory(scene, method, algorithm, geometry, images, True in shown_in_bounces, reflection_data,
                          count_samples, image_plans)
     ordered = tuple(sorted(passes, key=lambda p: in_order(p.stage)))
@@ -460,6 +469,10 @@ def material_kinds(scene: Scene) -> str:
         parts.append(f"{normal_maps} normal-mapped (the shading normal turned in the tangents' frame: NORMAL_MAP)")
     if masked:
         parts.append(f"{masked} alpha-masked (every surface pass cuts them: ALPHA_MASK)")
+    blended = sum(m.blend for m in pbr)
+    if blended:
+        parts.append(f"{blended} blended (the transparent pass and traced rays composite them: ALPHA_BLEND; baked "
+                     f"images and shadow maps hold them where alpha >= {BLEND_IMAGE_CUTOFF}: ALPHA_MASK)")
     return ", of which " + ", ".join(parts)
 
 
@@ -552,7 +565,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
               "lights and planes": SceneBlocks.BYTES, "materials": materials_bytes(scene)}
     # The diffuse pass's batch of the objects that do not move (gpu/batches.py; a context without
     # OpenGL 4.3 draws them one by one, and makes none).
-    still = [g for g in geometry if not g.object.is_reflector and not g.object.moves]
+    still = [g for g in geometry if not g.object.is_reflector and not g.object.is_blended and not g.object.moves]
     if still:
         memory["object batch"] = batch_bytes(still)
     if scene.textures:

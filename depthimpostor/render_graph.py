@@ -41,6 +41,7 @@ from .passes.glass import GlassInterior
 from .passes.reflectors import ReflectorPass, ReflectedObjects
 from .passes.samples import SamplesPass
 from .passes.shadows import ShadowMaps
+from .passes.transparent import TransparentPass
 from .plan import RenderPlan, check_stand_in, frame_surface
 from .ppc import PPC
 from .targets import FrameTargets
@@ -93,6 +94,7 @@ class RenderGraph:
         self.show_samples = False
         self.tint_retraced = False  # the hybrid method's re-traced rays tinted (the viewer's T)
         self.diffuse: DiffusePass | None = None
+        self.transparent: TransparentPass | None = None
         self._diffuse_key: tuple[bool, bool] | None = None  # what the diffuse pass was made for
         self.nodes: tuple[Node, ...] = ()
         self._gl_queries: tuple[moderngl.Query, ...] = ()  # the mirror pass's GL timers (_gl_timer)
@@ -114,6 +116,8 @@ class RenderGraph:
         self.shadow_maps = (ShadowMaps(ctx, self.programs, world.lit_scene, self.meshes, world.shadow_casters)
                             if self.plan.runs(Pass.SHADOW_MAPS) else None)
         self.diffuse = self._diffuse_pass()
+        self.transparent = (TransparentPass(self.programs, scene, self.meshes) if self.plan.runs(Pass.TRANSPARENT)
+                            else None)
         self.stand_in: ReflectedObjects | None = None
         self.reflector_pass: ReflectorPass | None = None
         self.samples: SamplesPass | None = None
@@ -387,11 +391,11 @@ class RenderGraph:
 
     def release_passes(self) -> None:
         bind_default_framebuffer(self.ctx)
-        for owner in (self.stand_in, self.environment, self.diffuse, self.samples, self.shadow_maps, self.reflector_pass,
-                      *self.glass_interiors.values()):
+        for owner in (self.stand_in, self.environment, self.diffuse, self.transparent, self.samples, self.shadow_maps,
+                      self.reflector_pass, *self.glass_interiors.values()):
             if owner is not None:
                 owner.release()
-        self.diffuse = None  # made again by the next build
+        self.diffuse = self.transparent = None  # made again by the next build
 
     def release(self) -> None:
         self.release_passes()

@@ -58,6 +58,9 @@ class World:
         analytic = scene.analytic_plane_indices
         self.analytic_planes = [g for g in geometry if g.index in analytic]
         self.diffuse_objects = [g for g in geometry if not g.object.is_reflector]
+        # The eye draws the blended ones apart, after the opaque ones (passes/transparent.py).
+        self.opaque_diffuse = [g for g in self.diffuse_objects if not g.object.is_blended]
+        self.blended_objects = [g for g in self.diffuse_objects if g.object.is_blended]
         self.reflected_objects = [g for g in self.diffuse_objects if g.index not in analytic]
         casters = set(scene.shadow_casters)
         self.shadow_casters = [g for g in geometry if g.object in casters]

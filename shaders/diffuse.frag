@@ -70,6 +70,11 @@ void main() {
 #else
     out_color = vec4(shade(albedo, v_world_position, normal), 1.0);
 #endif
+#ifdef ALPHA_BLEND
+    // The eye's transparent pass (passes/transparent.py): glTF's alphaMode BLEND, blended over what
+    // is drawn (the blend function is the pass's), so it covers `alpha` of it.
+    out_color.a = material_alpha(material, point);
+#endif
 #if WRITE_DEPTH_IMAGE
 #ifdef BACK_LAYER
     // The back layer of a depth image (drawn with front faces culled): its colour, the outward

@@ -37,8 +37,9 @@ def test_each_nodes_reads_are_written_before_it_in_the_order(method: Method) -> 
     eye_reads = () if eye is None else eye.reads + ("shadow maps",) * eye.shades  # every light casts shadows
     eye_images = (eye_reads, eye is not None and eye.reads_frame)
     graph = build_graph(stages, {}, spec.outputs, spec.marches_depth_images, eye_images)
-    reflectors = graph[-1]
+    reflectors, transparent = graph[-2:]  # the blended objects last, over the reflectors
     assert reflectors.stage is Pass.REFLECTORS and set(spec.outputs) <= set(reflectors.reads)
+    assert transparent.stage is Pass.TRANSPARENT
     # Reversed, the nodes read what is written only later: the order is checked, not only the set.
     with pytest.raises(GraphError, match="which no earlier pass writes"):
         build_graph(stages[::-1], {}, spec.outputs, spec.marches_depth_images, eye_images)

@@ -32,7 +32,7 @@ from depthimpostor.scene import Scene, load_scene, parse_scene
 SCENE_FILES = sorted(SCENES.glob("*.toml")) + sorted((SCENES / "hard").glob("*.toml"))
 BAKING = [method for method in Method if METHODS[method].bakes_images]
 #: The scenes whose reflectors are all flat mirrors (the planar method refuses the others by name).
-FLAT_MIRRORS = {"planar_mirror", "checker_near_mirror", "textured_near_mirror", "grazing", "silhouette", "top_down"}
+FLAT_MIRRORS = {"planar_mirror", "checker_near_mirror", "textured_near_mirror", "blend_near_mirror", "grazing", "silhouette", "top_down"}
 
 
 def test_bvh_holds_every_triangle_once_inside_nested_boxes() -> None:

@@ -37,6 +37,8 @@ PLAN_COUNTS = {
     "default.toml": (4, 5, 0, 6),
     "checker_near_mirror.toml": (4, 4, 0, 6),
     "textured_near_mirror.toml": (4, 4, 0, 6),  # checker_near_mirror with image textures
+    # A blended pane: the transparent pass and its variant (ALPHA_BLEND) besides the usual six.
+    "blend_near_mirror.toml": (5, 3, 0, 7),
     "glass_and_mirrors.toml": (7, 15, 0, 12),  # 3 reflectors x 3 objects + 3 x 2 of bounce 2
     "grid_3x3.toml": (4, 8, 0, 6),
     "hdr_sky.toml": (4, 4, 0, 6),  # 2 mirrors x 2 objects; the sky's ENVIRONMENT_MAP variants

@@ -72,19 +72,36 @@ def mesh_attribute_defines(scene: Scene) -> dict[str, int]:
 
 
 def has_alpha_mask(scene: Scene) -> bool:
-    """Does a material of the scene cut parts of its surface away (glTF's alphaMode MASK)?"""
-    return any(isinstance(m, MetallicRoughnessMaterial) and m.masked for m in scene.materials)
+    """Does a material of the scene cut parts of its surface away (glTF's alphaMode MASK), or hold
+    one where an image or a shadow map cuts it (alphaMode BLEND under BLEND_IMAGE_CUTOFF)?"""
+    return any(isinstance(m, MetallicRoughnessMaterial) and m.image_cutoff is not None for m in scene.materials)
+
+
+def has_alpha_blend(scene: Scene) -> bool:
+    """Does a material of the scene blend over what lies behind it (glTF's alphaMode BLEND)?"""
+    return any(isinstance(m, MetallicRoughnessMaterial) and m.blend for m in scene.materials)
 
 
 def alpha_mask_defines(scene: Scene) -> dict[str, int]:
     """What a program that draws surfaces needs to cut masked parts away: ALPHA_MASK, the material
-    table and the textures (none in a scene without a masked material). The depth-only programs
-    (window_depth.frag's shadow maps and back faces, beyond_run.frag) take these alone; the shading
-    programs take them with shading_defines."""
+    table and the textures (none in a scene without a masked or blended material). The depth-only
+    programs (window_depth.frag's shadow maps and back faces, beyond_run.frag) take these alone; the
+    shading programs take them with shading_defines."""
     if not has_alpha_mask(scene):
         return {}
     return {"ALPHA_MASK": 1, "MATERIAL_COUNT": material_count(scene), **mesh_attribute_defines(scene),
             **texture_defines(scene)}
+
+
+def blend_defines(scene: Scene, composite: bool) -> dict[str, int]:
+    """The variant of a program where a blended surface (glTF's alphaMode BLEND) is whole, not cut
+    at BLEND_IMAGE_CUTOFF as the images and shadow maps cut it: BLEND_WHOLE (the hybrid's images,
+    whose blended hits its traced rays then composite), or ALPHA_BLEND (`composite`: the eye's
+    transparent pass, which outputs alpha, and the reflector shader, whose traced rays composite
+    blended hits: lib/reflected_scene.glsl). Nothing in a scene without a blended material."""
+    if not has_alpha_blend(scene):
+        return {}
+    return {"ALPHA_BLEND": 1} if composite else {"BLEND_WHOLE": 1}
 
 
 def write_material_index(program: moderngl.Program, scene: Scene, obj: SceneObject) -> None:
@@ -215,8 +232,9 @@ def material_records(scene: Scene) -> np.ndarray:
              record["normal_texture"]) = (scene.slot_of(texture) for texture in material.maps)
             record["normal_scale"] = material.normal_scale
             record["occlusion_strength"] = material.occlusion_strength
-            if material.alpha_cutoff is not None:
-                record["alpha_cutoff"], record["alpha"] = material.alpha_cutoff, material.alpha
+            if material.image_cutoff is not None:
+                record["alpha_cutoff"], record["alpha"] = material.image_cutoff, material.alpha
+            record["blend"] = int(material.blend)
     return records
 
 

@@ -45,7 +45,7 @@ from ..renderer import Renderer
 from ..scene import Scene
 from ..supersampling import SubFrame
 from ..targets import ReflectionData
-from .truth import SpecularTruth, TruthTracer
+from .truth import SpecularTruth, TruthTracer, seen_through_blended
 
 WORST_PIXELS = 8
 #: Where colour errors are measured, as the report states it.
@@ -207,7 +207,14 @@ def trace_truth(renderer: Renderer, data: ReflectionData, camera: PPC | None = N
         if progress is not None:
             progress(min(start + chunk, len(origins)) / (len(origins) + (chunk if renderer.scene.has_shadows else 0)))
     if surfaces:
-        color[mask] = np.concatenate(surfaces)
+        surface = np.concatenate(surfaces)
+        blended = renderer.world.blended_objects
+        if blended:  # what the eye sees of the reflectors through blended objects (passes/transparent.py)
+            planes = {g.index for g in renderer.world.analytic_planes}
+            tracer = TruthTracer(renderer.scene, [g for g in blended if g.index not in planes],
+                                 [g for g in blended if g.index in planes], renderer.world.shadow_casters)
+            surface = seen_through_blended(tracer, np.asarray(camera.C, float), origins, surface)
+        color[mask] = surface
         object_id[mask] = np.concatenate(object_ids)
         position[mask] = np.concatenate(positions)
     direct = trace_direct(renderer, mask, camera) if renderer.scene.has_shadows else None

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..constants import MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
+from ..constants import BLEND_LAYERS, BLEND_RESTART_OFFSET, MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
 from ..geometry import ObjectGeometry
 from ..lights import light_sample_points, toward_light
 from ..meshes import plane_uvs
@@ -118,17 +118,36 @@ def material_albedo(material: Material, local_positions: Array, points: MeshPoin
     raise TypeError(f"{material!r} is not a diffuse material")
 
 
-def material_masked(material: Material, points: MeshPoints) -> Array:
-    """shaders/lib/shading.glsl's material_masked in numpy: which points glTF's alphaMode MASK cuts
-    away (alpha, the factor's times the texture's and the vertex colour's, under the cutoff). All
-    False for an opaque material."""
-    if not isinstance(material, MetallicRoughnessMaterial) or material.alpha_cutoff is None:
-        return np.zeros(len(points.uv), bool)
+def material_alpha(material: Material, points: MeshPoints) -> Array:
+    """shaders/lib/shading.glsl's material_alpha in numpy: the alpha at `points` (the factor's
+    times the texture's, bilinear at level 0, and the vertex colour's); 1 for a material without
+    alpha."""
+    if not isinstance(material, MetallicRoughnessMaterial):
+        return np.ones(len(points.uv))
     alpha = np.full(len(points.uv), material.alpha)
     if material.texture is not None:
         alpha *= texel_alpha(material.texture, points)
-    alpha *= points.color[:, 3]
-    return alpha < material.alpha_cutoff
+    return alpha * points.color[:, 3]
+
+
+def cutoff(material: Material, images: bool = False) -> float | None:
+    """The alpha under which `material` is cut away: for traced rays, glTF's MASK cutoff (a blended
+    surface is composited, not cut); where one surface a texel is held (`images`: the shadow maps,
+    which the truth's shadow rays stand for), its image_cutoff, blended surfaces included."""
+    if not isinstance(material, MetallicRoughnessMaterial):
+        return None
+    return material.image_cutoff if images else material.alpha_cutoff
+
+
+def material_masked(material: Material, points: MeshPoints, images: bool = False) -> Array:
+    """shaders/lib/shading.glsl's material_masked in numpy: which points glTF's alphaMode MASK cuts
+    away (alpha, the factor's times the texture's and the vertex colour's, under the cutoff;
+    `images`: as what holds one surface a texel cuts them, blended materials too). All False for an
+    opaque material."""
+    limit = cutoff(material, images)
+    if limit is None:
+        return np.zeros(len(points.uv), bool)
+    return material_alpha(material, points) < limit
 
 
 def plane_tangent(item: ObjectGeometry) -> Array:
@@ -181,28 +200,30 @@ def shade(scene: Scene, albedo: Array, positions: Array, normals: Array,
 
 
 def _masked_hits(items: Sequence[ObjectGeometry], geometry_id: Array, primitive_id: Array, u: Array,
-                 v: Array) -> Array:
+                 v: Array, images: bool) -> Array:
     """Which hits (on items[`geometry_id`], triangle `primitive_id`, barycentrics u, v) a masked
-    material cuts away (alphaMode MASK), at the UVs triangles.glsl's triangle_uv gives them."""
+    material cuts away (alphaMode MASK; `images`: and a blended one, as the shadow maps cut it), at
+    the UVs triangles.glsl's triangle_uv gives them."""
     cut = np.zeros(len(geometry_id), bool)
     for index, item in enumerate(items):
         material = item.object.material
-        if not (isinstance(material, MetallicRoughnessMaterial) and material.masked):
+        if cutoff(material, images) is None:
             continue
         chosen = np.flatnonzero(geometry_id == index)
         if not len(chosen):
             continue
         mesh = item.world_mesh
         points = MeshPoints.on_triangles(mesh, mesh.indices[primitive_id[chosen]], u[chosen], v[chosen])
-        cut[chosen] = material_masked(material, points)
+        cut[chosen] = material_masked(material, points, images)
     return cut
 
 
 def nearest_shown(embree: rtcore_scene.EmbreeScene, items: Sequence[ObjectGeometry], origins: Array,
-                  directions: Array, dists: Array | None = None) -> dict[str, Array]:
+                  directions: Array, dists: Array | None = None, images: bool = False) -> dict[str, Array]:
     """Embree's nearest hits on `items` (its geometries: geomID, primID, u, v, tfar), past the points
-    a masked material cuts away (alphaMode MASK): a ray that meets one goes on from just beyond it,
-    as the shader's traversal passes it by. `dists` bounds each ray (a shadow ray's length)."""
+    a masked material cuts away (alphaMode MASK; `images`: and a blended one under
+    BLEND_IMAGE_CUTOFF, as the shadow maps hold it): a ray that meets one goes on from just beyond
+    it, as the shader's traversal passes it by. `dists` bounds each ray (a shadow ray's length)."""
     def run(o: Array, d: Array, bound: Array | None) -> dict[str, Array]:
         o, d = np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32)
         if bound is None:
@@ -210,13 +231,13 @@ def nearest_shown(embree: rtcore_scene.EmbreeScene, items: Sequence[ObjectGeomet
         return dict(embree.run(o, d, dists=np.ascontiguousarray(bound, np.float32), output=1))
 
     result = {key: np.array(value) for key, value in run(origins, directions, dists).items()}
-    if not any(isinstance(i.object.material, MetallicRoughnessMaterial) and i.object.material.masked for i in items):
+    if all(cutoff(i.object.material, images) is None for i in items):
         return result
     start = np.zeros(len(origins))  # where each ray's current query began, as a ray parameter
     for _ in range(MAX_MASKED_LAYERS):
         hits = np.flatnonzero(result["geomID"] != -1)
         cut = hits[_masked_hits(items, result["geomID"][hits], result["primID"][hits], result["u"][hits],
-                                result["v"][hits])]
+                                result["v"][hits], images)]
         if not len(cut):
             break
         # On from just past the cut point (RAY_START_OFFSET of its distance, as a ray leaving a surface).
@@ -248,8 +269,9 @@ class TruthTracer:
         self._embree = _embree_scene(self.meshes)
         self._casters = _embree_scene(casters) if scene.has_shadows and casters else None
         self._caster_items = list(casters)
-        self._masked_casters = any(isinstance(c.object.material, MetallicRoughnessMaterial) and c.object.material.masked
-                                   for c in casters)
+        self._masked_casters = any(cutoff(c.object.material, images=True) is not None for c in casters)
+        # glTF's alphaMode BLEND: the materials (by index in Scene.materials) whose hits trace composites.
+        self._blended = [k for k, m in enumerate(scene.materials) if isinstance(m, MetallicRoughnessMaterial) and m.blend]
 
     def visibility(self, light_index: int, positions: Array, normals: Array) -> Array:
         """The share of the light's rays (lights.py: its centre for hard shadows, the disk points
@@ -267,7 +289,7 @@ class TruthTracer:
         directions = offsets / np.maximum(lengths, 1e-300)[..., None]
         if self._masked_casters:  # a cut-away point blocks nothing: the nearest caster not cut away
             shown = nearest_shown(self._casters, self._caster_items, origins.reshape(-1, 3), directions.reshape(-1, 3),
-                                  lengths.reshape(-1))
+                                  lengths.reshape(-1), images=True)
             blocked = shown["geomID"] != -1
         else:
             blocked = self._casters.run(
@@ -277,9 +299,28 @@ class TruthTracer:
             ) != -1
         return 1.0 - blocked.reshape(lengths.shape).mean(axis=1)
 
-    def trace(self, origins: Array, directions: Array) -> TruthHits:
-        """The nearest hits, shaded (the environment where nothing was hit)."""
+    def trace(self, origins: Array, directions: Array, layers: int = BLEND_LAYERS) -> TruthHits:
+        """The nearest hits, shaded (the environment where nothing was hit). A blended hit (glTF's
+        alphaMode BLEND) covers its alpha of what the ray sees from just past it (traced on, up to
+        `layers` blended surfaces; past them the next is taken whole), as lib/reflected_scene.glsl's
+        trace_reflected composites: the hit's object and point are the first's."""
+        hits, alpha = self.trace_layer(origins, directions)
+        through = np.flatnonzero(alpha < 1.0) if layers > 0 else np.zeros(0, np.int64)
+        if len(through):
+            restart = hits.t[through] * (1.0 + BLEND_RESTART_OFFSET) + BLEND_RESTART_OFFSET
+            behind = self.trace(origins[through] + directions[through] * restart[:, None], directions[through],
+                                layers - 1)
+            share = alpha[through, None]
+            hits.color[through] = share * hits.color[through] + (1.0 - share) * behind.color
+        return hits
+
+    def trace_layer(self, origins: Array, directions: Array) -> tuple[TruthHits, Array]:
+        """The nearest hits, shaded, and each one's blending alpha (1 but on a blended material)."""
         hits, albedo, materials, points = self._intersect(origins, directions)
+        alpha = np.ones(len(origins))
+        for index in self._blended:
+            chosen = np.flatnonzero(hits.hit & (materials == index))
+            alpha[chosen] = material_alpha(self.scene.materials[index], points[chosen])
         hit = hits.hit
         # A mirror's backing is shaded with its normal facing the ray, as reflector.frag does.
         normals = np.where(hits.backing[:, None], facing(hits.normal, directions), hits.normal)
@@ -293,7 +334,7 @@ class TruthTracer:
                 hits.color[chosen] = shade_metallic_roughness(self.scene, material, albedo[chosen], points[chosen],
                                                               hits.position[chosen], mapped, -directions[chosen],
                                                               self.visibility)
-        return hits
+        return hits, alpha
 
     def surfaces(self, origins: Array, directions: Array) -> tuple[TruthHits, Array]:
         """The nearest hits with no colour (zero), and each one's albedo (linear: factor times texel;
@@ -391,6 +432,32 @@ class TruthTracer:
             found.tangent[:] = plane_tangent(item)
             points.put(closer, found)
             albedo[closer] = material_albedo(item.object.material, local[closer], found)
+
+
+def seen_through_blended(tracer: TruthTracer, eye: Array, points: Array, colors: Array) -> Array:
+    """What the eye at `eye` sees at `points` (on mirrors or glass, whose colours are `colors`)
+    through the blended objects between (glTF's alphaMode BLEND: `tracer` traces those alone),
+    composited front to back along each eye ray, up to BLEND_LAYERS of them: the eye's transparent
+    pass draws them over the reflectors (passes/transparent.py), sorted by object, not per ray."""
+    offsets = points - eye
+    lengths = np.linalg.norm(offsets, axis=1)
+    directions = offsets / np.maximum(lengths, 1e-300)[:, None]
+    color = np.zeros_like(colors)
+    through = np.ones(len(points))
+    start = np.zeros(len(points))  # the ray parameter each eye ray goes on from
+    active = np.arange(len(points))
+    for _ in range(BLEND_LAYERS):
+        if not len(active):
+            break
+        hits, alpha = tracer.trace_layer(eye + directions[active] * start[active, None], directions[active])
+        # Before the reflector's point (RAY_START_OFFSET of its distance: not the surface itself).
+        front = hits.hit & (start[active] + hits.t < lengths[active] * (1.0 - RAY_START_OFFSET))
+        rays, share = active[front], alpha[front]
+        color[rays] += (through[rays] * share)[:, None] * hits.color[front]
+        through[rays] *= 1.0 - share
+        start[rays] += hits.t[front] * (1.0 + BLEND_RESTART_OFFSET) + BLEND_RESTART_OFFSET
+        active = rays
+    return color + through[:, None] * colors
 
 
 def _dot(a: Array, b: Array) -> Array:

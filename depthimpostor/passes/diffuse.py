@@ -23,7 +23,7 @@ from ..gpu.gl_state import raster_state
 from ..methods.atlas import FRONT_FACES
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
-from ..gpu.uniforms import matrix_bytes, packed, shading_defines, write, write_matrix
+from ..gpu.uniforms import blend_defines, matrix_bytes, packed, shading_defines, write, write_matrix
 from ..node import Frame, GraphFacts, Node, Pass
 
 
@@ -37,19 +37,22 @@ def has_checker(objects: Iterable[SceneObject]) -> bool:
 
 def diffuse_defines(scene: Scene, write_depth_image: bool, write_triangle_ids: bool = False,
                     back_layer: bool = False, instanced: bool = False, write_surface: bool = False,
-                    checker: bool | None = None) -> dict[str, int]:
+                    checker: bool | None = None, transparent: bool = False) -> dict[str, int]:
     """The variant drawing into the frame, or (`write_depth_image`) into baked images: their
     visible surface, or (`back_layer`) the colour and depth of the nearest back face; and
     (`write_triangle_ids`: the hybrid method's) the triangle seen at each sample too; `instanced`:
     objects drawn in a batch, their transforms and materials from instance attributes;
     (`write_surface`: the planar and SSR methods') the world position and object seen; without
     the checker's code (NO_CHECKER) where no object drawn has one (`checker`; by default, none
-    of the scene's)."""
+    of the scene's); `transparent`: the eye's transparent pass (ALPHA_BLEND: the fragment's alpha
+    out, passes/transparent.py). The hybrid's images (`write_triangle_ids`) hold blended surfaces
+    whole (BLEND_WHOLE): its rays composite them exactly once they meet them there."""
     drawn_checker = has_checker(scene.objects) if checker is None else checker
     return {"WRITE_DEPTH_IMAGE": int(write_depth_image), **({"WRITE_TRIANGLE_ID": 1} if write_triangle_ids else {}),
             **({"BACK_LAYER": 1} if back_layer else {}), **({"INSTANCED": 1} if instanced else {}),
             **({"WRITE_SURFACE": 1} if write_surface else {}), **({} if drawn_checker else {"NO_CHECKER": 1}),
-            **shading_defines(scene)}
+            **shading_defines(scene),
+            **(blend_defines(scene, True) if transparent else blend_defines(scene, False) if write_triangle_ids else {})}
 
 
 def viewer_of(view_projection: np.ndarray) -> np.ndarray:
@@ -67,17 +70,17 @@ class DiffusePass:
     def __init__(
         self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, *, write_depth_image: bool,
         triangle_offsets: dict[int, int] | None = None, back_layer: bool = False, batched: bool = False,
-        write_surface: bool = False, checker: bool | None = None,
+        write_surface: bool = False, checker: bool | None = None, transparent: bool = False,
     ) -> None:
         """`triangle_offsets` (by object index: where the object's triangles start in the list the
         ray-traced method's BVH is built from) makes the variant that writes each sample's triangle;
         `back_layer` the one drawing a depth image's back layer, `write_surface` the one writing the
         world position and object seen, `checker` whether an object it draws has a checker
-        material (see diffuse_defines); `batched` draws the objects that do not move in one call
+        material, `transparent` the eye's transparent pass's (see diffuse_defines); `batched` draws the objects that do not move in one call
         (the context must have batches_supported)."""
         self.programs = programs
         self.defines = diffuse_defines(scene, write_depth_image, triangle_offsets is not None, back_layer,
-                                       write_surface=write_surface, checker=checker)
+                                       write_surface=write_surface, checker=checker, transparent=transparent)
         self.instanced = (programs.get(*DIFFUSE_PROGRAM, {**self.defines, "INSTANCED": 1}) if batched else None)
         self.scene = scene  # for its texture slots
         self.meshes = meshes
@@ -178,7 +181,7 @@ class DiffuseNode(Node):
         graph, targets = self.graph, frame.targets
         if graph.diffuse is None:
             return False
-        sampled, drawn = graph.sampled, graph.world.diffuse_objects
+        sampled, drawn = graph.sampled, graph.world.opaque_diffuse  # the blended ones: passes/transparent.py
         if graph.show_samples and graph.samples is not None and sampled is not None:
             drawn = graph.world.analytic_planes  # the samples stand for the others
             graph.stats.draw_calls += graph.samples.draw(sampled, frame.camera)

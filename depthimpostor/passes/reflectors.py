@@ -20,7 +20,7 @@ from ..oracles.truth import MIRROR_BACKING_ALBEDO
 from .glass import GlassInterior, interior_camera, pixel_angle
 from ..methods.atlas import BAKE_CULLS_FRONT_FACES
 from ..gpu.meshes import GpuMeshes
-from ..gpu.uniforms import environment_defines, shading_defines, write
+from ..gpu.uniforms import blend_defines, environment_defines, shading_defines, write
 from ..node import Frame, GraphFacts, Node, Pass
 
 
@@ -89,7 +89,7 @@ def reflector_defines(scene: Scene, defines: dict[str, int], glass: bool) -> dic
     planes = len(scene.analytic_planes)
     return {**defines, **shading_defines(scene), **environment_defines(scene), "PLANE_COUNT": planes,
             **depth_image_defines(depth_image_capacity(len(scene.objects))),
-            **({"GLASS": 1} if glass else {})}
+            **({"GLASS": 1} if glass else {}), **blend_defines(scene, True)}
 
 
 def glossy_defines(scene: Scene) -> dict[str, int]:

@@ -341,7 +341,7 @@ def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], data:
                   else None)
         maps = _maps(header, value, data, at, source)
         material = MetallicRoughnessMaterial((r, g, b), texture, metallic, roughness, _emissive(value, at),
-                                             alpha=float(factor[3]), alpha_cutoff=cutoff, **maps)
+                                             alpha=float(factor[3]), alpha_cutoff=cutoff, blend=mode == "BLEND", **maps)
     return GltfMaterial(_label(header, k), material, texture is not None and not isinstance(material, DiffuseMaterial))
 
 

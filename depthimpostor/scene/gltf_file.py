@@ -169,7 +169,7 @@ UV_SETS = 2
 
 def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
     """The core material properties a material uses that are not drawn (scene_format.md says what
-    is): a texture on a UV set past TEXCOORD_1, and blending (alphaMode MASK is drawn)."""
+    is): a texture on a UV set past TEXCOORD_1 (alphaMode MASK and BLEND are drawn)."""
     pbr = material.get("pbrMetallicRoughness", {})
     pbr = pbr if isinstance(pbr, Mapping) else {}
     infos = [("baseColorTexture", pbr.get("baseColorTexture")), ("metallicRoughnessTexture", pbr.get("metallicRoughnessTexture")),
@@ -184,8 +184,6 @@ def _material_features(material: Mapping[str, Any]) -> Iterator[str]:
         transform = extensions.get("KHR_texture_transform") if isinstance(extensions, Mapping) else None
         if isinstance(transform, Mapping) and not _read_set(transform.get("texCoord", 0)):
             yield f"{key}.KHR_texture_transform.texCoord {transform.get('texCoord')} (TEXCOORD_0 and TEXCOORD_1 are read)"
-    if material.get("alphaMode", "OPAQUE") == "BLEND":
-        yield "alphaMode BLEND"
 
 
 def _read_set(value: Any) -> bool:

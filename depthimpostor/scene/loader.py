@@ -146,12 +146,23 @@ def _metallic_roughness(t: Table) -> MetallicRoughnessMaterial:
     return MetallicRoughnessMaterial(
         t.opt("color", _COLOR, (1.0, 1.0, 1.0) if texture is not None else default.color), texture,
         t.opt("metallic", f.number(f.UNIT), default.metallic), t.opt("roughness", f.number(f.UNIT), default.roughness),
-        t.opt("emissive", _RADIANCE, default.emissive))
+        t.opt("emissive", _RADIANCE, default.emissive), **_alpha(t))
+
+
+def _alpha(t: Table) -> dict[str, Any]:
+    """glTF's alpha written in TOML: `alpha` (the base colour's, times the texture's) and
+    `alpha_mode` = "opaque" (alpha ignored), "mask" (cut away under `alpha_cutoff`) or "blend"."""
+    mode = t.opt("alpha_mode", f.choice(("opaque", "mask", "blend")), "opaque")
+    if "alpha_cutoff" in t.data and mode != "mask":
+        raise t.at.key("alpha_cutoff").error(f'only with alpha_mode = "mask", not "{mode}"')
+    cutoff = t.opt("alpha_cutoff", f.number(f.UNIT), 0.5) if mode == "mask" else None
+    return {"alpha": t.opt("alpha", f.number(f.UNIT), 1.0), "alpha_cutoff": cutoff, "blend": mode == "blend"}
 
 
 _MATERIALS: dict[str, Variant[Material]] = {
     "diffuse": Variant(("color", "texture"), _diffuse),
-    "metallic_roughness": Variant(("color", "texture", "metallic", "roughness", "emissive"), _metallic_roughness),
+    "metallic_roughness": Variant(("color", "texture", "metallic", "roughness", "emissive", "alpha",
+                                          "alpha_mode", "alpha_cutoff"), _metallic_roughness),
     "checker": Variant(("color_a", "color_b", "scale"), lambda t: CheckerMaterial(
         t.req("color_a", _COLOR), t.req("color_b", _COLOR), t.opt("scale", _LENGTH, 1.0))),
     "mirror": Variant(("tint", "roughness"), lambda t: MirrorMaterial(

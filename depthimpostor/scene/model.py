@@ -18,7 +18,7 @@ from typing import Protocol, TypeVar
 import numpy as np
 
 from depthimpostor.colour import TONE_MAPPINGS
-from depthimpostor.constants import MAX_ANALYTIC_PLANES, SAMPLE_OFFSETS
+from depthimpostor.constants import BLEND_IMAGE_CUTOFF, MAX_ANALYTIC_PLANES, SAMPLE_OFFSETS
 from depthimpostor.meshes import Mesh
 from depthimpostor.scene.fields import (
     RESOLUTION, SIZE, TRIANGLE_TARGET, UNIT, At, Bounds, Reader, Vec3, choice, number, word_or,
@@ -375,6 +375,11 @@ class MetallicRoughnessMaterial(DiffuseMaterial):
     # `alpha_cutoff`, the surface is not there (every pass and the truth). None: opaque.
     alpha: float = 1.0
     alpha_cutoff: float | None = None
+    # glTF's alphaMode BLEND: the surface covers `alpha` (times the texture's) of what lies behind
+    # it: the eye's transparent pass blends it over, traced rays and the truth composite it
+    # (BLEND_LAYERS), and what holds one surface a texel (baked images, shadow maps) holds it where
+    # alpha >= BLEND_IMAGE_CUTOFF (docs/scene_format.md, "Transparency"). Never with alpha_cutoff.
+    blend: bool = False
     # glTF's other maps (linear data but the emissive map, which is colour): metalness in B and
     # roughness in G (times the factors), ambient occlusion in R (mixed in by occlusion_strength:
     # it darkens the ambient term alone), and the emission times `emissive`.
@@ -397,6 +402,12 @@ class MetallicRoughnessMaterial(DiffuseMaterial):
     def masked(self) -> bool:
         """Can parts of it be cut away (alphaMode MASK)?"""
         return self.alpha_cutoff is not None
+
+    @property
+    def image_cutoff(self) -> float | None:
+        """The cutoff of what holds one surface a texel (baked images, shadow maps): a mask's own,
+        BLEND_IMAGE_CUTOFF for a blended material, None where nothing is cut."""
+        return BLEND_IMAGE_CUTOFF if self.blend else self.alpha_cutoff
 
 
 def material_textures(material: object) -> tuple[Texture, ...]:
@@ -498,6 +509,12 @@ class SceneObject:
         if not isinstance(self.shape, PlaneShape):
             return 0.0
         return abs(self.shape.size[0] * self.scale[0] * self.shape.size[1] * self.scale[2])
+
+    @property
+    def is_blended(self) -> bool:
+        """Does it cover a share of what lies behind it (glTF's alphaMode BLEND)? The eye draws it
+        in the transparent pass, after everything opaque."""
+        return isinstance(self.material, MetallicRoughnessMaterial) and self.material.blend
 
     @property
     def is_reflector(self) -> bool:

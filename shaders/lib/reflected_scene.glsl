@@ -324,13 +324,29 @@ RayHit resolve_unseen(RayHit hit, RayHit plane, vec3 origin, vec3 direction) {
 }
 #endif
 
+#if METHOD == METHOD_HYBRID && defined(ALPHA_BLEND)
+// Past a blended surface (glTF's alphaMode BLEND), the hybrid's rays follow the real triangles:
+// its images hold the blended surface (BLEND_WHOLE), not what it covers, which they may not hold.
+RayHit nearest_real_triangle_hit(vec3 origin, vec3 direction) {
+    RayHit hit = nearest_triangle_hit(origin, direction);
+    hit.retraced = true;
+    return hit;
+}
+#endif
+
 // What the reflected ray origin + t * direction sees: the nearest hit, or the environment.
-RayHit trace_reflected(vec3 origin, vec3 direction) {
+// `past_blended`: the ray goes on past a blended surface it met (trace_reflected).
+RayHit trace_nearest(vec3 origin, vec3 direction, bool past_blended) {
     RayHit plane = nearest_plane_hit(origin, direction);
 #if METHOD == METHOD_HYBRID
     // The hybrid method orders a plane against the exact hit within a window (resolve_unseen):
     // it needs the images' nearest hit beyond the plane too.
-    RayHit hit = resolve_unseen(nearest_object_hit(origin, direction, UNBOUNDED_RAY), plane, origin, direction);
+    RayHit hit;
+#ifdef ALPHA_BLEND
+    if (past_blended) hit = nearest_real_triangle_hit(origin, direction);
+    else
+#endif
+    hit = resolve_unseen(nearest_object_hit(origin, direction, UNBOUNDED_RAY), plane, origin, direction);
 #else
     // Nothing beyond the nearest plane is seen: the images entered after it are not visited.
     RayHit hit = nearest_object_hit(origin, direction, plane.hit ? plane.t : UNBOUNDED_RAY);
@@ -357,4 +373,41 @@ RayHit trace_reflected(vec3 origin, vec3 direction) {
         hit.color = shade_material(u_materials[hit.material], hit.color, hit.point, origin + direction * hit.t, hit.normal,
                                    -direction);
     return hit;
+}
+
+// What the reflected ray sees. ALPHA_BLEND (a scene with a blended material: glTF's alphaMode
+// BLEND): the shaded hits along the ray composited front to back ("over"), each blended one
+// covering its alpha of what lies behind it, up to BLEND_LAYERS of them; the next surface is then
+// taken whole. The ray goes on from just past each blended hit (BLEND_RESTART_OFFSET of its ray
+// parameter), as the truth's does (oracles/truth.py, TruthTracer.trace). A hit that its method
+// holds in baked colours (depth images, cube maps, billboards: a blended surface cut at
+// BLEND_IMAGE_CUTOFF and baked opaque) is opaque here. The reflection outputs (its object, its
+// point) are the first hit's.
+RayHit trace_reflected(vec3 origin, vec3 direction) {
+#ifndef ALPHA_BLEND
+    return trace_nearest(origin, direction, false);
+#else
+    RayHit first = no_hit(0);
+    vec3 color = vec3(0.0);
+    float through = 1.0;  // the share of what lies further that is still seen
+    int samples = 0;
+    bool retraced = false;
+    vec3 start = origin;
+    for (int layer = 0; layer <= BLEND_LAYERS; ++layer) {
+        RayHit hit = trace_nearest(start, direction, layer > 0);
+        samples += hit.samples;
+        retraced = retraced || hit.retraced;
+        if (layer == 0) first = hit;
+        bool blended = hit.hit && hit.unlit && layer < BLEND_LAYERS && u_materials[hit.material].blend != 0;
+        float alpha = blended ? material_alpha(u_materials[hit.material], hit.point) : 1.0;
+        color += through * alpha * hit.color;
+        through *= 1.0 - alpha;
+        if (!blended || through <= 0.0) break;
+        start += direction * (hit.t * (1.0 + BLEND_RESTART_OFFSET) + BLEND_RESTART_OFFSET);
+    }
+    first.color = color;
+    first.samples = samples;
+    first.retraced = retraced;
+    return first;
+#endif
 }

@@ -56,13 +56,10 @@ vec3 material_albedo(Material material, vec3 local_position, MeshPoint point) {
     return color;
 }
 
-#ifdef ALPHA_MASK
-// glTF's alphaMode MASK (the ALPHA_MASK variant: scenes with such a material): a point whose alpha,
-// the material's factor times its texture's (and its vertex colour's), is under the material's
-// cutoff is not there at all; rasterized fragments discard it, traced rays pass through it.
-// alpha_cutoff < 0: opaque.
-bool material_masked(Material material, MeshPoint point) {
-    if (material.alpha_cutoff < 0.0) return false;
+#if defined(ALPHA_MASK) || defined(ALPHA_BLEND)
+// A material's alpha at a point: its factor times its texture's (and its vertex colour's); 1 for
+// an opaque material.
+float material_alpha(Material material, MeshPoint point) {
     float alpha = material.alpha;
 #ifdef TEXTURE_COUNT
     if (material.texture >= 0) alpha *= material_texel_rgba(material.texture, point).a;
@@ -70,7 +67,24 @@ bool material_masked(Material material, MeshPoint point) {
 #ifdef VERTEX_COLORS
     alpha *= point.color.a;
 #endif
-    return alpha < material.alpha_cutoff;
+    return alpha;
+}
+#endif
+
+#ifdef ALPHA_MASK
+// glTF's alphaMode MASK (the ALPHA_MASK variant: scenes with such a material): a point whose alpha,
+// the material's factor times its texture's (and its vertex colour's), is under the material's
+// cutoff is not there at all;
+// rasterized fragments discard it, traced rays pass through it. alpha_cutoff < 0: opaque. A
+// blended material (alphaMode BLEND) is cut so at BLEND_IMAGE_CUTOFF where one surface a texel is
+// kept (the images, the shadow maps), and whole where it is blended or composited (ALPHA_BLEND:
+// the eye's transparent pass, traced rays) or composited later (BLEND_WHOLE: the hybrid's images).
+bool material_masked(Material material, MeshPoint point) {
+    if (material.alpha_cutoff < 0.0) return false;
+#if defined(ALPHA_BLEND) || defined(BLEND_WHOLE)
+    if (material.blend != 0) return false;
+#endif
+    return material_alpha(material, point) < material.alpha_cutoff;
 }
 #endif
 
