@@ -19,6 +19,7 @@ from ..constants import MATERIAL, MATERIAL_ARRAYS, MAX_LIGHTS, MaterialKind
 from ..scene.model import (
     CheckerMaterial, DiffuseMaterial, MetallicRoughnessMaterial, Scene, SceneObject,
 )
+from ..ibl import uses_environment_lighting
 from ..texture_layout import texture_defines
 from ..textures import SRGB_TABLE
 from .textures import array_unit
@@ -42,7 +43,14 @@ def shading_defines(scene: Scene) -> dict[str, int]:
             **({"METALLIC_ROUGHNESS": 1} if any(isinstance(m, MetallicRoughnessMaterial) for m in scene.materials)
                else {}),
             **alpha_mask_defines(scene),
+            **environment_lighting_defines(scene),
             **texture_defines(scene)}
+
+
+def environment_lighting_defines(scene: Scene) -> dict[str, int]:
+    """Image-based lighting where the scene has an equirect sky and a metallic-roughness material
+    (ibl.py's rule): ENVIRONMENT_LIGHTING, with the sky's image (ENVIRONMENT_MAP) it reads."""
+    return {"ENVIRONMENT_LIGHTING": 1, "ENVIRONMENT_MAP": 1} if uses_environment_lighting(scene) else {}
 
 
 def has_alpha_mask(scene: Scene) -> bool:
@@ -68,8 +76,9 @@ def write_material_index(program: moderngl.Program, scene: Scene, obj: SceneObje
 
 
 def environment_defines(scene: Scene) -> dict[str, int]:
-    """The variant of every program that reads the environment: ENVIRONMENT_MAP for an image."""
-    return {"ENVIRONMENT_MAP": 1} if scene.environment.is_map else {}
+    """The variant of every program that reads the environment: ENVIRONMENT_MAP for an image (and
+    ENVIRONMENT_LIGHTING where its texture holds the prefiltered levels below the image)."""
+    return {"ENVIRONMENT_MAP": 1, **environment_lighting_defines(scene)} if scene.environment.is_map else {}
 
 
 def write(program: moderngl.Program | moderngl.ComputeShader, name: str,

@@ -147,7 +147,8 @@ def trace_direct(renderer: Renderer, mirror_mask: np.ndarray, camera: PPC | None
     world = renderer.world
     apart = {g.index for g in casters} | {g.index for g in world.analytic_planes}
     seen = [*casters, *(g for g in world.geometry if g.index not in apart)]
-    hits = TruthTracer(renderer.scene, seen, world.analytic_planes, casters).trace(origins, directions)
+    hits = TruthTracer(renderer.scene, seen, world.analytic_planes, casters, renderer.sky_lighting()).trace(origins,
+                                                                                                          directions)
     reflectors = [g.index for g in renderer.world.reflectors]
     reflecting = np.isin(hits.object_id, reflectors) & ~hits.backing
     seen_mirror = reflecting.reshape(mirror_mask.shape) | mirror_mask
@@ -162,7 +163,7 @@ def trace_truth(renderer: Renderer, data: ReflectionData, camera: PPC | None = N
     camera = renderer.camera if camera is None else camera
     mask = data.mirror_mask
     specular = SpecularTruth(renderer.scene, renderer.world.reflected_objects, renderer.world.reflectors, renderer.world.analytic_planes,
-                             renderer.world.shadow_casters)
+                             renderer.world.shadow_casters, renderer.sky_lighting())
     origins = data.origin[mask]
     incoming = origins - camera.C
     incoming /= np.maximum(np.linalg.norm(incoming, axis=1, keepdims=True), 1e-300)
