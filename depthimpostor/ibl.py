@@ -110,20 +110,27 @@ _SH_CACHE: dict[int, tuple[Array, Array]] = {}
 def irradiance_sh9(image: Array) -> Array:
     """The sky `image`'s irradiance terms, (9, 3) float64: sum(c_i * basis_i(n)) is the radiance a
     white diffuse surface of normal n shows under it (before the sky's intensity and rotation,
-    which the lookup applies). Every texel counts by its solid angle, row by row; computed once per
-    image (a 2048x1024 sky takes about a tenth of a second)."""
+    which the lookup applies). Every texel counts by its solid angle, at its centre's direction;
+    computed once per image. Separably: a texel's direction is (s a, c, s b) for its row's sine and
+    cosine s, c and its column's a = sin(longitude), b = -cos(longitude), so each of the nine
+    polynomials is a row function times a column function, and one pass over the image sums
+    the six column functions each needs (1, a, b, a^2, b^2, ab) row by row."""
     cached = _SH_CACHE.get(id(image))
     if cached is not None and cached[0] is image:
         return cached[1]
     height, width = image.shape[:2]
-    terms = np.zeros((9, 3))
-    rows = max(1, 2**20 // max(width, 1))  # a million texels at a time: bounded memory
-    directions, solid_angle = texel_directions(width, height)
-    for start in range(0, height, rows):
-        chunk = slice(start, start + rows)
-        basis = sh9_basis(directions[chunk].reshape(-1, 3))
-        weighted = image[chunk].astype(np.float64) * solid_angle[chunk, None, None]
-        terms += basis.T @ weighted.reshape(-1, 3)
+    longitude = ((np.arange(width) + 0.5) / width - 0.5) * 2.0 * np.pi
+    a, b = np.sin(longitude), -np.cos(longitude)
+    columns = np.stack([np.ones(width), a, b, a * a, b * b, a * b], axis=1)  # (width, 6)
+    rows = np.einsum("jic,ik->kjc", image, columns, dtype=np.float64)  # (6, height, 3)
+    one, ma, mb, maa, mbb, mab = rows
+    polar = (np.arange(height) + 0.5) / height * np.pi
+    edges = np.arange(height + 1) / height * np.pi
+    w = (2.0 * np.pi / width * (np.cos(edges[:-1]) - np.cos(edges[1:])))[:, None]  # each row's texels' solid angle
+    s, c = np.sin(polar)[:, None], np.cos(polar)[:, None]
+    terms = np.stack([(w * one).sum(0), (w * c * one).sum(0), (w * s * mb).sum(0), (w * s * ma).sum(0),
+                      (w * s * c * ma).sum(0), (w * c * s * mb).sum(0), (w * s * s * mab).sum(0),
+                      (w * (3.0 * s * s * mbb - one)).sum(0), (w * (s * s * maa - c * c * one)).sum(0)])
     terms *= SH9_FACTORS[:, None]
     if len(_SH_CACHE) > 8:  # a handful of skies at once at most (tests, the viewer's scene changes)
         _SH_CACHE.clear()

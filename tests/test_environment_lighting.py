@@ -14,7 +14,9 @@ import pytest
 from conftest import SCENES, assert_finite, scene_from_toml
 from depthimpostor.constants import IBL_LEVELS, Method
 from depthimpostor.hdr import write_hdr
-from depthimpostor.ibl import irradiance_sh9, level_size, texel_directions, uses_environment_lighting
+from depthimpostor.ibl import (
+    SH9_FACTORS, irradiance_sh9, level_size, sh9_basis, texel_directions, uses_environment_lighting,
+)
 from depthimpostor.node import Pass
 from depthimpostor.oracles.compare import compare, trace_direct
 from depthimpostor.oracles.ibl import SkyLighting, environment_irradiance, prefiltered_level
@@ -207,6 +209,16 @@ def test_the_nine_terms_light_a_uniform_sky_exactly() -> None:
     normals = np.eye(3)
     lit = environment_irradiance(env, SkyLighting.of(env, np.zeros((1, 1, 3))), normals)
     np.testing.assert_allclose(lit, 1.0, atol=2e-3)
+
+
+def test_the_nine_terms_are_every_texel_by_its_solid_angle() -> None:
+    """The separable projection equals the plain sum of every texel's radiance times its solid
+    angle times each basis polynomial at its centre (times the constants), on a random sky."""
+    sky = np.random.default_rng(5).random((24, 40, 3)).astype(np.float32)
+    directions, solid_angle = texel_directions(40, 24)
+    weighted = sky.astype(np.float64) * solid_angle[:, None, None]
+    plain = sh9_basis(directions.reshape(-1, 3)).T @ weighted.reshape(-1, 3) * SH9_FACTORS[:, None]
+    np.testing.assert_allclose(irradiance_sh9(sky), plain, rtol=1e-12, atol=1e-15)
 
 
 @pytest.mark.parametrize("method", [Method.RAYTRACE, Method.HYBRID])

@@ -50,17 +50,24 @@ def sky_frame(env: Environment, directions: Array) -> Array:
     return np.stack([x, directions[:, 1], z], axis=1)
 
 
-def equirect_bilinear(image: Array, d: Array) -> Array:
-    """The equirect `image`'s texels along sky-frame directions `d` (any length), filtered
-    bilinearly (truth.equirect_lookup states the mapping): columns wrap, rows clamp at the poles."""
-    height, width = image.shape[:2]
+def equirect_coordinates(d: Array) -> Array:
+    """Where sky-frame directions `d` (any length) fall in an equirect image, (n, 2): the share of
+    the longitude atan2(x, -z) across and of the angle from the zenith down (truth.equirect_lookup
+    states the mapping); straight up or down, the longitude is 0."""
     x, y, z = d[:, 0], d[:, 1], d[:, 2]
     horizontal = np.hypot(x, z)
     around = horizontal > 0.0
     longitude = np.where(around, np.arctan2(x, -z), 0.0)
     polar = np.where(around, np.arctan2(horizontal, y), np.where(y < 0.0, np.pi, 0.0))
-    tx = (longitude / (2.0 * np.pi) + 0.5) * width - 0.5
-    ty = polar / np.pi * height - 0.5
+    return np.stack([longitude / (2.0 * np.pi) + 0.5, polar / np.pi], axis=1)
+
+
+def equirect_texels(image: Array, uv: Array) -> Array:
+    """The equirect `image`'s texels at `uv` (equirect_coordinates'), filtered bilinearly between
+    the four texel centres around each: columns wrap, rows clamp at the poles."""
+    height, width = image.shape[:2]
+    tx = uv[:, 0] * width - 0.5
+    ty = uv[:, 1] * height - 0.5
     bx, by = np.floor(tx), np.floor(ty)
     fx, fy = (tx - bx)[:, None], (ty - by)[:, None]
     x0 = (bx.astype(np.int64) + width) % width
@@ -85,7 +92,7 @@ def prefiltered_level(env: Environment, sky: SkyLighting, level: int, d: Array) 
         raise ValueError("only an equirect sky has prefiltered levels")
     width, height = level_size(level)
     row = level_row(level, env.image.shape[0])
-    return equirect_bilinear(sky.texture[row:row + height, :width], d)
+    return equirect_texels(sky.texture[row:row + height, :width], equirect_coordinates(d))
 
 
 def environment_specular(env: Environment, sky: SkyLighting, directions: Array, roughness: float | Array) -> Array:
@@ -99,7 +106,7 @@ def environment_specular(env: Environment, sky: SkyLighting, directions: Array, 
     result = np.zeros((len(directions), 3))
     for level in np.unique(below):
         chosen = below == level
-        low = (equirect_bilinear(env.image, d[chosen]) if level == 0
+        low = (equirect_texels(env.image, equirect_coordinates(d[chosen])) if level == 0
                else prefiltered_level(env, sky, int(level), d[chosen]))
         high = prefiltered_level(env, sky, int(level) + 1, d[chosen])
         result[chosen] = low + (high - low) * (lod[chosen] - level)[:, None]

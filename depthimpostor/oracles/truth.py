@@ -30,7 +30,7 @@ from ..scene.model import (
 )
 from ..textures import texture_alpha_bilinear, texture_bilinear
 from .brdf import shade_metallic_roughness
-from .ibl import SkyLighting, equirect_bilinear, sky_frame
+from .ibl import SkyLighting, equirect_coordinates, equirect_texels, sky_frame
 from .ggx import glossy_average
 
 if TYPE_CHECKING:
@@ -77,7 +77,7 @@ def equirect_lookup(env: Environment, directions: Array) -> Array:
     image = env.image
     if image is None:
         raise ValueError(f"a {env.type} environment has no image")
-    return env.intensity * equirect_bilinear(image, sky_frame(env, directions))
+    return env.intensity * equirect_texels(image, equirect_coordinates(sky_frame(env, directions)))
 
 
 def material_albedo(material: Material, local_positions: Array, uvs: Array | None = None) -> Array:

@@ -17,23 +17,36 @@ vec3 environment_irradiance(vec3 normal) {
     return u_lighting.env_intensity * max(sum, vec3(0.0));
 }
 
-// Prefiltered level `level` (1..IBL_LEVELS: the sky through GGX lobes of roughness level / IBL_LEVELS,
-// IBL_WIDTH >> (level - 1) texels wide) along `d`, in the sky's frame. The levels are stacked below
-// the sky's image, each half as high as the one above: the rows above level k sum to 2 h - 2 (h >> (k - 1)).
-vec3 prefiltered_level(int level, vec3 d) {
-    int width = IBL_WIDTH >> (level - 1);
+// Where prefiltered level `level` (1..IBL_LEVELS: the sky through GGX lobes of roughness
+// level / IBL_LEVELS, IBL_WIDTH >> (level - 1) texels wide, half as high) lies in the sky's
+// texture: the levels are stacked below the sky's image, each half as high as the one above, so
+// the rows above level k sum to 2 h - 2 (h >> (k - 1)) for level 1's height h. Level 0 is the
+// sky's image itself, at the origin.
+ivec2 level_origin(int level) {
     int first = IBL_WIDTH / 2;
-    ivec2 origin = ivec2(0, u_lighting.env_size.y + 2 * first - 2 * (first >> (level - 1)));
-    return equirect_bilinear(d, origin, ivec2(width, width / 2));
+    return level == 0 ? ivec2(0) : ivec2(0, u_lighting.env_size.y + 2 * first - 2 * (first >> (level - 1)));
+}
+
+ivec2 level_extent(int level) {
+    int width = IBL_WIDTH >> (level - 1);
+    return level == 0 ? u_lighting.env_size : ivec2(width, width / 2);
+}
+
+// Prefiltered level `level` along `d`, in the sky's frame.
+vec3 prefiltered_level(int level, vec3 d) {
+    return equirect_texels(equirect_coordinates(d), level_origin(level), level_extent(level));
 }
 
 // The sky's radiance through a GGX lobe of `roughness` about `direction` (the reflected view
 // direction: the split sum's first factor): linear between the two levels about roughness *
 // IBL_LEVELS, level 0 being the sky itself (environment()), as glTF-Sample-Viewer reads its mips.
+// The direction's angles are found once for both reads (llvmpipe runs every branch: one call per
+// level read, not a call per level there is).
 vec3 environment_specular(vec3 direction, float roughness) {
     float lod = clamp(roughness, 0.0, 1.0) * float(IBL_LEVELS);
     int below = min(int(lod), IBL_LEVELS - 1);
-    vec3 d = sky_frame(direction);
-    vec3 low = below == 0 ? equirect_bilinear(d, ivec2(0), u_lighting.env_size) : prefiltered_level(below, d);
-    return u_lighting.env_intensity * mix(low, prefiltered_level(below + 1, d), lod - float(below));
+    vec2 uv = equirect_coordinates(sky_frame(direction));
+    vec3 low = equirect_texels(uv, level_origin(below), level_extent(below));
+    vec3 high = equirect_texels(uv, level_origin(below + 1), level_extent(below + 1));
+    return u_lighting.env_intensity * mix(low, high, lod - float(below));
 }
