@@ -35,9 +35,11 @@ def uses_environment_lighting(scene: Scene) -> bool:
     return scene.environment.is_map and any(isinstance(m, MetallicRoughnessMaterial) for m in scene.materials)
 
 
-#: What the prefilter took on this project's reference machine (Mesa llvmpipe, 2 shared cores), the
-#: median of tools/prefilter_cost.py's runs: `plan` states it beside the count of reads.
-PREFILTER_SECONDS = 0.0
+#: What the prefilter took on this project's machine (Mesa llvmpipe 22.3, 2 cores shared with other
+#: work), the median of 7 runs of tools/prefilter_cost.py on showcase.toml's 512x256 sky (1.09 to
+#: 1.32 s; 2026-11-27): `plan` states it beside the count of reads. It depends on the levels'
+#: sizes and IBL_SAMPLES alone, not on the sky's size (the reads are mip-filtered).
+PREFILTER_SECONDS = 1.26
 
 
 def level_size(level: int) -> tuple[int, int]:

@@ -396,7 +396,9 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
 
     passes.append(PlannedPass(Pass.ENVIRONMENT, f"the {scene.environment.type} sky behind everything"))
     variant(Pass.ENVIRONMENT, ENVIRONMENT_PROGRAM, environment_defines(scene),
-            "the sky" + (" (ENVIRONMENT_MAP: an equirect image)" if scene.environment.is_map else ""))
+            "the sky" + (" (ENVIRONMENT_MAP: an equirect image)" if scene.environment.is_map else "")
+            + (" (ENVIRONMENT_LIGHTING: its texture holds the prefiltered levels below the image)"
+               if uses_environment_lighting(scene) else ""))
     if diffuse:
         passes.append(PlannedPass(Pass.DIFFUSE, f"{plural(len(diffuse), 'object')} with diffuse materials"))
         shadows = " (SHADOWS: a light casts shadows)" if scene.has_shadows else ""
@@ -447,10 +449,21 @@ def environment_lighting_reason(scene: Scene) -> str:
     pbr = sum(isinstance(m, MetallicRoughnessMaterial) for m in scene.materials)
     (first, _), (last, _) = level_size(1), level_size(IBL_LEVELS)
     return (f"{plural(pbr, 'metallic-roughness material')} lit by the equirect sky (ENVIRONMENT_LIGHTING): its "
-            f"specular through GGX lobes of roughness 1/{IBL_LEVELS} to 1 into {IBL_LEVELS} levels ({first} to {last} "
+            f"specular through GGX lobes of roughness {1 / IBL_LEVELS:g} to 1 into {IBL_LEVELS} levels ({first} to {last} "
             f"texels wide) below its image, {IBL_SAMPLES} filtered reads a texel ({prefilter_reads() / 1e6:.1f} M in all, "
             f"about {PREFILTER_SECONDS * 1e3:.0f} ms on llvmpipe: tools/prefilter_cost.py), its irradiance as nine "
-            "spherical-harmonic terms (numpy, in the Lights block); once per sky, not per frame")
+            "spherical-harmonic terms (numpy, in the Lights block); once per sky, not per frame (reading a mipmapped "
+            f"copy of the sky, {_source_bytes(scene) / 2**20:.2f} MiB, made for it and let go)")
+
+
+def _source_bytes(scene: Scene) -> int:
+    """The prefilter's transient source: the sky as RGB32F with its whole mip chain."""
+    image = scene.environment.image
+    if image is None:
+        return 0
+    height, width = image.shape[:2]
+    levels = max(width, height).bit_length()
+    return sum(max(1, width >> k) * max(1, height >> k) * 12 for k in range(levels))
 
 
 def ignored_in_files(scene: Scene) -> tuple[tuple[str, tuple[str, ...]], ...]:

@@ -126,7 +126,8 @@ def test_without_a_sky_the_metal_keeps_the_constant_ambient(ctx: moderngl.Contex
 def test_the_prefilter_runs_once_per_sky_and_the_plan_says_what_it_costs(ctx: moderngl.Context,
                                                                           tmp_path: Path) -> None:
     """Planned with its reason and cost; run at the first frame, not again for later frames, a
-    camera move, another method or another time."""
+    camera move, another method, another time or an edit of the scene that keeps its sky (the
+    sky's intensity applies where it is read: the frame brightens, nothing is prefiltered again)."""
     scene = sky_scene(tmp_path, 0.3, mirror=True)
     plan = plan_render(scene)
     assert plan.runs(Pass.ENVIRONMENT_LIGHTING)
@@ -140,8 +141,14 @@ def test_the_prefilter_runs_once_per_sky_and_the_plan_says_what_it_costs(ctx: mo
         renderer.render()
         renderer.set_time(1.0)
         renderer.render()
+        before = renderer.read_color_float()
+        brighter = dataclasses.replace(scene.environment, intensity=2.0 * scene.environment.intensity)
+        renderer.set_scene(dataclasses.replace(scene, environment=brighter))
+        renderer.render()
+        after = renderer.read_color_float()
         assert renderer.stats.passes["environment prefilter"] == 1
-        assert renderer.stats.frames == 5
+        assert renderer.stats.frames == 6
+    assert after.mean() > 1.5 * before.mean()
 
 
 def ggx_convolution(sky: np.ndarray, roughness: float, normals: np.ndarray) -> np.ndarray:

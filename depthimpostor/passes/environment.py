@@ -67,6 +67,12 @@ class EnvironmentPass:
         if self.map is not None:
             self.map.use(TextureUnit.ENVIRONMENT_MAP)
 
+    def serves(self, scene: Scene) -> bool:
+        """Is it what `scene` would make (the same sky image, lighting its materials or not alike)?
+        The sky's colours, intensity and rotation are the Lights block's, not its own."""
+        return (scene.environment.image is self.image
+                and (self.prefilter_program is not None) == (self.image is not None and uses_environment_lighting(scene)))
+
     def prefilter(self) -> int:
         """Draw the sky's prefiltered specular levels into its texture, below its image (once per
         sky: the ENVIRONMENT_LIGHTING node runs it at the first frame); the draw calls made. The
