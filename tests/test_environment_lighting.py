@@ -228,12 +228,15 @@ def test_the_nine_terms_are_every_texel_by_its_solid_angle() -> None:
     np.testing.assert_allclose(irradiance_sh9(sky), plain, rtol=1e-12, atol=1e-15)
 
 
-@pytest.mark.parametrize("method", [Method.RAYTRACE, Method.HYBRID])
+@pytest.mark.parametrize("method", [Method.RAYTRACE, Method.HYBRID, Method.DEPTH])
 def test_metals_seen_in_a_mirror_take_the_sky_as_the_truth_does(ctx: moderngl.Context, tmp_path: Path,
                                                                  metal_scene: Scene, method: Method) -> None:  # noqa: F811
     """Beside a mirror, under the sky: the traced hits on metals (textured, with occlusion maps) are
     lit by the sky for the reflected ray itself, as the truth lights them: colour within float
-    noise, no wrong surface."""
+    noise (8.7e-6 RMSE measured), no wrong object. The depth images are baked lit by the sky too, as
+    seen from the mirror's centre: their colour error stays that of the view from there (0.048
+    measured, 0.042 on the same scene under the constant ambient), where a bake lit by the constant
+    ambient would miss the sky's light on every metal the mirror shows."""
     path = tmp_path / "sky.exr"
     with open(path, "wb") as file:
         write_hdr(file, smooth_sky(), ".exr")
@@ -245,5 +248,8 @@ def test_metals_seen_in_a_mirror_take_the_sky_as_the_truth_does(ctx: moderngl.Co
         result = compare(renderer)
     assert_finite(result.render)
     assert_finite(result.truth)
+    if method is Method.DEPTH:
+        assert result.figures.wrong_object_share < 0.01 and result.figures.color_rmse < 0.06, result.figures
+        return
     assert result.figures.wrong_object_share == 0.0
     assert result.figures.color_rmse < 1e-3, result.figures.color_rmse
