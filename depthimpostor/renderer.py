@@ -231,6 +231,7 @@ class Renderer:
         return display_encode(self.read_color_float(), render.tone_mapping, render.exposure)
 
     @_live
+    @keeps_gl_state
     def sky_lighting(self) -> SkyLighting | None:
         """What the scene's equirect sky lights metallic-roughness surfaces with (ibl.py): its
         texture as the shaders read it (prefiltered at the first frame, or now), for the truth;
