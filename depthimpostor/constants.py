@@ -465,6 +465,12 @@ LIGHTING = Struct("Lighting", (
     ("env_intensity", "float"),
     ("env_horizon", "vec3"),
     ("env_ground", "vec3"),
+    # An equirect sky's image size in texels (its texture holds the prefiltered specular below it:
+    # lib/environment_lighting.glsl), and its irradiance as nine spherical-harmonic terms, each
+    # already times its basis constant and the cosine lobe's band factor (ibl.py's irradiance_sh9),
+    # in vec4s (std140 pads a vec3 array's elements to 16 bytes anyway); zero without a map.
+    ("env_size", "ivec2"),
+    ("env_irradiance", "vec4", 9),
     ("lights", LIGHT, MAX_LIGHTS),
 ))
 
@@ -523,6 +529,20 @@ DFG_FIT_SCALE = 1.04
 #: 0 / 0 where N.H = 1 (a point light's highlight of zero width and infinite height).
 MIN_ROUGHNESS = 0.0525
 
+# Image-based lighting from an equirect sky (ibl.py, passes/environment.py, lib/environment_lighting.glsl):
+#: The prefiltered specular levels below the sky's own image: level k (1..IBL_LEVELS) is the sky
+#: seen through GGX lobes of roughness k / IBL_LEVELS; level 0, roughness 0, is the sky itself.
+IBL_LEVELS = 5
+#: Level 1's width in texels (an equirect map, twice as wide as high); each next level is half as
+#: wide. 256 columns are 1.4 degrees each, finer than level 1's lobe (roughness 0.2: alpha 0.04,
+#: a lobe some 5 degrees across), as glTF-Sample-Viewer's 256-texel cube faces are for its level 1.
+IBL_WIDTH = 256
+#: GGX samples per prefiltered texel (Hammersley points, each read from the sky's mip level that
+#: its share of the lobe's solid angle covers: GPU Gems 3, 20.4, as glTF-Sample-Viewer's
+#: ibl_filtering.frag). 256 rather than 128: at roughness 1 the median error against a numpy sum
+#: over every texel halves, to 2 % (tests/test_environment_lighting.py), for twice the prefilter's time.
+IBL_SAMPLES = 256
+
 
 def glsl_constants() -> dict[str, str]:
     """Every shared constant as a GLSL define (name -> value text)."""
@@ -566,6 +586,9 @@ def glsl_constants() -> dict[str, str]:
         "DFG_FIT_EXPONENT": f"{DFG_FIT_EXPONENT!r}",
         "DFG_FIT_SCALE": f"{DFG_FIT_SCALE!r}",
         "MIN_ROUGHNESS": f"{MIN_ROUGHNESS!r}",
+        "IBL_LEVELS": str(IBL_LEVELS),
+        "IBL_WIDTH": str(IBL_WIDTH),
+        "IBL_SAMPLES": str(IBL_SAMPLES),
     }
     defines.update(glsl_bindings())
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",

@@ -19,7 +19,7 @@ from .methods.seen_from_eye import EyeImagesNode
 from .methods.stand_in import StandInNode
 from .node import FRAME, GraphFacts, Node, Pass
 from .passes.diffuse import DiffuseNode
-from .passes.environment import EnvironmentNode
+from .passes.environment import EnvironmentLightingNode, EnvironmentNode
 from .passes.glass import GlassInteriorsNode
 from .passes.reflectors import ReflectorsNode
 from .passes.shadows import ShadowMapsNode
@@ -30,6 +30,7 @@ __all__ = ["FRAME", "NODES", "GraphError", "Pass", "RenderNode", "build_graph", 
 
 #: Every node class, in the order a frame runs them: the bakes, then the eye's passes.
 NODES: tuple[type[Node], ...] = (
+    EnvironmentLightingNode,  # before anything that shades a metallic-roughness surface, bakes included
     ShadowMapsNode,  # before anything that shades: the baked images show shadows too
     StandInNode,
     BouncesNode,

@@ -17,13 +17,13 @@ from typing import Any
 from .constants import (
     BLEND_IMAGE_CUTOFF,
     depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MATERIAL, MAX_ANALYTIC_PLANES, MAX_BOUNCES, MAX_LIGHTS,
-    MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, EXTRA_ATTRIBUTES, HIERARCHICAL_MIN_SIDE, Algorithm,
-    Method, image_algorithm, lists_images, triangle_texel_layout,
+    MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, EXTRA_ATTRIBUTES, HIERARCHICAL_MIN_SIDE, IBL_LEVELS,
+    IBL_SAMPLES, Algorithm, Method, image_algorithm, lists_images, triangle_texel_layout,
 )
 from .culling import Reach
 from .geometry import ObjectGeometry
 from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines, has_checker
-from .passes.environment import ENVIRONMENT_PROGRAM, environment_map_bytes
+from .passes.environment import ENVIRONMENT_PROGRAM, PREFILTER_PROGRAM, environment_map_bytes
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .methods.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
 from .methods.baked_images import BakedImages, ImagePlan, SecondLayer
@@ -55,6 +55,7 @@ from .scene.limits import check_method, check_model_reach, check_model_uvs, chec
 from .scene.model import GltfShape, MeshShape, MetallicRoughnessMaterial, Scene
 from .gpu.shaders import ProgramKey, program_key
 from .graph import Pass, RenderNode, build_graph, format_graph, in_order, node_class
+from .ibl import PREFILTER_SECONDS, level_size, prefilter_reads, uses_environment_lighting
 from .lod import bake_meshes
 from .world import World
 
@@ -319,6 +320,11 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         for light in scene.shadowed_lights:  # refuses a light among its casters, as the shadow pass would
             fit_shadow_camera(scene, light, [g for g in geometry if g.object in casters], scene.render.shadow_resolution)
 
+    if uses_environment_lighting(scene):
+        passes.append(PlannedPass(Pass.ENVIRONMENT_LIGHTING, environment_lighting_reason(scene)))
+        variant(Pass.ENVIRONMENT_LIGHTING, PREFILTER_PROGRAM, None,
+                f"the sky's specular through GGX lobes, one level a draw ({IBL_SAMPLES} samples a texel)")
+
     images: list[PlannedImage] = []
     image_plans: dict[int, list[ImagePlan]] = {}
     skipped: list[SkippedImage] = []
@@ -393,7 +399,9 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
 
     passes.append(PlannedPass(Pass.ENVIRONMENT, f"the {scene.environment.type} sky behind everything"))
     variant(Pass.ENVIRONMENT, ENVIRONMENT_PROGRAM, environment_defines(scene),
-            "the sky" + (" (ENVIRONMENT_MAP: an equirect image)" if scene.environment.is_map else ""))
+            "the sky" + (" (ENVIRONMENT_MAP: an equirect image)" if scene.environment.is_map else "")
+            + (" (ENVIRONMENT_LIGHTING: its texture holds the prefiltered levels below the image)"
+               if uses_environment_lighting(scene) else ""))
     if diffuse:
         passes.append(PlannedPass(Pass.DIFFUSE, f"{plural(len(diffuse), 'object')} with diffuse materials"))
         shadows = " (SHADOWS: a light casts shadows)" if scene.has_shadows else ""
@@ -445,6 +453,29 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                       plan_limits(scene, method, image_plans, memory, reflected), ignored_in_files(scene))
 
 
+def environment_lighting_reason(scene: Scene) -> str:
+    """Why the prefilter runs and what it costs (ibl.py's rule: an equirect sky and a
+    metallic-roughness material; nothing of it otherwise)."""
+    pbr = sum(isinstance(m, MetallicRoughnessMaterial) for m in scene.materials)
+    (first, _), (last, _) = level_size(1), level_size(IBL_LEVELS)
+    return (f"{plural(pbr, 'metallic-roughness material')} lit by the equirect sky (ENVIRONMENT_LIGHTING): its "
+            f"specular through GGX lobes of roughness {1 / IBL_LEVELS:g} to 1 into {IBL_LEVELS} levels ({first} to {last} "
+            f"texels wide) below its image, {IBL_SAMPLES} filtered reads a texel ({prefilter_reads() / 1e6:.1f} M in all, "
+            f"about {PREFILTER_SECONDS * 1e3:.0f} ms on llvmpipe: tools/prefilter_cost.py), its irradiance as nine "
+            "spherical-harmonic terms (numpy, in the Lights block); once per sky, not per frame (reading a mipmapped "
+            f"copy of the sky, {_source_bytes(scene) / 2**20:.2f} MiB, made for it and let go)")
+
+
+def _source_bytes(scene: Scene) -> int:
+    """The prefilter's transient source: the sky as RGB32F with its whole mip chain."""
+    image = scene.environment.image
+    if image is None:
+        return 0
+    height, width = image.shape[:2]
+    levels = max(width, height).bit_length()
+    return sum(max(1, width >> k) * max(1, height >> k) * 12 for k in range(levels))
+
+
 def ignored_in_files(scene: Scene) -> tuple[tuple[str, tuple[str, ...]], ...]:
     """(file, what it uses that the loader does not implement) for each glTF file of the scene
     that uses some, in the order of its first object."""
@@ -463,6 +494,8 @@ def material_kinds(scene: Scene) -> str:
     maps = sum(any(t is not None for t in m.maps) for m in pbr)
     normal_maps = sum(m.normal_texture is not None for m in pbr)
     parts = [f"{len(pbr)} metallic-roughness (their shading compiled in: METALLIC_ROUGHNESS)"]
+    if uses_environment_lighting(scene):
+        parts.append("lit by the equirect sky in place of the constant ambient (ENVIRONMENT_LIGHTING)")
     if maps:
         parts.append(f"{maps} with metallic-roughness, occlusion, emissive or normal maps")
     if normal_maps:
@@ -577,7 +610,7 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     if any(g.object.is_reflector for g in geometry):
         memory["reflector surfaces"] = Surfaces.bytes_for((width, height))
     if scene.environment.is_map:
-        memory["environment map"] = environment_map_bytes(scene.environment)
+        memory["environment map"] = environment_map_bytes(scene)
     if scene.has_shadows:
         memory["shadow maps"] = (shadow_map_bytes(len(scene.shadowed_lights), scene.render.shadow_resolution)
                                  + MAX_LIGHTS * DEPTH_IMAGE_DTYPE.itemsize)

@@ -106,12 +106,13 @@ class RenderGraph:
             for key in node.programs:
                 self.programs.compile(key)
 
-    def build(self) -> None:
-        """Every node's GL side, from the plan, with the programs of the cache."""
+    def build(self, environment: EnvironmentPass | None = None) -> None:
+        """Every node's GL side, from the plan, with the programs of the cache (and `environment`,
+        the sky and its prefiltered levels kept from before, where it serves this scene)."""
         ctx, scene, world = self.ctx, self.world.scene, self.world
         self._compile()
         self.scene_blocks.write(world.lit_scene, world.analytic_planes)
-        self.environment = EnvironmentPass(ctx, self.programs, scene)
+        self.environment = environment if environment is not None else EnvironmentPass(ctx, self.programs, scene)
         # Made (and baked) before anything that shades: depth images show the shadows too.
         self.shadow_maps = (ShadowMaps(ctx, self.programs, world.lit_scene, self.meshes, world.shadow_casters)
                             if self.plan.runs(Pass.SHADOW_MAPS) else None)
@@ -294,11 +295,16 @@ class RenderGraph:
             node.follow(earlier, world)
 
     def rebuild(self, plan: RenderPlan, world: World) -> None:
-        """Every node made again for another scene (the same context, meshes and textures)."""
+        """Every node made again for another scene (the same context, meshes and textures), but the
+        sky where the edit left it as it was (the same image, lighting the same way): its
+        prefilter runs once per sky, not once per edit of a material or a light."""
+        kept = self.environment if self.environment.serves(world.scene) else None
+        if kept is not None:
+            self.environment = None  # type: ignore[assignment]  # not released with the other passes
         self.release_passes()
         self.plan, self.world = plan, world
         self.meshes.load([g.local_mesh for g in world.geometry])
-        self.build()
+        self.build(kept)
 
     def set_show_samples(self, show: bool) -> None:
         self.show_samples = show

@@ -28,6 +28,7 @@ from .scene.model import Camera, Scene
 from .supersampling import SubFrame, draw_supersampled
 from .targets import FrameTargets, ReflectionData
 from .world import World
+from .oracles.ibl import SkyLighting
 
 Method_ = TypeVar("Method_", bound=Callable[..., Any])
 
@@ -228,6 +229,15 @@ class Renderer:
         """The last frame as uint8 through the scene's display transform (colour.py), for a PNG."""
         render = self.scene.render
         return display_encode(self.read_color_float(), render.tone_mapping, render.exposure)
+
+    @_live
+    @keeps_gl_state
+    def sky_lighting(self) -> SkyLighting | None:
+        """What the scene's equirect sky lights metallic-roughness surfaces with (ibl.py): its
+        texture as the shaders read it (prefiltered at the first frame, or now), for the truth;
+        None where the sky lights nothing (constant ambient)."""
+        texture = self.graph.environment.read_back()
+        return None if texture is None else SkyLighting.of(self.scene.environment, texture)
 
     @_live
     def read_sample_counts(self) -> np.ndarray:

@@ -30,9 +30,11 @@ def test_every_unit_and_binding_fits_the_gl_minimums() -> None:
     diffuse_only = tuple(unit for unit in TextureUnit if unit.name.startswith("MATERIAL_ARRAY"))
     ray_query_only = (TextureUnit.RAY_ORIGINS, TextureUnit.RAY_DIRECTIONS)
     screen_only = (TextureUnit.SCREEN_COLOR, TextureUnit.SCREEN_SURFACE, TextureUnit.SSR_PYRAMID)
+    # The sky's mipmapped image, read by its prefilter alone (once per sky, before the frame).
+    prefilter_only = (TextureUnit.ENVIRONMENT_SOURCE,)
     shader_units = [unit for unit in TextureUnit
                     if unit not in (TextureUnit.FRAME, TextureUnit.GLYPHS, *diffuse_only, *ray_query_only,
-                                     *screen_only)]
+                                     *screen_only, *prefilter_only)]
     # A glossy mirror's colour mips are read by the methods that bake images and trace no triangles
     # (plan.py's _builds_colour_mips): never with the BVH's units or the hybrid method's.
     triangles_only = (TextureUnit.BVH_NODES, TextureUnit.BVH_TRIANGLES, TextureUnit.BVH_PLACES,

@@ -65,6 +65,10 @@ class TextureUnit(IntEnum):
     MATERIAL_ARRAY_CLAMPED_1 = 29
     MATERIAL_ARRAY_CLAMPED_2 = 30
     MATERIAL_ARRAY_CLAMPED_3 = 31
+    # An equirect sky's image with its mip chain, read by its prefilter alone (passes/environment.py:
+    # once per sky, before any bake; released after). What the prefilter makes is kept in the
+    # ENVIRONMENT_MAP texture, below the image: the shaders that shade read no more samplers for it.
+    ENVIRONMENT_SOURCE = 32
 
 
 @unique

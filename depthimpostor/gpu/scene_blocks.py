@@ -20,6 +20,7 @@ from .uniforms import material_count, material_records
 from ..constants import LIGHTING, MATERIAL, MAX_ANALYTIC_PLANES, MAX_LIGHTS, PLANES, LightKind, ShadowKind
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
+from ..ibl import irradiance_sh9, uses_environment_lighting
 from ..scene.model import PlaneShape, Scene
 
 
@@ -36,6 +37,9 @@ def lighting_record(scene: Scene) -> np.ndarray:
     record["env_rotation"] = (math.cos(radians), math.sin(radians))
     record["env_zenith"], record["env_horizon"], record["env_ground"] = env.zenith, env.horizon, env.ground
     record["env_intensity"] = env.intensity
+    if env.image is not None and uses_environment_lighting(scene):  # what lib/environment_lighting.glsl reads
+        record["env_size"] = (env.image.shape[1], env.image.shape[0])
+        record["env_irradiance"][:, :3] = irradiance_sh9(env.image)
     lights = record["lights"]
     for i, light in enumerate(scene.lights):
         if light.type == "directional":

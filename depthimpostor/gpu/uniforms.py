@@ -19,6 +19,7 @@ from ..constants import EXTRA_ATTRIBUTES, MATERIAL, MATERIAL_ARRAYS, MAX_LIGHTS,
 from ..scene.model import (
     CheckerMaterial, DiffuseMaterial, GltfShape, MetallicRoughnessMaterial, Scene, SceneObject,
 )
+from ..ibl import uses_environment_lighting
 from ..texture_layout import texture_defines
 from ..textures import SRGB_TABLE
 from .textures import array_unit
@@ -43,6 +44,7 @@ def shading_defines(scene: Scene) -> dict[str, int]:
                else {}),
             **alpha_mask_defines(scene),
             **mesh_attribute_defines(scene),
+            **environment_lighting_defines(scene),
             **texture_defines(scene)}
 
 
@@ -69,6 +71,12 @@ def mesh_attribute_defines(scene: Scene) -> dict[str, int]:
     MeshPoint fields it carries, and where the triangle texture holds them (constants.triangle_texel_layout)."""
     attributes = mesh_attributes(scene)
     return {**{ATTRIBUTE_DEFINES[name]: 1 for name in attributes}, **triangle_texel_layout(attributes)}
+
+
+def environment_lighting_defines(scene: Scene) -> dict[str, int]:
+    """Image-based lighting where the scene has an equirect sky and a metallic-roughness material
+    (ibl.py's rule): ENVIRONMENT_LIGHTING, with the sky's image (ENVIRONMENT_MAP) it reads."""
+    return {"ENVIRONMENT_LIGHTING": 1, "ENVIRONMENT_MAP": 1} if uses_environment_lighting(scene) else {}
 
 
 def has_alpha_mask(scene: Scene) -> bool:
@@ -112,8 +120,9 @@ def write_material_index(program: moderngl.Program, scene: Scene, obj: SceneObje
 
 
 def environment_defines(scene: Scene) -> dict[str, int]:
-    """The variant of every program that reads the environment: ENVIRONMENT_MAP for an image."""
-    return {"ENVIRONMENT_MAP": 1} if scene.environment.is_map else {}
+    """The variant of every program that reads the environment: ENVIRONMENT_MAP for an image (and
+    ENVIRONMENT_LIGHTING where its texture holds the prefiltered levels below the image)."""
+    return {"ENVIRONMENT_MAP": 1, **environment_lighting_defines(scene)} if scene.environment.is_map else {}
 
 
 def write(program: moderngl.Program | moderngl.ComputeShader, name: str,

@@ -120,7 +120,7 @@ class BouncesNode(Node):
 
     @staticmethod
     def reads(facts: GraphFacts) -> tuple[str, ...]:
-        return ("baked images", *facts.made("shadow maps"))
+        return ("baked images", *facts.made("shadow maps", "environment lighting"))
 
     @staticmethod
     def writes(facts: GraphFacts) -> tuple[str, ...]:

@@ -24,7 +24,7 @@ class StandInNode(Node):
     @staticmethod
     def reads(facts: GraphFacts) -> tuple[str, ...]:
         # Baked images are shaded, shadows included: the maps first. A BVH is triangles alone.
-        return facts.made("shadow maps") if "baked images" in facts.stand_in else ()
+        return facts.made("shadow maps", "environment lighting") if "baked images" in facts.stand_in else ()
 
     @staticmethod
     def writes(facts: GraphFacts) -> tuple[str, ...]:

@@ -15,7 +15,9 @@ import numpy as np
 
 from ..constants import DFG_FIT_C0, DFG_FIT_C1, DFG_FIT_EXPONENT, DFG_FIT_SCALE, DIELECTRIC_F0, MIN_ROUGHNESS
 from ..scene.model import MetallicRoughnessMaterial, Scene
+from ..ibl import uses_environment_lighting
 from ..lights import toward_light
+from .ibl import SkyLighting, environment_irradiance, environment_specular
 from .mesh_points import MeshPoints, texel
 
 Array = np.ndarray
@@ -72,13 +74,33 @@ def ambient_specular(f0: Array, roughness: float | Array, n_dot_v: Array) -> Arr
     return f0 * scale[:, None] + bias[:, None]
 
 
+def ambient_light(scene: Scene, c_diff: Array, f0: Array, roughness: Array, normals: Array, to_viewer: Array,
+                  occlusion: Array, sky: SkyLighting | None) -> Array:
+    """lib/shading.glsl's ambient_light: the sky's irradiance through the diffuse base and its
+    prefiltered radiance along the reflected view through the specular lobe where it lights the
+    scene (`sky`: ibl.py's rule), a uniform environment of the constant ambient otherwise."""
+    n_dot_v = np.abs(_dot(normals, to_viewer))
+    if uses_environment_lighting(scene):
+        if sky is None:
+            raise ValueError(f"{scene.source}: its equirect sky lights metallic-roughness surfaces: the truth needs "
+                             "the sky's prefiltered levels (oracles/ibl.py's SkyLighting)")
+        reflected = 2.0 * _dot(normals, to_viewer)[:, None] * normals - to_viewer  # GLSL's reflect(-v, n)
+        env = scene.environment
+        return occlusion[:, None] * (c_diff * environment_irradiance(env, sky, normals)
+                                     + environment_specular(env, sky, reflected, roughness)
+                                     * ambient_specular(f0, roughness, n_dot_v))
+    return scene.render.ambient * occlusion[:, None] * (c_diff + ambient_specular(f0, roughness, n_dot_v))
+
+
 def shade_metallic_roughness(scene: Scene, material: MetallicRoughnessMaterial, base_color: Array, points: MeshPoints,
                              positions: Array, normals: Array, to_viewer: Array,
-                             visibility: Callable[[int, Array, Array], Array] | None = None) -> Array:
+                             visibility: Callable[[int, Array, Array], Array] | None = None,
+                             sky: SkyLighting | None = None) -> Array:
     """lib/shading.glsl's shade_metallic_roughness: (n, 3) colours of surfaces of `material` whose
     colour at the point is `base_color`, at the mesh points `points` (its maps sampled at their
     UVs as traced rays sample them: level 0, bilinear), seen along `to_viewer` (unit, from the
-    surface); `visibility(light, positions, normals)` the share of each light that reaches each point."""
+    surface); `visibility(light, positions, normals)` the share of each light that reaches each point;
+    `sky` what an equirect sky lights it with (ambient_light)."""
     count = len(positions)
     metallic = np.full(count, material.metallic)
     roughness = np.full(count, material.roughness)
@@ -94,8 +116,7 @@ def shade_metallic_roughness(scene: Scene, material: MetallicRoughnessMaterial, 
     c_diff = base_color * (1.0 - metallic)[:, None]
     f0 = DIELECTRIC_F0 * (1.0 - metallic)[:, None] + base_color * metallic[:, None]
     alpha = np.maximum(roughness, MIN_ROUGHNESS) ** 2
-    n_dot_v = np.abs(_dot(normals, to_viewer))
-    color = scene.render.ambient * occlusion[:, None] * (c_diff + ambient_specular(f0, roughness, n_dot_v))
+    color = ambient_light(scene, c_diff, f0, roughness, normals, to_viewer, occlusion, sky)
     for index, light in enumerate(scene.lights):
         to_light = toward_light(light, positions, normals)
         cosine = _dot(normals, to_light)

@@ -162,7 +162,7 @@ def primary_tracer(renderer: Renderer) -> TruthTracer:
     casters = world.shadow_casters
     apart = {g.index for g in casters} | {g.index for g in world.analytic_planes}
     seen = [*casters, *(g for g in world.geometry if g.index not in apart)]
-    return TruthTracer(renderer.scene, seen, world.analytic_planes, casters)
+    return TruthTracer(renderer.scene, seen, world.analytic_planes, casters, renderer.sky_lighting())
 
 
 def trace_direct(renderer: Renderer, mirror_mask: np.ndarray, camera: PPC | None = None) -> np.ndarray:
@@ -186,7 +186,7 @@ def trace_truth(renderer: Renderer, data: ReflectionData, camera: PPC | None = N
     camera = renderer.camera if camera is None else camera
     mask = data.mirror_mask
     specular = SpecularTruth(renderer.scene, renderer.world.reflected_objects, renderer.world.reflectors, renderer.world.analytic_planes,
-                             renderer.world.shadow_casters)
+                             renderer.world.shadow_casters, renderer.sky_lighting())
     origins = data.origin[mask]
     incoming = origins - camera.C
     incoming /= np.maximum(np.linalg.norm(incoming, axis=1, keepdims=True), 1e-300)
@@ -212,7 +212,8 @@ def trace_truth(renderer: Renderer, data: ReflectionData, camera: PPC | None = N
         if blended:  # what the eye sees of the reflectors through blended objects (passes/transparent.py)
             planes = {g.index for g in renderer.world.analytic_planes}
             tracer = TruthTracer(renderer.scene, [g for g in blended if g.index not in planes],
-                                 [g for g in blended if g.index in planes], renderer.world.shadow_casters)
+                                 [g for g in blended if g.index in planes], renderer.world.shadow_casters,
+                                 renderer.sky_lighting())
             surface = seen_through_blended(tracer, np.asarray(camera.C, float), origins, surface)
         color[mask] = surface
         object_id[mask] = np.concatenate(object_ids)

@@ -29,6 +29,7 @@ from ..scene.model import (
     CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MetallicRoughnessMaterial, MirrorMaterial, Scene,
 )
 from .brdf import mapped_normal, shade_metallic_roughness
+from .ibl import SkyLighting, equirect_coordinates, equirect_texels, sky_frame
 from .mesh_points import MeshPoints, texel, texel_alpha
 from .ggx import glossy_average
 
@@ -76,28 +77,7 @@ def equirect_lookup(env: Environment, directions: Array) -> Array:
     image = env.image
     if image is None:
         raise ValueError(f"a {env.type} environment has no image")
-    height, width = image.shape[:2]
-    radians = np.radians(env.rotation)
-    c, s = np.cos(radians), np.sin(radians)
-    x = c * directions[:, 0] - s * directions[:, 2]
-    y = directions[:, 1]
-    z = s * directions[:, 0] + c * directions[:, 2]
-    horizontal = np.hypot(x, z)
-    around = horizontal > 0.0
-    longitude = np.where(around, np.arctan2(x, -z), 0.0)
-    polar = np.where(around, np.arctan2(horizontal, y), np.where(y < 0.0, np.pi, 0.0))
-    tx = (longitude / (2.0 * np.pi) + 0.5) * width - 0.5
-    ty = polar / np.pi * height - 0.5
-    bx, by = np.floor(tx), np.floor(ty)
-    fx, fy = (tx - bx)[:, None], (ty - by)[:, None]
-    x0 = (bx.astype(np.int64) + width) % width
-    x1 = (bx.astype(np.int64) + 1 + width) % width
-    y0 = np.clip(by.astype(np.int64), 0, height - 1)
-    y1 = np.clip(by.astype(np.int64) + 1, 0, height - 1)
-    texels = image.astype(np.float64)
-    top = texels[y0, x0] + (texels[y0, x1] - texels[y0, x0]) * fx
-    bottom = texels[y1, x0] + (texels[y1, x1] - texels[y1, x0]) * fx
-    return env.intensity * (top + (bottom - top) * fy)
+    return env.intensity * equirect_texels(image, equirect_coordinates(sky_frame(env, directions)))
 
 
 def material_albedo(material: Material, local_positions: Array, points: MeshPoints | None = None) -> Array:
@@ -261,9 +241,10 @@ class TruthTracer:
 
     def __init__(
         self, scene: Scene, meshes: Sequence[ObjectGeometry], planes: Sequence[ObjectGeometry],
-        casters: Sequence[ObjectGeometry] = (),
+        casters: Sequence[ObjectGeometry] = (), sky: SkyLighting | None = None,
     ) -> None:
         self.scene = scene
+        self.sky = sky  # what the sky lights metallic-roughness hits with, where it does (ibl.py)
         self.meshes = list(meshes)
         self.planes = list(planes)
         self._embree = _embree_scene(self.meshes)
@@ -333,7 +314,7 @@ class TruthTracer:
                 mapped = mapped_normal(material, points[chosen], normals[chosen])
                 hits.color[chosen] = shade_metallic_roughness(self.scene, material, albedo[chosen], points[chosen],
                                                               hits.position[chosen], mapped, -directions[chosen],
-                                                              self.visibility)
+                                                              self.visibility, self.sky)
         return hits, alpha
 
     def surfaces(self, origins: Array, directions: Array) -> tuple[TruthHits, Array]:
@@ -502,12 +483,12 @@ class SpecularTruth:
     MAX_INTERNAL_REFLECTIONS, the interior holding the glass alone)."""
 
     def __init__(self, scene: Scene, meshes: Sequence[ObjectGeometry], reflectors: Sequence[ObjectGeometry],
-                 planes: Sequence[ObjectGeometry], casters: Sequence[ObjectGeometry]) -> None:
+                 planes: Sequence[ObjectGeometry], casters: Sequence[ObjectGeometry], sky: SkyLighting | None = None) -> None:
         self.reflectors = {r.index: r for r in reflectors}
-        self.last = TruthTracer(scene, meshes, planes, casters)
+        self.last = TruthTracer(scene, meshes, planes, casters, sky)
         # Built once for every bounce but the last (an Embree scene is a BVH build).
         self.with_reflectors = (
-            TruthTracer(scene, [*meshes, *reflectors], planes, casters)
+            TruthTracer(scene, [*meshes, *reflectors], planes, casters, sky)
             if scene.render.max_bounces > 1 and reflectors else None
         )
         self.interiors = {r.index: TruthTracer(scene, [r], []) for r in reflectors if r.object.is_glass}

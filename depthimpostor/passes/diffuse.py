@@ -171,7 +171,7 @@ class DiffuseNode(Node):
 
     @staticmethod
     def reads(facts: GraphFacts) -> tuple[str, ...]:
-        return ("frame colour", "frame depth", *facts.made("shadow maps"))
+        return ("frame colour", "frame depth", *facts.made("shadow maps", "environment lighting"))
 
     @staticmethod
     def writes(facts: GraphFacts) -> tuple[str, ...]:

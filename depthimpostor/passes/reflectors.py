@@ -283,7 +283,7 @@ class ReflectorsNode(Node):
         glass interiors and shadow maps."""
         pyramids = ("depth pyramids",) if facts.reads_pyramids else ()
         return ("frame colour", "frame depth", *facts.stand_in, *facts.surface, *pyramids,
-                *facts.made("colour mips", "bounce images", "glass interiors", "shadow maps"))
+                *facts.made("colour mips", "bounce images", "glass interiors", "shadow maps", "environment lighting"))
 
     @staticmethod
     def writes(facts: GraphFacts) -> tuple[str, ...]:

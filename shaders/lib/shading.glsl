@@ -124,10 +124,29 @@ vec3 shade(vec3 albedo, vec3 position, vec3 normal) {
 
 #ifdef METALLIC_ROUGHNESS
 #include "brdf.glsl"
+#ifdef ENVIRONMENT_LIGHTING
+#include "environment_lighting.glsl"
+#endif
+
+// The ambient term of a surface of diffuse colour c_diff and specular F0: with ENVIRONMENT_LIGHTING
+// (an equirect sky: ibl.py), the sky's irradiance through the diffuse base and its prefiltered
+// radiance along the reflected view through the specular lobe (the split sum: times the DFG fit);
+// otherwise a uniform environment of the constant ambient radiance. Darkened by the occlusion map
+// either way (occlusion: 1 without one).
+vec3 ambient_light(vec3 c_diff, vec3 f0, float roughness, vec3 normal, vec3 to_viewer, float occlusion) {
+    float n_dot_v = abs(dot(normal, to_viewer));
+#ifdef ENVIRONMENT_LIGHTING
+    vec3 reflected = reflect(-to_viewer, normal);
+    return occlusion * (c_diff * environment_irradiance(normal)
+                        + environment_specular(reflected, roughness) * ambient_specular(f0, roughness, n_dot_v));
+#else
+    return u_lighting.ambient * occlusion * (c_diff + ambient_specular(f0, roughness, n_dot_v));
+#endif
+}
 
 // A metallic-roughness surface of `base_color` (the material's factor times its texel: material_albedo)
-// at the mesh point `point`, seen along `to_viewer` (unit, from the surface): the ambient term as a
-// uniform environment (darkened by the occlusion map), the lights through the BRDF, and the
+// at the mesh point `point`, seen along `to_viewer` (unit, from the surface): the ambient term
+// (ambient_light: the sky's, or a uniform environment), the lights through the BRDF, and the
 // emitted light. A variant of the scenes that have such a material (METALLIC_ROUGHNESS:
 // shading_defines); oracles/brdf.py's function of the same name.
 vec3 shade_metallic_roughness(Material material, vec3 base_color, MeshPoint point, vec3 position, vec3 normal,
@@ -148,8 +167,7 @@ vec3 shade_metallic_roughness(Material material, vec3 base_color, MeshPoint poin
     vec3 f0 = mix(vec3(DIELECTRIC_F0), base_color, metallic);
     float lobe_roughness = max(roughness, MIN_ROUGHNESS);
     float alpha = lobe_roughness * lobe_roughness;
-    float n_dot_v = abs(dot(normal, to_viewer));
-    vec3 color = u_lighting.ambient * occlusion * (c_diff + ambient_specular(f0, roughness, n_dot_v));
+    vec3 color = ambient_light(c_diff, f0, roughness, normal, to_viewer, occlusion);
     for (int i = 0; i < LIGHT_COUNT; ++i) {
         Light light = u_lighting.lights[i];
         vec3 to_light = toward_light(light, position, normal);
