@@ -252,11 +252,10 @@ def pixels_per_radian_alone(view: PPC, mirror: ObjectGeometry, target: ObjectGeo
 
 def test_a_mirrors_density_made_once_gives_each_objects_own_to_the_bit() -> None:
     """impostor_resolution = "auto" works a mirror's reflected pixels out once for all its images
-    (MirrorDensity): each object's figure is the one worked out for it alone, some of them 0
+    (MirrorDensity), in blocks of objects: each object's figure is the one worked out for it alone, some of them 0
     (objects the view cannot see in the mirror)."""
-    geometry = scene_geometry(tuple(scattered_objects(60)))
+    geometry = scene_geometry(tuple(scattered_objects(150)))  # more than a block of objects (_TARGETS_AT_ONCE)
     view = PPC.look_at((0.5, 2.5, 7.0), (0.0, 1.0, 0.0), (0.0, 1.0, 0.0), 45.0, 320, 180)
-    density = MirrorDensity(view, geometry[0])
-    figures = [density.pixels_per_radian(item) for item in geometry[1:]]
+    figures = MirrorDensity(view, geometry[0]).pixels_per_radian_of(geometry[1:])
     assert figures == [pixels_per_radian_alone(view, geometry[0], item) for item in geometry[1:]]
     assert any(figures) and not all(figures)

@@ -470,17 +470,17 @@ def largest_side(scene: Scene, mirrors: int, per_object: int, texel_bytes: int) 
 
 
 def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: ObjectGeometry, largest: int | None = None,
-                 fit: FrustumFit | None = None, density: MirrorDensity | None = None) -> PPC:
+                 fit: FrustumFit | None = None, pixels_per_radian: float | None = None) -> PPC:
     """The camera of `target`'s image for `mirror`: fitted at render.impostor_resolution, or at
     the resolution `view` (the scene's camera) asks for when it is "auto" (resolution.py); at most
     `largest` (the memory budget's side: budgeted_side). `fit`: its frustum, found already
-    (fit_depth_image_frusta); `density`: the mirror's reflected pixels, worked out already for
-    its other images (MirrorDensity)."""
+    (fit_depth_image_frusta); `pixels_per_radian`: the mirror's reflected pixels toward `target`,
+    worked out already with its other images (MirrorDensity)."""
     cap = largest if largest is not None else MAX_AUTO_RESOLUTION
     if not scene.render.auto_resolution:
         return fit_depth_image_camera(scene, mirror, target, min(int(scene.render.impostor_resolution), cap), fit)
     probe = fit_depth_image_camera(scene, mirror, target, min(MIN_AUTO_RESOLUTION, cap), fit)
-    side = auto_resolution(view, mirror, target, probe, density)
+    side = auto_resolution(view, mirror, target, probe, pixels_per_radian)
     return fit_depth_image_camera(scene, mirror, target, min(side, cap), fit)
 
 
@@ -499,9 +499,11 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
     fits = fit_depth_image_frusta(scene, [(mirror, shown[mirror.index]) for mirror in mirrors])
     plans = {}
     for mirror in mirrors:
-        # The mirror's reflected pixels once for all its images ("auto" alone reads them).
-        density = MirrorDensity(view, mirror) if scene.render.auto_resolution and shown[mirror.index] else None
+        targets = shown[mirror.index]
+        # The mirror's reflected pixels toward each object, all at once ("auto" alone reads them).
+        rho: list[float | None] = (list(MirrorDensity(view, mirror).pixels_per_radian_of(targets))
+                                   if scene.render.auto_resolution and targets else [None] * len(targets))
         plans[mirror.index] = [ImagePlan((target,), image_camera(scene, view, mirror, target, largest,
-                                                                 fits[(mirror.index, target.index)], density))
-                               for target in shown[mirror.index]]
+                                                                 fits[(mirror.index, target.index)], pixels))
+                               for target, pixels in zip(targets, rho, strict=True)]
     return plans
