@@ -214,9 +214,11 @@ def test_the_proxy_box_is_the_world_meshes_bounds() -> None:
 def pixels_per_radian_alone(view: PPC, mirror: ObjectGeometry, target: ObjectGeometry) -> float:
     """resolution.reflected_pixels_per_radian as it was before MirrorDensity: every mirror
     triangle's figures worked out again for each object."""
+    def unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        length = np.linalg.norm(v, axis=-1, keepdims=True)
+        return v / np.where(length > 0.0, length, 1.0)
+
     mesh = mirror.world_mesh
-    unit = (lambda v: v / np.where(np.linalg.norm(v, axis=-1, keepdims=True) > 0.0,
-                                   np.linalg.norm(v, axis=-1, keepdims=True), 1.0))
     corners = mesh.positions[mesh.indices].astype(np.float64)
     normals = unit(mesh.normals[mesh.indices].astype(np.float64))
     face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
