@@ -114,6 +114,6 @@ class SceneBlocks:
 
 
 def materials_bytes(scene: Scene) -> int:
-    """GPU memory of `scene`'s MaterialRecords table (a uniform block: at most the GL's
-    GL_MAX_UNIFORM_BLOCK_SIZE, 16 KiB at least, which plan.plan_limits states)."""
+    """GPU memory of `scene`'s MaterialRecords table (a uniform block up to MATERIAL_BLOCK_RECORDS
+    records, a storage buffer past them: plan.plan_limits states which)."""
     return material_count(scene) * MATERIAL.dtype.itemsize
