@@ -442,6 +442,12 @@ MATERIAL = Struct("Material", (
     ("blend", "int"),  # 1: glTF's alphaMode BLEND (alpha_cutoff is then BLEND_IMAGE_CUTOFF, for the images)
 ))
 
+#: Material records a uniform block holds within GL 3.3's guaranteed 16 KiB (146 records of 112 bytes). A scene of more
+#: distinct materials reads its MaterialRecords table from a storage buffer (GL 4.3) instead, as
+#: large as memory allows: std430 lays the record out as std140 does (every member within a vec4,
+#: the struct a multiple of 16 bytes), so one numpy record type fills either.
+MATERIAL_BLOCK_RECORDS = 16384 // MATERIAL.dtype.itemsize
+
 #: One light of the Lights block: LIGHT_DIRECTIONAL or LIGHT_POINT, SHADOW_NONE, SHADOW_HARD or
 #: SHADOW_SOFT, the soft shadows' disk radius, the unit travel direction (directional) or the
 #: position (point), and colour * intensity.
@@ -550,6 +556,7 @@ def glsl_constants() -> dict[str, str]:
         "MAX_LIGHTS": str(MAX_LIGHTS),
         "MAX_ANALYTIC_PLANES": str(MAX_ANALYTIC_PLANES),
         "DEPTH_IMAGE_BLOCK_RECORDS": str(DEPTH_IMAGE_BLOCK_RECORDS),
+        "MATERIAL_BLOCK_RECORDS": str(MATERIAL_BLOCK_RECORDS),
         "BACKGROUND_DEPTH": f"{BACKGROUND_DEPTH:.1f}",
         "NO_OBJECT": str(NO_OBJECT),
         "CONTACT_DEPTH_TOLERANCE": f"{CONTACT_DEPTH_TOLERANCE!r}",

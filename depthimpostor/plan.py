@@ -16,9 +16,9 @@ from typing import Any
 
 from .constants import (
     BLEND_IMAGE_CUTOFF,
-    depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MATERIAL, MAX_ANALYTIC_PLANES, MAX_BOUNCES, MAX_LIGHTS,
-    MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, EXTRA_ATTRIBUTES, HIERARCHICAL_MIN_SIDE, IBL_LEVELS,
-    IBL_SAMPLES, Algorithm, Method, image_algorithm, lists_images, triangle_texel_layout,
+    depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MATERIAL, MATERIAL_BLOCK_RECORDS, MAX_ANALYTIC_PLANES,
+    MAX_BOUNCES, MAX_LIGHTS, MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, EXTRA_ATTRIBUTES,
+    HIERARCHICAL_MIN_SIDE, IBL_LEVELS, IBL_SAMPLES, Algorithm, Method, image_algorithm, lists_images, triangle_texel_layout,
 )
 from .culling import Reach
 from .geometry import ObjectGeometry
@@ -32,6 +32,7 @@ from .methods.planar import check_flat_mirrors
 from .methods.seen_from_eye import SeenFromEye
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks, materials_bytes
+from .gpu.uniforms import materials_in_storage
 from .gpu.textures import GpuTextures
 from .texture_layout import texture_layout
 from .passes.reflectors import (
@@ -564,9 +565,11 @@ def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImageP
         lines.append(f"deforming glTF parts (skins, morph targets): {len(deforming)}, made again on the CPU at every "
                      f"time that moves them; the mesh buffer rewritten, {rebake}, {refit} "
                      "(tools/deforming_cost.py measures each)")
+    where = (f"a storage buffer (past {MATERIAL_BLOCK_RECORDS}, GL 4.3), within memory" if materials_in_storage(scene)
+             else f"a uniform block (a storage buffer past {MATERIAL_BLOCK_RECORDS}), within GL_MAX_UNIFORM_BLOCK_SIZE "
+                  "(16 KiB at GL's least), checked at render")
     lines.append(f"materials: {len(scene.materials)}{material_kinds(scene)} (any number: one record of "
-                 f"{MATERIAL.dtype.itemsize} bytes each in a uniform block, within GL_MAX_UNIFORM_BLOCK_SIZE (16 KiB at "
-                 "GL's least), checked at render)")
+                 f"{MATERIAL.dtype.itemsize} bytes each in {where})")
     if scene.textures:
         lines.append(f"image textures: {len(scene.textures)} (any number: in texture arrays, within GL_MAX_TEXTURE_SIZE, "
                      "GL_MAX_ARRAY_TEXTURE_LAYERS and GL_MAX_UNIFORM_BLOCK_SIZE, checked at render)")

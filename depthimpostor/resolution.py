@@ -22,6 +22,7 @@ moving the camera re-bakes nothing, so the images keep the resolution the scene'
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -50,50 +51,87 @@ def frustum_span(camera: PPC) -> float:
     return max(spans)
 
 
+class MirrorDensity:
+    """What reflected_pixels_per_radian reads of a mirror's triangles seen from `view`, worked out
+    once for every object it is asked about (a mirror may show a thousand): which triangles the
+    view sees, their reflected directions' mean and spread, their centroids and extents, their
+    areas on screen and solid angles."""
+
+    def __init__(self, view: PPC, mirror: ObjectGeometry) -> None:
+        mesh = mirror.world_mesh
+        corners = mesh.positions[mesh.indices].astype(np.float64)  # (T, 3, 3)
+        normals = _unit(mesh.normals[mesh.indices].astype(np.float64))
+        face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        incoming = _unit(corners - view.C)
+        projected = view.project(corners)  # (T, 3, (u, v, w))
+        inside = (projected[..., 0] >= 0) & (projected[..., 0] <= view.width) & \
+                 (projected[..., 1] >= 0) & (projected[..., 1] <= view.height)
+        seen = (np.einsum("tj,tj->t", face, corners[:, 0] - view.C) < 0.0) & np.all(projected[..., 2] > 0.0, axis=1) \
+            & np.any(inside, axis=1)
+        # Only the triangles the view sees can count: the rest are dropped here, once.
+        corners, projected, incoming, normals = corners[seen], projected[seen], incoming[seen], normals[seen]
+        reflected = incoming - 2.0 * np.einsum("tij,tij->ti", incoming, normals)[..., None] * normals
+        self.mean = _unit(reflected.sum(axis=1))
+        self.spread = np.arccos(np.clip(np.einsum("tij,tj->ti", reflected, self.mean), -1.0, 1.0)).max(axis=1)
+        self.centroid = corners.mean(axis=1)
+        self.extent = np.linalg.norm(corners - self.centroid[:, None], axis=2).max(axis=1)
+        uv, r = projected[..., :2], reflected
+        edge_1, edge_2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+        self.area = 0.5 * np.abs(edge_1[:, 0] * edge_2[:, 1] - edge_1[:, 1] * edge_2[:, 0])
+        triple = np.abs(np.einsum("tj,tj->t", r[:, 0], np.cross(r[:, 1], r[:, 2])))
+        denominator = 1.0 + np.einsum("tj,tj->t", r[:, 0], r[:, 1]) + np.einsum("tj,tj->t", r[:, 1], r[:, 2]) \
+            + np.einsum("tj,tj->t", r[:, 2], r[:, 0])
+        self.solid_angle = 2.0 * np.arctan2(triple, denominator)
+
+    def pixels_per_radian(self, target: ObjectGeometry) -> float:
+        """rho for `target` (reflected_pixels_per_radian)."""
+        return self.pixels_per_radian_of([target])[0]
+
+    def pixels_per_radian_of(self, targets: Sequence[ObjectGeometry]) -> list[float]:
+        """rho for each of `targets`: the angles for a block of them at once, each one's sums over
+        its own triangles (the figure pixels_per_radian gives it alone, to the bit)."""
+        figures: list[float] = []
+        for first in range(0, len(targets), _TARGETS_AT_ONCE):
+            block = targets[first:first + _TARGETS_AT_ONCE]
+            if not len(self.mean):
+                figures += [0.0] * len(block)
+                continue
+            spheres = [target.bounding_sphere for target in block]
+            centres = np.array([centre for centre, _ in spheres], np.float64)
+            radii = np.array([radius for _, radius in spheres], np.float64)
+            toward = centres[:, None, :] - self.centroid  # (targets, T, 3)
+            distance = np.maximum(np.linalg.norm(toward, axis=-1), 1e-300)
+            sphere_angle = np.arcsin(np.clip(radii[:, None] / distance, 0.0, 1.0))
+            # A ray leaves from anywhere on the triangle, up to `extent` from its centroid: that turns the
+            # direction to the sphere's centre by up to asin(extent / distance).
+            apex_angle = np.arcsin(np.clip(self.extent / distance, 0.0, 1.0))
+            # toward / distance is _unit(toward) to the bit (a zero vector stays zero either way).
+            angle = np.arccos(np.clip(np.einsum("ntj,tj->nt", toward / distance[..., None], self.mean), -1.0, 1.0))
+            for chosen in angle <= sphere_angle + self.spread + apex_angle:
+                total = float(self.solid_angle[chosen].sum()) if chosen.any() else 0.0
+                figures.append(math.sqrt(float(self.area[chosen].sum()) / total) if total > 0.0 else 0.0)
+        return figures
+
+
+#: Objects whose angles MirrorDensity works out in one block: (objects, mirror triangles) arrays of
+#: about 64 x 5,000 doubles (2.5 MB each) for a mirror sphere's seen half.
+_TARGETS_AT_ONCE = 64
+
+
 def reflected_pixels_per_radian(view: PPC, mirror: ObjectGeometry, target: ObjectGeometry) -> float:
     """rho: screen pixels per radian of reflected direction, over the mirror's triangles that
-    `view` sees and whose reflected rays may reach `target`; 0 when there are none."""
-    mesh = mirror.world_mesh
-    corners = mesh.positions[mesh.indices].astype(np.float64)  # (T, 3, 3)
-    normals = _unit(mesh.normals[mesh.indices].astype(np.float64))
-    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    incoming = _unit(corners - view.C)
-    projected = view.project(corners)  # (T, 3, (u, v, w))
-    inside = (projected[..., 0] >= 0) & (projected[..., 0] <= view.width) & \
-             (projected[..., 1] >= 0) & (projected[..., 1] <= view.height)
-    seen = (np.einsum("tj,tj->t", face, corners[:, 0] - view.C) < 0.0) & np.all(projected[..., 2] > 0.0, axis=1) \
-        & np.any(inside, axis=1)
-    reflected = incoming - 2.0 * np.einsum("tij,tij->ti", incoming, normals)[..., None] * normals
-    mean = _unit(reflected.sum(axis=1))
-    spread = np.arccos(np.clip(np.einsum("tij,tj->ti", reflected, mean), -1.0, 1.0)).max(axis=1)
-    centre, radius = target.bounding_sphere
-    centroid = corners.mean(axis=1)
-    toward = np.asarray(centre, np.float64) - centroid
-    distance = np.maximum(np.linalg.norm(toward, axis=1), 1e-300)
-    sphere_angle = np.arcsin(np.clip(radius / distance, 0.0, 1.0))
-    # A ray leaves from anywhere on the triangle, up to `extent` from its centroid: that turns the
-    # direction to the sphere's centre by up to asin(extent / distance).
-    extent = np.linalg.norm(corners - centroid[:, None], axis=2).max(axis=1)
-    apex_angle = np.arcsin(np.clip(extent / distance, 0.0, 1.0))
-    angle = np.arccos(np.clip(np.einsum("tj,tj->t", _unit(toward), mean), -1.0, 1.0))
-    chosen = seen & (angle <= sphere_angle + spread + apex_angle)
-    if not chosen.any():
-        return 0.0
-    uv, r = projected[chosen][..., :2], reflected[chosen]
-    edge_1, edge_2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
-    area = 0.5 * np.abs(edge_1[:, 0] * edge_2[:, 1] - edge_1[:, 1] * edge_2[:, 0])
-    triple = np.abs(np.einsum("tj,tj->t", r[:, 0], np.cross(r[:, 1], r[:, 2])))
-    denominator = 1.0 + np.einsum("tj,tj->t", r[:, 0], r[:, 1]) + np.einsum("tj,tj->t", r[:, 1], r[:, 2]) \
-        + np.einsum("tj,tj->t", r[:, 2], r[:, 0])
-    solid_angle = 2.0 * np.arctan2(triple, denominator)
-    total = float(solid_angle.sum())
-    return math.sqrt(float(area.sum()) / total) if total > 0.0 else 0.0
+    `view` sees and whose reflected rays may reach `target`; 0 when there are none. (For many
+    objects of one mirror, make its MirrorDensity once.)"""
+    return MirrorDensity(view, mirror).pixels_per_radian(target)
 
 
-def auto_resolution(view: PPC, mirror: ObjectGeometry, target: ObjectGeometry, image: PPC) -> int:
+def auto_resolution(view: PPC, mirror: ObjectGeometry, target: ObjectGeometry, image: PPC,
+                    pixels_per_radian: float | None = None) -> int:
     """The resolution at which a sample of `image` (the depth image of `target` for `mirror`)
-    covers about one of `view`'s reflected pixels (see the module's note)."""
-    samples = frustum_span(image) * reflected_pixels_per_radian(view, mirror, target)
+    covers about one of `view`'s reflected pixels (see the module's note). `pixels_per_radian`:
+    rho, worked out already with the mirror's other images (MirrorDensity.pixels_per_radian_of)."""
+    rho = pixels_per_radian if pixels_per_radian is not None else reflected_pixels_per_radian(view, mirror, target)
+    samples = frustum_span(image) * rho
     if samples <= MIN_AUTO_RESOLUTION:
         return MIN_AUTO_RESOLUTION
     return int(min(MAX_AUTO_RESOLUTION, 2 ** math.ceil(math.log2(samples))))

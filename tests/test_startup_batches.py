@@ -15,13 +15,14 @@ from depthimpostor.constants import (
     BOUND_MARGIN, CLIP_TOLERANCE_PIXELS, CONTACT_DEPTH_TOLERANCE, MAX_SURFACE_SLOPE,
 )
 from depthimpostor.culling import _cones, _culled, _Cones, swept_spheres
-from depthimpostor.geometry import bounding_spheres, scene_geometry, world_vertex_groups
+from depthimpostor.geometry import ObjectGeometry, bounding_spheres, scene_geometry, world_vertex_groups
 from depthimpostor.methods.atlas import ImpostorAtlas
 from depthimpostor.methods.cubemaps import proxy_box
 from depthimpostor.oracles.reference import DepthImageData
 from depthimpostor.ppc import (
     PPC, FrustumFitError, depth_image_records, fit_frusta, orthonormal_frame, view_projections,
 )
+from depthimpostor.resolution import MirrorDensity
 from depthimpostor.scene.model import BoxShape, CheckerMaterial, MirrorMaterial, SceneObject, SphereShape
 
 
@@ -208,3 +209,55 @@ def test_the_proxy_box_is_the_world_meshes_bounds() -> None:
     points = np.concatenate([item.world_mesh.positions for item in fresh])
     np.testing.assert_array_equal(lower, points.min(axis=0))
     np.testing.assert_array_equal(upper, points.max(axis=0))
+
+
+def pixels_per_radian_alone(view: PPC, mirror: ObjectGeometry, target: ObjectGeometry) -> float:
+    """resolution.reflected_pixels_per_radian as it was before MirrorDensity: every mirror
+    triangle's figures worked out again for each object."""
+    def unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        length = np.linalg.norm(v, axis=-1, keepdims=True)
+        return v / np.where(length > 0.0, length, 1.0)
+
+    mesh = mirror.world_mesh
+    corners = mesh.positions[mesh.indices].astype(np.float64)
+    normals = unit(mesh.normals[mesh.indices].astype(np.float64))
+    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    incoming = unit(corners - view.C)
+    projected = view.project(corners)
+    inside = (projected[..., 0] >= 0) & (projected[..., 0] <= view.width) & \
+             (projected[..., 1] >= 0) & (projected[..., 1] <= view.height)
+    seen = (np.einsum("tj,tj->t", face, corners[:, 0] - view.C) < 0.0) & np.all(projected[..., 2] > 0.0, axis=1) \
+        & np.any(inside, axis=1)
+    reflected = incoming - 2.0 * np.einsum("tij,tij->ti", incoming, normals)[..., None] * normals
+    mean = unit(reflected.sum(axis=1))
+    spread = np.arccos(np.clip(np.einsum("tij,tj->ti", reflected, mean), -1.0, 1.0)).max(axis=1)
+    centre, radius = target.bounding_sphere
+    centroid = corners.mean(axis=1)
+    toward = np.asarray(centre, np.float64) - centroid
+    distance = np.maximum(np.linalg.norm(toward, axis=1), 1e-300)
+    sphere_angle = np.arcsin(np.clip(radius / distance, 0.0, 1.0))
+    extent = np.linalg.norm(corners - centroid[:, None], axis=2).max(axis=1)
+    apex_angle = np.arcsin(np.clip(extent / distance, 0.0, 1.0))
+    angle = np.arccos(np.clip(np.einsum("tj,tj->t", unit(toward), mean), -1.0, 1.0))
+    chosen = seen & (angle <= sphere_angle + spread + apex_angle)
+    if not chosen.any():
+        return 0.0
+    uv, r = projected[chosen][..., :2], reflected[chosen]
+    edge_1, edge_2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    area = 0.5 * np.abs(edge_1[:, 0] * edge_2[:, 1] - edge_1[:, 1] * edge_2[:, 0])
+    triple = np.abs(np.einsum("tj,tj->t", r[:, 0], np.cross(r[:, 1], r[:, 2])))
+    denominator = 1.0 + np.einsum("tj,tj->t", r[:, 0], r[:, 1]) + np.einsum("tj,tj->t", r[:, 1], r[:, 2]) \
+        + np.einsum("tj,tj->t", r[:, 2], r[:, 0])
+    total = float((2.0 * np.arctan2(triple, denominator)).sum())
+    return float(np.sqrt(float(area.sum()) / total)) if total > 0.0 else 0.0
+
+
+def test_a_mirrors_density_made_once_gives_each_objects_own_to_the_bit() -> None:
+    """impostor_resolution = "auto" works a mirror's reflected pixels out once for all its images
+    (MirrorDensity), in blocks of objects: each object's figure is the one worked out for it alone, some of them 0
+    (objects the view cannot see in the mirror)."""
+    geometry = scene_geometry(tuple(scattered_objects(150)))  # more than a block of objects (_TARGETS_AT_ONCE)
+    view = PPC.look_at((0.5, 2.5, 7.0), (0.0, 1.0, 0.0), (0.0, 1.0, 0.0), 45.0, 320, 180)
+    figures = MirrorDensity(view, geometry[0]).pixels_per_radian_of(geometry[1:])
+    assert figures == [pixels_per_radian_alone(view, geometry[0], item) for item in geometry[1:]]
+    assert any(figures) and not all(figures)

@@ -7,6 +7,7 @@ machine shared with other work, less disturbed by it than the wall time).
 
     python3 tools/startup_time.py scenes/lecture_8x9.toml --size 320x180 --resolution 128
     python3 tools/startup_time.py --objects 1000 --method raytrace   # tools/scene_size.py's scene of 1,000
+    python3 tools/startup_time.py --objects 1000 --method depth --resolution auto
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ def main() -> None:
     parser.add_argument("--objects", type=int, help="tools/scene_size.py's scene of that many objects around two mirrors")
     parser.add_argument("--method", default="depth")
     parser.add_argument("--size", default="320x180")
-    parser.add_argument("--resolution", type=int, default=128)
+    parser.add_argument("--resolution", default="128", help="the images' side, or auto (sized by what the view asks)")
     parser.add_argument("--runs", type=int, default=5)
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.split("x"))
@@ -40,7 +41,8 @@ def main() -> None:
         written, name = family_scene(args.objects), f"{args.objects} objects"
     else:
         written, name = load_scene(args.scene), str(args.scene)
-    scene = written.with_overrides(size=(width, height), impostor_resolution=args.resolution)
+    resolution = args.resolution if args.resolution == "auto" else int(args.resolution)
+    scene = written.with_overrides(size=(width, height), impostor_resolution=resolution)
     method = Method.from_option(args.method)
     ctx = create_context()
     made, switched, first_frame, started, cpu = [], [], [], [], []
@@ -59,7 +61,9 @@ def main() -> None:
         ctx.finish()
         switched.append(time.perf_counter() - start)
         renderer.release()
-    print(f"{name}, --method {method.option}: Renderer() {1000 * statistics.median(made):.0f} ms, first frame (bakes, compiles) "
+    with open("/proc/loadavg", encoding="ascii") as load:
+        loads = " ".join(load.read().split()[:3])
+    print(f"{name}, --method {method.option}, resolution {args.resolution} (load {loads}): Renderer() {1000 * statistics.median(made):.0f} ms, first frame (bakes, compiles) "
           f"{1000 * statistics.median(first_frame):.0f} ms, set_algorithm {1000 * statistics.median(switched):.0f} ms "
           f"(medians of {args.runs}); Renderer() + first frame {1000 * statistics.median(started):.0f} ms, "
           f"{1000 * statistics.median(cpu):.0f} ms of this process's CPU time (all its threads: llvmpipe's too)")

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import moderngl
 
-from ..constants import MATERIAL, TEXTURE_RECORD
+from ..constants import MATERIAL, MATERIAL_BLOCK_RECORDS, STORAGE_GL_VERSION, TEXTURE_RECORD
 from ..errors import GpuLimitError
 from ..host_memory import available_memory
 from ..methods.atlas import atlas_grid
@@ -34,6 +34,7 @@ from ..plan import RenderPlan
 from ..scene.model import Scene
 from ..texture_layout import texture_layout
 from .scene_blocks import materials_bytes
+from .uniforms import materials_in_storage
 
 MIB = 2**20
 
@@ -211,7 +212,7 @@ def check_fits(ctx: moderngl.Context, scene: Scene, plan: RenderPlan) -> None:
     for surface in surfaces(scene, plan):
         _check_surface(surface, limits, backend)
     _check_textures(scene, limits, backend)
-    _check_materials(scene, limits)
+    _check_materials(scene, limits, ctx.version_code)
     if limits.memory is None:
         return
     total = planned_bytes(plan)
@@ -222,9 +223,18 @@ def check_fits(ctx: moderngl.Context, scene: Scene, plan: RenderPlan) -> None:
                             "--max-memory")
 
 
-def _check_materials(scene: Scene, limits: GpuLimits) -> None:
-    """The scene's distinct materials against GL_MAX_UNIFORM_BLOCK_SIZE: every pass reads them from
-    one uniform block (lib/shading.glsl's MaterialRecords)."""
+def _check_materials(scene: Scene, limits: GpuLimits, version_code: int) -> None:
+    """The scene's distinct materials against where every pass reads them from (lib/shading.glsl's
+    MaterialRecords): a uniform block within GL_MAX_UNIFORM_BLOCK_SIZE, or past a uniform block's
+    guaranteed records (MATERIAL_BLOCK_RECORDS) a storage buffer, which needs GL 4.3 and is
+    bounded by memory alone."""
+    if materials_in_storage(scene):
+        if version_code < STORAGE_GL_VERSION:
+            raise GpuLimitError(f"the scene's {len(scene.materials)} distinct materials are read from a storage buffer "
+                                f"past {MATERIAL_BLOCK_RECORDS}, which needs OpenGL 4.3; this context has "
+                                f"{version_code // 100}.{version_code % 100 // 10}: use a newer driver, or at most "
+                                f"{MATERIAL_BLOCK_RECORDS} distinct materials")
+        return
     needed = materials_bytes(scene)
     if needed > limits.max_uniform_block_size:
         most = limits.max_uniform_block_size // MATERIAL.dtype.itemsize

@@ -15,8 +15,8 @@ from collections.abc import Sequence
 import moderngl
 import numpy as np
 
-from .bindings import UniformBlock
-from .uniforms import material_count, material_records
+from .bindings import StorageBuffer, UniformBlock
+from .uniforms import material_count, material_records, materials_in_storage
 from ..constants import LIGHTING, MATERIAL, MAX_ANALYTIC_PLANES, MAX_LIGHTS, PLANES, LightKind, ShadowKind
 from ..errors import SceneError
 from ..geometry import ObjectGeometry
@@ -90,12 +90,14 @@ class SceneBlocks:
         self.lights = ctx.buffer(reserve=LIGHTING.dtype.itemsize)
         self.planes = ctx.buffer(reserve=PLANES.dtype.itemsize)
         self.materials = ctx.buffer(reserve=MATERIAL.dtype.itemsize)
+        self.materials_in_storage = False  # past a uniform block's records (uniforms.materials_in_storage)
 
     def write(self, scene: Scene, planes: Sequence[ObjectGeometry]) -> None:
         """`scene`'s lights (where they are now), the analytic planes `planes` and the materials."""
         self.lights.write(lighting_record(scene).tobytes())
         self.planes.write(planes_record(scene, planes).tobytes())
         materials = material_records(scene).tobytes()
+        self.materials_in_storage = materials_in_storage(scene)
         if len(materials) != self.materials.size:  # an edited scene with another number of materials
             self.materials.release()
             self.materials = self.ctx.buffer(reserve=len(materials))
@@ -104,7 +106,10 @@ class SceneBlocks:
     def bind(self) -> None:
         self.lights.bind_to_uniform_block(UniformBlock.LIGHTS)
         self.planes.bind_to_uniform_block(UniformBlock.ANALYTIC_PLANES)
-        self.materials.bind_to_uniform_block(UniformBlock.MATERIALS)
+        if self.materials_in_storage:
+            self.materials.bind_to_storage_buffer(StorageBuffer.MATERIALS)
+        else:
+            self.materials.bind_to_uniform_block(UniformBlock.MATERIALS)
 
     def release(self) -> None:
         self.lights.release()
@@ -113,6 +118,6 @@ class SceneBlocks:
 
 
 def materials_bytes(scene: Scene) -> int:
-    """GPU memory of `scene`'s MaterialRecords table (a uniform block: at most the GL's
-    GL_MAX_UNIFORM_BLOCK_SIZE, 16 KiB at least, which plan.plan_limits states)."""
+    """GPU memory of `scene`'s MaterialRecords table (a uniform block up to MATERIAL_BLOCK_RECORDS
+    records, a storage buffer past them: plan.plan_limits states which)."""
     return material_count(scene) * MATERIAL.dtype.itemsize

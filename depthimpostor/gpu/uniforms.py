@@ -14,8 +14,9 @@ from typing import Any, cast
 import moderngl
 import numpy as np
 
-from .bindings import TextureUnit, UniformBlock
-from ..constants import EXTRA_ATTRIBUTES, MATERIAL, MATERIAL_ARRAYS, MAX_LIGHTS, MaterialKind, triangle_texel_layout
+from .bindings import StorageBuffer, TextureUnit, UniformBlock
+from ..constants import (EXTRA_ATTRIBUTES, MATERIAL, MATERIAL_ARRAYS, MATERIAL_BLOCK_RECORDS, MAX_LIGHTS, MaterialKind,
+                         triangle_texel_layout)
 from ..scene.model import (
     CheckerMaterial, DiffuseMaterial, GltfShape, MetallicRoughnessMaterial, Scene, SceneObject,
 )
@@ -34,7 +35,7 @@ def shading_defines(scene: Scene) -> dict[str, int]:
     (TEXTURE_COUNT of them, in TEXTURE_ARRAYS arrays, with the samplers they need:
     texture_layout.texture_defines)."""
     return {"LIGHT_COUNT": min(len(scene.lights), MAX_LIGHTS),  # a constant loop bound (lib/shading.glsl)
-            "MATERIAL_COUNT": material_count(scene),  # the MaterialRecords table's size
+            **material_defines(scene),  # the MaterialRecords table's size, and where it lives
             **({"DIRECTIONAL_LIGHTS": 1} if scene.lights and all(light.type == "directional" for light in scene.lights)
                else {}),
             **({"SHADOWS": 1} if scene.has_shadows else {}),
@@ -97,8 +98,19 @@ def alpha_mask_defines(scene: Scene) -> dict[str, int]:
     shading programs take them with shading_defines."""
     if not has_alpha_mask(scene):
         return {}
-    return {"ALPHA_MASK": 1, "MATERIAL_COUNT": material_count(scene), **mesh_attribute_defines(scene),
-            **texture_defines(scene)}
+    return {"ALPHA_MASK": 1, **material_defines(scene), **mesh_attribute_defines(scene), **texture_defines(scene)}
+
+
+def material_defines(scene: Scene) -> dict[str, int]:
+    """The MaterialRecords table's size (MATERIAL_COUNT), and past a uniform block's
+    MATERIAL_BLOCK_RECORDS the storage buffers' extension that lib/shading.glsl then reads it from."""
+    count = material_count(scene)
+    return {"MATERIAL_COUNT": count, **({"NEEDS_STORAGE_BLOCKS": 1} if materials_in_storage(scene) else {})}
+
+
+def materials_in_storage(scene: Scene) -> bool:
+    """Is the scene's MaterialRecords table a storage buffer (GL 4.3) rather than a uniform block?"""
+    return material_count(scene) > MATERIAL_BLOCK_RECORDS
 
 
 def blend_defines(scene: Scene, composite: bool) -> dict[str, int]:
@@ -270,4 +282,4 @@ def write_scene_uniforms(program: moderngl.Program, scene: Scene) -> None:
     bind_uniform_block(program, "AnalyticPlanes", UniformBlock.ANALYTIC_PLANES)
     bind_uniform_block(program, "ShadowMaps", UniformBlock.SHADOW_MAPS)
     bind_uniform_block(program, "TextureRecords", UniformBlock.TEXTURE_RECORDS)
-    bind_uniform_block(program, "MaterialRecords", UniformBlock.MATERIALS)
+    bind_record_block(program, "MaterialRecords", UniformBlock.MATERIALS, StorageBuffer.MATERIALS)

@@ -31,7 +31,7 @@ from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
 from ..lod import BakeDetail
 from ..culling import Reach, ReachTable, reaches
 from ..ppc import PPC, FrustumFit, depth_image_records, view_projections
-from ..resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION, auto_resolution, scene_view
+from ..resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION, MirrorDensity, auto_resolution, scene_view
 from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
 from ..passes.diffuse import DiffusePass, has_checker
@@ -470,16 +470,18 @@ def largest_side(scene: Scene, mirrors: int, per_object: int, texel_bytes: int) 
 
 
 def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: ObjectGeometry, largest: int | None = None,
-                 fit: FrustumFit | None = None) -> PPC:
+                 fit: FrustumFit | None = None, pixels_per_radian: float | None = None) -> PPC:
     """The camera of `target`'s image for `mirror`: fitted at render.impostor_resolution, or at
     the resolution `view` (the scene's camera) asks for when it is "auto" (resolution.py); at most
     `largest` (the memory budget's side: budgeted_side). `fit`: its frustum, found already
-    (fit_depth_image_frusta)."""
+    (fit_depth_image_frusta); `pixels_per_radian`: the mirror's reflected pixels toward `target`,
+    worked out already with its other images (MirrorDensity)."""
     cap = largest if largest is not None else MAX_AUTO_RESOLUTION
     if not scene.render.auto_resolution:
         return fit_depth_image_camera(scene, mirror, target, min(int(scene.render.impostor_resolution), cap), fit)
     probe = fit_depth_image_camera(scene, mirror, target, min(MIN_AUTO_RESOLUTION, cap), fit)
-    return fit_depth_image_camera(scene, mirror, target, min(auto_resolution(view, mirror, target, probe), cap), fit)
+    side = auto_resolution(view, mirror, target, probe, pixels_per_radian)
+    return fit_depth_image_camera(scene, mirror, target, min(side, cap), fit)
 
 
 def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
@@ -495,6 +497,13 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
     largest = (None if texel_bytes is None
                else largest_side(scene, len(mirrors), sum(len(targets) for targets in shown.values()), texel_bytes))
     fits = fit_depth_image_frusta(scene, [(mirror, shown[mirror.index]) for mirror in mirrors])
-    return {mirror.index: [ImagePlan((target,), image_camera(scene, view, mirror, target, largest,
-                                                             fits[(mirror.index, target.index)]))
-                           for target in shown[mirror.index]] for mirror in mirrors}
+    plans = {}
+    for mirror in mirrors:
+        targets = shown[mirror.index]
+        # The mirror's reflected pixels toward each object, all at once ("auto" alone reads them).
+        rho: list[float | None] = (list(MirrorDensity(view, mirror).pixels_per_radian_of(targets))
+                                   if scene.render.auto_resolution and targets else [None] * len(targets))
+        plans[mirror.index] = [ImagePlan((target,), image_camera(scene, view, mirror, target, largest,
+                                                                 fits[(mirror.index, target.index)], pixels))
+                               for target, pixels in zip(targets, rho, strict=True)]
+    return plans

@@ -15,9 +15,17 @@
 #ifndef MATERIAL_COUNT
 #define MATERIAL_COUNT 1
 #endif
+// Past MATERIAL_BLOCK_RECORDS (GL 3.3's guaranteed 16 KiB) the table is a storage buffer (GL 4.3;
+// the prefix enables it for NEEDS_STORAGE_BLOCKS), whose std430 layout of Material is std140's.
+#if MATERIAL_COUNT > MATERIAL_BLOCK_RECORDS
+layout(std430) readonly buffer MaterialRecords {
+    Material u_materials[MATERIAL_COUNT];
+};
+#else
 layout(std140) uniform MaterialRecords {
     Material u_materials[MATERIAL_COUNT];
 };
+#endif
 
 #ifdef SHADOWS
 #include "shadows.glsl"
