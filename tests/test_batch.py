@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -20,7 +21,7 @@ from PIL import Image
 from conftest import SCENES
 from depthimpostor.aov import read_aovs
 from depthimpostor.batch.jobs import Batch, Frame, load_batch
-from depthimpostor.batch.run import LocalPool, RayPool, recorded_outputs, run_batch
+from depthimpostor.batch.run import LocalPool, RayPool, open_pool, recorded_outputs, run_batch
 from depthimpostor.batch.worker import KEPT_RENDERERS, FrameWorker
 from depthimpostor.cli import main
 from depthimpostor.errors import SceneError
@@ -192,6 +193,7 @@ def test_a_video_on_two_workers_equals_the_serial_video(local_ray: None, tmp_pat
      "jobs[0].frames: expected no value beside times or cameras"),
     ('name = "a"\nscene = "s.toml"\noutput = "{frame}.png"\nmethod = "mirror"\n', "jobs[0].method: expected one of: depth"),
     ('name = "a"\nscene = "s.toml"\noutput = "{frame}.png"\naov = ["mask"]\n', "jobs[0].aov: expected AOVs among depth"),
+    ('name = "a\n', "jobs.toml: expected a TOML batch file, got "),
 ])
 def test_a_bad_batch_file_is_refused_in_one_line(tmp_path: Path, extra: str, message: str) -> None:
     jobs = tmp_path / "jobs.toml"
@@ -240,3 +242,11 @@ def test_a_worker_keeps_its_most_recently_used_renderers(tmp_path: Path) -> None
         assert np.array_equal(np.asarray(Image.open(tmp_path / "again0.png")), np.asarray(Image.open(tmp_path / "0.png")))
     finally:
         worker.release()
+
+
+def test_workers_need_ray_and_an_address_needs_workers(monkeypatch: pytest.MonkeyPatch) -> None:
+    with pytest.raises(SceneError, match=r"command line: --address: expected with --workers 1 or more"):
+        open_pool(0, "auto")
+    monkeypatch.setitem(sys.modules, "ray", None)  # as where the [batch] extra is not installed
+    with pytest.raises(SceneError, match=r'--workers: expected Ray to be installed: pip install "depthimpostor\[batch\]"'):
+        open_pool(2, None)

@@ -161,6 +161,12 @@ RAISES = {
     # render --video's arguments (the frames past MAX_VIDEO_FRAMES, a GIF frame past 655.35 s among
     # them), refused before any work as cli.py's are: walked in tests/test_video.py
     "video.py": 5,
+    # An unknown AOV name (render --aov, a batch job's aov), refused before any work: tests/test_aov.py
+    "aov.py": 1,
+    # A batch file that is no TOML, two frames writing one file: tests/test_batch.py
+    "batch/jobs.py": 2,
+    # --workers without Ray installed, --address with --workers 0: tests/test_batch.py
+    "batch/run.py": 2,
 }
 
 
