@@ -443,7 +443,8 @@ def decode_primitive(data: GltfData, primitive: Mapping[str, Any], mode: int, at
             f"distances), got {float(np.abs(positions).max()):g}")
     for name, values in (("TEXCOORD_0", uvs), ("TEXCOORD_1", uvs1), ("TANGENT", tangents), ("COLOR_0", colors)):
         if values is not None and not np.isfinite(values).all():
-            raise at.key("attributes").key(name).error("expected finite values, got NaN or infinity")
+            what = "texture coordinates" if name.startswith("TEXCOORD") else "values"
+            raise at.key("attributes").key(name).error(f"expected finite {what}, got NaN or infinity")
     if tangents is not None:
         tangents = _unit_tangents(tangents)
     return Primitive(positions, np.asarray(faces, np.int64), normals, uvs, tangents, colors, uvs1)
