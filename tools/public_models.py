@@ -98,7 +98,7 @@ CATALOGUE: tuple[PublicModel, ...] = (
                 "KHR_materials_clearcoat, alphaMode BLEND labels, normal maps, emissive texture"),
     PublicModel("AlphaBlendModeTest", "AlphaBlendModeTest.glb", RGL2GLTF, "inst/localtests",
                 CC_BY + " (Analytical Graphics)",
-                "alphaMode MASK at cutoffs 0.25, 0.5, 0.75, alphaMode BLEND, OPAQUE with alpha; ORM and normal maps"),
+                "alphaMode MASK at cutoffs 0.25, 0.5, 0.75, alphaMode BLEND and OPAQUE side by side; ORM and normal maps"),
     PublicModel("DamagedHelmet", "DamagedHelmet.glb", RGL2GLTF, "inst/localtests",
                 "CC BY 4.0 and CC BY-NC 4.0 (Khronos' listing; theblueturtle_, ctxwing)",
                 "every texture map: base colour, metallic-roughness, normal, occlusion, emissive", False,
