@@ -86,10 +86,11 @@ def test_a_public_model_renders_beside_a_mirror_listing_what_it_ignores(ctx: mod
     assert image.std() > 0.01
 
 
-@pytest.mark.parametrize("name", ["BoxTextured", "TextureTransformTest"])
+@pytest.mark.parametrize("name", ["BoxTextured", "MorphPrimitivesTest"])
 def test_the_triangle_methods_see_what_the_truth_sees_on_a_textured_model(ctx: moderngl.Context, name: str) -> None:
-    """raytrace and hybrid: no mirror pixel shows another object than the truth's, and the colour
-    is the truth's within float rounding (the same textures sampled at the same points)."""
+    """raytrace and hybrid, on a textured box and on a textured mesh its morph target moves: no
+    mirror pixel shows another object than the truth's, and the colour is the truth's within float
+    rounding (the same textures sampled at the same points)."""
     model = next(m for m in COMMITTED if m.name == name)
     scene = PUBLIC.mirror_scene(PUBLIC.model_path(model, Path(".")), (128, 80))
     truth = None
@@ -99,7 +100,7 @@ def test_the_triangle_methods_see_what_the_truth_sees_on_a_textured_model(ctx: m
             result = compare(renderer, truth)
         truth = result.truth_frame
         figures = result.figures
-        assert figures.object_pixels > 50  # the model is seen in the mirrors
+        assert figures.object_pixels > 20  # the model is seen in the mirrors
         assert figures.wrong_object_share == 0.0, method
         assert figures.color_rmse < 2e-3, method
         assert np.isfinite(result.render).all()
