@@ -41,6 +41,8 @@ from depthimpostor.scene.model import (
     PlaneShape, RenderSettings, Scene, SceneObject, Texture,
 )
 
+#: What a primitive without a material is drawn with: the specification's default material.
+GLTF_DEFAULT_MATERIAL = MetallicRoughnessMaterial((1.0, 1.0, 1.0), metallic=1.0, roughness=1.0)
 #: The mirror rule: a material at least this metallic and at most this rough is a mirror.
 MIRROR_METALLIC, MIRROR_ROUGHNESS = 0.9, 0.1
 #: The glass rule: a KHR_materials_transmission factor of at least this is glass.
@@ -107,8 +109,8 @@ class GltfFile:
     camera: tuple[int, np.ndarray, float] | None  # the first camera: node, world matrix, yfov in degrees
 
     def material_of(self, part: GltfPart) -> GltfMaterial:
-        if part.material is None:
-            return GltfMaterial("default", DiffuseMaterial((1.0, 1.0, 1.0)), False)
+        if part.material is None:  # glTF 2.0, 3.9.6: white, metallic 1, roughness 1 (a rough white metal)
+            return GltfMaterial("default", GLTF_DEFAULT_MATERIAL, False)
         return self.materials[part.material]
 
     def bounds(self) -> tuple[np.ndarray, float]:
