@@ -24,7 +24,7 @@ from .gpu.uniforms import write_scene_uniforms
 from .plan import RenderPlan, plan_render
 from .ppc import PPC
 from .render_graph import GraphOptions, RenderGraph, RenderStats
-from .scene.model import Camera, Scene
+from .scene.model import Camera, Environment, Scene
 from .supersampling import SubFrame, draw_supersampled
 from .targets import FrameTargets, ReflectionData
 from .world import World
@@ -68,6 +68,7 @@ class Renderer:
         are GraphOptions' (render_graph.py)."""
         check_usable(ctx)
         self.released = False
+        self._sky: tuple[Environment, SkyLighting | None] | None = None  # sky_lighting's, once read
         self.ctx, self.scene, self.method, self.algorithm = ctx, scene, method, algorithm
         self.options = GraphOptions(reflection_data, count_samples, time_mirror_pass)
         self.stats = RenderStats()
@@ -214,7 +215,10 @@ class Renderer:
         return self.stats
 
     def sub_frames(self) -> list[SubFrame]:
-        """The last frame's sub-pixel frames (render.samples), or the frame itself without AA."""
+        """The last frame's sub-pixel frames (render.samples), or the frame itself without AA. The
+        sky's lighting is read with them (sky_lighting), so that `compare` given them touches no GL
+        and can run in another thread."""
+        self.sky_lighting()
         if self.scene.render.samples == 1:
             data = self.read_reflection_data() if self.options.reflection_data else None
             return [SubFrame(self.camera, self.read_color_float(), data)]
@@ -230,12 +234,19 @@ class Renderer:
         render = self.scene.render
         return display_encode(self.read_color_float(), render.tone_mapping, render.exposure)
 
-    @_live
-    @keeps_gl_state
     def sky_lighting(self) -> SkyLighting | None:
         """What the scene's equirect sky lights metallic-roughness surfaces with (ibl.py): its
         texture as the shaders read it (prefiltered at the first frame, or now), for the truth;
-        None where the sky lights nothing (constant ambient)."""
+        None where the sky lights nothing (constant ambient). Read from the GL once for the
+        scene's environment, then kept: another thread may ask again (compare in the viewer)."""
+        environment = self.scene.environment
+        if self._sky is None or self._sky[0] is not environment:
+            self._sky = (environment, self._read_sky_lighting())
+        return self._sky[1]
+
+    @_live
+    @keeps_gl_state
+    def _read_sky_lighting(self) -> SkyLighting | None:
         texture = self.graph.environment.read_back()
         return None if texture is None else SkyLighting.of(self.scene.environment, texture)
 

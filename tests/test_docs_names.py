@@ -30,6 +30,10 @@ PATH = re.compile(r"(?<![\w/.~$-])((?:[\w-]+/)+[\w.-]+\.[a-z]+|[\w-]+(?:\.py|\.g
                   r"(?![\w/(-])")
 FILE_NAME = re.compile(r"`?((?:[\w-]+/)*[\w-]+\.(?:py|glsl|frag|vert|comp))`?'s `(\w+)`")
 DOTTED = re.compile(r"`([A-Za-z_]\w*(?:\.[A-Za-z_]\w*)+)(?:\(\))?`")
+#: Bare file names of other projects that the text names as theirs (the works we learn from):
+#: not names of ours.
+OTHERS = {"ibl_filtering.frag": "glTF-Sample-Viewer's GGX prefilter",
+          "mesh.frag": "pyrender's shader, which tools/independent_compare.py patches"}
 
 
 def documents() -> list[Path]:
@@ -63,7 +67,7 @@ def is_ours(name: str) -> bool:
     if len(parts[-1].split(".")[0]) == 1:  # x.glsl, scenes/S.toml: placeholders
         return False
     if len(parts) == 1:
-        return name.endswith(SOURCE_SUFFIXES)
+        return name.endswith(SOURCE_SUFFIXES) and name not in OTHERS
     return parts[0] in folders() and not name.startswith(("/", "tmp/"))
 
 
