@@ -73,7 +73,7 @@ AOVS: dict[str, Aov] = {
     "truth_reflected_object_id": Aov(("truth_reflected_object_id",), "truth", "the object the exact reflected ray "
                                      "hits (ray-traced truth); -1 for the environment and outside mirrors"),
     "error": Aov(("error",), "truth", "the largest channel of the absolute colour error as compare measures it (render - truth in "
-                 "linear colour, unclamped, divided by the truth's luminance where that exceeds 1), over mirror pixels (and pixels seen directly in scenes with shadows); 0 "
+                 "linear colour, unclamped, divided by the larger luminance of the two where that exceeds 1), over mirror pixels (and pixels seen directly in scenes with shadows); 0 "
                  "elsewhere, where the render is the truth"),
 }
 

@@ -702,6 +702,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     own_signals = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if own_signals else None
     try:
+        if not own_signals:  # the signals, and so the interrupts, are the main thread's
+            return int(args.run(args))
         with deferred_interrupts():  # an interrupt that lands in a finalizer is raised, not lost
             status: int = args.run(args)
             raise_pending()

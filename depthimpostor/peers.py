@@ -11,7 +11,7 @@ Two peers, each drawing the same scene through the same camera at the same size:
   diffuse pass, shadows, the environment); its mirrors show no reflection at all.
 
 Each peer's error is the colour RMSE over the truth's mirror pixels, against the same truth as the
-methods (oracles/compare.py: linear colour, clamped to [0, 1]).
+methods (oracles/compare.py: linear colour, unclamped: colour_error).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ import moderngl
 import numpy as np
 
 from .constants import Algorithm, Method
-from .oracles.compare import TruthFrame
+from .oracles.compare import TruthFrame, colour_error
 from .oracles.truth import environment
 from .ppc import PPC
 from .renderer import Renderer
@@ -266,7 +266,7 @@ def mirror_rmse(image: np.ndarray, truth: TruthFrame) -> float:
     mask = truth.mirror_mask
     if not mask.any():
         return 0.0
-    return float(np.sqrt(((np.clip(image, 0.0, 1.0) - truth.color)[mask] ** 2).mean()))
+    return float(np.sqrt((colour_error(image, truth.color)[mask] ** 2).mean()))
 
 
 def peers_markdown(rows: Sequence[BenchRow], peer_rows: Sequence[PeerRow], header: Sequence[str]) -> str:

@@ -68,7 +68,7 @@ class Renderer:
         are GraphOptions' (render_graph.py)."""
         check_usable(ctx)
         self.released = False
-        self._sky: tuple[Environment, SkyLighting | None] | None = None  # sky_lighting's, once read
+        self._sky: tuple[tuple[object, Environment], SkyLighting | None] | None = None  # sky_lighting's, once read
         self.ctx, self.scene, self.method, self.algorithm = ctx, scene, method, algorithm
         self.options = GraphOptions(reflection_data, count_samples, time_mirror_pass)
         self.stats = RenderStats()
@@ -239,9 +239,11 @@ class Renderer:
         texture as the shaders read it (prefiltered at the first frame, or now), for the truth;
         None where the sky lights nothing (constant ambient). Read from the GL once for the
         scene's environment, then kept: another thread may ask again (compare in the viewer)."""
-        environment = self.scene.environment
-        if self._sky is None or self._sky[0] is not environment:
-            self._sky = (environment, self._read_sky_lighting())
+        # Keyed on the environment pass too: a scene edit that brings the first metallic-roughness
+        # material (or reloaded shaders) makes a new pass, with a prefilter, under the same sky.
+        key = (self.graph.environment, self.scene.environment)
+        if self._sky is None or any(a is not b for a, b in zip(self._sky[0], key, strict=True)):
+            self._sky = (key, self._read_sky_lighting())
         return self._sky[1]
 
     @_live

@@ -17,6 +17,7 @@ from depthimpostor.cli import main
 from depthimpostor.colour import TONE_MAPPINGS, display_encode, encode_srgb, tone_map
 from depthimpostor.gpu.context import bind_default_framebuffer
 from depthimpostor.hdr import read_hdr
+from depthimpostor.oracles.compare import colour_error
 from depthimpostor.passes.present import PresentPass
 from depthimpostor.scene.model import RenderSettings
 from depthimpostor.gpu.shaders import ProgramCache
@@ -161,3 +162,13 @@ def test_compare_measures_in_linear_space_whatever_the_display(
     assert reports["plain"]["figures"] == reports["graded"]["figures"]
     plain, graded = (np.asarray(Image.open(tmp_path / name / "render.png")) for name in ("plain", "graded"))
     assert graded.mean() > plain.mean() + 10  # two stops brighter, even through ACES
+
+
+def test_the_colour_error_is_relative_above_1_whichever_side_is_bright() -> None:
+    """At most 1 on both sides: the plain difference; above, divided by the larger luminance, so a
+    sun (50) shown where the truth sees a wall (0.5) counts about 1, as the wall shown where it
+    sees the sun does (divided by the truth's alone, the first counted 49.5)."""
+    sun, wall = np.full(3, 50.0), np.full(3, 0.5)
+    assert np.allclose(colour_error(wall, np.full(3, 0.25)), 0.25)
+    assert np.allclose(colour_error(sun, wall), 0.99) and np.allclose(colour_error(wall, sun), -0.99)
+    assert np.allclose(colour_error(sun * 1.05, sun), 0.05 / 1.05)

@@ -12,7 +12,7 @@ import moderngl
 import numpy as np
 import pytest
 
-from conftest import assert_finite
+from conftest import PROJECT_ROOT, assert_finite
 from depthimpostor.cli import main
 from depthimpostor.constants import Method
 from depthimpostor.errors import SceneWarning
@@ -413,3 +413,26 @@ def test_the_commands_take_a_glb(tmp_path: Path, capsys: pytest.CaptureFixture[s
     plan = json.loads(printed[printed.index("{"):])
     assert plan
     assert (tmp_path / "r.png").is_file() and (tmp_path / "t.png").is_file() and any((tmp_path / "report").iterdir())
+
+
+def test_an_image_that_several_textures_use_is_decoded_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """AlphaBlendModeTest's images serve several slots each (base colour, a packed
+    occlusion-roughness-metalness map, normals): each is decoded once, so kept and charged to the
+    scene's image budget once (image_files.scene_images_budget)."""
+    from depthimpostor.scene import gltf_data
+    decoded: list[int] = []
+    read_image = gltf_data.read_image
+
+    def counting(data: Path | bytes) -> np.ndarray:
+        decoded.append(1)
+        return read_image(data)
+
+    monkeypatch.setattr(gltf_data, "read_image", counting)
+    source = PROJECT_ROOT / "tests" / "data" / "gltf" / "AlphaBlendModeTest.glb"
+    copy = tmp_path / "AlphaBlendModeTest.glb"  # not the loader's cached copy of the committed file
+    copy.write_bytes(source.read_bytes())
+    scene = load_scene(copy)
+    data = copy.read_bytes()
+    (json_length,) = np.frombuffer(data[12:16], "<u4")
+    images = len(json.loads(data[20:20 + int(json_length)])["images"])
+    assert 0 < len(decoded) <= images < len(scene.textures)

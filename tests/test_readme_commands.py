@@ -82,8 +82,9 @@ def test_the_documents_show_the_commands_this_test_runs() -> None:
 
 
 @pytest.mark.parametrize(("document", "command"), documented_commands(), ids=lambda value: value[:60])
-def test_a_documented_command_runs(document: str, command: str, tmp_path: Path,
-                                   capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_documented_command_runs(document: str, command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # what a command writes by default (render.png) lands here
     args = shlex.split(command)
     if args[0] == "view":
         # The window's own tests (tests/test_viewer.py, under Xvfb) open it; here its arguments

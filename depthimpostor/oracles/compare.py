@@ -3,8 +3,8 @@
 Figures, over the mirror and glass pixels of one frame ("mirror pixels" below; a glass pixel's
 reflected ray is the one measured for objects and geometry, its colour blends in the refraction):
 - colour RMSE and PSNR in linear space (COLOUR_SPACE): the difference of the frame's linear float
-  colour and the truth's, unclamped, divided by the truth's luminance where that exceeds 1
-  (`colour_error`): absolute where a display shows values as they are, relative on highlights
+  colour and the truth's, unclamped, divided by the larger of their luminances where that
+  exceeds 1 (`colour_error`): absolute where a display shows values as they are, relative on highlights
   and HDR skies, so that an error where both pictures exceed 1 is counted without a sun's disc
   outweighing the rest of the frame; before exposure, tone mapping and sRGB encoding, which are
   for display alone (docs/colour.md): a figure does not change with them;
@@ -49,19 +49,21 @@ from .truth import SpecularTruth, TruthTracer, seen_through_blended
 
 WORST_PIXELS = 8
 #: Where colour errors are measured, as the report states it.
-COLOUR_SPACE = ("linear, unclamped: the frame's float colour minus the truth's, divided by the truth's luminance "
-                "(Rec. 709) where that exceeds 1, before exposure, tone mapping and sRGB encoding")
+COLOUR_SPACE = ("linear, unclamped: the frame's float colour minus the truth's, divided by the larger of their "
+                "luminances (Rec. 709) where that exceeds 1, before exposure, tone mapping and sRGB encoding")
 #: Rec. 709 / sRGB primaries' luminance weights: what `colour_error` divides by above 1.
 LUMINANCE_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
 
 
 def colour_error(render: np.ndarray, truth: np.ndarray) -> np.ndarray:
     """Per pixel and channel, the measured colour error (COLOUR_SPACE): render - truth, divided
-    by the truth's luminance where it exceeds 1. Below 1 (everything a display shows unchanged)
-    it is the plain difference, the figure measured before HDR; above, a relative error, so that
-    1 % off a sun of 50 weighs what 1 % off a white wall does. (Clamping both to [0, 1], as
-    compare did before, counted nothing where both exceed 1.)"""
-    scale = np.maximum(truth @ LUMINANCE_WEIGHTS, 1.0)
+    by the larger luminance of the two where it exceeds 1. Where both are at most 1 (everything a
+    display shows unchanged) it is the plain difference, the figure measured before HDR; above, a
+    relative error, so that 1 % off a sun of 50 weighs what 1 % off a white wall does, and a sun
+    shown where the truth sees a wall counts about 1, as a wall shown where it sees the sun does
+    (dividing by the truth's alone made the first 50 times the second). (Clamping both to [0, 1],
+    as compare did before, counted nothing where both exceed 1.)"""
+    scale = np.maximum(np.maximum(truth @ LUMINANCE_WEIGHTS, render @ LUMINANCE_WEIGHTS), 1.0)
     return (render - truth) / scale[..., None]
 #: A pixel showing a reflected object shows the wrong surface when its colour is off by more than
 #: this in its largest channel: 8-bit rounding and shading from interpolated normals stay far below

@@ -89,6 +89,7 @@ class GltfData:
         self.path, self.header, self.source = path, header, source
         self._buffers: dict[int, bytes] = {}
         self._glb: bytes | None = None
+        self._images: dict[int, np.ndarray] = {}  # one decode an image, whatever the textures that use it
 
     def _item(self, key: str, value: Any, at: At) -> Mapping[str, Any]:
         listed = self.header.get(key, [])
@@ -274,7 +275,14 @@ class GltfData:
             at.key("values"), packed=True)
 
     def image(self, i: int) -> np.ndarray:
-        """images[i]'s texels (image_files.py), or a SceneError at images[i] saying why not."""
+        """images[i]'s texels (image_files.py), or a SceneError at images[i] saying why not; decoded
+        once (a packed occlusion-roughness-metalness image serves three slots)."""
+        if isinstance(i, int) and i in self._images:
+            return self._images[i]
+        self._images[i] = self._decode_image(i)
+        return self._images[i]
+
+    def _decode_image(self, i: int) -> np.ndarray:
         image = self._item("images", i, At(self.source, "images"))
         name = image.get("name")
         at = At(self.source, f"images[{i}]" + (f" {show(name)}" if isinstance(name, str) and name else ""))
