@@ -15,7 +15,7 @@ import moderngl
 import numpy as np
 import pytest
 
-from depthimpostor import image_files
+from depthimpostor import image_files, textures
 from depthimpostor.api import render_image
 from depthimpostor.errors import GpuLimitError
 from depthimpostor.gpu.limits import context_limits, use_limits
@@ -217,7 +217,11 @@ def test_the_scenes_images_together_must_fit_in_memory(tmp_path: Path, capsys: p
     refused(tmp_path / "s.toml", capsys, "objects[2].material.texture: expected images that fit in the machine's "
             "available memory once decoded (3.0 MiB when the scene began loading; its images so far keep 2.0 MiB)",
             "c.png'", "512x512, which takes 2.0 MiB to decode (its header, read before decoding)")
-    (tmp_path / "s.toml").write_text(objects.replace('"c.png"', '"a.png"'))  # a file met before is not decoded again
+    # A file met before in the scene is not decoded again, nor charged again: with the caches
+    # emptied, a.png, b.png and a.png again fit where three files would not.
+    monkeypatch.setattr(textures, "_CACHE", {})
+    monkeypatch.setattr(textures, "_DECODED_FILES", {})
+    (tmp_path / "s.toml").write_text(objects.replace('"c.png"', '"a.png"'))
     assert run_in_process(["plan", str(tmp_path / "s.toml")], capsys)[0] == 0
 
 
