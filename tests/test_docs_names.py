@@ -45,6 +45,9 @@ def documents() -> list[Path]:
 @cache
 def repository_files() -> tuple[str, ...]:
     skip = {".git", "__pycache__", ".whl", ".gl", ".ci", ".pytest_cache", ".hypothesis"}
+    # A virtual environment inside the checkout (.venv, or any folder holding a pyvenv.cfg) is
+    # not the repository: its include/GL/ or images/ folders would pass for ours.
+    skip |= {venv.parent.name for venv in ROOT.glob("*/pyvenv.cfg")}
     files = [p.relative_to(ROOT).as_posix() for p in ROOT.rglob("*")
              if p.is_file() and not skip & set(p.relative_to(ROOT).parts)]
     return tuple(files) + tuple(f"shaders/{name}" for name in _generated_sources())
