@@ -357,12 +357,12 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                     images.append(PlannedImage(label, level, camera.width, camera.height, reason))
                     if level:
                         shown_in_bounces.add(targets[0].object.is_glass)
-        noun = stand_in.image_noun if issubclass(stand_in, (BakedImages, SeenFromEye)) else "BVH of triangles"
+        noun = f"{stand_in.image_noun}s" if issubclass(stand_in, (BakedImages, SeenFromEye)) else "a BVH of their triangles"
         also = ", and a BVH of their triangles for the rays those cannot answer" if METHODS[method].names_triangles else ""
         seen_from_eye = METHODS[method].seen_from_eye
         passes.append(PlannedPass(Pass.STAND_IN if seen_from_eye is None else Pass.EYE_IMAGES,
                                   f"{_names(reflectors)} may reflect {plural(len(reflected), 'object')}, "
-                                  f"seen through {noun}s{also}"))
+                                  f"seen through {noun}{also}"))
         for stages, defines, why in seen_from_eye.variants(scene) if seen_from_eye is not None else []:
             variant(Pass.EYE_IMAGES, stages, defines, why)
         if issubclass(stand_in, BakedImages) and images:
