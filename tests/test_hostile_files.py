@@ -141,9 +141,8 @@ def test_a_million_nodes_are_refused_before_the_json_is_parsed(tmp_path: Path, c
     refused(path, capsys, f"{path}: expected glTF JSON of at most 262,144 objects", "got about 1,000,0")
 
 
-def test_a_chain_of_100000_nodes_is_walked_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """It took 60 s: the tree was walked three times, each node's matrix parsed each time. (Each
-    node gets a translation here, so that each has a matrix to read.)"""
+def counting_node_matrices(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """A list that grows by one each time a node's matrix is read (gltf_file.node_matrix)."""
     calls: list[int] = []
     matrix = gltf_file.node_matrix
 
@@ -152,6 +151,13 @@ def test_a_chain_of_100000_nodes_is_walked_once(tmp_path: Path, monkeypatch: pyt
         return matrix(*args)  # type: ignore[arg-type]
 
     monkeypatch.setattr(gltf_file, "node_matrix", counted)
+    return calls
+
+
+def test_a_chain_of_100000_nodes_is_walked_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """It took 60 s: the tree was walked three times, each node's matrix parsed each time. (Each
+    node gets a translation here, so that each has a matrix to read.)"""
+    calls = counting_node_matrices(monkeypatch)
     scene = load_scene(write_chain(tmp_path, 10**5, moved=True))
     assert len(scene.objects) == 1
     assert len(calls) == 10**5
@@ -376,14 +382,7 @@ def test_a_gltf_mesh_shape_is_read_by_the_same_reader(tmp_path: Path, monkeypatc
     """`shape = { type = "mesh", path = "x.gltf" }` went to trimesh, whose walk of a chain of nodes
     is quadratic (3 x 10^4 nodes: 55 s) and which checks no count before decoding: it is read as
     the `gltf` shape is, its world-space parts one mesh (a box at the end of 30,000 nodes here)."""
-    calls: list[int] = []
-    matrix = gltf_file.node_matrix
-
-    def counted(*args: object) -> object:
-        calls.append(1)
-        return matrix(*args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(gltf_file, "node_matrix", counted)
+    calls = counting_node_matrices(monkeypatch)
     write_chain(tmp_path, 30000, moved=True)
     (tmp_path / "s.toml").write_text('[[objects]]\nname = "box"\nshape = { type = "mesh", path = "chain.gltf" }\n'
                                      'material = { type = "diffuse", color = [1, 1, 1] }\n')
