@@ -23,6 +23,8 @@ from typing import IO
 
 import numpy as np
 
+from .image_files import ImageRefused, charge_scene_image
+
 #: The files an equirect environment and a float frame (`-o frame.exr`) may be.
 HDR_SUFFIXES = (".hdr", ".exr")
 
@@ -69,12 +71,22 @@ def read_hdr(path: Path) -> np.ndarray:
     return np.ascontiguousarray(image, dtype=np.float32)
 
 
+#: Bytes an environment's pixel is kept in (float32 RGB), and the most its decode holds at once (the
+#: decoder's float32 image, RGBA for OpenEXR, beside the RGB copy made of it), charged to the scene's
+#: image budget (image_files.scene_images_budget) with its textures.
+KEPT_PIXEL_BYTES, DECODING_PIXEL_BYTES = 12, 28
+
+
 def _check_size(width: int, height: int) -> None:
     if width < 1 or height < 1:
         raise HdrImageError(f"expected an image of at least 1x1 pixels, got {width}x{height} (its header)")
     if max(width, height) > MAX_SIDE or width * height > MAX_PIXELS:
         raise HdrImageError(f"expected an image of at most {MAX_SIDE} pixels a side and {MAX_PIXELS:,} in all "
                             f"(8192x4096), got {width}x{height} (its header, read before decoding)")
+    try:
+        charge_scene_image(width, height, KEPT_PIXEL_BYTES, DECODING_PIXEL_BYTES)
+    except ImageRefused as refused:
+        raise HdrImageError(str(refused)) from None
 
 
 def _exr_size(path: Path) -> tuple[int, int]:

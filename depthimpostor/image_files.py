@@ -73,7 +73,7 @@ _SCENE_IMAGES: contextvars.ContextVar[_SceneImages | None] = contextvars.Context
 
 @contextmanager
 def scene_images_budget() -> Iterator[None]:
-    """While a scene loads, every image it decodes (textures, glTF images) is checked from its
+    """While a scene loads, every image it decodes (textures, glTF images, the environment) is checked from its
     header against what the scene's images left of the machine's available memory, before it is
     decoded: each image fits alone (MAX_TEXELS), and all of them must fit together. (Nested: the
     outermost load's budget holds.)"""
@@ -88,18 +88,25 @@ def scene_images_budget() -> Iterator[None]:
 
 
 def _charge(width: int, height: int) -> None:
-    """Count an image about to be decoded against the scene's budget, or refuse it first."""
+    """Count an 8-bit image about to be decoded against the scene's budget, or refuse it first."""
+    charge_scene_image(width, height, DECODED_TEXEL_BYTES, DECODING_TEXEL_BYTES)
+
+
+def charge_scene_image(width: int, height: int, kept_bytes: int, decoding_bytes: int) -> None:
+    """Count an image about to be decoded against the scene's budget (`kept_bytes` a texel once
+    decoded, `decoding_bytes` at most while it decodes), or raise ImageRefused first. Textures and
+    glTF images through read_image; the HDR environment through hdr.read_hdr, at its own sizes."""
     budget = _SCENE_IMAGES.get()
     if budget is None or budget.available is None:
         return
     texels = width * height
-    if budget.kept + texels * DECODING_TEXEL_BYTES > budget.available:
+    if budget.kept + texels * decoding_bytes > budget.available:
         raise ImageRefused(
             f"images that fit in the machine's available memory once decoded ({budget.available / 2**20:,.1f} MiB "
             f"when the scene began loading; its images so far keep {budget.kept / 2**20:,.1f} MiB)",
-            f"{width}x{height}, which takes {texels * DECODING_TEXEL_BYTES / 2**20:,.1f} MiB to decode (its header, "
+            f"{width}x{height}, which takes {texels * decoding_bytes / 2**20:,.1f} MiB to decode (its header, "
             "read before decoding)")
-    budget.kept += texels * DECODED_TEXEL_BYTES
+    budget.kept += texels * kept_bytes
 
 
 class ImageRefused(Exception):

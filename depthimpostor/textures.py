@@ -54,34 +54,44 @@ def texture_from_pixels(pixels: np.ndarray, sampler: dict[str, int], scale: tupl
     return Texture(pixels, sampler, (r, g, b), scale, name)
 
 
-_CACHE: dict[tuple[Path, int, tuple[float, float], tuple[int, int]], Texture] = {}
-# One decoded image (and its mean colour) per (file, modification time), whatever the scales and
-# wraps of the slots that share it: decoding an 8192^2 image twice cost seconds and 256 MiB.
-_DECODED_FILES: dict[tuple[Path, int], Texture] = {}
+#: A file's stamp: what tells its bytes changed without reading them (the modification time to the
+#: nanosecond, and the size, for file systems whose clocks tick in seconds).
+FileStamp = tuple[int, int]
+# One decoded image (and its mean colour) per file, whatever the scales and wraps of the slots that
+# share it (decoding an 8192^2 image twice cost seconds and 256 MiB), and one Texture per (file,
+# scale, wrap) so that objects sharing an image share a slot. Keyed by the file alone, with its
+# stamp beside: a file edited while the viewer runs replaces its entries instead of leaving the old
+# image's pixels held beside the new ones.
+_DECODED_FILES: dict[Path, tuple[FileStamp, Texture]] = {}
+_CACHE: dict[tuple[Path, tuple[float, float], tuple[int, int]], tuple[FileStamp, Texture]] = {}
 
 
 def read_texture(path: Path, at: At, scale: tuple[float, float], wrap: tuple[int, int]) -> Texture:
     """The image file at `path` (PNG, JPEG, anything image_files.py reads as written) as a texture,
-    one Texture per (file, modification time, scale, wrap) so that objects sharing an image share a
-    slot; a file that is missing, is not an image or holds what cannot be read as written is
-    refused at `at`."""
+    one Texture per (file as it is now, scale, wrap); a file that is missing, is not an image or
+    holds what cannot be read as written is refused at `at`."""
     try:
         resolved = path.resolve(strict=True)
-        file_key = (resolved, resolved.stat().st_mtime_ns)
+        status = resolved.stat()
     except OSError:
         raise at.error(f"expected an existing image file, got {str(path)!r}: not found") from None
-    key = (*file_key, scale, wrap)
-    if key not in _CACHE:
-        if file_key not in _DECODED_FILES:
-            try:
-                pixels = read_image(resolved)
-            except ImageRefused as refused:
-                raise at.error(f"expected {refused.expected}, got {str(path)!r}: {refused.got}") from None
-            _DECODED_FILES[file_key] = texture_from_pixels(pixels, {}, name=resolved.name)
-        decoded = _DECODED_FILES[file_key]
-        _CACHE[key] = Texture(decoded.image, {"wrapS": wrap[0], "wrapT": wrap[1]}, decoded.mean_color, scale,
-                              decoded.name)
-    return _CACHE[key]
+    stamp = (status.st_mtime_ns, status.st_size)
+    key = (resolved, scale, wrap)
+    cached = _CACHE.get(key)
+    if cached is not None and cached[0] == stamp:
+        return cached[1]
+    decoded_entry = _DECODED_FILES.get(resolved)
+    if decoded_entry is None or decoded_entry[0] != stamp:
+        try:
+            pixels = read_image(resolved)
+        except ImageRefused as refused:
+            raise at.error(f"expected {refused.expected}, got {str(path)!r}: {refused.got}") from None
+        decoded_entry = (stamp, texture_from_pixels(pixels, {}, name=resolved.name))
+        _DECODED_FILES[resolved] = decoded_entry
+    decoded = decoded_entry[1]
+    texture = Texture(decoded.image, {"wrapS": wrap[0], "wrapT": wrap[1]}, decoded.mean_color, scale, decoded.name)
+    _CACHE[key] = (stamp, texture)
+    return texture
 
 
 def resample(image: np.ndarray, size: tuple[int, int], srgb: bool = True) -> np.ndarray:

@@ -231,6 +231,29 @@ def test_the_scenes_images_together_must_fit_in_memory(tmp_path: Path, capsys: p
     assert run_in_process(["plan", str(tmp_path / "s.toml")], capsys)[0] == 0
 
 
+def test_the_environment_map_is_charged_to_the_scenes_image_budget(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    """An 8192x4096 sky keeps 384 MiB in float RGB, more while it decodes: it was read whatever the
+    memory its textures had left. 512x256 takes 3.5 MiB to decode and keeps 1.5: refused by its
+    header where 3 MiB are available, read where 4 are, and then counted against the textures."""
+    with open(tmp_path / "sky.hdr", "wb") as file:
+        write_hdr(file, np.full((256, 512, 3), 0.5, np.float32), ".hdr")
+    (tmp_path / "floor.png").write_bytes(png_stream(1024, 512))  # keeps 2 MiB, 4 MiB while it decodes
+    (tmp_path / "small.png").write_bytes(png_stream(64, 64))
+    monkeypatch.setattr(image_files, "available_memory", lambda: 3 * 2**20)
+    refused(textured_scene(tmp_path, environment="sky.hdr"), capsys, "environment.path", '"sky.hdr": expected '
+            "images that fit in the machine's available memory once decoded (3.0 MiB when the scene began loading; "
+            "its images so far keep 0.0 MiB), got 512x256, which takes 3.5 MiB to decode (its header, read before "
+            "decoding)")
+    monkeypatch.setattr(image_files, "available_memory", lambda: 4 * 2**20)
+    monkeypatch.setattr(textures, "_CACHE", {})
+    monkeypatch.setattr(textures, "_DECODED_FILES", {})
+    refused(textured_scene(tmp_path, environment="sky.hdr"), capsys, "objects[0].material.texture", "its images "
+            "so far keep 1.5 MiB), got", "1024x512, which takes 4.0 MiB to decode")
+    assert run_in_process(["plan", str(textured_scene(tmp_path))], capsys)[0] == 0  # the texture alone fits
+    assert run_in_process(["plan", str(textured_scene(tmp_path, "small.png", "sky.hdr"))], capsys)[0] == 0
+
+
 @pytest.mark.parametrize("size", [(65535, 65535), (16384, 16384)])
 def test_a_png_past_pillows_guard_is_refused_by_its_size(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                          size: tuple[int, int]) -> None:

@@ -314,3 +314,28 @@ position = [0.0, 0.5, 0.0]
     decoded = ((pixels[..., :3] / 255.0 + 0.055) / 1.055) ** 2.4
     decoded = np.where(pixels[..., :3] / 255.0 <= 0.04045, pixels[..., :3] / 255.0 / 12.92, decoded)
     np.testing.assert_allclose(first.mean_color, decoded.reshape(-1, 3).mean(axis=0), rtol=1e-12)
+
+
+def test_an_image_file_edited_in_place_is_read_again_and_its_old_pixels_let_go(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The caches are keyed by the file, its stamp (modification time, size) beside: an image
+    rewritten while the viewer runs gives its new texels, and the old decode is not kept beside the
+    new one (keyed by (file, time), every edit of an 8192^2 image held another 256 MiB)."""
+    import os
+
+    from depthimpostor import textures
+    from depthimpostor.scene.fields import At
+
+    monkeypatch.setattr(textures, "_CACHE", {})
+    monkeypatch.setattr(textures, "_DECODED_FILES", {})
+    path = tmp_path / "wall.png"
+    at = At("s.toml", "objects[0].material.texture")
+    Image.new("RGB", (8, 8), (255, 0, 0)).save(path)
+    first = textures.read_texture(path, at, (1.0, 1.0), (int(Wrap.REPEAT), int(Wrap.REPEAT)))
+    assert textures.read_texture(path, at, (1.0, 1.0), (int(Wrap.REPEAT), int(Wrap.REPEAT))) is first
+    Image.new("RGB", (8, 8), (0, 0, 255)).save(path)
+    stat = path.stat()
+    os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns + 1_000_000_000))  # a clock that ticks in seconds
+    second = textures.read_texture(path, at, (1.0, 1.0), (int(Wrap.REPEAT), int(Wrap.REPEAT)))
+    assert tuple(first.image[0, 0, :3]) == (255, 0, 0) and tuple(second.image[0, 0, :3]) == (0, 0, 255)
+    assert len(textures._DECODED_FILES) == 1 and len(textures._CACHE) == 1
