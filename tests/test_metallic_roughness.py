@@ -214,6 +214,39 @@ def test_a_depth_image_holds_the_highlights_of_its_own_camera(ctx: moderngl.Cont
     assert result.figures.wrong_object_share < 0.02
 
 
+def test_the_truth_seen_from_the_mirrors_centre_is_what_the_images_hold(ctx: moderngl.Context,
+                                                                         metal_scene: Scene) -> None:
+    """tools/baked_view_cost.py's second truth (reflected metals on meshes shaded as seen from the
+    mirror's centre, where the images are baked from): the depth method is nearer to it than to
+    the truth, the ray-traced method farther; the planes (traced exactly by every method) and
+    diffuse surfaces are the same in both; and viewpoints at the rays' own origins give the truth."""
+    from depthimpostor.oracles.compare import trace_truth
+    from depthimpostor.oracles.truth import TruthTracer
+
+    figures = {}
+    for method in (Method.DEPTH, Method.RAYTRACE):
+        with Renderer(ctx, metal_scene, method=method, reflection_data=True) as renderer:
+            renderer.render()
+            truth = compare(renderer)
+            centred = trace_truth(renderer, renderer.read_reflection_data(), viewed_from_centres=True)
+            figures[method] = (truth.figures.color_rmse, compare(renderer, centred).figures.color_rmse)
+            assert_finite(centred.color)
+            moved = np.abs(centred.color - truth.truth_frame.color).max(axis=2) > 1e-6
+            planes = [g.index for g in renderer.world.analytic_planes]
+            assert moved.any() and not (moved & np.isin(truth.truth_frame.object_id, planes)).any()
+            if method == Method.RAYTRACE:
+                data = renderer.read_reflection_data()
+                mask = data.mirror_mask
+                tracer = TruthTracer(metal_scene, renderer.world.reflected_objects, renderer.world.analytic_planes,
+                                     renderer.world.shadow_casters, renderer.sky_lighting())
+                origins, directions = data.origin[mask] + data.direction[mask] * 1e-3, data.direction[mask]
+                plain = tracer.trace(origins, directions)
+                own = tracer.trace(origins, directions, viewpoints=origins)
+                assert np.allclose(plain.color, own.color, atol=1e-5)
+    (depth_truth, depth_centred), (traced_truth, traced_centred) = figures[Method.DEPTH], figures[Method.RAYTRACE]
+    assert depth_centred < depth_truth and traced_centred > 10 * traced_truth, figures
+
+
 def test_the_eye_sees_metals_as_the_truth(ctx: moderngl.Context, metal_scene: Scene) -> None:
     """The rasterized frame (the eye's view of the metals, their highlights from the camera) equals
     the truth's primary rays but at silhouettes and in the textures (trilinear in the raster, level 0

@@ -181,14 +181,17 @@ def trace_direct(renderer: Renderer, mirror_mask: np.ndarray, camera: PPC | None
 
 
 def trace_truth(renderer: Renderer, data: ReflectionData, camera: PPC | None = None,
-                progress: Progress | None = None) -> TruthFrame:
+                progress: Progress | None = None, viewed_from_centres: bool = False) -> TruthFrame:
     """The truth for the mirror and glass pixels of the renderer's last frame (or of one of its
     sub-frames, seen through `camera`), whose reflection outputs are `data` (and, in scenes with
-    shadows, for the pixels seen directly). `progress` is told the share traced, chunk by chunk."""
+    shadows, for the pixels seen directly). `progress` is told the share traced, chunk by chunk.
+    `viewed_from_centres`: reflected metallic-roughness surfaces shaded as seen from their mirror's
+    centre, as the baked images hold them, not for the ray (SpecularTruth.viewed_from_centres)."""
     camera = renderer.camera if camera is None else camera
     mask = data.mirror_mask
     specular = SpecularTruth(renderer.scene, renderer.world.reflected_objects, renderer.world.reflectors, renderer.world.analytic_planes,
                              renderer.world.shadow_casters, renderer.sky_lighting())
+    specular.viewed_from_centres = viewed_from_centres
     origins = data.origin[mask]
     incoming = origins - camera.C
     incoming /= np.maximum(np.linalg.norm(incoming, axis=1, keepdims=True), 1e-300)

@@ -247,6 +247,7 @@ class TruthTracer:
         self.sky = sky  # what the sky lights metallic-roughness hits with, where it does (ibl.py)
         self.meshes = list(meshes)
         self.planes = list(planes)
+        self._plane_ids = [p.index for p in self.planes]
         self._embree = _embree_scene(self.meshes)
         self._casters = _embree_scene(casters) if scene.has_shadows and casters else None
         self._caster_items = list(casters)
@@ -280,23 +281,30 @@ class TruthTracer:
             ) != -1
         return 1.0 - blocked.reshape(lengths.shape).mean(axis=1)
 
-    def trace(self, origins: Array, directions: Array, layers: int = BLEND_LAYERS) -> TruthHits:
+    def trace(self, origins: Array, directions: Array, layers: int = BLEND_LAYERS,
+              viewpoints: Array | None = None) -> TruthHits:
         """The nearest hits, shaded (the environment where nothing was hit). A blended hit (glTF's
         alphaMode BLEND) covers its alpha of what the ray sees from just past it (traced on, up to
         `layers` blended surfaces; past them the next is taken whole), as lib/reflected_scene.glsl's
-        trace_reflected composites: the hit's object and point are the first's."""
-        hits, alpha = self.trace_layer(origins, directions)
+        trace_reflected composites: the hit's object and point are the first's. `viewpoints`: see
+        trace_layer."""
+        hits, alpha = self.trace_layer(origins, directions, viewpoints)
         through = np.flatnonzero(alpha < 1.0) if layers > 0 else np.zeros(0, np.int64)
         if len(through):
             restart = hits.t[through] * (1.0 + BLEND_RESTART_OFFSET) + BLEND_RESTART_OFFSET
             behind = self.trace(origins[through] + directions[through] * restart[:, None], directions[through],
-                                layers - 1)
+                                layers - 1, None if viewpoints is None else viewpoints[through])
             share = alpha[through, None]
             hits.color[through] = share * hits.color[through] + (1.0 - share) * behind.color
         return hits
 
-    def trace_layer(self, origins: Array, directions: Array) -> tuple[TruthHits, Array]:
-        """The nearest hits, shaded, and each one's blending alpha (1 but on a blended material)."""
+    def trace_layer(self, origins: Array, directions: Array,
+                    viewpoints: Array | None = None) -> tuple[TruthHits, Array]:
+        """The nearest hits, shaded, and each one's blending alpha (1 but on a blended material).
+        Metallic-roughness hits are shaded for the ray that found them (seen along -direction), or,
+        given `viewpoints` (a point a ray), those on meshes as seen from there: how a depth image
+        baked from a mirror's centre holds them (tools/baked_view_cost.py measures what that
+        costs; the planes, which every method intersects exactly, stay seen along the ray)."""
         hits, albedo, materials, points = self._intersect(origins, directions)
         alpha = np.ones(len(origins))
         for index in self._blended:
@@ -312,8 +320,13 @@ class TruthTracer:
         for index, material in enumerate(self.scene.materials):
             if isinstance(material, MetallicRoughnessMaterial) and (chosen := hit & (materials == index)).any():
                 mapped = mapped_normal(material, points[chosen], normals[chosen])
+                viewers = -directions[chosen]
+                if viewpoints is not None:  # the meshes the images hold; planes are intersected exactly
+                    baked = ~np.isin(hits.object_id[chosen], self._plane_ids)
+                    offsets = viewpoints[chosen][baked] - hits.position[chosen][baked]
+                    viewers[baked] = offsets / np.maximum(np.linalg.norm(offsets, axis=1, keepdims=True), 1e-300)
                 hits.color[chosen] = shade_metallic_roughness(self.scene, material, albedo[chosen], points[chosen],
-                                                              hits.position[chosen], mapped, -directions[chosen],
+                                                              hits.position[chosen], mapped, viewers,
                                                               self.visibility, self.sky)
         return hits, alpha
 
@@ -493,6 +506,10 @@ class SpecularTruth:
         )
         self.interiors = {r.index: TruthTracer(scene, [r], []) for r in reflectors if r.object.is_glass}
         self.radius = {r.index: r.bounding_sphere[1] for r in reflectors}
+        #: Where each reflector's metallic-roughness hits are seen from: None, along the ray (the
+        #: truth); or, set by tools/baked_view_cost.py, from the reflector's centre, where the
+        #: depth images are baked from (methods/atlas.mirror_centre).
+        self.viewed_from_centres = False
 
     def trace(self, origins: Array, directions: Array, leaving: Array, bounces: int) -> TruthHits:
         """What rays leaving the reflectors `leaving` (object ids) see with `bounces` bounces
@@ -501,9 +518,11 @@ class SpecularTruth:
         # Each ray starts a ten-thousandth of its reflector's radius along its way: float32
         # Embree would otherwise find the surface it leaves.
         start = origins + directions * (RAY_START_OFFSET * np.array([self.radius[i] for i in leaving]))[:, None]
+        viewpoints = (np.array([self.reflectors[int(i)].bounding_sphere[0] for i in leaving]).reshape(-1, 3)
+                      if self.viewed_from_centres else None)
         if bounces <= 1 or self.with_reflectors is None:
-            return self.last.trace(start, directions)
-        hits = self.with_reflectors.trace(start, directions)
+            return self.last.trace(start, directions, viewpoints=viewpoints)
+        hits = self.with_reflectors.trace(start, directions, viewpoints=viewpoints)
         # A mirror's backing is a diffuse surface, shaded by the tracer already.
         on = np.isin(hits.object_id, list(self.reflectors)) & ~hits.backing
         if on.any():
