@@ -71,15 +71,19 @@ def mikktspace(positions: Array, normals: Array, faces: Array, uvs: Array) -> Ar
 
 
 def _welded(p: Array, n: Array, uv: Array) -> Array:
-    """(V,) a class id per vertex: equal where position, normal and UV are all equal (floats
-    compared as floats: -0 == 0, NaN equal to nothing)."""
-    keys = np.concatenate([p, n, uv], axis=1)
-    order = np.lexsort(keys.T[::-1])
-    ordered = keys[order]
-    fresh = np.r_[True, (ordered[1:] != ordered[:-1]).any(axis=1)]
-    classes = np.empty(len(keys), np.int64)
-    classes[order] = np.cumsum(fresh) - 1
-    return classes
+    """(V,) a class id per vertex: equal where position, normal and UV are all equal."""
+    return distinct_rows(np.concatenate([p, n, uv], axis=1))
+
+
+def distinct_rows(rows: Array) -> Array:
+    """(R,) an id per row, equal for equal rows (floats compared as floats, as mikktspace.c's
+    welding does: -0 == 0, NaN equal to nothing)."""
+    order = np.lexsort(rows.T[::-1])
+    ordered = rows[order]
+    fresh = np.r_[True, (ordered[1:] != ordered[:-1]).any(axis=1)] if len(rows) else np.zeros(0, bool)
+    ids = np.empty(len(rows), np.int64)
+    ids[order] = np.cumsum(fresh) - 1
+    return ids
 
 
 class _TriInfo:
