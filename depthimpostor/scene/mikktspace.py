@@ -71,13 +71,18 @@ def mikktspace(positions: Array, normals: Array, faces: Array, uvs: Array) -> Ar
 
 
 def _welded(p: Array, n: Array, uv: Array) -> Array:
-    """(V,) a class id per vertex: equal where position, normal and UV are all equal."""
-    return distinct_rows(np.concatenate([p, n, uv], axis=1))
+    """(V,) a class id per vertex: equal where position, normal and UV are all equal, as floats
+    (GenerateSharedVerticesIndexList: -0 == 0, and a NaN equal to nothing)."""
+    values = np.concatenate([p, n, uv], axis=1) + np.float32(0.0)  # -0 + 0 = +0: one bit pattern
+    keys = np.ascontiguousarray(values, np.float32).view(np.uint64)  # the float32 bits, two a key
+    classes = distinct_rows(keys)
+    lone = np.isnan(values).any(axis=1)
+    classes[lone] = classes.max(initial=-1) + 1 + np.arange(lone.sum())
+    return classes
 
 
 def distinct_rows(rows: Array) -> Array:
-    """(R,) an id per row, equal for equal rows (floats compared as floats, as mikktspace.c's
-    welding does: -0 == 0, NaN equal to nothing)."""
+    """(R,) an id per row, equal for equal rows."""
     order = np.lexsort(rows.T[::-1])
     ordered = rows[order]
     fresh = np.r_[True, (ordered[1:] != ordered[:-1]).any(axis=1)] if len(rows) else np.zeros(0, bool)

@@ -48,17 +48,20 @@ def generated_tangents(positions: Array, normals: Array, faces: Array, uvs: Arra
     corners = mikktspace(positions, normals, faces, uvs).reshape(-1, 4)
     corners[:, 3] = -corners[:, 3]  # glTF's bitangent points up the image, against dP/dv
     vertex = faces.ravel()
-    kind = distinct_rows(np.c_[vertex, corners])  # (vertex, tangent) pairs, one id each
-    first = np.full(int(kind.max(initial=-1)) + 1, len(vertex), np.int64)
-    np.minimum.at(first, kind, np.arange(len(vertex)))  # each pair's first corner
     first_of_vertex = np.full(count, len(vertex), np.int64)
     np.minimum.at(first_of_vertex, vertex, np.arange(len(vertex)))
-    owner = vertex[first]
-    stays = first == first_of_vertex[owner]
-    extra = np.flatnonzero(~stays)
-    extra = extra[np.argsort(first[extra], kind="stable")]  # appended in the order of their corners
-    slot = owner.copy()
-    slot[extra] = count + np.arange(len(extra))
-    tangents = np.tile(UNUSED, (count + len(extra), 1))
-    tangents[slot] = corners[first]
-    return Tangents(tangents, np.r_[np.arange(count), owner[extra]], slot[kind].reshape(-1, 3))
+    # A corner whose tangent is its vertex's first corner's stays on the vertex; the others (few)
+    # go to one new vertex per distinct (vertex, tangent), in the order of their first corners.
+    moved = np.flatnonzero((corners != corners[first_of_vertex[vertex]]).any(axis=1))
+    kind = distinct_rows(np.c_[vertex[moved], corners[moved]])
+    first = np.full(len(moved) and int(kind.max()) + 1, len(moved), np.int64)
+    np.minimum.at(first, kind, np.arange(len(moved)))
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+    slot = vertex.copy()
+    slot[moved] = count + rank[kind]
+    tangents = np.tile(UNUSED, (count + len(first), 1))
+    tangents[slot] = corners
+    added = np.empty(len(first), np.int64)
+    added[rank] = vertex[moved[first]]
+    return Tangents(tangents, np.r_[np.arange(count), added], slot.reshape(-1, 3))
