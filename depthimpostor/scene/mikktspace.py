@@ -26,9 +26,16 @@ follow mikktspace.c, so that a reader can hold the two side by side:
 7. Corners left without a group (a GROUP_WITH_ANY triangle no group reached) and degenerate ones
    with no healthy corner to copy keep mikktspace.c's initial space: tangent +X, sign -1.
 
-mikktspace.c computes in float32, this in float64: the tangents agree to rounding (tests/
-test_mikktspace.py compares them with the C's within 1e-5), and the discrete choices (welding,
-degeneracy, the threshold) can differ only where a float32 rounding decides them.
+mikktspace.c computes in float32, and so does this up to the sums of EvalTspace (float64 here):
+the discrete choices it makes on values (welding, degeneracy, the UV area's sign and whether it is
+zero, the threshold) are made on the same float32 values in the same order of operations, so
+that a triangle whose UVs lie on a line falls on the same side. The tangents agree with the C's
+to float32 rounding (tests/test_mikktspace.py: within 1e-5 on six meshes, about 1e-7 in fact).
+One difference is kept: mikktspace.c's BuildNeighborsFast never sorts its last run of edges by
+their second vertex (its loops sort a run when the next begins, and none follows the last), so
+that two triangles on an edge of that run (the edges of one vertex, the highest welded index that
+is an edge's lower) can stay unpaired, in an order its quicksort's pivots decide: the C then
+splits that vertex's group (2 of 300 small random meshes tried). Here every edge is paired.
 """
 
 from __future__ import annotations
