@@ -56,9 +56,16 @@ INITIAL_SPACE = (1.0, 0.0, 0.0, -1.0)
 
 def mikktspace(positions: Array, normals: Array, faces: Array, uvs: Array) -> Array:
     """(F, 3, 4): each triangle corner's unit tangent and sign, as genTangSpaceDefault's
-    m_setTSpaceBasic gives them (bitangent = sign N x T along +v). `normals` unit."""
-    p, n, uv = (np.asarray(a).astype(np.float32) for a in (positions, normals, uvs))
-    faces = np.asarray(faces, np.int64).reshape(-1, 3)
+    m_setTSpaceBasic gives them (bitangent = sign N x T along +v). `normals` unit. Where float32
+    overflows (coordinates or UVs beyond about 1e19), mikktspace.c's tangent is not finite; here
+    it is the initial space's."""
+    with np.errstate(all="ignore"):
+        out = _mikktspace(*(np.asarray(a).astype(np.float32) for a in (positions, normals, uvs)),
+                          np.asarray(faces, np.int64).reshape(-1, 3))
+    return np.where(np.isfinite(out).all(axis=2, keepdims=True), out, INITIAL_SPACE)
+
+
+def _mikktspace(p: Array, n: Array, uv: Array, faces: Array) -> Array:
     out = np.tile(INITIAL_SPACE, (len(faces), 3, 1))
     if len(faces) == 0:
         return out
@@ -112,10 +119,10 @@ class _TriInfo:
         some_area = np.abs(area) > FLT_MIN
         sign = np.where(self.orient, np.float32(1.0), np.float32(-1.0))
         len_os, len_ot = _length(os), _length(ot)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            self.os = np.where((some_area & (len_os > FLT_MIN))[:, None], (sign / len_os)[:, None] * os, ZERO)
-            self.ot = np.where((some_area & (len_ot > FLT_MIN))[:, None], (sign / len_ot)[:, None] * ot, ZERO)
-            mag_s, mag_t = len_os / np.abs(area), len_ot / np.abs(area)
+        # (Divisions by zero where the area or length is: the np.where and the flag drop them.)
+        self.os = np.where((some_area & (len_os > FLT_MIN))[:, None], (sign / len_os)[:, None] * os, ZERO)
+        self.ot = np.where((some_area & (len_ot > FLT_MIN))[:, None], (sign / len_ot)[:, None] * ot, ZERO)
+        mag_s, mag_t = len_os / np.abs(area), len_ot / np.abs(area)
         self.group_with_any = ~(some_area & (mag_s > FLT_MIN) & (mag_t > FLT_MIN))
 
 
@@ -131,8 +138,7 @@ def _length(v: Array) -> Array:
 def _unit(v: Array) -> Array:
     """Normalize where VNotZero holds (some component above FLT_MIN), else v as it is."""
     some = (np.abs(v) > FLT_MIN).any(axis=1)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        return np.where(some[:, None], (v.dtype.type(1.0) / _length(v))[:, None] * v, v)
+    return np.where(some[:, None], (v.dtype.type(1.0) / _length(v))[:, None] * v, v)
 
 
 def _projected(v: Array, n: Array) -> Array:
@@ -251,7 +257,10 @@ def _ordered_groups(group: Array, orient: Array, any_corner: Array, left: Array,
 def _tspaces(w: Array, group: Array, orient: Array, tri: _TriInfo, p: Array, n: Array) -> Array:
     """(G, 3, 4): GenerateTSpaces and EvalTspace for the healthy triangles' corners."""
     count = len(w)
+    result = np.tile(INITIAL_SPACE, (3 * count, 1))
     corner = np.flatnonzero(group >= 0)
+    if not len(corner):  # every triangle GROUP_WITH_ANY: no group
+        return result.reshape(count, 3, 4)
     t, k = corner // 3, corner % 3
     normal = n.reshape(-1, 3)[corner]
     os, ot = _projected(tri.os[t], normal), _projected(tri.ot[t], normal)
@@ -269,7 +278,6 @@ def _tspaces(w: Array, group: Array, orient: Array, tri: _TriInfo, p: Array, n: 
     torn = np.flatnonzero(_may_split(member, os, ot, healthy)[member])
     if len(torn):
         tangent[torn] = _subgroups(torn, member, os, ot, healthy, weighted)
-    result = np.tile(INITIAL_SPACE, (3 * count, 1))
     result[corner, :3] = tangent
     result[corner, 3] = np.where(orient[t], 1.0, -1.0)
     return result.reshape(count, 3, 4)
