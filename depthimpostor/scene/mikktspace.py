@@ -60,8 +60,8 @@ def mikktspace(positions: Array, normals: Array, faces: Array, uvs: Array) -> Ar
     overflows (coordinates or UVs beyond about 1e19), mikktspace.c's tangent is not finite; here
     it is the initial space's."""
     with np.errstate(all="ignore"):
-        out = _mikktspace(*(np.asarray(a).astype(np.float32) for a in (positions, normals, uvs)),
-                          np.asarray(faces, np.int64).reshape(-1, 3))
+        p, n, uv = (np.asarray(a).astype(np.float32) for a in (positions, normals, uvs))
+        out = _mikktspace(p, n, uv, np.asarray(faces, np.int64).reshape(-1, 3))
     return np.where(np.isfinite(out).all(axis=2, keepdims=True), out, INITIAL_SPACE)
 
 
