@@ -270,12 +270,14 @@ def _tspaces(w: Array, group: Array, orient: Array, tri: _TriInfo, p: Array, n: 
     angle = np.arccos(np.clip(_dot(before, after), -1.0, 1.0).astype(np.float64)).astype(np.float32)
     healthy = ~tri.group_with_any[t]
     weighted = np.where(healthy, angle, np.float32(0.0)).astype(np.float64)[:, None] * os
-    _, member = np.unique(group[corner], return_inverse=True)
-    summed = np.stack([np.bincount(member, weights=weighted[:, j]) for j in range(3)], axis=1)
+    present = np.zeros(int(group.max()) + 1, bool)
+    present[group[corner]] = True
+    member = (np.cumsum(present) - 1)[group[corner]]  # the groups numbered 0, 1, ...
+    summed = _sums(member, weighted)
     tangent = _unit(summed)[member]
     # Groups where two members' projected vOs or vOt are opposed (cos <= THRESHOLD_COS): each of
     # their corners averages only the members within the threshold of its own (its subgroup).
-    torn = np.flatnonzero(_may_split(member, os, ot, healthy)[member])
+    torn = np.flatnonzero(_may_split(member, os, ot, healthy, summed)[member])
     if len(torn):
         tangent[torn] = _subgroups(torn, member, os, ot, healthy, weighted)
     result[corner, :3] = tangent
@@ -288,16 +290,22 @@ def _tspaces(w: Array, group: Array, orient: Array, tri: _TriInfo, p: Array, n: 
 SAME_SIDE_COS = 1e-3
 
 
-def _may_split(member: Array, os: Array, ot: Array, healthy: Array) -> Array:
+def _sums(member: Array, values: Array) -> Array:
+    """(groups, 3): the sums of the (N, 3) values over each group's members, in float64."""
+    return np.stack([np.bincount(member, weights=values[:, j]) for j in range(3)], axis=1)
+
+
+def _may_split(member: Array, os: Array, ot: Array, healthy: Array, weighted_os: Array) -> Array:
     """(groups,) whether a group may hold two healthy members whose projected vOs (or vOt) are
-    opposed: some unit one not well on its mean's side (the few that are get checked pair by pair)."""
-    flagged = np.zeros(int(member.max()) + 1, bool)
-    for v in (os, ot):
+    opposed: some unit one not well on the side of the group's sum of them (weighted_os for vOs)
+    (the few groups that are get checked pair by pair)."""
+    flagged = np.zeros(len(weighted_os), bool)
+    for v, sums in ((os, weighted_os), (ot, None)):
         v64 = v.astype(np.float64) * healthy[:, None]
-        mean = np.stack([np.bincount(member, weights=v64[:, j]) for j in range(3)], axis=1)
-        side = np.einsum("ij,ij->i", v64, mean[member])
+        mean = (_sums(member, v64) if sums is None else sums)[member]
         unit = np.abs(np.einsum("ij,ij->i", v64, v64) - 1.0) < 1e-3
-        np.logical_or.at(flagged, member[unit & (side <= SAME_SIDE_COS * np.linalg.norm(mean[member], axis=1))], True)
+        aside = np.einsum("ij,ij->i", v64, mean) <= SAME_SIDE_COS * np.sqrt(np.einsum("ij,ij->i", mean, mean))
+        flagged[member[unit & aside]] = True
     return flagged
 
 
@@ -317,7 +325,7 @@ def _subgroups(torn: Array, member: Array, os: Array, ot: Array, healthy: Array,
     joined = (~healthy[ca] | ~healthy[cb] | (ca == cb)
               | ((_dot(os[ca], os[cb]) > THRESHOLD_COS) & (_dot(ot[ca], ot[cb]) > THRESHOLD_COS)))
     contribution = weighted[cb] * joined[:, None]
-    summed = np.stack([np.bincount(a, weights=contribution[:, j], minlength=len(order)) for j in range(3)], axis=1)
+    summed = _sums(a, contribution)
     result = np.empty((len(torn), 3))
     result[np.searchsorted(torn, order)] = _unit(summed)
     return result
