@@ -13,9 +13,10 @@ checked against it by tests/test_mikktspace.py), with two conventions of glTF's:
   vertex get different ones (a UV mirror seam through shared vertices, a fan MikkTSpace splits,
   a degenerate triangle), the vertex is split: one copy per distinct tangent, appended after the
   mesh's vertices, its triangles re-indexed (the vertex keeps the tangent of its first corner).
-  A mesh where no vertex splits keeps its vertices and indices as they were. three.js un-indexes
-  the geometry instead (every corner its own vertex, merged again by mergeVertices); Blender's
-  exporter splits on its loops' distinct tangents, as here.
+  A mesh where no vertex splits keeps its vertices and indices as they were. three.js's
+  computeMikkTSpaceTangents de-indexes the geometry instead (every corner its own vertex);
+  Blender's glTF exporter keeps a vertex per distinct combination of its loops' attributes,
+  tangent included, as here.
 """
 
 from __future__ import annotations
