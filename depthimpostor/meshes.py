@@ -49,7 +49,8 @@ class Mesh:
     uvs: np.ndarray | None = None
     # glTF's other vertex attributes, where a file gives them (scene/gltf_file.py), else None:
     # (N, 4) float32 tangents (xyz unit, w the bitangent's sign: B = w N x T, glTF 3.7.2.1), from
-    # the file's TANGENT or generated where a normal map needs them (scene/tangents.py); (N, 4)
+    # the file's TANGENT or generated where a normal map needs them (scene/tangents.py: MikkTSpace,
+    # which may split a vertex, so N may exceed the file's count); (N, 4)
     # float32 linear RGBA vertex colours (COLOR_0, alpha 1 where the file gives RGB); (N, 2) float32
     # TEXCOORD_1, in the convention of `uvs`.
     tangents: np.ndarray | None = None

@@ -526,7 +526,7 @@ def mesh_attributes_line(scene: Scene, attributes: tuple[str, ...], traced: bool
            "the BVH" if traced else "")
     return (f"vertex attributes: {', '.join(ATTRIBUTE_USES[name] for name in attributes)}; {4 * floats} more bytes a "
             f"vertex in the mesh buffers{bvh}" + (f"; {made} part(s) with tangents (the file's, or generated: "
-                                                  "scene/tangents.py)" if "tangents" in attributes else ""))
+                                                  "MikkTSpace, scene/tangents.py)" if "tangents" in attributes else ""))
 
 
 def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImagePlan]], memory: dict[str, int],

@@ -14,7 +14,7 @@ import pytest
 
 from conftest import assert_finite, scene_from_toml
 from depthimpostor.constants import Method
-from depthimpostor.meshes import box
+from depthimpostor.meshes import box, sphere
 from depthimpostor.oracles.compare import compare
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
@@ -72,8 +72,9 @@ def _bumpy_box(path: Path, normal_map: bool = True, tangents: bool = True, color
         w.json["accessors"][-1]["normalized"] = True
     if tangents:
         set_uvs = uvs1 if normal_set == 1 else mesh.uvs
-        primitive["attributes"]["TANGENT"] = w.accessor(
-            generated_tangents(mesh.positions, mesh.normals, mesh.indices, set_uvs), "VEC4")
+        made = generated_tangents(mesh.positions, mesh.normals, mesh.indices, set_uvs)
+        assert len(made.vertices) == len(mesh.positions)  # the box's faces have vertices of their own
+        primitive["attributes"]["TANGENT"] = w.accessor(made.tangents, "VEC4")
     w.node(mesh=w.mesh(primitive), rotation=quaternion((0.0, 1.0, 0.0), 35.0))
     return w.write(path)
 
@@ -233,11 +234,86 @@ def test_generated_tangents_follow_the_uvs() -> None:
     normals = np.tile((0.0, 0.0, 1.0), (4, 1))
     faces = np.array([[0, 1, 2], [0, 2, 3]])
     turned = np.array([(0, 1), (0, 0), (1, 0), (1, 1)], float)  # u grows with y, v against x
-    np.testing.assert_allclose(generated_tangents(positions, normals, faces, turned)[:, :3], np.tile((0, 1, 0), (4, 1)),
+    np.testing.assert_allclose(generated_tangents(positions, normals, faces, turned).tangents[:, :3], np.tile((0, 1, 0), (4, 1)),
                                atol=1e-12)
     mirrored = np.array([(1, 1), (0, 1), (0, 0), (1, 0)], float)  # u to the left, v down
-    np.testing.assert_allclose(generated_tangents(positions, normals, faces, mirrored), np.tile((-1, 0, 0, -1), (4, 1)),
+    np.testing.assert_allclose(generated_tangents(positions, normals, faces, mirrored).tangents, np.tile((-1, 0, 0, -1), (4, 1)),
                                atol=1e-12)
+
+
+def _mirrored_ball(path: Path, given: bool = False) -> tuple[Path, dict[str, np.ndarray]]:
+    """A ball (meshes.sphere, its poles one vertex each) whose UVs mirror about two meridians,
+    u = |phi / pi - 1| (seams through shared vertices: MikkTSpace splits them), v pole to pole,
+    normal-mapped with bumps, with vertex colours and a second UV set. `given`: the file gives
+    the tangents generated for it, on the vertices they split (written as the file's). Returns
+    the file and its vertex attributes (those of the unsplit ball)."""
+    mesh = sphere(0.45, segments=24, rings=12)
+    direction = mesh.normals
+    phi = np.arctan2(direction[:, 2], direction[:, 0]) % (2.0 * math.pi)
+    attributes = {"positions": np.asarray(mesh.positions, np.float64), "normals": np.asarray(mesh.normals, np.float64),
+                  "uvs": np.stack([np.abs(phi / math.pi - 1.0), np.arccos(np.clip(direction[:, 1], -1, 1)) / math.pi], 1),
+                  "colors": np.random.default_rng(3).uniform(0.4, 1.0, (len(phi), 4)) * (1, 1, 1, 0) + (0, 0, 0, 1)}
+    attributes["uvs1"] = attributes["uvs"] * 1.5 + 0.2
+    attributes = {name: values.astype(np.float32).astype(np.float64) for name, values in attributes.items()}
+    faces = np.asarray(mesh.indices)
+    w = GltfWriter()
+    m = w._append("materials", {"pbrMetallicRoughness": {"baseColorTexture": {"index": w.texture(_picture())},
+                                                         "metallicFactor": 0.0, "roughnessFactor": 0.45},
+                                "normalTexture": {"index": w.texture(_bumps()), "scale": 1.5}})
+    written, tangents = dict(attributes), None
+    if given:
+        made = generated_tangents(attributes["positions"], attributes["normals"], faces, attributes["uvs"])
+        written = {name: values[made.vertices] for name, values in attributes.items()}
+        faces, tangents = made.faces, made.tangents
+    primitive = w.primitive(written["positions"], faces, written["normals"], written["uvs"], material=m)
+    primitive["attributes"]["TEXCOORD_1"] = w.accessor(written["uvs1"], "VEC2")
+    primitive["attributes"]["COLOR_0"] = w.accessor(written["colors"], "VEC4")
+    if tangents is not None:
+        primitive["attributes"]["TANGENT"] = w.accessor(tangents, "VEC4")
+    w.node(mesh=w.mesh(primitive))
+    return w.write(path), attributes | {"faces": np.asarray(mesh.indices)}
+
+
+def test_a_mirror_seam_splits_the_loaded_vertices(tmp_path: Path) -> None:
+    """The loader splits the vertices MikkTSpace gives two tangents (the seams, the poles), and
+    every attribute with them: each triangle corner has the file's position, normal, both UV sets
+    and colour, and its tangent is MikkTSpace's, unit and perpendicular to its normal; the two
+    sides of a seam have opposite signs."""
+    path, file = _mirrored_ball(tmp_path / "ball.glb")
+    mesh = read_gltf(path, "ball.glb").parts[0].mesh
+    assert mesh.tangents is not None and mesh.colors is not None and mesh.uvs1 is not None and mesh.uvs is not None
+    assert len(mesh.positions) > len(file["positions"]) + 20
+    for name, values in (("positions", mesh.positions), ("normals", mesh.normals), ("uvs", mesh.uvs),
+                         ("uvs1", mesh.uvs1), ("colors", mesh.colors)):
+        np.testing.assert_allclose(np.asarray(values)[mesh.indices], file[name][file["faces"]], atol=1e-6, err_msg=name)
+    made = generated_tangents(file["positions"], file["normals"], file["faces"], file["uvs"])
+    np.testing.assert_allclose(mesh.tangents[mesh.indices], made.tangents[made.faces], atol=1e-6)
+    np.testing.assert_allclose(np.linalg.norm(mesh.tangents[:, :3], axis=1), 1.0, atol=1e-5)
+    assert np.abs(np.einsum("ij,ij->i", mesh.tangents[:, :3], mesh.normals)).max() < 1e-5
+    seam = np.flatnonzero((np.abs(file["uvs"][:, 0] - 1.0) < 1e-6) & (np.abs(file["positions"][:, 1]) < 0.4))
+    split = [mesh.tangents[np.all(np.abs(mesh.positions - file["positions"][v]) < 1e-6, axis=1), 3] for v in seam]
+    assert split and all(set(signs) == {-1.0, 1.0} for signs in split)
+
+
+def test_a_mirrored_balls_generated_tangents_draw_as_the_truth_has_them(ctx: moderngl.Context, tmp_path: Path) -> None:
+    """The ball beside the mirror, its tangents generated (its vertices split): the traced hits
+    and the eye's pass read them as the truth does (wrong object 0, colour within float noise),
+    and draw what the same tangents given by the file draw."""
+    renders = []
+    for given in (False, True):
+        folder = tmp_path / str(given)
+        folder.mkdir()
+        _mirrored_ball(folder / "bumpy.glb", given=given)
+        scene = scene_from_toml(SCENE, str(folder / "scene.toml"), folder)
+        with Renderer(ctx, scene, method=Method.RAYTRACE, reflection_data=True) as renderer:
+            renderer.render()
+            result = compare(renderer)
+        assert_finite(result.render)
+        assert_finite(result.truth)
+        assert result.figures.object_pixels > 500 and result.figures.wrong_object_share == 0.0, result.figures
+        assert result.figures.color_rmse < 1e-3, result.figures.color_rmse
+        renders.append(result.render)
+    assert np.abs(renders[0] - renders[1]).max() < 1e-5
 
 
 @pytest.mark.parametrize("component", [UNSIGNED_BYTE, 5126])

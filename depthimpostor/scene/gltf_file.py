@@ -307,8 +307,9 @@ def local_mesh(group: list[Primitive], tangent_set: int | None = None) -> Mesh:
     glTF specification asks, each triangle with its own three vertices (and the file's tangents,
     which the specification then says to ignore, are generated). `tangent_set` (the UV set its
     material's normal map reads; None: no normal map) asks for tangents: the file's where it gives
-    them, else generated (scene/tangents.py). TEXCOORD_1 and COLOR_0 where any primitive has them
-    (the others: zeros, and white)."""
+    them, else generated (scene/tangents.py: MikkTSpace, which splits a vertex whose corners get
+    different tangents, every attribute copied, the faces re-indexed). TEXCOORD_1 and COLOR_0
+    where any primitive has them (the others: zeros, and white)."""
     positions, normals, uvs, faces, start = [], [], [], [], 0
     extras: dict[str, list[np.ndarray]] = {"tangents": [], "colors": [], "uvs1": []}
     any_uvs = any(p.uvs is not None for p in group)
@@ -324,6 +325,10 @@ def local_mesh(group: list[Primitive], tangent_set: int | None = None) -> Mesh:
             corners = p.faces.ravel()
             normal = np.repeat(_flat_normals(p.positions, p.faces), 3, axis=0)
             face = np.arange(len(corners)).reshape(-1, 3)
+        if tangent_set is not None:
+            tangents, kept, face = _tangents(p, corners, normal, face, tangent_set)
+            corners, normal = corners[kept], normal[kept]  # MikkTSpace may split vertices
+            extras["tangents"].append(tangents)
         positions.append(p.positions[corners])
         normals.append(normal)
         uvs.append(p.uvs[corners] if p.uvs is not None else np.zeros((len(corners), 2)))
@@ -332,23 +337,25 @@ def local_mesh(group: list[Primitive], tangent_set: int | None = None) -> Mesh:
             extras["colors"].append(p.colors[corners] if p.colors is not None else np.ones((len(corners), 4)))
         if wanted["uvs1"]:
             extras["uvs1"].append(p.uvs1[corners] if p.uvs1 is not None else np.zeros((len(corners), 2)))
-        if tangent_set is not None:
-            extras["tangents"].append(_tangents(p, corners, normal, face, tangent_set))
         start += len(corners)
     return Mesh(np.concatenate(positions), np.concatenate(normals), np.concatenate(faces),
                 np.concatenate(uvs) if any_uvs else None,
                 **{name: np.concatenate(values) for name, values in extras.items() if wanted[name]})
 
 
-def _tangents(p: Primitive, corners: np.ndarray, normals: np.ndarray, faces: np.ndarray, uv_set: int) -> np.ndarray:
-    """A primitive's tangents at `corners`: the file's (with its normals: glTF ignores them
-    beside flat normals), else generated from the UV set the normal map reads (zeros where the
-    primitive has not that set: the map then reads one texel, and the tangents are arbitrary)."""
+def _tangents(p: Primitive, corners: np.ndarray, normals: np.ndarray, faces: np.ndarray,
+              uv_set: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A primitive's tangents at `corners` (faces indexing them), the corners they are on and the
+    faces indexing those: the file's (with its normals: glTF ignores them beside flat normals),
+    else MikkTSpace's from the UV set the normal map reads (scene/tangents.py), which may split a
+    vertex in several (zero UVs where the primitive has not that set: the map then reads one
+    texel, and the tangents are arbitrary)."""
     if p.tangents is not None and p.normals is not None:
-        return p.tangents[corners]
+        return p.tangents[corners], np.arange(len(corners)), faces
     uvs = p.uvs1 if uv_set == 1 else p.uvs
     chosen = uvs[corners] if uvs is not None else np.zeros((len(corners), 2))
-    return generated_tangents(p.positions[corners], normals, faces, chosen)
+    made = generated_tangents(p.positions[corners], normals, faces, chosen)
+    return made.tangents, made.vertices, made.faces
 
 
 def primitive_modes(header: Mapping[str, Any], source: str) -> Iterator[tuple[int, int, Mapping[str, Any], int]]:

@@ -2,56 +2,67 @@
 not specified, client implementations SHOULD calculate tangents using default MikkTSpace
 algorithms with the specified vertex positions, normals, and texture coordinates").
 
-This is not MikkTSpace, but the per-vertex accumulation it refines (Lengyel's method), in numpy:
-each triangle's tangent dP/du and "up the image" direction -dP/dv (glTF's bitangent: v grows down
-the image) are summed at its corners, weighted by the triangle's area in UV space (the sums of the
-unnormalized solutions), then each vertex's tangent is made perpendicular to its normal
-(Gram-Schmidt) and its sign w chosen so that w N x T points along the summed bitangent. Where it
-differs from MikkTSpace (Mikkelsen 2008, mikktspace.c), and so from a baker's normal map:
-- MikkTSpace weights each corner by its angle and splits a vertex whose triangles disagree on the
-  sign (mirrored UVs) or whose tangents point too far apart; here a shared vertex averages them,
-  so at a UV mirror seam the tangent is the mean of the two sides (the bumps there are bent).
-- Degenerate UV triangles (no area in UV space) add nothing here; MikkTSpace gives them the
-  tangents of their neighbours. A vertex with none left gets any unit vector perpendicular to
-  its normal (a normal map then turns its bumps arbitrarily there, as on any seam).
-On a smooth, unmirrored, unsplit UV layout (a plane, a sphere, most scanned models) the two agree
-to within the averaging weights (tests/test_normal_maps.py compares a file's tangents with these).
+They are MikkTSpace's (scene/mikktspace.py, a numpy port of mikktspace.c's genTangSpaceDefault,
+checked against it by tests/test_mikktspace.py), with two conventions of glTF's:
+- The sign w is mikktspace.c's negated. MikkTSpace's bitangent, sign N x T, runs along +v, and
+  glTF's v runs down the image, while its normal maps' green runs up it: glTF's bitangent w N x T
+  points against dP/dv. (Negating is what MikkTSpace on (u, 1 - v) gives, up to that subtraction's
+  rounding: three.js's computeMikkTSpaceTangents does it for glTF with its negateSign; Blender runs
+  MikkTSpace on its own UVs, whose v runs up.)
+- MikkTSpace gives a tangent per triangle corner; a glTF vertex holds one. Where the corners of a
+  vertex get different ones (a UV mirror seam through shared vertices, a fan MikkTSpace splits,
+  a degenerate triangle), the vertex is split: one copy per distinct tangent, appended after the
+  mesh's vertices, its triangles re-indexed (the vertex keeps the tangent of its first corner).
+  A mesh where no vertex splits keeps its vertices and indices as they were. three.js's
+  computeMikkTSpaceTangents de-indexes the geometry instead (every corner its own vertex);
+  Blender's glTF exporter keeps a vertex per distinct combination of its loops' attributes,
+  tangent included, as here.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
+
+from depthimpostor.scene.mikktspace import distinct_rows, mikktspace
 
 Array = np.ndarray
 
+#: The tangent of a vertex no triangle uses (it is never drawn): any unit one.
+UNUSED = (1.0, 0.0, 0.0, 1.0)
 
-def generated_tangents(positions: Array, normals: Array, faces: Array, uvs: Array) -> Array:
-    """(N, 4) unit tangents and signs for a mesh's vertices, from the UV set a normal map reads."""
-    p = np.asarray(positions, np.float64)
-    n = np.asarray(normals, np.float64)
-    uv = np.asarray(uvs, np.float64)
-    corners = np.asarray(faces, np.int64)
-    e1, e2 = p[corners[:, 1]] - p[corners[:, 0]], p[corners[:, 2]] - p[corners[:, 0]]
-    d1, d2 = uv[corners[:, 1]] - uv[corners[:, 0]], uv[corners[:, 2]] - uv[corners[:, 0]]
-    # dP/du and dP/dv times the UV triangle's signed double area (so that a large triangle weighs
-    # more, and a degenerate one, of no area, nothing).
-    area = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
-    sign = np.where(area < 0.0, -1.0, 1.0)[:, None]
-    along_u = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) * sign
-    along_v = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) * sign
-    tangent, down = np.zeros_like(p), np.zeros_like(p)
-    for k in range(3):
-        np.add.at(tangent, corners[:, k], along_u)
-        np.add.at(down, corners[:, k], along_v)
-    summed = np.linalg.norm(tangent, axis=1)
-    tangent -= n * np.einsum("ij,ij->i", tangent, n)[:, None]
-    length = np.linalg.norm(tangent, axis=1)
-    # No UV gradient at the vertex, or one along the normal (what is left of it is rounding): any
-    # direction perpendicular to the normal.
-    length = np.where(length > 1e-6 * summed, length, 0.0)
-    fallback = np.cross(n, np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]]))
-    fallback /= np.maximum(np.linalg.norm(fallback, axis=1, keepdims=True), 1e-300)
-    tangent = np.where((length > 1e-20)[:, None], tangent / np.maximum(length, 1e-300)[:, None], fallback)
-    # glTF's bitangent points up the image, against dP/dv.
-    handedness = np.where(np.einsum("ij,ij->i", np.cross(n, tangent), -down) < 0.0, -1.0, 1.0)
-    return np.c_[tangent, handedness]
+
+class Tangents(NamedTuple):
+    """A mesh's generated tangents, on its vertices split where MikkTSpace needs it."""
+
+    tangents: Array  # (K, 4) unit tangents and signs w (B = w N x T)
+    vertices: Array  # (K,) the vertex each of the K comes from (the first N: 0 .. N - 1)
+    faces: Array  # (M, 3) the faces, indexing the K
+
+
+def generated_tangents(positions: Array, normals: Array, faces: Array, uvs: Array) -> Tangents:
+    """MikkTSpace's tangents for a mesh's N vertices (`normals` unit), from the UV set a normal map
+    reads, on its vertices split where two corners of one get different ones."""
+    faces = np.asarray(faces, np.int64).reshape(-1, 3)
+    count = len(positions)
+    corners = mikktspace(positions, normals, faces, uvs).reshape(-1, 4)
+    corners[:, 3] = -corners[:, 3]  # glTF's bitangent points up the image, against dP/dv
+    vertex = faces.ravel()
+    first_of_vertex = np.full(count, len(vertex), np.int64)
+    np.minimum.at(first_of_vertex, vertex, np.arange(len(vertex)))
+    # A corner whose tangent is its vertex's first corner's stays on the vertex; the others (few)
+    # go to one new vertex per distinct (vertex, tangent), in the order of their first corners.
+    moved = np.flatnonzero((corners != corners[first_of_vertex[vertex]]).any(axis=1))
+    kind = distinct_rows(np.c_[vertex[moved], corners[moved]])
+    first = np.full(len(moved) and int(kind.max()) + 1, len(moved), np.int64)
+    np.minimum.at(first, kind, np.arange(len(moved)))
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+    slot = vertex.copy()
+    slot[moved] = count + rank[kind]
+    tangents = np.tile(UNUSED, (count + len(first), 1))
+    tangents[slot] = corners
+    added = np.empty(len(first), np.int64)
+    added[rank] = vertex[moved[first]]
+    return Tangents(tangents, np.r_[np.arange(count), added], slot.reshape(-1, 3))
