@@ -5,7 +5,9 @@ batch stopped half-way resumes where it stopped. The batch file's refusals need 
 
 from __future__ import annotations
 
+import csv
 import json
+import math
 import os
 import signal
 import sys
@@ -23,6 +25,7 @@ from depthimpostor.aov import read_aovs
 from depthimpostor.batch.jobs import Batch, Frame, load_batch
 from depthimpostor.batch.run import LocalPool, RayPool, open_pool, recorded_outputs, run_batch
 from depthimpostor.batch.worker import KEPT_RENDERERS, FrameWorker
+from depthimpostor.bench import COLUMNS
 from depthimpostor.cli import main
 from depthimpostor.errors import SceneError
 
@@ -180,6 +183,43 @@ def test_a_video_on_two_workers_equals_the_serial_video(local_ray: None, tmp_pat
     assert main(["render", *arguments, "--video", str(tmp_path / "serial.gif")]) == 0
     assert main(["render", *arguments, "--video", str(tmp_path / "workers.gif"), "--workers", "2"]) == 0
     assert (tmp_path / "workers.gif").read_bytes() == (tmp_path / "serial.gif").read_bytes()
+
+
+#: bench's columns that are timings (each worker's own): every other column is an accuracy figure.
+TIMINGS = ("frame_ms_median", "frame_ms_p10", "frame_ms_p90", "mirror_pass_ms_median", "gl_time_query_ms",
+           "gl_mirror_pass_ms", "bake_ms_median")
+
+
+def _bench_csv(folder: Path) -> tuple[list[str], list[dict[str, str]]]:
+    lines = (folder / "bench.csv").read_text(encoding="utf-8").splitlines()
+    comments = [line for line in lines if line.startswith("# ")]
+    return comments, list(csv.DictReader(line for line in lines if not line.startswith("# ")))
+
+
+def test_a_bench_on_two_workers_has_the_serial_accuracy(local_ray: None, tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """Three configurations on two workers (one of them measures two, reusing its truth of the
+    scene): the error columns equal the serial bench's exactly; the timings are there and finite."""
+    arguments = ["bench", str(SCENES / "default.toml"), "--methods", "depth,hybrid,raytrace", "--algorithms",
+                 "optimized", "--resolutions", "16", "--size", "64x36", "--frames", "2", "--warmup", "0", "--bakes", "1"]
+    assert main([*arguments, "-o", str(tmp_path / "serial")]) == 0
+    assert main([*arguments, "-o", str(tmp_path / "workers"), "--workers", "2"]) == 0
+    assert "workers: 2 Ray workers on a local Ray" in capsys.readouterr().out
+    assert sorted(p.name for p in (tmp_path / "workers").iterdir()) == sorted(p.name for p in (tmp_path / "serial").iterdir())
+    serial_header, serial = _bench_csv(tmp_path / "serial")
+    header, rows = _bench_csv(tmp_path / "workers")
+    assert list(rows[0]) == COLUMNS and len(rows) == len(serial) == 3
+    assert header[1:-1] == serial_header[1:] and header[-1].startswith("# workers: 2 Ray workers")
+    for row, alone in zip(rows, serial, strict=True):
+        assert {k: v for k, v in row.items() if k not in TIMINGS} == {k: v for k, v in alone.items() if k not in TIMINGS}
+        assert all(math.isfinite(float(row[name])) and float(row[name]) >= 0 for name in TIMINGS), row
+        assert float(row["frame_ms_median"]) > float(row["mirror_pass_ms_median"]) > 0
+    assert "| default | `depth` optimized | 16 |" in (tmp_path / "workers" / "bench.md").read_text()
+
+
+def test_bench_on_workers_refuses_peers(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", str(SCENES / "default.toml"), "--peers", "--workers", "2"]) == 2
+    assert "command line: --peers: expected without --workers" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(("extra", "message"), [

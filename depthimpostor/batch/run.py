@@ -31,7 +31,7 @@ from tqdm import tqdm
 from ..errors import DepthImpostorError, OutputError, SceneError
 from ..gpu.context import Backend
 from .jobs import Frame
-from .worker import FAILED, FOUND, RENDERED, FrameWorker, complete, one_line
+from .worker import FAILED, FOUND, RENDERED, FrameWorker, Task, complete, one_line
 
 #: Frames held by each worker at a time: one drawing and one waiting, so that a worker never
 #: waits for the driver between frames, and a dead worker takes few frames with it.
@@ -43,12 +43,13 @@ RAY_HINT = 'pip install "depthimpostor[batch]" (Ray); or --workers 0 to render i
 
 
 class FramePool:
-    """Where frames are rendered; `records(frames)` yields each frame's record as it completes."""
+    """Where frames are rendered; `records(frames)` yields each frame's record as it completes.
+    A frame is any worker.Task: a batch's jobs.Frame, or a configuration of `bench --workers`."""
 
     workers = 1
     description = "this process"
 
-    def records(self, frames: Sequence[Frame]) -> Iterator[dict[str, Any]]:
+    def records(self, frames: Sequence[Task]) -> Iterator[dict[str, Any]]:
         raise NotImplementedError
 
     def __enter__(self) -> FramePool:
@@ -67,9 +68,9 @@ class LocalPool(FramePool):
     def __init__(self, backend: Backend | None = None, max_memory: int | None = None) -> None:
         self.worker = FrameWorker(backend, None, max_memory)
 
-    def records(self, frames: Sequence[Frame]) -> Iterator[dict[str, Any]]:
+    def records(self, frames: Sequence[Task]) -> Iterator[dict[str, Any]]:
         for frame in frames:
-            yield self.worker.render(frame)
+            yield self.worker.run(frame)
 
     def close(self) -> None:
         self.worker.release()
@@ -123,17 +124,17 @@ class RayPool(FramePool):
         where = address or "a local Ray"
         self.description = f"{self.workers} Ray workers on {where}" + (f" ({gpus} GPUs)" if gpus else "")
 
-    def records(self, frames: Sequence[Frame]) -> Iterator[dict[str, Any]]:
+    def records(self, frames: Sequence[Task]) -> Iterator[dict[str, Any]]:
         ray: Any = self._ray
         waiting = deque(frames)
-        held: dict[Any, tuple[Frame, Any]] = {}  # a frame's future: the frame and its actor
+        held: dict[Any, tuple[Task, Any]] = {}  # a frame's future: the frame and its actor
         load = {id(actor): 0 for actor in self.actors}
         actors = list(self.actors)
         while waiting or held:
             for actor in actors:
                 while waiting and load[id(actor)] < FRAMES_IN_FLIGHT:
                     frame = waiting.popleft()
-                    held[actor.render.remote(frame)] = (frame, actor)
+                    held[actor.run.remote(frame)] = (frame, actor)
                     load[id(actor)] += 1
             if not held:  # every worker died: what is left cannot be drawn
                 for frame in waiting:
