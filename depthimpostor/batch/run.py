@@ -29,7 +29,7 @@ import numpy as np
 from tqdm import tqdm
 
 from ..errors import DepthImpostorError, OutputError, SceneError
-from ..gpu.context import Backend
+from ..gpu.context import Backend, egl_device_for_gpu
 from .jobs import Frame
 from .worker import FAILED, FOUND, RENDERED, FrameWorker, Task, complete, one_line
 
@@ -77,7 +77,8 @@ class LocalPool(FramePool):
 
 
 class RayWorker(FrameWorker):
-    """A FrameWorker in a Ray actor: its context on its GPU's EGL device where Ray gave it one."""
+    """A FrameWorker in a Ray actor: its context on its GPU's EGL device where Ray gave it one
+    (gpu/context.py choose_egl_device)."""
 
     def __init__(self, backend: Backend | None, max_memory: int | None, threads: int | None) -> None:
         import ray
@@ -86,7 +87,18 @@ class RayWorker(FrameWorker):
         # Mesa's llvmpipe rasterizes with a thread per core; workers sharing the cores each get their share.
         if threads is not None and not gpus:
             os.environ.setdefault("LP_NUM_THREADS", str(threads))
-        super().__init__(backend, int(gpus[0]) if gpus else None, max_memory)
+        # Ray gave this process its GPU (CUDA_VISIBLE_DEVICES); EGL's device of that GPU is found
+        # by its CUDA device number where the driver says it, EGL's order need not be CUDA's.
+        choice = egl_device_for_gpu(str(gpus[0])) if gpus else None
+        super().__init__(backend, choice.index if choice is not None else None, max_memory)
+        self.device_choice = choice.how if choice is not None else None
+        self.node = ray.get_runtime_context().get_node_id()
+
+    def identity(self) -> dict[str, Any]:
+        """FrameWorker's, with the Ray node (a cluster's machines may share a host name) and how
+        the EGL device was chosen."""
+        where = super().identity() | {"node": self.node}
+        return where | ({"device_choice": self.device_choice} if self.device_choice and "device" in where else {})
 
     def pid(self) -> int:
         return os.getpid()
