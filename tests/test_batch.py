@@ -294,6 +294,17 @@ def test_a_bench_on_two_workers_has_the_serial_accuracy(cluster: Cluster, tmp_pa
     assert "| default | `depth` optimized | 16 |" in (tmp_path / "workers" / "bench.md").read_text()
 
 
+def test_a_configuration_over_its_workers_memory_stops_the_bench_in_one_line(tmp_path: Path,
+                                                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """Each configuration is checked against its worker's context (--workers 0: this process's)."""
+    assert main(["bench", str(SCENES / "default.toml"), "--methods", "depth", "--algorithms", "optimized",
+                 "--resolutions", "512", "--size", "64x36", "--frames", "1", "--warmup", "0", "--bakes", "1",
+                 "--max-memory", "1M", "--workers", "0", "-o", str(tmp_path)]) == 1
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert error.startswith("depthimpostor: bench: default, depth optimized, resolution 512: ") and "MiB" in error
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_bench_on_workers_refuses_peers(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bench", str(SCENES / "default.toml"), "--peers", "--workers", "2"]) == 2
     assert "command line: --peers: expected without --workers" in capsys.readouterr().err

@@ -199,7 +199,8 @@ class RayPool(FramePool):
             time.sleep(UNREACHABLE_PAUSE)
             unreachable[actor.pid.remote()] = actor
         except ray.exceptions.RayActorError:
-            actors.remove(actor)
+            if actor in actors:  # gone for good
+                actors.remove(actor)
 
     def close(self) -> None:
         for actor in self.actors:
