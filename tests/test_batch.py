@@ -248,8 +248,7 @@ def test_a_node_lost_mid_batch_loses_nothing(cluster: Cluster, pool: RayPool, se
     # The frames the lost worker held were drawn by the other one meanwhile (HeldOn draws none on
     # the lost node); the lost worker is made again on a node with room (a new process).
     workers = [_once_reachable(actor) for actor in pool.actors]
-    assert node.node_id not in _alive_nodes() and len(_alive_nodes()) == 2
-    assert len({w["pid"] for w in workers} - before) == 1 and {w["node"] for w in workers} <= _alive_nodes()
+    assert len({w["pid"] for w in workers} - before) == 1 and all(w["node"] != node.node_id for w in workers)
     drawn = _pictures(tmp_path)
     for name, image in serial.items():
         assert np.array_equal(drawn[name], image), name
