@@ -120,6 +120,11 @@ def rotated_medians(timers: dict[str, Callable[[], float]], rounds: int, warmup:
 
 def machine_lines(ctx: moderngl.Context, settings: BenchSettings, scenes: Sequence[Scene]) -> list[str]:
     """What the figures were measured on and with: the first lines of every output."""
+    return header_lines(describe(ctx), settings, scenes)
+
+
+def header_lines(gl: str, settings: BenchSettings, scenes: Sequence[Scene]) -> list[str]:
+    """machine_lines for the GL named `gl` (bench --workers: the workers' GL, as they report it)."""
     cpu = platform.processor() or platform.machine()
     try:
         for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
@@ -130,7 +135,7 @@ def machine_lines(ctx: moderngl.Context, settings: BenchSettings, scenes: Sequen
         pass
     return [
         f"depthimpostor bench, {datetime.date.today().isoformat()}",
-        f"GL: {describe(ctx)}",
+        f"GL: {gl}",
         f"machine: {cpu}, {os.cpu_count()} logical CPUs, {platform.system()} {platform.release()}, "
         f"Python {platform.python_version()}",
         f"scenes: {', '.join(scene.source for scene in scenes)}",
@@ -159,7 +164,7 @@ def _renderers(ctx: moderngl.Context, configured: Sequence[tuple[Scene, Techniqu
             renderer.release()
 
 
-def _time_group(ctx: moderngl.Context, renderers: list[Renderer], settings: BenchSettings,
+def time_group(ctx: moderngl.Context, renderers: list[Renderer], settings: BenchSettings,
                 peers: Sequence[Peer] = ()) -> list[dict[str, float]]:
     """Bake and frame times of renderers timed together: every round renders each once, starting
     one further along each time. The `peers` are drawn in the same rounds (their times are theirs)."""
@@ -195,7 +200,7 @@ def _time_group(ctx: moderngl.Context, renderers: list[Renderer], settings: Benc
     return timings
 
 
-def _measure(
+def measure(
     ctx: moderngl.Context, scene: Scene, technique: Technique, truth: TruthFrame | None
 ) -> tuple[dict[str, float | int | str], TruthFrame]:
     """Error figures and samples per ray, from one frame of the measuring variant."""
@@ -223,6 +228,20 @@ def _measure(
     return measured, comparison.truth_frame
 
 
+def bench_configuration(ctx: moderngl.Context, variant: Scene, technique: Technique, settings: BenchSettings,
+                        truth: TruthFrame | None) -> tuple[dict[str, float | int | str], TruthFrame]:
+    """One configuration alone (`bench --workers`: a task of batch/bench_tasks.py): checked against
+    the context's limits, timed as a group of one, then measured; its row's figures but the names,
+    and the truth (for the scene's next configuration on this worker)."""
+    check_fits(ctx, variant, plan_render(variant, technique.method, technique.algorithm, reflection_data=True,
+                                         count_samples=True))
+    check_fits(ctx, variant, plan_render(variant, technique.method, technique.algorithm))
+    with _renderers(ctx, [(variant, technique)]) as renderers:
+        (timing,) = time_group(ctx, renderers, settings)
+    measured, truth = measure(ctx, variant, technique, truth)
+    return {**measured, **timing}, truth
+
+
 def techniques(settings: BenchSettings) -> list[Technique]:
     """Every method, the depth-image method once per algorithm."""
     return [
@@ -246,7 +265,7 @@ def configurations(settings: BenchSettings) -> list[tuple[int | str, list[Techni
     return groups
 
 
-def _configured(scene: Scene, settings: BenchSettings) -> list[tuple[Scene, int | str, Technique]]:
+def scene_configurations(scene: Scene, settings: BenchSettings) -> list[tuple[Scene, int | str, Technique]]:
     """Every configuration of one scene: the scene at its size and resolution, and the technique
     (but a method for flat mirrors alone, the planar one, in a scene with another reflector)."""
     flat = all_flat_mirrors(scene)
@@ -264,14 +283,14 @@ def check_bench(ctx: moderngl.Context, scenes: Sequence[Scene], settings: BenchS
     limits = context_limits(ctx)
     for scene in scenes:
         together = 0
-        for variant, _, technique in _configured(scene, settings):
+        for variant, _, technique in scene_configurations(scene, settings):
             # The measuring renderer, with every extra output, must fit alone; the timed ones together.
             check_fits(ctx, variant, plan_render(variant, technique.method, technique.algorithm,
                                                  reflection_data=True, count_samples=True))
             together += planned_bytes(plan_render(variant, technique.method, technique.algorithm))
         if limits.memory is not None and together > limits.memory:
             raise GpuLimitError(
-                f"{scene.source}: the {len(_configured(scene, settings))} configurations timed together need "
+                f"{scene.source}: the {len(scene_configurations(scene, settings))} configurations timed together need "
                 f"{together / 2**20:.0f} MiB, over the {limits.memory / 2**20:.0f} MiB of {limits.memory_source}; "
                 "give fewer --resolutions or --methods, or raise --max-memory")
 
@@ -285,14 +304,14 @@ def run_bench(
     rows: list[BenchRow] = []
     for scene in scenes:
         name = Path(scene.source).stem
-        configured = _configured(scene, settings)
+        configured = scene_configurations(scene, settings)
         # Every configuration of the scene is timed in the same rounds: a machine that slows down
         # for a few seconds (this one did, by a third, when resolutions were timed one after the
         # other) then slows every configuration alike. The cost is memory: every configuration's
         # images exist at once (about 4.4 GiB for the 8 x 9 scene at 64 to 1024).
         with _renderers(ctx, [(variant, technique) for variant, _, technique in configured]) as renderers, \
                 _peers(ctx, configured[0][0], renderers[0], settings) as peers:
-            timings = _time_group(ctx, renderers, settings, peers)
+            timings = time_group(ctx, renderers, settings, peers)
             peer_timings = [_frame_times(peer.seconds[1 + settings.warmup:]) for peer in peers]
             peer_images = [peer.image() for peer in peers]
             peer_names = [(peer.name, getattr(peer, "variant", "")) for peer in peers]
@@ -302,7 +321,7 @@ def run_bench(
         # were machine noise, which the rotating rounds above absorb.)
         truth: TruthFrame | None = None
         for (variant, resolution, technique), timing in zip(configured, timings, strict=False):
-            measured, truth = _measure(ctx, variant, technique, truth)
+            measured, truth = measure(ctx, variant, technique, truth)
             row_resolution = resolution if technique.method in RESOLUTION_METHODS else 0
             rows.append(BenchRow(scene=name, method=technique.method.option, algorithm=technique.algorithm_name,
                                  resolution=row_resolution, **measured, **timing))  # type: ignore[arg-type]
@@ -332,7 +351,7 @@ def _frame_times(seconds: Sequence[float]) -> dict[str, float]:
 
 
 def total_configurations(scenes: Sequence[Scene], settings: BenchSettings) -> int:
-    return sum(len(_configured(scene, settings)) for scene in scenes)
+    return sum(len(scene_configurations(scene, settings)) for scene in scenes)
 
 
 # ---------------------------------------------------------------------------------- output

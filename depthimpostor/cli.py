@@ -41,6 +41,7 @@ from .scene.fields import SIZE, Reader
 from .scene.model import AUTO_RESOLUTION, EXPOSURE, IMPOSTOR_RESOLUTION, SAMPLES
 
 if TYPE_CHECKING:
+    from .bench import BenchSettings
     from .video import VideoSettings
 
 T = TypeVar("T")
@@ -270,11 +271,18 @@ def _batch(args: argparse.Namespace) -> int:
     return 1 if summary.failed else 0
 
 
-def _workers_arguments(command: argparse.ArgumentParser, video: bool = False) -> None:
-    command.add_argument("--workers", type=_non_negative,
-                         help=("--video: draw the frames on this many batch workers (Ray processes), out of order, "
-                               "assembled in order; " if video else "worker processes (Ray actors), one per core by "
-                               "default (one per GPU on a cluster with GPUs); ") + "0: in this process, without Ray")
+_WORKERS_HELP = {
+    "render": "--video: draw the frames on this many batch workers (Ray processes), out of order, assembled in order",
+    "batch": "worker processes (Ray actors), one per core by default (one per GPU on a cluster with GPUs)",
+    "bench": ("run the configurations on this many batch workers (Ray processes), each timed alone on its worker "
+              "while the others run theirs: timings from concurrent workers share the machine (not the rounds of "
+              "the serial bench), so they measure the throughput of a sweep; accuracy figures are the serial "
+              "bench's exactly (docs/batch.md)"),
+}
+
+
+def _workers_arguments(command: argparse.ArgumentParser, name: str) -> None:
+    command.add_argument("--workers", type=_non_negative, help=f"{_WORKERS_HELP[name]}; 0: in this process, without Ray")
     command.add_argument("--address", help="join the Ray cluster at this address (ray://host:10001, or auto) "
                                            "instead of starting a local Ray (docs/batch.md)")
 
@@ -453,6 +461,8 @@ def _bench(args: argparse.Namespace) -> int:
     if args.peers and importlib.util.find_spec("mitsuba") is None:
         raise SceneError("command line", "--peers", 'expected Mitsuba 3 installed (pip install -e ".[peers]", or '
                          "pip install mitsuba)")
+    if args.workers is not None or args.address is not None:
+        return _bench_on_workers(args, scenes, settings, output)
     peer_rows: list[PeerRow] = []
     ctx = _context(args)
     try:
@@ -464,6 +474,28 @@ def _bench(args: argparse.Namespace) -> int:
     finally:
         ctx.release()
     for path in write_results(rows, output, header, peer_rows):
+        print(path)
+    return 0
+
+
+def _bench_on_workers(args: argparse.Namespace, scenes: list[Scene], settings: BenchSettings, output: Path) -> int:
+    """`bench --workers N`: each configuration a task of the batch workers (batch/bench_tasks.py),
+    the rows written as the serial bench writes them; the header names the workers."""
+    from tqdm import tqdm
+
+    from .batch.bench_tasks import bench_tasks, run_bench_on_pool
+    from .batch.run import open_pool
+    from .bench import write_results
+
+    if args.peers:
+        raise SceneError("command line", "--peers", "expected without --workers (the peers are timed in the same "
+                         "rounds as a scene's configurations, in one process)")
+    count = len(bench_tasks(scenes, settings, args.samples))  # a method that refuses a scene: refused before Ray
+    with open_pool(args.workers, args.address, args.backend, args.max_memory) as pool, \
+            tqdm(total=count, unit="configuration", desc=pool.description) as progress:
+        result = run_bench_on_pool(pool, scenes, settings, args.samples, progress)
+    print("\n".join(result.header), flush=True)
+    for path in write_results(result.rows, output, result.header):
         print(path)
     return 0
 
@@ -595,7 +627,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="per-pixel outputs, comma-separated, written as named float channels of one OpenEXR "
                              f"file beside the image (frame.png -> frame.aov.exr): {', '.join(AOVS)} "
                              "(docs/batch.md says what each holds)")
-    _workers_arguments(render, video=True)
+    _workers_arguments(render, "render")
     render.add_argument("--stats", action="store_true",
                         help="print the work done (passes run, images baked, draw calls) beside the plan")
     render.set_defaults(run=_render)
@@ -644,6 +676,7 @@ def build_parser() -> argparse.ArgumentParser:
     _samples_argument(bench)
     _backend_argument(bench)
     _max_memory_argument(bench)
+    _workers_arguments(bench, "bench")
     bench.set_defaults(run=_bench)
 
     batch = commands.add_parser("batch", help="render the jobs of a batch file (TOML) on Ray workers, resumably "
@@ -651,7 +684,7 @@ def build_parser() -> argparse.ArgumentParser:
     batch.add_argument("jobs", type=Path, help="the batch file: [[jobs]] of scenes, cameras, times, methods, outputs")
     batch.add_argument("--manifest", type=Path,
                        help="the manifest (JSON lines, one per frame), overriding the batch file's")
-    _workers_arguments(batch)
+    _workers_arguments(batch, "batch")
     _backend_argument(batch)
     _max_memory_argument(batch)
     batch.set_defaults(run=_batch)

@@ -1,15 +1,22 @@
-"""`depthimpostor batch` and `render --video --workers` on a real local Ray of two worker processes
-(one Ray for the module: it takes seconds to start): a batch draws what one process draws, bit for
-bit; a worker killed mid-batch loses nothing and draws nothing twice; a bad job fails alone; a
-batch stopped half-way resumes where it stopped. The batch file's refusals need no Ray."""
+"""`depthimpostor batch`, `render --video --workers` and `bench --workers` on a real Ray: a
+simulated cluster of two nodes on this machine (ray.cluster_utils.Cluster; one for the module: it
+takes seconds to start), each node a raylet of its own with two CPUs, the module's pool of two
+workers one on each. A batch draws what one process draws, bit for bit, on both nodes; a worker
+killed mid-batch loses nothing and draws nothing twice, nor does a node lost mid-batch (its frames
+are drawn again elsewhere); a bad job fails alone; a batch stopped half-way resumes where it
+stopped. The batch file's refusals need no Ray."""
 
 from __future__ import annotations
 
+import csv
 import json
+import math
 import os
 import signal
 import sys
+import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -17,31 +24,41 @@ import numpy as np
 import pytest
 import ray
 from PIL import Image
+from ray.cluster_utils import Cluster
 
 from conftest import SCENES
 from depthimpostor.aov import read_aovs
 from depthimpostor.batch.jobs import Batch, Frame, load_batch
 from depthimpostor.batch.run import LocalPool, RayPool, open_pool, recorded_outputs, run_batch
 from depthimpostor.batch.worker import KEPT_RENDERERS, FrameWorker
+from depthimpostor.bench import COLUMNS
 from depthimpostor.cli import main
 from depthimpostor.errors import SceneError
 
 WORKERS = 2
 
-pytestmark = pytest.mark.xdist_group("ray")  # one pytest process holds the Ray (pyproject's --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("ray")
+ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # HeldOn, below  # one pytest process holds the Ray (pyproject's --dist loadgroup)
 
 
 @pytest.fixture(scope="module")
-def local_ray() -> Iterator[None]:
-    # Room for the module's pool and a command's own workers beside it (each worker asks for a CPU).
-    ray.init(num_cpus=2 * WORKERS, include_dashboard=False, logging_level="ERROR")
-    yield
+def cluster() -> Iterator[Cluster]:
+    """Two nodes: room on each for one worker of the module's pool and one of a command's own pool
+    beside it (each worker asks for a CPU). It costs about what a one-node `ray.init` costs: the
+    second node's raylet starts in a few seconds beside the head's services."""
+    nodes = Cluster(initialize_head=True, head_node_args={"num_cpus": WORKERS, "include_dashboard": False})
+    nodes.add_node(num_cpus=WORKERS)
+    ray.init(address=nodes.address, logging_level="ERROR")
+    nodes.wait_for_nodes()
+    yield nodes
     ray.shutdown()
+    nodes.shutdown()
 
 
 @pytest.fixture(scope="module")
-def pool(local_ray: None) -> Iterator[RayPool]:
-    """Two workers for the module's batches: each keeps its context and renderers between tests."""
+def pool(cluster: Cluster) -> Iterator[RayPool]:
+    """Two workers for the module's batches, one per node (RayPool spreads them): each keeps its
+    context and renderers between tests."""
     with RayPool(WORKERS) as workers:
         yield workers
 
@@ -106,6 +123,7 @@ def test_a_batch_on_two_workers_equals_the_serial_run(pool: RayPool, serial: dic
         assert np.array_equal(drawn[name], image), name  # bit for bit
     records = _manifest(batch.manifest)
     assert len({record["worker"]["pid"] for record in records}) == WORKERS  # both workers drew
+    assert {record["worker"]["node"] for record in records} == _alive_nodes()  # on both nodes
     assert sorted((r["job"], r["frame"]) for r in records) == sorted((f.job, f.index) for f in batch.frames)
     drawn_record = next(r for r in records if r["job"] == "orbit")
     assert drawn_record["status"] == "rendered" and drawn_record["figures"]["stand_in"].startswith("5 depth images")
@@ -175,11 +193,120 @@ def test_a_stopped_batch_resumes_where_it_stopped(pool: RayPool, tmp_path: Path)
     assert {str(p) for p in batch.frames[0].outputs} <= first | recorded_outputs(batch.manifest)
 
 
-def test_a_video_on_two_workers_equals_the_serial_video(local_ray: None, tmp_path: Path) -> None:
+def _alive_nodes() -> set[str]:
+    return {node["NodeID"] for node in ray.nodes() if node["Alive"]}
+
+
+@dataclass(frozen=True)
+class HeldOn:
+    """A frame (worker.Task) that its worker holds, without drawing it, while it runs on `node`:
+    the node is then surely lost with frames in hand. (Sent by value, as the workers cannot
+    import the test module.)"""
+
+    frame: Frame
+    node: str
+
+    def settings(self) -> dict[str, Any]:
+        return self.frame.settings()
+
+    def run(self, worker: FrameWorker) -> dict[str, Any]:
+        while ray.get_runtime_context().get_node_id() == self.node:
+            time.sleep(0.1)  # until the node is killed with this process
+        return worker.render(self.frame)
+
+
+def _once_reachable(actor: Any) -> dict[str, Any]:
+    """The actor's identity once Ray has noticed its node's loss and made it again (seconds)."""
+    deadline = time.monotonic() + 120
+    while True:
+        try:
+            identity: dict[str, Any] = ray.get(actor.identity.remote())
+            return identity
+        except ray.exceptions.ActorUnavailableError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.5)
+
+
+def test_a_node_lost_mid_batch_loses_nothing(cluster: Cluster, pool: RayPool, serial: dict[str, np.ndarray],
+                                            tmp_path: Path) -> None:
+    """The node of one of the pool's workers is killed (its raylet and every process on it, at
+    once) while the worker holds frames: Ray makes the worker again on a node with room, and the
+    frames it held are drawn there; none is lost or drawn twice. A node joins after the loss, as a
+    replacement would (the module's later tests need its CPUs)."""
+    batch = _batch(tmp_path)
+    [node] = cluster.worker_nodes  # the head node holds the driver: it cannot be lost here
+    before = set(ray.get([actor.pid.remote() for actor in pool.actors]))
+    records = []
+    for record in pool.records([HeldOn(frame, node.node_id) for frame in batch.frames]):
+        if not records:  # drawn on the head node, while the other node's worker holds its frames
+            cluster.remove_node(node, allow_graceful=False)
+            cluster.add_node(num_cpus=WORKERS)
+        records.append(record)
+    assert [r["status"] for r in records] == ["rendered"] * len(batch.frames)
+    assert sorted(r["outputs"][0] for r in records) == sorted(str(f.outputs[0]) for f in batch.frames)  # once each
+    # The frames the lost worker held were drawn by the other one meanwhile (HeldOn draws none on
+    # the lost node); the lost worker is made again on a node with room (a new process).
+    workers = [_once_reachable(actor) for actor in pool.actors]
+    assert len({w["pid"] for w in workers} - before) == 1 and all(w["node"] != node.node_id for w in workers)
+    drawn = _pictures(tmp_path)
+    for name, image in serial.items():
+        assert np.array_equal(drawn[name], image), name
+
+
+def test_a_video_on_two_workers_equals_the_serial_video(cluster: Cluster, tmp_path: Path) -> None:
     arguments = [str(SCENES / "default.toml"), "--size", "64x36", "--duration", "0.4", "--fps", "20"]
     assert main(["render", *arguments, "--video", str(tmp_path / "serial.gif")]) == 0
     assert main(["render", *arguments, "--video", str(tmp_path / "workers.gif"), "--workers", "2"]) == 0
     assert (tmp_path / "workers.gif").read_bytes() == (tmp_path / "serial.gif").read_bytes()
+
+
+#: bench's columns that are timings (each worker's own): every other column is an accuracy figure.
+TIMINGS = ("frame_ms_median", "frame_ms_p10", "frame_ms_p90", "mirror_pass_ms_median", "gl_time_query_ms",
+           "gl_mirror_pass_ms", "bake_ms_median")
+
+
+def _bench_csv(folder: Path) -> tuple[list[str], list[dict[str, str]]]:
+    lines = (folder / "bench.csv").read_text(encoding="utf-8").splitlines()
+    comments = [line for line in lines if line.startswith("# ")]
+    return comments, list(csv.DictReader(line for line in lines if not line.startswith("# ")))
+
+
+def test_a_bench_on_two_workers_has_the_serial_accuracy(cluster: Cluster, tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """Three configurations on two workers (one of them measures two, reusing its truth of the
+    scene): the error columns equal the serial bench's exactly; the timings are there and finite."""
+    arguments = ["bench", str(SCENES / "default.toml"), "--methods", "depth,hybrid,raytrace", "--algorithms",
+                 "optimized", "--resolutions", "16", "--size", "64x36", "--frames", "2", "--warmup", "0", "--bakes", "1"]
+    assert main([*arguments, "-o", str(tmp_path / "serial")]) == 0
+    assert main([*arguments, "-o", str(tmp_path / "workers"), "--workers", "2"]) == 0
+    assert "workers: 2 Ray workers on a local Ray" in capsys.readouterr().out
+    assert sorted(p.name for p in (tmp_path / "workers").iterdir()) == sorted(p.name for p in (tmp_path / "serial").iterdir())
+    serial_header, serial = _bench_csv(tmp_path / "serial")
+    header, rows = _bench_csv(tmp_path / "workers")
+    assert list(rows[0]) == COLUMNS and len(rows) == len(serial) == 3
+    assert header[1:-1] == serial_header[1:] and header[-1].startswith("# workers: 2 Ray workers")
+    for row, alone in zip(rows, serial, strict=True):
+        assert {k: v for k, v in row.items() if k not in TIMINGS} == {k: v for k, v in alone.items() if k not in TIMINGS}
+        assert all(math.isfinite(float(row[name])) and float(row[name]) >= 0 for name in TIMINGS), row
+        assert float(row["frame_ms_median"]) > float(row["mirror_pass_ms_median"]) > 0
+    assert "| default | `depth` optimized | 16 |" in (tmp_path / "workers" / "bench.md").read_text()
+
+
+def test_a_configuration_over_its_workers_memory_stops_the_bench_in_one_line(tmp_path: Path,
+                                                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """Each configuration is checked against its worker's context (--workers 0: this process's)."""
+    assert main(["bench", str(SCENES / "default.toml"), "--methods", "depth", "--algorithms", "optimized",
+                 "--resolutions", "512", "--size", "64x36", "--frames", "1", "--warmup", "0", "--bakes", "1",
+                 "--max-memory", "1M", "--workers", "0", "-o", str(tmp_path)]) == 1
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert error.startswith("depthimpostor: bench: default, depth optimized, resolution 512: ") and "MiB" in error
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bench_on_workers_refuses_peers(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", str(SCENES / "default.toml"), "--peers", "--workers", "2"]) == 2
+    assert "command line: --peers: expected without --workers" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(("extra", "message"), [
@@ -203,7 +330,7 @@ def test_a_bad_batch_file_is_refused_in_one_line(tmp_path: Path, extra: str, mes
     assert message in str(raised.value) and "\n" not in str(raised.value)
 
 
-def test_batch_command_reports_a_failed_job_in_one_line(local_ray: None, tmp_path: Path,
+def test_batch_command_reports_a_failed_job_in_one_line(cluster: Cluster, tmp_path: Path,
                                                          capsys: pytest.CaptureFixture[str]) -> None:
     jobs = tmp_path / "jobs.toml"
     jobs.write_text(f'[[jobs]]\nname = "good"\nscene = "{SCENES / "default.toml"}"\nsize = [32, 18]\n'

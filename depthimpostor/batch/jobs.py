@@ -33,7 +33,7 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -49,6 +49,9 @@ from ..scene.fields import (
 from ..scene.loader import read_camera
 from ..scene.model import IMPOSTOR_RESOLUTION, SAMPLES, Camera
 from ..video import MAX_VIDEO_FRAMES, CameraPath, VideoSettings, orbit_view
+
+if TYPE_CHECKING:  # the worker runs frames (worker.Task); it imports this module
+    from .worker import FrameWorker
 
 JOB_FIELDS = ("name", "scene", "method", "methods", "algorithm", "size", "impostor_resolution", "samples", "frames",
               "fps", "start", "camera_path", "times", "cameras", "aov", "output")
@@ -108,6 +111,10 @@ class Frame:
         return {"job": self.job, "frame": self.index, "scene": self.scene, "method": self.method,
                 "algorithm": self.algorithm, **dict(self.overrides), "time": self.time,
                 "camera": camera, "aovs": list(self.aovs), "outputs": [str(p) for p in self.outputs]}
+
+    def run(self, worker: FrameWorker) -> dict[str, Any]:
+        """Draw and write this frame on `worker` (worker.Task)."""
+        return worker.render(self)
 
     def renderer_key(self) -> tuple[object, ...]:
         """Frames with equal keys share one Renderer in a worker (the same scene and settings)."""

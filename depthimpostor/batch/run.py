@@ -6,7 +6,9 @@ GPUs; the actor then makes its context on the EGL device of its GPU). Frames go 
 at a time each (FRAMES_IN_FLIGHT) and come back in the order they finish. A worker process that
 dies is restarted and the frames it held are sent again (Ray's max_restarts and max_task_retries:
 RETRIES); a frame whose files were written before the death is then found complete, not drawn
-again. A frame that fails (a bad scene) comes back as a record saying why; the others go on.
+again. A worker whose node is lost cannot be reached until Ray has noticed and made it again on
+another node: the frames it held go to the other workers meanwhile. A frame that fails (a bad
+scene) comes back as a record saying why; the others go on.
 
 `run_batch` writes the manifest: one JSON line per frame as it completes (its settings, the worker,
 its timings, the renderer's figures), appended and flushed line by line, so that a batch killed
@@ -29,26 +31,30 @@ import numpy as np
 from tqdm import tqdm
 
 from ..errors import DepthImpostorError, OutputError, SceneError
-from ..gpu.context import Backend
+from ..gpu.context import Backend, egl_device_for_gpu
 from .jobs import Frame
-from .worker import FAILED, FOUND, RENDERED, FrameWorker, complete, one_line
+from .worker import FAILED, FOUND, RENDERED, FrameWorker, Task, complete, one_line
 
 #: Frames held by each worker at a time: one drawing and one waiting, so that a worker never
 #: waits for the driver between frames, and a dead worker takes few frames with it.
 FRAMES_IN_FLIGHT = 2
 #: How often a dead worker process is restarted, and a frame it held sent again.
 RETRIES = 3
+#: Seconds between questions to a worker that could not be reached (its node lost), while Ray
+#: notices the loss and makes the worker again elsewhere.
+UNREACHABLE_PAUSE = 0.5
 #: The `batch` extra: what to install when Ray is missing.
 RAY_HINT = 'pip install "depthimpostor[batch]" (Ray); or --workers 0 to render in this process'
 
 
 class FramePool:
-    """Where frames are rendered; `records(frames)` yields each frame's record as it completes."""
+    """Where frames are rendered; `records(frames)` yields each frame's record as it completes.
+    A frame is any worker.Task: a batch's jobs.Frame, or a configuration of `bench --workers`."""
 
     workers = 1
     description = "this process"
 
-    def records(self, frames: Sequence[Frame]) -> Iterator[dict[str, Any]]:
+    def records(self, frames: Sequence[Task]) -> Iterator[dict[str, Any]]:
         raise NotImplementedError
 
     def __enter__(self) -> FramePool:
@@ -67,16 +73,17 @@ class LocalPool(FramePool):
     def __init__(self, backend: Backend | None = None, max_memory: int | None = None) -> None:
         self.worker = FrameWorker(backend, None, max_memory)
 
-    def records(self, frames: Sequence[Frame]) -> Iterator[dict[str, Any]]:
+    def records(self, frames: Sequence[Task]) -> Iterator[dict[str, Any]]:
         for frame in frames:
-            yield self.worker.render(frame)
+            yield self.worker.run(frame)
 
     def close(self) -> None:
         self.worker.release()
 
 
 class RayWorker(FrameWorker):
-    """A FrameWorker in a Ray actor: its context on its GPU's EGL device where Ray gave it one."""
+    """A FrameWorker in a Ray actor: its context on its GPU's EGL device where Ray gave it one
+    (gpu/context.py choose_egl_device)."""
 
     def __init__(self, backend: Backend | None, max_memory: int | None, threads: int | None) -> None:
         import ray
@@ -85,7 +92,18 @@ class RayWorker(FrameWorker):
         # Mesa's llvmpipe rasterizes with a thread per core; workers sharing the cores each get their share.
         if threads is not None and not gpus:
             os.environ.setdefault("LP_NUM_THREADS", str(threads))
-        super().__init__(backend, int(gpus[0]) if gpus else None, max_memory)
+        # Ray gave this process its GPU (CUDA_VISIBLE_DEVICES); EGL's device of that GPU is found
+        # by its CUDA device number where the driver says it, EGL's order need not be CUDA's.
+        choice = egl_device_for_gpu(str(gpus[0])) if gpus else None
+        super().__init__(backend, choice.index if choice is not None else None, max_memory)
+        self.device_choice = choice.how if choice is not None else None
+        self.node = ray.get_runtime_context().get_node_id()
+
+    def identity(self) -> dict[str, Any]:
+        """FrameWorker's, with the Ray node (a cluster's machines may share a host name) and how
+        the EGL device was chosen."""
+        where = super().identity() | {"node": self.node}
+        return where | ({"device_choice": self.device_choice} if self.device_choice and "device" in where else {})
 
     def pid(self) -> int:
         return os.getpid()
@@ -117,39 +135,72 @@ class RayPool(FramePool):
         gpus = int(resources.get("GPU", 0))
         self.workers = workers or gpus or int(resources.get("CPU", 1))
         threads = max(1, (os.cpu_count() or 1) // self.workers) if address is None else None
-        actor = ray.remote(num_cpus=1, num_gpus=1 if gpus else 0, max_restarts=RETRIES,
-                           max_task_retries=RETRIES)(RayWorker)
+        # SPREAD: workers over the cluster's machines rather than packed onto the first ones (a
+        # software rasterizer takes a machine's cores; a GPU worker asks for its GPU anyway).
+        actor = ray.remote(num_cpus=1, num_gpus=1 if gpus else 0, max_restarts=RETRIES, max_task_retries=RETRIES,
+                           scheduling_strategy="SPREAD")(RayWorker)
         self.actors: list[Any] = [actor.remote(backend, max_memory, threads) for _ in range(self.workers)]
         where = address or "a local Ray"
         self.description = f"{self.workers} Ray workers on {where}" + (f" ({gpus} GPUs)" if gpus else "")
 
-    def records(self, frames: Sequence[Frame]) -> Iterator[dict[str, Any]]:
+    def records(self, frames: Sequence[Task]) -> Iterator[dict[str, Any]]:
         ray: Any = self._ray
-        waiting = deque(frames)
-        held: dict[Any, tuple[Frame, Any]] = {}  # a frame's future: the frame and its actor
+        waiting = deque(enumerate(frames))
+        sent = [0] * len(frames)  # how often each frame was sent (to a worker that could not be reached)
+        held: dict[Any, tuple[int, Any]] = {}  # a frame's future: the frame and its actor
+        unreachable: dict[Any, Any] = {}  # a call asking an unreachable actor whether it is back: the actor
         load = {id(actor): 0 for actor in self.actors}
         actors = list(self.actors)
         while waiting or held:
-            for actor in actors:
+            asked = set(map(id, unreachable.values()))
+            for actor in (actor for actor in actors if id(actor) not in asked):
                 while waiting and load[id(actor)] < FRAMES_IN_FLIGHT:
-                    frame = waiting.popleft()
-                    held[actor.render.remote(frame)] = (frame, actor)
+                    index, frame = waiting.popleft()
+                    sent[index] += 1
+                    held[actor.run.remote(frame)] = (index, actor)
                     load[id(actor)] += 1
-            if not held:  # every worker died: what is left cannot be drawn
-                for frame in waiting:
+            if not held and not unreachable:  # every worker died: what is left cannot be drawn
+                for _, frame in waiting:
                     yield {**frame.settings(), "status": FAILED, "error": "no worker left (every one died)"}
                 return
-            done, _ = ray.wait(list(held), num_returns=1)
-            frame, actor = held.pop(done[0])
+            [done], _ = ray.wait([*held, *unreachable], num_returns=1)
+            if done in unreachable:
+                self._answered(ray, done, unreachable, actors)
+                continue
+            index, actor = held.pop(done)
             load[id(actor)] -= 1
             try:
-                yield ray.get(done[0])
+                yield ray.get(done)
+            except ray.exceptions.ActorUnavailableError as error:
+                # Its node cannot be reached (lost, or not yet known to be lost): Ray's retries of
+                # the call are spent in seconds, before the actor is made again elsewhere. The frame
+                # goes to another worker; this one gets none until it answers.
+                if sent[index] > RETRIES:
+                    yield {**frames[index].settings(), "status": FAILED, "error": f"worker unreachable: {one_line(error)}"}
+                else:
+                    waiting.appendleft((index, frames[index]))
+                if actor in actors and id(actor) not in set(map(id, unreachable.values())):
+                    unreachable[actor.pid.remote()] = actor
             except ray.exceptions.RayActorError as error:  # died RETRIES times: this worker is gone
                 if actor in actors:
                     actors.remove(actor)
-                yield {**frame.settings(), "status": FAILED, "error": f"worker died: {one_line(error)}"}
+                yield {**frames[index].settings(), "status": FAILED, "error": f"worker died: {one_line(error)}"}
             except ray.exceptions.RayError as error:
-                yield {**frame.settings(), "status": FAILED, "error": one_line(error)}
+                yield {**frames[index].settings(), "status": FAILED, "error": one_line(error)}
+
+    @staticmethod
+    def _answered(ray: Any, call: Any, unreachable: dict[Any, Any], actors: list[Any]) -> None:
+        """An unreachable actor's answer: back (made again on a node with room), still unreachable
+        (asked again: a restart waits for its node to be known lost), or gone for good."""
+        actor = unreachable.pop(call)
+        try:
+            ray.get(call)
+        except ray.exceptions.ActorUnavailableError:
+            time.sleep(UNREACHABLE_PAUSE)
+            unreachable[actor.pid.remote()] = actor
+        except ray.exceptions.RayActorError:
+            if actor in actors:  # gone for good
+                actors.remove(actor)
 
     def close(self) -> None:
         for actor in self.actors:

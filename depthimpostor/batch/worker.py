@@ -16,7 +16,7 @@ import socket
 import time
 from collections import OrderedDict
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import moderngl
 import numpy as np
@@ -39,6 +39,19 @@ KEPT_RENDERERS = 4
 RENDERED, FOUND, FAILED = "rendered", "found", "failed"
 
 
+class Task(Protocol):
+    """What a worker runs: a frame (jobs.Frame), or a configuration of `bench` (bench_tasks.py).
+    Plain data, sent to the worker; `run` never raises: a failure is a record with `error`."""
+
+    def settings(self) -> dict[str, Any]:
+        """What the task is, as its record (the manifest's line) names it."""
+        ...
+
+    def run(self, worker: FrameWorker) -> dict[str, Any]:
+        """Do the task with this worker's context and kept objects; its record."""
+        ...
+
+
 def one_line(error: BaseException) -> str:
     """An error as one line: our errors say what and where; another names its type."""
     text = str(error) if isinstance(error, DepthImpostorError) else f"{type(error).__name__}: {error}"
@@ -57,6 +70,7 @@ class FrameWorker:
         self._ctx: moderngl.Context | None = None
         self._renderers: OrderedDict[tuple[object, ...], Renderer] = OrderedDict()
         self._scenes: OrderedDict[str, Scene] = OrderedDict()
+        self._kept: OrderedDict[tuple[object, ...], object] = OrderedDict()
 
     @property
     def ctx(self) -> moderngl.Context:
@@ -76,6 +90,10 @@ class FrameWorker:
     def kept(self) -> int:
         """Renderers this worker keeps now (at most KEPT_RENDERERS)."""
         return len(self._renderers)
+
+    def run(self, task: Task) -> dict[str, Any]:
+        """The task's record (a frame's: `render`)."""
+        return task.run(self)
 
     def render(self, frame: Frame) -> dict[str, Any]:
         """Draw and write `frame` (or return its colour as `image` where it has no output file);
@@ -99,7 +117,7 @@ class FrameWorker:
         if key in self._renderers:
             self._renderers.move_to_end(key)
             return self._renderers[key], False
-        scene = self._scene(frame.scene).with_overrides(**dict(frame.overrides))
+        scene = self.scene(frame.scene).with_overrides(**dict(frame.overrides))
         renderer = Renderer(self.ctx, scene, Algorithm[frame.algorithm.upper()], method=Method.from_option(frame.method),
                             reflection_data=needs_reflection_data(frame.aovs))
         self._renderers[key] = renderer
@@ -108,7 +126,8 @@ class FrameWorker:
             oldest.release()
         return renderer, True
 
-    def _scene(self, path: str) -> Scene:
+    def scene(self, path: str) -> Scene:
+        """The scene file at `path`, read once while it is among the most recently used."""
         if path in self._scenes:
             self._scenes.move_to_end(path)
         else:
@@ -116,6 +135,20 @@ class FrameWorker:
             while len(self._scenes) > KEPT_RENDERERS:
                 self._scenes.popitem(last=False)
         return self._scenes[path]
+
+    def recall(self, key: tuple[object, ...]) -> object | None:
+        """What was kept for `key` (a bench configuration's truth, traced once per scene on this
+        worker as the serial bench traces it once per scene), None if nothing or let go."""
+        if key in self._kept:
+            self._kept.move_to_end(key)
+        return self._kept.get(key)
+
+    def keep(self, key: tuple[object, ...], value: object) -> None:
+        """Keep `value` for `key`, among the KEPT_RENDERERS most recently used."""
+        self._kept[key] = value
+        self._kept.move_to_end(key)
+        while len(self._kept) > KEPT_RENDERERS:
+            self._kept.popitem(last=False)
 
     def _forget(self, frame: Frame) -> None:
         """A renderer that failed mid-frame is made anew for the next frame (its state is unknown)."""
@@ -164,6 +197,7 @@ class FrameWorker:
         for renderer in self._renderers.values():
             renderer.release()
         self._renderers.clear()
+        self._kept.clear()
         if self._ctx is not None:
             self._ctx.release()
             self._ctx = None

@@ -113,6 +113,110 @@ def _osmesa_context(device: int | None = None) -> moderngl.Context:
 
 _BACKENDS = {"egl": _egl_context, "osmesa": _osmesa_context}
 
+# EGL_EXT_device_query's and EGL_NV_device_cuda's names (EGL/eglext.h).
+_EGL_EXTENSIONS = 0x3055
+_EGL_CUDA_DEVICE_NV = 0x323A
+
+
+@dataclass(frozen=True)
+class EglDevice:
+    """One of EGL's devices, at `index` in EGL_EXT_device_enumeration's order (create_context's `device`)."""
+
+    index: int
+    cuda: int | None  # its CUDA device number (EGL_CUDA_DEVICE_NV) where the driver says, else None
+    extensions: str = ""
+
+
+def egl_devices() -> list[EglDevice]:
+    """EGL's devices, in the order glcontext indexes them, each with its CUDA device number where
+    the device has EGL_NV_device_cuda (NVIDIA's driver; Mesa's have none). Raises ContextError
+    where EGL or its device enumeration is missing."""
+    path = ctypes.util.find_library("EGL")
+    if path is None:
+        raise ContextError(f"no EGL library to enumerate devices with; {_INSTALL_HINT}")
+    lib = ctypes.CDLL(path)
+    lib.eglGetProcAddress.restype = ctypes.c_void_p
+    lib.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+
+    def function(name: str, result: Any, *arguments: Any) -> Any:
+        address = lib.eglGetProcAddress(name.encode())
+        return ctypes.CFUNCTYPE(result, *arguments)(address) if address else None
+
+    query_devices = function("eglQueryDevicesEXT", ctypes.c_uint, ctypes.c_int, ctypes.POINTER(ctypes.c_void_p),
+                             ctypes.POINTER(ctypes.c_int))
+    query_string = function("eglQueryDeviceStringEXT", ctypes.c_char_p, ctypes.c_void_p, ctypes.c_int)
+    # EGLAttrib is intptr_t: a 32-bit int here would let the driver write past it.
+    query_attribute = function("eglQueryDeviceAttribEXT", ctypes.c_uint, ctypes.c_void_p, ctypes.c_int,
+                               ctypes.POINTER(ctypes.c_ssize_t))
+    count = ctypes.c_int(0)
+    if query_devices is None or not query_devices(0, None, ctypes.byref(count)):
+        raise ContextError(f"{path} cannot enumerate EGL devices (EGL_EXT_device_enumeration)")
+    handles = (ctypes.c_void_p * max(count.value, 1))()
+    if not query_devices(count.value, handles, ctypes.byref(count)):
+        raise ContextError(f"{path} cannot enumerate EGL devices (EGL_EXT_device_enumeration)")
+    devices = []
+    for index, handle in enumerate(handles[:count.value]):
+        text = query_string(handle, _EGL_EXTENSIONS) if query_string is not None else None
+        extensions = text.decode(errors="replace") if text else ""
+        cuda = None
+        value = ctypes.c_ssize_t(-1)
+        if ("EGL_NV_device_cuda" in extensions.split() and query_attribute is not None
+                and query_attribute(handle, _EGL_CUDA_DEVICE_NV, ctypes.byref(value))):
+            cuda = int(value.value)
+        devices.append(EglDevice(index, cuda, extensions))
+    return devices
+
+
+@dataclass(frozen=True)
+class EglChoice:
+    """The EGL device a GPU's worker draws on, and how it was chosen (the batch manifest's `worker`)."""
+
+    index: int
+    how: str
+
+
+def choose_egl_device(devices: list[EglDevice], gpu: str, visible: str | None) -> EglChoice:
+    """The EGL device of the GPU that Ray (or a scheduler like it) gave this process: `gpu` its id
+    (ray.get_gpu_ids()), `visible` the process's CUDA_VISIBLE_DEVICES.
+
+    EGL lists its devices in the driver's order, which need not be CUDA's (nor hold GPUs alone:
+    Mesa adds a software device), so a GPU's id is not its EGL index. Where the devices say their
+    CUDA device (EGL_NV_device_cuda, as nvdiffrast and MapD choose theirs), the one that reports
+    this GPU's CUDA device number is taken. That number counts the devices the process sees:
+    the GPU's place in CUDA_VISIBLE_DEVICES (0 for a Ray worker of one GPU), its id where that is
+    unset. Elsewhere (other vendors, or a mapping that does not name exactly one device), EGL's
+    index order: the GPU's id as its index, right where the two orders agree."""
+    ordinals = [entry.strip() for entry in visible.split(",")] if visible else None
+    if ordinals is None:
+        ordinal = int(gpu) if gpu.isdigit() else None
+    else:
+        ordinal = ordinals.index(gpu) if gpu in ordinals else None
+    reported = [device for device in devices if device.cuda is not None]
+    matches = [device for device in reported if device.cuda == ordinal]
+    if reported and len(matches) == 1:
+        return EglChoice(matches[0].index, f"EGL_CUDA_DEVICE_NV {ordinal} (CUDA_VISIBLE_DEVICES={visible})")
+    if not reported:
+        why = "no EGL device has EGL_NV_device_cuda"
+    elif ordinal is None:
+        why = f"GPU {gpu} is not among CUDA_VISIBLE_DEVICES={visible}"
+    else:
+        why = f"{len(matches)} EGL devices report CUDA device {ordinal}"
+    if not gpu.isdigit():
+        raise ContextError(f"no EGL device for GPU {gpu}: {why}, and its id is no EGL index")
+    return EglChoice(int(gpu), f"index {gpu}: {why}")
+
+
+def egl_device_for_gpu(gpu: str) -> EglChoice:
+    """choose_egl_device for this process's devices and CUDA_VISIBLE_DEVICES; EGL's index order
+    where its devices cannot be enumerated here (create_context then says why)."""
+    try:
+        devices = egl_devices()
+    except (ContextError, OSError) as error:
+        if not gpu.isdigit():
+            raise ContextError(f"no EGL device for GPU {gpu}: {error}") from None
+        return EglChoice(int(gpu), f"index {gpu}: {error}")
+    return choose_egl_device(devices, gpu, os.environ.get("CUDA_VISIBLE_DEVICES"))
+
 
 def create_context(backend: Backend | None = None, device: int | None = None) -> moderngl.Context:
     """Create a headless GL 3.3+ core context.
