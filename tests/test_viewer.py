@@ -347,7 +347,7 @@ def every_key_sessions(request: pytest.FixtureRequest, display: str,
     env.update(DISPLAY=display, PYTHONPATH=str(PROJECT_ROOT))
     sessions = [(str(folder), every_key_args(scene)) for scene, folder in zip(scenes, folders, strict=True)]
     done = subprocess.run([sys.executable, "-c", VIEW_EACH, json.dumps(sessions)], cwd=folders[0], env=env,
-                          capture_output=True, text=True, timeout=900)
+                          capture_output=True, text=True, timeout=300 * len(scenes))  # a process's 300 s, each
     assert done.returncode == 0, f"the viewer process failed ({done.returncode}):\n{done.stderr[-3000:]}"
     results = json.loads(done.stdout.strip().splitlines()[-1])
     return {scene: (result["code"], result["stderr"] + done.stderr, folder / "report.json")
