@@ -302,19 +302,73 @@ def test_the_key_script_presses_every_binding() -> None:
         ACTIONS_BY_KEY[press.key].action for press in parse_key_script(EVERY_KEY) if press.key in ACTIONS_BY_KEY}
 
 
-@pytest.mark.parametrize("scene", PROJECT_SCENES, ids=lambda path: str(path.relative_to(SCENES).with_suffix("")))
-def test_every_key_in_every_project_scene_keeps_the_session(display: str, tmp_path: Path, scene: Path) -> None:
-    """No key ends the session, in any project scene: what a scene cannot do (another method with
-    mirrors in mirrors, say) is skipped or refused in the overlay, and the session goes on to the
-    scripted Escape. (One scene a test: each its own viewer process, which `pytest -n` spreads.)"""
-    pressed = len(EVERY_KEY.split())
-    bound = sum(press.key in ACTIONS_BY_KEY for press in parse_key_script(EVERY_KEY))  # not waits, fly keys
+#: The viewer as `python -m depthimpostor view` runs it (cli.main), once for each (working folder,
+#: arguments) in argv[1] (JSON), in one process: each session its own window, GL context and
+#: renderer. Its exit status (1 for an exception, with its traceback, as Python's would be) and
+#: what it wrote to stderr are collected for each.
+VIEW_EACH = """
+import contextlib, io, json, os, sys, traceback
+from depthimpostor.cli import main
+
+results = []
+for folder, args in json.loads(sys.argv[1]):
+    os.chdir(folder)
+    stderr = io.StringIO()
+    with contextlib.redirect_stderr(stderr):
+        try:
+            code = main(args)
+        except SystemExit as exit:
+            code = exit.code if isinstance(exit.code, int) else 1
+        except BaseException:
+            traceback.print_exc()
+            code = 1
+    results.append({"code": code, "stderr": stderr.getvalue()})
+print(json.dumps(results))
+"""
+
+
+def every_key_args(scene: Path) -> list[str]:
     # Small images: the keys are the point, not the images' detail (at the scenes' own 256^2,
     # 512^2 after "]", baking every method's images took most of the suite's time).
-    done = run_view([str(scene), "--size", "96x54", "--impostor-res", "32", "--keys", EVERY_KEY, "--report",
-                     "report.json", "--method", START_METHOD.get(scene.name, "depth")], tmp_path, display)
-    assert done.returncode == 0, f"{scene.name}: exit {done.returncode}\n{done.stderr[-3000:]}"
-    report = json.loads((tmp_path / "report.json").read_text())
+    return ["view", str(scene), "--size", "96x54", "--impostor-res", "32", "--keys", EVERY_KEY, "--report", "report.json",
+            "--method", START_METHOD.get(scene.name, "depth")]
+
+
+@pytest.fixture(scope="module")
+def every_key_sessions(request: pytest.FixtureRequest, display: str,
+                       tmp_path_factory: pytest.TempPathFactory) -> dict[Path, tuple[int, str, Path]]:
+    """Each selected project scene's session of EVERY_KEY: (exit status, stderr, report path). The
+    sessions run one after another in one viewer process (VIEW_EACH): a process each spent most of
+    its time starting Python and importing what every session imports again."""
+    scenes = [item.callspec.params["scene"] for item in request.session.items
+              if getattr(item, "originalname", None) == "test_every_key_in_every_project_scene_keeps_the_session"]
+    folders = [tmp_path_factory.mktemp("every_key") for _ in scenes]
+    env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env.update(DISPLAY=display, PYTHONPATH=str(PROJECT_ROOT))
+    sessions = [(str(folder), every_key_args(scene)) for scene, folder in zip(scenes, folders, strict=True)]
+    done = subprocess.run([sys.executable, "-c", VIEW_EACH, json.dumps(sessions)], cwd=folders[0], env=env,
+                          capture_output=True, text=True, timeout=300 * len(scenes))  # a process's 300 s, each
+    assert done.returncode == 0, f"the viewer process failed ({done.returncode}):\n{done.stderr[-3000:]}"
+    results = json.loads(done.stdout.strip().splitlines()[-1])
+    return {scene: (result["code"], result["stderr"] + done.stderr, folder / "report.json")
+            for scene, result, folder in zip(scenes, results, folders, strict=True)}
+
+
+# All in one worker (pyproject's --dist loadgroup), which runs them in one process (the fixture
+# above); xdist starts the groups with the most tests first, so this long one does not come last.
+@pytest.mark.xdist_group("viewer_every_key")
+@pytest.mark.parametrize("scene", PROJECT_SCENES, ids=lambda path: str(path.relative_to(SCENES).with_suffix("")))
+def test_every_key_in_every_project_scene_keeps_the_session(
+    every_key_sessions: dict[Path, tuple[int, str, Path]], scene: Path
+) -> None:
+    """No key ends the session, in any project scene: what a scene cannot do (another method with
+    mirrors in mirrors, say) is skipped or refused in the overlay, and the session goes on to the
+    scripted Escape."""
+    pressed = len(EVERY_KEY.split())
+    bound = sum(press.key in ACTIONS_BY_KEY for press in parse_key_script(EVERY_KEY))  # not waits, fly keys
+    code, stderr, report_path = every_key_sessions[scene]
+    assert code == 0, f"{scene.name}: exit {code}\n{stderr[-3000:]}"
+    report = json.loads(report_path.read_text())
     assert report["gl_errors"] == [], scene.name
     # Every key acted, none ended the session early: Escape did, last (before its frame).
     assert report["frames"] == pressed - 1, scene.name
