@@ -16,7 +16,7 @@ from typing import Any
 
 from .constants import (
     BLEND_IMAGE_CUTOFF,
-    depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MATERIAL, MATERIAL_BLOCK_RECORDS, MAX_ANALYTIC_PLANES,
+    depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, DRAWN_MATERIAL_STRIDE, MATERIAL, MATERIAL_BLOCK_RECORDS, MAX_ANALYTIC_PLANES,
     MAX_BOUNCES, MAX_LIGHTS, MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, EXTRA_ATTRIBUTES,
     HIERARCHICAL_MIN_SIDE, IBL_LEVELS, IBL_SAMPLES, Algorithm, Method, image_algorithm, lists_images, triangle_texel_layout,
 )
@@ -31,7 +31,7 @@ from .gpu.batches import batch_bytes
 from .methods.planar import check_flat_mirrors
 from .methods.seen_from_eye import SeenFromEye
 from .gpu.meshes import GpuMeshes
-from .gpu.scene_blocks import SceneBlocks, materials_bytes
+from .gpu.scene_blocks import SceneBlocks, drawn_materials_bytes, materials_bytes
 from .gpu.uniforms import materials_in_storage
 from .gpu.textures import GpuTextures
 from .texture_layout import texture_layout
@@ -569,7 +569,8 @@ def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImageP
              else f"a uniform block (a storage buffer past {MATERIAL_BLOCK_RECORDS}), within GL_MAX_UNIFORM_BLOCK_SIZE "
                   "(16 KiB at GL's least), checked at render")
     lines.append(f"materials: {len(scene.materials)}{material_kinds(scene)} (any number: one record of "
-                 f"{MATERIAL.dtype.itemsize} bytes each in {where})")
+                 f"{MATERIAL.dtype.itemsize} bytes each in {where}; and a copy, a record every "
+                 f"{DRAWN_MATERIAL_STRIDE} bytes, of which a draw of one object binds its own)")
     if scene.textures:
         lines.append(f"image textures: {len(scene.textures)} (any number: in texture arrays, within GL_MAX_TEXTURE_SIZE, "
                      "GL_MAX_ARRAY_TEXTURE_LAYERS and GL_MAX_UNIFORM_BLOCK_SIZE, checked at render)")
@@ -598,7 +599,8 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     width, height = scene.render.size
     memory = {"frame colour and depth": width * height * (16 + 4),
               "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry], mesh_attributes(scene)),
-              "lights and planes": SceneBlocks.BYTES, "materials": materials_bytes(scene)}
+              "lights and planes": SceneBlocks.BYTES, "materials": materials_bytes(scene),
+              "materials, a record a draw": drawn_materials_bytes(scene)}
     # The diffuse pass's batch of the objects that do not move (gpu/batches.py; a context without
     # OpenGL 4.3 draws them one by one, and makes none).
     still = [g for g in geometry if not g.object.is_reflector and not g.object.is_blended and not g.object.moves]

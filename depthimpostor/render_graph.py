@@ -117,7 +117,7 @@ class RenderGraph:
         self.shadow_maps = (ShadowMaps(ctx, self.programs, world.lit_scene, self.meshes, world.shadow_casters)
                             if self.plan.runs(Pass.SHADOW_MAPS) else None)
         self.diffuse = self._diffuse_pass()
-        self.transparent = (TransparentPass(self.programs, scene, self.meshes) if self.plan.runs(Pass.TRANSPARENT)
+        self.transparent = (TransparentPass(self.programs, scene, self.meshes, self.scene_blocks.drawn_materials) if self.plan.runs(Pass.TRANSPARENT)
                             else None)
         self.stand_in: ReflectedObjects | None = None
         self.reflector_pass: ReflectorPass | None = None
@@ -144,7 +144,8 @@ class RenderGraph:
         key = (self.plan.runs(Pass.DIFFUSE), frame_surface(self.plan.method, bool(self.world.reflectors)))
         if self.diffuse is not None and key == self._diffuse_key:
             return self.diffuse
-        made = (DiffusePass(self.programs, self.world.scene, self.meshes, write_depth_image=False,
+        made = (DiffusePass(self.programs, self.world.scene, self.meshes, self.scene_blocks.drawn_materials,
+                            write_depth_image=False,
                             batched=batches_supported(self.ctx), write_surface=key[1]) if key[0] else None)
         if self.diffuse is not None:  # released once the new one exists
             self.diffuse.release()
@@ -196,10 +197,11 @@ class RenderGraph:
         check_stand_in(scene, plan.method, world.reflectors, world.reflected_objects)
         stand_in: ReflectedObjects
         if issubclass(kind, BakedImages):
-            stand_in = kind(self.ctx, self.programs, scene, self.meshes, world.reflectors, world.reflected_objects,
-                            plan.image_plans)
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.scene_blocks.drawn_materials,
+                            world.reflectors, world.reflected_objects, plan.image_plans)
         elif issubclass(kind, SeenFromEye):
-            stand_in = kind(self.ctx, self.programs, scene, self.meshes, world.reflectors)
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.scene_blocks.drawn_materials,
+                            world.reflectors)
         else:
             stand_in = kind(self.ctx, scene, world.reflected_objects)
         try:  # its pyramids and colour mips too (a GL without compute shaders refuses them) ...

@@ -280,7 +280,8 @@ def test_back_faces_without_their_colours_are_baked_into_each_images_own_tile(ct
         renderer.render()
         baked, world = renderer.graph.baked_images, renderer.world
         assert baked is not None and len(baked.depth_images) > 1
-        alone = BackDepthsAlone(ctx, renderer.programs, world.scene, renderer.graph.meshes, world.mirrors,
+        alone = BackDepthsAlone(ctx, renderer.programs, world.scene, renderer.graph.meshes,
+                                renderer.graph.scene_blocks.drawn_materials, world.mirrors,
                                 world.reflected_objects, renderer.plan.image_plans)
         try:
             alone.bake()

@@ -80,6 +80,7 @@ class UniformBlock(IntEnum):
     ANALYTIC_PLANES = 5  # the floors and walls every reflected ray is intersected with (gpu/scene_blocks.py)
     TEXTURE_RECORDS = 6  # every image texture's array, layer, wraps and atlas rectangle (gpu/textures.py)
     MATERIALS = 7  # every shaded material's record, read by every pass (gpu/scene_blocks.py)
+    DRAWN_MATERIAL = 8  # the drawn object's record alone, bound per draw (gpu/scene_blocks.DrawnMaterials)
 
 
 @unique

@@ -36,6 +36,7 @@ from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
 from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
+from ..gpu.scene_blocks import DrawnMaterials
 from ..gpu.uniforms import alpha_mask_defines, bind_texture, write, write_material_index
 from .colour_mips import ColourMips
 from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, fit_depth_image_frusta, image_label, image_records, plural, record_table, record_table_bytes, write_table
@@ -92,11 +93,13 @@ class BakedImages:
         programs: ProgramCache,
         scene: Scene,
         meshes: GpuMeshes,
+        materials: DrawnMaterials,
         mirrors: list[ObjectGeometry],
         reflected: list[ObjectGeometry],
         image_plans: dict[int, list[ImagePlan]] | None = None,
     ) -> None:
-        """`image_plans`: the plan's images (RenderPlan.image_plans), so that they are not planned
+        """`materials`: the scene's records, of which a bake's draw binds its object's (gpu/scene_blocks.py);
+        `image_plans`: the plan's images (RenderPlan.image_plans), so that they are not planned
         again; planned here when not given."""
         plan = image_plans if image_plans is not None else self.plan_images(scene, mirrors, reflected)
         # The records each mirror's table holds: as the programs of this scene declare them.
@@ -113,9 +116,9 @@ class BakedImages:
         layers = self.second_layer != SecondLayer.NONE
         offsets = triangle_offsets(reflected) if self.keeps_triangle_ids else None
         checker = has_checker(item.object for item in reflected)
-        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=layers, triangle_offsets=offsets,
+        self.diffuse = DiffusePass(programs, scene, meshes, materials, write_depth_image=layers, triangle_offsets=offsets,
                                    checker=checker)
-        self.back_layer = (DiffusePass(programs, scene, meshes, write_depth_image=True, triangle_offsets=offsets,
+        self.back_layer = (DiffusePass(programs, scene, meshes, materials, write_depth_image=True, triangle_offsets=offsets,
                                        back_layer=True, checker=checker) if self.keeps_back_colors else None)
         count = sum(len(images) for images in plan.values())
         # Slots as large as the largest image ("auto" sizes each image apart).
