@@ -23,6 +23,7 @@ from .constants import (
 from .culling import Reach
 from .geometry import ObjectGeometry
 from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines, has_checker
+from .methods.entered_images import ENTERED_PROGRAM, EnteredImages, entered_defines
 from .passes.environment import ENVIRONMENT_PROGRAM, PREFILTER_PROGRAM, environment_map_bytes
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .methods.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
@@ -365,6 +366,14 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
                                   f"seen through {noun}{also}"))
         for stages, defines, why in seen_from_eye.variants(scene) if seen_from_eye is not None else []:
             variant(Pass.EYE_IMAGES, stages, defines, why)
+        if issubclass(stand_in, BakedImages) and images and stand_in.bakes_lazily(scene, len(images)):
+            passes.append(PlannedPass(Pass.STAND_IN, f"{stand_in.image_noun}s baked as a frame's reflected rays may "
+                                      "first enter them: a frame bakes those its mirror pixels' rays enter, found by "
+                                      "a pass over those pixels, and leaves the others for a later frame (the same "
+                                      "frame as baking them all)"))
+            variant(Pass.STAND_IN, ENTERED_PROGRAM,
+                    entered_defines(depth_image_capacity(len(scene.objects)), stand_in.lists_over_bounds),
+                    f"which {stand_in.image_noun}s a frame's reflected rays may enter, before the bake")
         if issubclass(stand_in, BakedImages) and images:
             ids = stand_in.keeps_triangle_ids
             with_ids = ", with the triangle each sample shows" if ids else ""
@@ -638,6 +647,9 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
                               if not plan.level]) if not stand_in.keeps_triangle_ids else []
         if levels:
             memory["bake levels"] = GpuMeshes.bytes_for(levels, mesh_attributes(scene))
+        if stand_in.bakes_lazily(scene, len(images)):  # methods/entered_images.py
+            memory["images entered by a frame's rays"] = EnteredImages.bytes_for(
+                (width, height), depth_image_capacity(len(scene.objects)), len(reflectors))
         # Each mirror's table: its records and, in a scene of many objects, the lists of candidate
         # images by ray past them (methods/image_cells.py); the bounce images' tables likewise.
         tables, bounce_tables = stand_in.table_bytes(scene, reflectors, image_plans or {})

@@ -337,6 +337,9 @@ class RenderGraph:
         self.scene_blocks.bind()  # the lights and planes: bakes shade with them too
         if self.shadow_maps is not None:  # bound for every pass that shades, bakes included
             self.shadow_maps.use()
+        baked = self.baked_images
+        if baked is not None:  # which stale images this frame's rays may enter (the others wait)
+            baked.aim(None if self.show_samples else camera, targets.surfaces)
         bakes = [node for node in self.nodes if node.bakes and node.stale()]  # all asked before any runs
         if bakes:
             self.ctx.finish()

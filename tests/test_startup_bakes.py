@@ -1,9 +1,11 @@
 """What the bakes of a scene of many objects skip or read more cheaply (issue 32: start 1,000
 objects in under 2 s), held against the way they did it before: each draw of one object binds its
-own material record instead of indexing the scene's table per fragment."""
+own material record instead of indexing the scene's table per fragment, and a frame bakes only the
+images its reflected rays may enter (methods/entered_images.py), the others when a later frame's may."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -14,6 +16,8 @@ from conftest import scene_from_toml
 from PIL import Image, ImageDraw
 
 from depthimpostor.constants import MATERIAL_BLOCK_RECORDS, Method
+from depthimpostor.methods.baked_images import BakedImages
+from depthimpostor.plan import plan_render
 from depthimpostor.gpu import uniforms
 from depthimpostor.gpu.uniforms import materials_in_storage
 from depthimpostor.passes import diffuse
@@ -96,3 +100,46 @@ def test_a_bakes_draw_reads_its_own_record_and_bakes_what_the_table_gives(
     np.testing.assert_array_equal(frame, table_frame)
     colours = np.frombuffer(atlas[0], np.uint8).reshape(-1, 4)
     assert len(np.unique(colours[colours[:, 3] > 0, :3], axis=0)) > 200  # the images show their colours
+
+
+#: Where the eye stands in turn: the scene's view, then round the mirror and nearer (other images'
+#: objects come into its reflection).
+VIEWS = [None, (2.5, 1.2, 5.0), (-3.0, 2.8, 3.5)]
+
+
+def frames_along(ctx: moderngl.Context, scene: Scene, method: Method) -> tuple[list[np.ndarray], list[int], int]:
+    """The frames of `scene` from each of VIEWS, the images baked by the end of each, and how many
+    images there are."""
+    frames, baked_by = [], []
+    with Renderer(ctx, scene, method=method) as renderer:
+        baked = renderer.graph.baked_images
+        assert baked is not None
+        for eye in VIEWS:
+            if eye is not None:
+                renderer.look_at(dataclasses.replace(scene.camera, eye=eye))
+            renderer.render()
+            frames.append(renderer.read_color_float())
+            baked_by.append(baked.bakes)
+        return frames, baked_by, len(baked.depth_images)
+
+
+@pytest.mark.parametrize("method,samples", [(Method.DEPTH, 1), (Method.DEPTH, 4), (Method.HYBRID, 1),
+                                            (Method.BILLBOARD, 1)])
+def test_a_frame_bakes_the_images_its_rays_enter_and_is_the_frame_of_baking_them_all(
+        ctx: moderngl.Context, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, method: Method, samples: int) -> None:
+    """A scene of 300 textured objects about a mirror (its images found through lists): the first
+    frame bakes only the images its mirror pixels' rays may enter; as the eye moves, a frame bakes
+    those its rays come to enter. Every frame (each sub-frame of an anti-aliased one with its own
+    rays) is the one of a renderer that bakes every image at once, to the bit."""
+    scene = textured_ring(tmp_path, 300).with_overrides(samples=samples)
+    assert BakedImages.bakes_lazily(scene, 300)
+    assert any("baked as a frame's reflected rays may first enter them" in p.reason
+               for p in plan_render(scene, method).passes)
+    lazy, baked_by, images = frames_along(ctx, scene, method)
+    assert baked_by[0] < images and baked_by[0] < baked_by[-1] <= images, baked_by  # the rest as rays come to them
+    monkeypatch.setattr(BakedImages, "bakes_lazily", classmethod(lambda cls, scene, images: False))
+    eager, eager_baked_by, _ = frames_along(ctx, scene, method)
+    assert eager_baked_by == [images] * len(VIEWS)
+    for lazy_frame, eager_frame in zip(lazy, eager, strict=True):
+        assert np.isfinite(lazy_frame).all()
+        np.testing.assert_array_equal(lazy_frame, eager_frame)

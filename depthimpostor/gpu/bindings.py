@@ -88,6 +88,7 @@ class StorageBuffer(IntEnum):
     PYRAMID_TILES = 0  # the pyramid build's tile table (methods/pyramid.py, depth_pyramid.comp)
     DEPTH_IMAGES = 1  # one reflector's image records, where they pass a uniform block (methods/atlas.py)
     MATERIALS = 2  # the MaterialRecords table, where it passes a uniform block (gpu/scene_blocks.py)
+    ENTERED_IMAGES = 3  # a bit per baked image a frame's reflected rays may enter (methods/entered_images.py)
 
 
 @unique

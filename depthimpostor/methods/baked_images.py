@@ -25,6 +25,7 @@ from ..constants import (
     MIN_BUDGETED_SIDE,
     STORAGE_GL_VERSION,
     depth_image_capacity,
+    lists_images,
 )
 from ..errors import ContextError
 from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
@@ -39,6 +40,8 @@ from ..gpu.meshes import GpuMeshes
 from ..gpu.scene_blocks import DrawnMaterials
 from ..gpu.uniforms import alpha_mask_defines, bind_texture, write, write_material_index
 from .colour_mips import ColourMips
+from .entered_images import EnteredImages
+from ..passes.reflectors import Surfaces
 from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, fit_depth_image_frusta, image_label, image_records, plural, record_table, record_table_bytes, write_table
 
 
@@ -148,17 +151,51 @@ class BakedImages:
         # Closed solids' back faces culled in the visible-surface pass, as the frame's batch culls
         # them: seen from outside, each back face lies behind a front face of the same solid.
         self.culls_back_faces = True
+        # A frame bakes only the stale images its rays may enter (aim), where that is known exactly.
+        self.lazily = self.bakes_lazily(scene, len(self.depth_images))
+        self.due: set[int] | None = None  # the stale slots the next bake renders (None: every one)
+        self.entered: EnteredImages | None = None  # the pass that finds them (made at the first aim)
+        self._mirrors = mirrors
+
+    @classmethod
+    def bakes_lazily(cls, scene: Scene, images: int) -> bool:
+        """Does a frame bake only the stale images its reflected rays may enter (aim), leaving the
+        others stale? Where a mirror's images are many (found through lists: lists_images), one
+        per object, and every ray that reads them is a mirror pixel's own reflected ray, which the
+        marking pass draws (methods/entered_images.py): no glossy mirror (its cone reads the colour
+        mips of every image), no glass (refracted rays), no images of mirrors in mirrors
+        (render.max_bounces). The frame is then the one of baking them all, bit for bit."""
+        return (cls.per_object and images > 0 and lists_images(depth_image_capacity(len(scene.objects)))
+                and not scene.has_rough_mirrors and not scene.glass and scene.render.max_bounces == 1)
+
+    def aim(self, camera: PPC | None, surfaces: Surfaces | None) -> None:
+        """The next bake renders the stale images whose bounds a reflected ray of a frame through
+        `camera` may enter (every stale one where this stand-in does not bake lazily, or without a
+        camera: the sample view, which draws every image); the others stay stale."""
+        if not self.lazily or camera is None or surfaces is None or not self.stale:
+            self.due = None
+            return
+        if self.entered is None:
+            self.entered = EnteredImages(self.ctx, self.programs, self.meshes, self.record_capacity,
+                                         len(self._mirrors), self.lists_over_bounds)
+        tables = [(mirror, self.uniform_buffers[mirror.index], self.images_at(mirror.index, self.final_level))
+                  for mirror in self._mirrors]
+        found = self.entered.find(camera, surfaces, [(mirror, buffer, len(images)) for mirror, buffer, images in tables])
+        self.due = {images[int(i)].slot for (_, _, images), entered in zip(tables, found, strict=True) for i in entered}
 
     @property
     def needs_bake(self) -> bool:
-        return bool(self.stale)
+        return bool(self.stale if self.due is None else self.stale & self.due)
 
     def bake_again(self) -> None:
         """Render every image at the next bake, although nothing moved (the benchmark's). The bakes'
         depth buffer is made now if a frame let it go (rest): a timed bake is then the bake alone,
         as an animated scene, which keeps it, pays it every frame. (Making it costs the 8 x 9
-        scene's bake at 1024^2 about a quarter more: tools/bake_cost.py.)"""
+        scene's bake at 1024^2 about a quarter more: tools/bake_cost.py.) Every image, even where
+        a frame bakes only those its rays enter (lazily): the benchmark times the whole bake."""
         self.stale = {image.slot for image in self.depth_images}
+        self.lazily = False
+        self.due = None
         self.atlas.bake_buffer()
 
     def refit(self, image: DepthImage, mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...]) -> PPC:
@@ -169,6 +206,7 @@ class BakedImages:
         """Objects (by index) moved to `geometry`: their images are fitted again and, with every
         image showing an object of `stale_targets` (a light that shades it moved, or a shadow
         that may fall on it), baked at the next bake. Bounce images follow what they show."""
+        self._mirrors = [geometry[mirror.index] for mirror in self._mirrors]
         for index, images in self.images_by_reflector.items():
             for i, image in enumerate(images):
                 mirror, targets = geometry[index], tuple(geometry[t.index] for t in image.targets)
@@ -301,13 +339,14 @@ class BakedImages:
         number of draw calls. Where every slot is stale (the first bake, `bake_again`), each
         layer's attachments are cleared whole, once, instead of tile by tile (_clears). The depth
         buffer is the bakes' scratch, let go when a frame bakes nothing (rest)."""
-        stale = [image for image in self.depth_images if not image.level and image.slot in self.stale]
+        due = self.stale if self.due is None else self.stale & self.due
+        stale = [image for image in self.depth_images if not image.level and image.slot in due]
         if not stale:
             return 0
         atlas = self.atlas
         atlas.bake_buffer()
         # Every image of every level: those of reflectors are baked after these (the bounce node).
-        whole = self.stale >= {image.slot for image in self.depth_images}
+        whole = due >= {image.slot for image in self.depth_images}
         if whole:
             atlas.unwritten = False  # every attachment is cleared whole below
         else:
@@ -453,6 +492,8 @@ class BakedImages:
         self.use_colour_mips(False)
         for buffer in self.uniform_buffers.values():
             buffer.release()
+        if self.entered is not None:
+            self.entered.release()
         self.atlas.release()
 
 
