@@ -361,16 +361,15 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         noun = f"{stand_in.image_noun}s" if issubclass(stand_in, (BakedImages, SeenFromEye)) else "a BVH of their triangles"
         also = ", and a BVH of their triangles for the rays those cannot answer" if METHODS[method].names_triangles else ""
         seen_from_eye = METHODS[method].seen_from_eye
+        lazily = issubclass(stand_in, BakedImages) and bool(images) and stand_in.bakes_lazily(scene, len(images))
+        when = ("; each baked when a frame's reflected rays may first enter it (a pass over the mirror pixels finds "
+                "which; the frame is the one of baking them all)" if lazily else "")
         passes.append(PlannedPass(Pass.STAND_IN if seen_from_eye is None else Pass.EYE_IMAGES,
                                   f"{_names(reflectors)} may reflect {plural(len(reflected), 'object')}, "
-                                  f"seen through {noun}{also}"))
+                                  f"seen through {noun}{also}{when}"))
         for stages, defines, why in seen_from_eye.variants(scene) if seen_from_eye is not None else []:
             variant(Pass.EYE_IMAGES, stages, defines, why)
-        if issubclass(stand_in, BakedImages) and images and stand_in.bakes_lazily(scene, len(images)):
-            passes.append(PlannedPass(Pass.STAND_IN, f"{stand_in.image_noun}s baked as a frame's reflected rays may "
-                                      "first enter them: a frame bakes those its mirror pixels' rays enter, found by "
-                                      "a pass over those pixels, and leaves the others for a later frame (the same "
-                                      "frame as baking them all)"))
+        if lazily and issubclass(stand_in, BakedImages):
             variant(Pass.STAND_IN, ENTERED_PROGRAM,
                     entered_defines(depth_image_capacity(len(scene.objects)), stand_in.lists_over_bounds),
                     f"which {stand_in.image_noun}s a frame's reflected rays may enter, before the bake")

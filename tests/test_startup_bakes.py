@@ -133,7 +133,7 @@ def test_a_frame_bakes_the_images_its_rays_enter_and_is_the_frame_of_baking_them
     rays) is the one of a renderer that bakes every image at once, to the bit."""
     scene = textured_ring(tmp_path, 300).with_overrides(samples=samples)
     assert BakedImages.bakes_lazily(scene, 300)
-    assert any("baked as a frame's reflected rays may first enter them" in p.reason
+    assert any("each baked when a frame's reflected rays may first enter it" in p.reason
                for p in plan_render(scene, method).passes)
     lazy, baked_by, images = frames_along(ctx, scene, method)
     assert baked_by[0] < images and baked_by[0] < baked_by[-1] <= images, baked_by  # the rest as rays come to them
