@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -339,7 +339,7 @@ class RenderGraph:
             self.shadow_maps.use()
         baked = self.baked_images
         if baked is not None:  # which stale images this frame's rays may enter (the others wait)
-            baked.aim(None if self.show_samples else camera, targets.surfaces)
+            baked.aim(None if self.show_samples else camera, targets.surfaces, self._occluders(camera))
         bakes = [node for node in self.nodes if node.bakes and node.stale()]  # all asked before any runs
         if bakes:
             self.ctx.finish()
@@ -394,6 +394,16 @@ class RenderGraph:
             self._gl_queries = (self.ctx.query(time=True), self.ctx.query(time=True))
         with self._gl_queries[index]:
             yield
+
+    def _occluders(self, camera: PPC) -> Callable[[], object] | None:
+        """What hides mirror pixels in a frame through `camera`: the diffuse node's draw as it runs
+        it (BakedImages.aim), where the frame's mirror pixels are those it leaves (not the sample
+        view's frame, nor SSR's, whose diffuse pass writes the eye's surface too)."""
+        diffuse = self.diffuse
+        if diffuse is None or self.show_samples or self.seen_from_eye is not None:
+            return None
+        drawn = self.world.opaque_diffuse
+        return lambda: diffuse.draw(drawn, camera.view_projection)
 
     def _run(self, node: Node, frame: Frame) -> None:
         """A node run, and counted in the stats' passes where it did anything."""

@@ -7,7 +7,9 @@ The mirror shader reads an image's texels only where the ray enters the image's 
 ray of a frame enters cannot change a pixel of it: baking only the entered ones gives the frame of
 baking them all, bit for bit. This pass finds them with the mirror shader's own rays: the
 reflectors' surfaces drawn into the frame's surface targets with a stamp of their own and a depth
-buffer of their own (no diffuse object hides them: every pixel a mirror may show is counted), then
+buffer of their own, behind the depth of the eye's diffuse pass drawn as the frame draws it (the
+frame's mirror pixels, no fewer: it is the same draw, and nothing else drawn before the mirrors
+can uncover one), then
 per mirror, over its screen rectangle, entered_images.frag sets a bit per image whose bound
 (widened a little) a pixel's ray enters. At 1,000 objects and 320x180 the rays enter about a
 third of the 2,000 images (results/llvmpipe/startup_time.md, fourth pass).
@@ -18,6 +20,8 @@ anti-aliased frame asks with its own camera.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import moderngl
 import numpy as np
@@ -85,21 +89,29 @@ class EnteredImages:
             self.marking = self.ctx.framebuffer(depth_attachment=self.depth)
         return self.framebuffer
 
-    def find(self, camera: PPC, surfaces: Surfaces, mirrors: list[tuple[ObjectGeometry, moderngl.Buffer, int]]
-             ) -> list[np.ndarray]:
+    def find(self, camera: PPC, surfaces: Surfaces, mirrors: list[tuple[ObjectGeometry, moderngl.Buffer, int]],
+             occluders: Callable[[], object] | None = None) -> list[np.ndarray]:
         """For each of `mirrors` (the mirror, the buffer of its record table, its image count): the
-        indices in its table of the images a pixel's reflected ray through `camera` may enter."""
+        indices in its table of the images a pixel's reflected ray through `camera` may enter.
+        `occluders` draws, into the framebuffer bound, what the frame draws before its mirrors (the
+        eye's diffuse pass, as that pass draws it: the same depths), so that a mirror pixel hidden
+        in the frame is hidden here too; without it every pixel a mirror covers counts."""
         framebuffer = self._target(surfaces)
+        assert self.marking is not None
         stamp = surfaces.next_frame()  # the mirror pass's own draw takes the next: these texels read as cleared
         framebuffer.use()
         framebuffer.clear(depth=clear_depth(self.ctx))
         write(self.surface_program, "u_surface_stamp", stamp)
         # Drawn as the frame's eye passes draw them (their depth convention): the same fragments.
-        with eye_depth(self.ctx), raster_state(self.ctx, REFLECTORS):
-            for item, _, _ in mirrors:
-                write(self.surface_program, "u_mirror_id", item.index)
-                self.meshes.draw(self.surface_program, item, camera.view_projection)
-        assert self.marking is not None
+        with eye_depth(self.ctx):
+            if occluders is not None:
+                self.marking.use()  # their depth alone
+                occluders()
+                framebuffer.use()
+            with raster_state(self.ctx, REFLECTORS):
+                for item, _, _ in mirrors:
+                    write(self.surface_program, "u_mirror_id", item.index)
+                    self.meshes.draw(self.surface_program, item, camera.view_projection)
         self.marking.use()
         surfaces.use()
         self.bits.clear()
