@@ -17,6 +17,7 @@ from PIL import Image, ImageDraw
 
 from depthimpostor.constants import MATERIAL_BLOCK_RECORDS, Method
 from depthimpostor.methods.baked_images import BakedImages
+from depthimpostor.methods.entered_images import EnteredImages
 from depthimpostor.plan import plan_render
 from depthimpostor.gpu import uniforms
 from depthimpostor.gpu.uniforms import materials_in_storage
@@ -143,3 +144,22 @@ def test_a_frame_bakes_the_images_its_rays_enter_and_is_the_frame_of_baking_them
     for lazy_frame, eager_frame in zip(lazy, eager, strict=True):
         assert np.isfinite(lazy_frame).all()
         np.testing.assert_array_equal(lazy_frame, eager_frame)
+
+
+def test_a_frame_that_sees_what_the_last_saw_runs_no_second_pass(ctx: moderngl.Context, tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """The images a frame's rays enter are found again only where the eye or the world moved: a
+    static scene's next frames (whose stale images no ray enters) cost no pass and bake nothing."""
+    scene = textured_ring(tmp_path, 300)
+    calls = []
+    find = EnteredImages.find
+    monkeypatch.setattr(EnteredImages, "find", lambda self, *args: calls.append(1) or find(self, *args))
+    with Renderer(ctx, scene) as renderer:
+        baked = renderer.graph.baked_images
+        assert baked is not None
+        for _ in range(3):
+            renderer.render()
+        assert len(calls) == 1 and 0 < baked.bakes < len(baked.depth_images) and len(renderer.stats.bake_seconds) == 1
+        renderer.look_at(dataclasses.replace(scene.camera, eye=VIEWS[1]))
+        renderer.render()
+        assert len(calls) == 2

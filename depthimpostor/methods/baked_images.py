@@ -156,6 +156,10 @@ class BakedImages:
         self.lazily = self.bakes_lazily(scene, len(self.depth_images))
         self.due: set[int] | None = None  # the stale slots the next bake renders (None: every one)
         self.entered: EnteredImages | None = None  # the pass that finds them (made at the first aim)
+        # What the last aim found them for (the camera, and the moves so far): a frame that sees the
+        # same from the same place needs no new pass (its images are baked, or stale and not entered).
+        self._aimed_at: tuple[bytes, int] | None = None
+        self._moves = 0
         self._mirrors = mirrors
 
     @classmethod
@@ -176,7 +180,13 @@ class BakedImages:
         what the frame draws before its mirrors (EnteredImages.find)."""
         if not self.lazily or camera is None or surfaces is None or not self.stale:
             self.due = None
+            self._aimed_at = None
             return
+        aimed_at = (np.asarray(camera.view_projection, np.float64).tobytes() + np.asarray(camera.C, np.float64).tobytes(),
+                    self._moves)
+        if aimed_at == self._aimed_at and self.due is not None:
+            return  # as the last frame: its images are baked (the stale ones are not entered)
+        self._aimed_at = aimed_at
         if self.entered is None:
             self.entered = EnteredImages(self.ctx, self.programs, self.meshes, self.record_capacity,
                                          len(self._mirrors), self.lists_over_bounds)
@@ -210,6 +220,7 @@ class BakedImages:
         image showing an object of `stale_targets` (a light that shades it moved, or a shadow
         that may fall on it), baked at the next bake. Bounce images follow what they show."""
         self._mirrors = [geometry[mirror.index] for mirror in self._mirrors]
+        self._moves += 1
         for index, images in self.images_by_reflector.items():
             for i, image in enumerate(images):
                 mirror, targets = geometry[index], tuple(geometry[t.index] for t in image.targets)
