@@ -221,6 +221,10 @@ class BakedImages:
         that may fall on it), baked at the next bake. Bounce images follow what they show."""
         self._mirrors = [geometry[mirror.index] for mirror in self._mirrors]
         self._moves += 1
+        # A world that moves bakes what is stale, every image, as it did: the pass that finds the
+        # entered ones would run at every frame that moves it, and a moved object's images are few.
+        self.lazily = False
+        self.due = None
         for index, images in self.images_by_reflector.items():
             for i, image in enumerate(images):
                 mirror, targets = geometry[index], tuple(geometry[t.index] for t in image.targets)
