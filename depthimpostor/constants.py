@@ -448,6 +448,13 @@ MATERIAL = Struct("Material", (
 #: the struct a multiple of 16 bytes), so one numpy record type fills either.
 MATERIAL_BLOCK_RECORDS = 16384 // MATERIAL.dtype.itemsize
 
+#: Bytes from one record to the next in the copy of the MaterialRecords table that a program drawing
+#: one object a call binds a record of (lib/shading.glsl's DrawnMaterial block, bound with
+#: glBindBufferRange: gpu/scene_blocks.DrawnMaterials): the record rounded up to 256, the largest
+#: GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT a GL may ask (OpenGL 4.6, table 23.64), so that every context
+#: can bind every record and the plan counts the copy without one.
+DRAWN_MATERIAL_STRIDE = -(-MATERIAL.dtype.itemsize // 256) * 256
+
 #: One light of the Lights block: LIGHT_DIRECTIONAL or LIGHT_POINT, SHADOW_NONE, SHADOW_HARD or
 #: SHADOW_SOFT, the soft shadows' disk radius, the unit travel direction (directional) or the
 #: position (point), and colour * intensity.

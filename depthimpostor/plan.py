@@ -16,13 +16,14 @@ from typing import Any
 
 from .constants import (
     BLEND_IMAGE_CUTOFF,
-    depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, MATERIAL, MATERIAL_BLOCK_RECORDS, MAX_ANALYTIC_PLANES,
+    depth_image_capacity, DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, DRAWN_MATERIAL_STRIDE, MATERIAL, MATERIAL_BLOCK_RECORDS, MAX_ANALYTIC_PLANES,
     MAX_BOUNCES, MAX_LIGHTS, MAX_NAMED_TRIANGLES, BVH_TEXTURE_WIDTH, BVH_TRIANGLE_TEXELS, EXTRA_ATTRIBUTES,
     HIERARCHICAL_MIN_SIDE, IBL_LEVELS, IBL_SAMPLES, Algorithm, Method, image_algorithm, lists_images, triangle_texel_layout,
 )
 from .culling import Reach
 from .geometry import ObjectGeometry
 from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines, has_checker
+from .methods.entered_images import ENTERED_PROGRAM, EnteredImages, entered_defines
 from .passes.environment import ENVIRONMENT_PROGRAM, PREFILTER_PROGRAM, environment_map_bytes
 from .passes.glass import INTERIOR_PROGRAM, interior_bytes
 from .methods.atlas import BACK_FACE_PROGRAM, BEYOND_PROGRAM, ImpostorAtlas, atlas_grid, image_label, plural
@@ -31,7 +32,7 @@ from .gpu.batches import batch_bytes
 from .methods.planar import check_flat_mirrors
 from .methods.seen_from_eye import SeenFromEye
 from .gpu.meshes import GpuMeshes
-from .gpu.scene_blocks import SceneBlocks, materials_bytes
+from .gpu.scene_blocks import SceneBlocks, drawn_materials_bytes, materials_bytes
 from .gpu.uniforms import materials_in_storage
 from .gpu.textures import GpuTextures
 from .texture_layout import texture_layout
@@ -360,11 +361,18 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         noun = f"{stand_in.image_noun}s" if issubclass(stand_in, (BakedImages, SeenFromEye)) else "a BVH of their triangles"
         also = ", and a BVH of their triangles for the rays those cannot answer" if METHODS[method].names_triangles else ""
         seen_from_eye = METHODS[method].seen_from_eye
+        lazily = issubclass(stand_in, BakedImages) and bool(images) and stand_in.bakes_lazily(scene, len(images))
+        when = ("; each baked when a frame's reflected rays may first enter it (a pass over the mirror pixels finds "
+                "which; the frame is the one of baking them all)" if lazily else "")
         passes.append(PlannedPass(Pass.STAND_IN if seen_from_eye is None else Pass.EYE_IMAGES,
                                   f"{_names(reflectors)} may reflect {plural(len(reflected), 'object')}, "
-                                  f"seen through {noun}{also}"))
+                                  f"seen through {noun}{also}{when}"))
         for stages, defines, why in seen_from_eye.variants(scene) if seen_from_eye is not None else []:
             variant(Pass.EYE_IMAGES, stages, defines, why)
+        if lazily and issubclass(stand_in, BakedImages):
+            variant(Pass.STAND_IN, ENTERED_PROGRAM,
+                    entered_defines(depth_image_capacity(len(scene.objects)), stand_in.lists_over_bounds),
+                    f"which {stand_in.image_noun}s a frame's reflected rays may enter, before the bake")
         if issubclass(stand_in, BakedImages) and images:
             ids = stand_in.keeps_triangle_ids
             with_ids = ", with the triangle each sample shows" if ids else ""
@@ -569,7 +577,8 @@ def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImageP
              else f"a uniform block (a storage buffer past {MATERIAL_BLOCK_RECORDS}), within GL_MAX_UNIFORM_BLOCK_SIZE "
                   "(16 KiB at GL's least), checked at render")
     lines.append(f"materials: {len(scene.materials)}{material_kinds(scene)} (any number: one record of "
-                 f"{MATERIAL.dtype.itemsize} bytes each in {where})")
+                 f"{MATERIAL.dtype.itemsize} bytes each in {where}; and a copy, a record every "
+                 f"{DRAWN_MATERIAL_STRIDE} bytes, of which a draw of one object binds its own)")
     if scene.textures:
         lines.append(f"image textures: {len(scene.textures)} (any number: in texture arrays, within GL_MAX_TEXTURE_SIZE, "
                      "GL_MAX_ARRAY_TEXTURE_LAYERS and GL_MAX_UNIFORM_BLOCK_SIZE, checked at render)")
@@ -598,7 +607,8 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
     width, height = scene.render.size
     memory = {"frame colour and depth": width * height * (16 + 4),
               "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry], mesh_attributes(scene)),
-              "lights and planes": SceneBlocks.BYTES, "materials": materials_bytes(scene)}
+              "lights and planes": SceneBlocks.BYTES, "materials": materials_bytes(scene),
+              "materials, a record a draw": drawn_materials_bytes(scene)}
     # The diffuse pass's batch of the objects that do not move (gpu/batches.py; a context without
     # OpenGL 4.3 draws them one by one, and makes none).
     still = [g for g in geometry if not g.object.is_reflector and not g.object.is_blended and not g.object.moves]
@@ -636,6 +646,9 @@ def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: li
                               if not plan.level]) if not stand_in.keeps_triangle_ids else []
         if levels:
             memory["bake levels"] = GpuMeshes.bytes_for(levels, mesh_attributes(scene))
+        if stand_in.bakes_lazily(scene, len(images)):  # methods/entered_images.py
+            memory["images entered by a frame's rays"] = EnteredImages.bytes_for(
+                (width, height), depth_image_capacity(len(scene.objects)), len(reflectors))
         # Each mirror's table: its records and, in a scene of many objects, the lists of candidate
         # images by ray past them (methods/image_cells.py); the bounce images' tables likewise.
         tables, bounce_tables = stand_in.table_bytes(scene, reflectors, image_plans or {})

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -117,7 +117,7 @@ class RenderGraph:
         self.shadow_maps = (ShadowMaps(ctx, self.programs, world.lit_scene, self.meshes, world.shadow_casters)
                             if self.plan.runs(Pass.SHADOW_MAPS) else None)
         self.diffuse = self._diffuse_pass()
-        self.transparent = (TransparentPass(self.programs, scene, self.meshes) if self.plan.runs(Pass.TRANSPARENT)
+        self.transparent = (TransparentPass(self.programs, scene, self.meshes, self.scene_blocks.drawn_materials) if self.plan.runs(Pass.TRANSPARENT)
                             else None)
         self.stand_in: ReflectedObjects | None = None
         self.reflector_pass: ReflectorPass | None = None
@@ -144,7 +144,8 @@ class RenderGraph:
         key = (self.plan.runs(Pass.DIFFUSE), frame_surface(self.plan.method, bool(self.world.reflectors)))
         if self.diffuse is not None and key == self._diffuse_key:
             return self.diffuse
-        made = (DiffusePass(self.programs, self.world.scene, self.meshes, write_depth_image=False,
+        made = (DiffusePass(self.programs, self.world.scene, self.meshes, self.scene_blocks.drawn_materials,
+                            write_depth_image=False,
                             batched=batches_supported(self.ctx), write_surface=key[1]) if key[0] else None)
         if self.diffuse is not None:  # released once the new one exists
             self.diffuse.release()
@@ -196,10 +197,11 @@ class RenderGraph:
         check_stand_in(scene, plan.method, world.reflectors, world.reflected_objects)
         stand_in: ReflectedObjects
         if issubclass(kind, BakedImages):
-            stand_in = kind(self.ctx, self.programs, scene, self.meshes, world.reflectors, world.reflected_objects,
-                            plan.image_plans)
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.scene_blocks.drawn_materials,
+                            world.reflectors, world.reflected_objects, plan.image_plans)
         elif issubclass(kind, SeenFromEye):
-            stand_in = kind(self.ctx, self.programs, scene, self.meshes, world.reflectors)
+            stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.scene_blocks.drawn_materials,
+                            world.reflectors)
         else:
             stand_in = kind(self.ctx, scene, world.reflected_objects)
         try:  # its pyramids and colour mips too (a GL without compute shaders refuses them) ...
@@ -335,6 +337,9 @@ class RenderGraph:
         self.scene_blocks.bind()  # the lights and planes: bakes shade with them too
         if self.shadow_maps is not None:  # bound for every pass that shades, bakes included
             self.shadow_maps.use()
+        baked = self.baked_images
+        if baked is not None:  # which stale images this frame's rays may enter (the others wait)
+            baked.aim(None if self.show_samples else camera, targets.surfaces, self._occluders(camera))
         bakes = [node for node in self.nodes if node.bakes and node.stale()]  # all asked before any runs
         if bakes:
             self.ctx.finish()
@@ -389,6 +394,16 @@ class RenderGraph:
             self._gl_queries = (self.ctx.query(time=True), self.ctx.query(time=True))
         with self._gl_queries[index]:
             yield
+
+    def _occluders(self, camera: PPC) -> Callable[[], object] | None:
+        """What hides mirror pixels in a frame through `camera`: the diffuse node's draw as it runs
+        it (BakedImages.aim), where the frame's mirror pixels are those it leaves (not the sample
+        view's frame, nor SSR's, whose diffuse pass writes the eye's surface too)."""
+        diffuse = self.diffuse
+        if diffuse is None or self.show_samples or self.seen_from_eye is not None:
+            return None
+        drawn = self.world.opaque_diffuse
+        return lambda: diffuse.draw(drawn, camera.view_projection)
 
     def _run(self, node: Node, frame: Frame) -> None:
         """A node run, and counted in the stats' passes where it did anything."""

@@ -13,8 +13,12 @@ flat in ivec4 v_ids;
 #define OBJECT_ID v_ids.y
 #define TRIANGLE_OFFSET v_ids.z
 #else
+#ifdef DRAWN_MATERIAL
+#define MATERIAL_INDEX 0  // the drawn object's record, bound alone (lib/shading.glsl)
+#else
 uniform int u_material_index;  // in the MaterialRecords table (lib/shading.glsl)
 #define MATERIAL_INDEX u_material_index
+#endif
 #define OBJECT_ID u_object_id
 #define TRIANGLE_OFFSET u_triangle_offset
 #endif

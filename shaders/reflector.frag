@@ -6,6 +6,7 @@
 // ray, blended with the refracted one (lib/glass.glsl), on both sides (the eye may be inside).
 #include "lib/common.glsl"
 #include "lib/reflected_scene.glsl"
+#include "lib/mirror_ray.glsl"
 #ifdef GLASS
 #include "lib/glass.glsl"
 #endif
@@ -94,11 +95,8 @@ void main() {
     v_world_normal = surface_normal.xyz;
     front_facing = (stamp_and_facing & 1) == 1;
 #endif
-    vec3 view = safe_normalize(v_world_position - u_eye, vec3(0.0, 0.0, -1.0));
-    vec3 normal = safe_normalize(v_world_normal, -view);
-    // The interpolated normal can face away from the eye near a curved reflector's silhouette
-    // (and does on the back of a mirror, or inside glass): turn it to the eye.
-    normal = faceforward(normal, view, normal);
+    vec3 view = view_direction(v_world_position, u_eye);
+    vec3 normal = eye_facing_normal(v_world_normal, view);
 #ifndef GLASS
     // GL's front faces are the outward ones: the passes draw mirrors with front_face set for
     // their flipped projections (passes/reflectors.py, outward_faces_front).

@@ -22,6 +22,7 @@ from depthimpostor.constants import (
 )
 from depthimpostor.errors import ContextError
 from depthimpostor.gpu.meshes import GpuMeshes
+from depthimpostor.gpu.scene_blocks import DrawnMaterials
 from depthimpostor.gpu.shaders import ProgramCache
 from depthimpostor.methods.atlas import DepthImage
 from depthimpostor.methods.image_cells import ORIGIN_MARGIN, GridSize, grid_size, image_cells, ray_cells
@@ -153,7 +154,7 @@ def test_a_gl_without_storage_buffers_is_told_what_the_scene_needs(ctx: moderngl
     mirrors = [g for g in world.geometry if g.object.is_mirror]
     old_gl = SimpleNamespace(version_code=330, info=ctx.info)
     with pytest.raises(ContextError, match="storage buffers, which need OpenGL 4.3; this context has 3.3"):
-        ImpostorPass(old_gl, ProgramCache(ctx), scene, GpuMeshes(ctx), mirrors,  # type: ignore[arg-type]
+        ImpostorPass(old_gl, ProgramCache(ctx), scene, GpuMeshes(ctx), DrawnMaterials(ctx), mirrors,  # type: ignore[arg-type]
                      world.reflected_objects)
 
 

@@ -80,6 +80,7 @@ class UniformBlock(IntEnum):
     ANALYTIC_PLANES = 5  # the floors and walls every reflected ray is intersected with (gpu/scene_blocks.py)
     TEXTURE_RECORDS = 6  # every image texture's array, layer, wraps and atlas rectangle (gpu/textures.py)
     MATERIALS = 7  # every shaded material's record, read by every pass (gpu/scene_blocks.py)
+    DRAWN_MATERIAL = 8  # the drawn object's record alone, bound per draw (gpu/scene_blocks.DrawnMaterials)
 
 
 @unique
@@ -87,6 +88,7 @@ class StorageBuffer(IntEnum):
     PYRAMID_TILES = 0  # the pyramid build's tile table (methods/pyramid.py, depth_pyramid.comp)
     DEPTH_IMAGES = 1  # one reflector's image records, where they pass a uniform block (methods/atlas.py)
     MATERIALS = 2  # the MaterialRecords table, where it passes a uniform block (gpu/scene_blocks.py)
+    ENTERED_IMAGES = 3  # a bit per baked image a frame's reflected rays may enter (methods/entered_images.py)
 
 
 @unique

@@ -17,8 +17,9 @@ import numpy as np
 
 from .bindings import StorageBuffer, UniformBlock
 from .uniforms import material_count, material_records, materials_in_storage
-from ..constants import LIGHTING, MATERIAL, MAX_ANALYTIC_PLANES, MAX_LIGHTS, PLANES, LightKind, ShadowKind
-from ..errors import SceneError
+from ..constants import (DRAWN_MATERIAL_STRIDE, LIGHTING, MATERIAL, MAX_ANALYTIC_PLANES, MAX_LIGHTS, PLANES, LightKind,
+                         ShadowKind)
+from ..errors import GpuLimitError, SceneError
 from ..geometry import ObjectGeometry
 from ..ibl import irradiance_sh9, uses_environment_lighting
 from ..scene.model import PlaneShape, Scene
@@ -77,9 +78,46 @@ def planes_record(scene: Scene, planes: Sequence[ObjectGeometry]) -> np.ndarray:
     return record
 
 
+class DrawnMaterials:
+    """The MaterialRecords table again, a record every DRAWN_MATERIAL_STRIDE bytes, so that a
+    program drawing one object a call (uniforms.material_defines' DRAWN_MATERIAL: the bakes, the
+    eye's objects that move) is given that object's record alone as its DrawnMaterial block, one
+    glBindBufferRange a draw, instead of indexing the table per fragment: the table of a scene of
+    more than MATERIAL_BLOCK_RECORDS materials is a storage buffer, which llvmpipe reads per
+    fragment at a cost a uniform block's constant does not have (results/llvmpipe/startup_time.md,
+    fourth pass). A batch, whose instances carry their material's index, reads the table."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        alignment = int(ctx.info["GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT"])
+        if DRAWN_MATERIAL_STRIDE % alignment:  # a GL past the specification's largest (256)
+            raise GpuLimitError(f"this GL's GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT of {alignment} does not divide the "
+                                f"material records' stride of {DRAWN_MATERIAL_STRIDE} bytes")
+        self.buffer = ctx.buffer(reserve=DRAWN_MATERIAL_STRIDE)
+        self.ctx = ctx
+
+    def write(self, records: np.ndarray) -> None:
+        """The table `records` (uniforms.material_records), each record at its stride."""
+        size = MATERIAL.dtype.itemsize
+        padded = np.zeros((len(records), DRAWN_MATERIAL_STRIDE), np.uint8)
+        padded[:, :size] = np.ascontiguousarray(records).view(np.uint8).reshape(len(records), size)
+        if padded.nbytes != self.buffer.size:  # an edited scene with another number of materials
+            self.buffer.release()
+            self.buffer = self.ctx.buffer(reserve=padded.nbytes)
+        self.buffer.write(padded.tobytes())
+
+    def bind(self, index: int) -> None:
+        """Material `index`'s record as the DrawnMaterial block of the next draws."""
+        self.buffer.bind_to_uniform_block(UniformBlock.DRAWN_MATERIAL, offset=index * DRAWN_MATERIAL_STRIDE,
+                                          size=MATERIAL.dtype.itemsize)
+
+    def release(self) -> None:
+        self.buffer.release()
+
+
 class SceneBlocks:
-    """The Lights, AnalyticPlanes and MaterialRecords blocks' buffers. `write` them when the lights
-    or planes move (or the scene is edited); `bind` them once a frame."""
+    """The Lights, AnalyticPlanes and MaterialRecords blocks' buffers, and the table's copy that
+    one-object draws bind a record of (DrawnMaterials). `write` them when the lights or planes move
+    (or the scene is edited); `bind` them once a frame."""
 
     #: GPU memory of the lights' and planes' buffers (the plan's figure: plan.plan_memory, which
     #: adds the materials': materials_bytes).
@@ -91,12 +129,15 @@ class SceneBlocks:
         self.planes = ctx.buffer(reserve=PLANES.dtype.itemsize)
         self.materials = ctx.buffer(reserve=MATERIAL.dtype.itemsize)
         self.materials_in_storage = False  # past a uniform block's records (uniforms.materials_in_storage)
+        self.drawn_materials = DrawnMaterials(ctx)
 
     def write(self, scene: Scene, planes: Sequence[ObjectGeometry]) -> None:
         """`scene`'s lights (where they are now), the analytic planes `planes` and the materials."""
         self.lights.write(lighting_record(scene).tobytes())
         self.planes.write(planes_record(scene, planes).tobytes())
-        materials = material_records(scene).tobytes()
+        records = material_records(scene)
+        materials = records.tobytes()
+        self.drawn_materials.write(records)
         self.materials_in_storage = materials_in_storage(scene)
         if len(materials) != self.materials.size:  # an edited scene with another number of materials
             self.materials.release()
@@ -115,9 +156,15 @@ class SceneBlocks:
         self.lights.release()
         self.planes.release()
         self.materials.release()
+        self.drawn_materials.release()
 
 
 def materials_bytes(scene: Scene) -> int:
     """GPU memory of `scene`'s MaterialRecords table (a uniform block up to MATERIAL_BLOCK_RECORDS
     records, a storage buffer past them: plan.plan_limits states which)."""
     return material_count(scene) * MATERIAL.dtype.itemsize
+
+
+def drawn_materials_bytes(scene: Scene) -> int:
+    """GPU memory of the table's copy that one-object draws bind a record of (DrawnMaterials)."""
+    return material_count(scene) * DRAWN_MATERIAL_STRIDE

@@ -26,16 +26,17 @@ from ..textures import SRGB_TABLE
 from .textures import array_unit
 
 
-def shading_defines(scene: Scene) -> dict[str, int]:
+def shading_defines(scene: Scene, drawn_material: bool = False) -> dict[str, int]:
     """The variant of every shading program that the scene's lights and materials call for: its
     number of lights (more than MAX_LIGHTS is refused when the lights are written), the point
     lights' code only in scenes with one (DIRECTIONAL_LIGHTS: none), shadow rays only in scenes
     where a light casts shadows on something, the MaterialRecords table at the scene's size (MATERIAL_COUNT),
-    texture sampling only in scenes with image textures
+    or (`drawn_material`: a program that draws one object a call) the drawn object's record alone
+    (material_defines), texture sampling only in scenes with image textures
     (TEXTURE_COUNT of them, in TEXTURE_ARRAYS arrays, with the samplers they need:
     texture_layout.texture_defines)."""
     return {"LIGHT_COUNT": min(len(scene.lights), MAX_LIGHTS),  # a constant loop bound (lib/shading.glsl)
-            **material_defines(scene),  # the MaterialRecords table's size, and where it lives
+            **material_defines(scene, drawn_material),  # the MaterialRecords table's size, and where it lives
             **({"DIRECTIONAL_LIGHTS": 1} if scene.lights and all(light.type == "directional" for light in scene.lights)
                else {}),
             **({"SHADOWS": 1} if scene.has_shadows else {}),
@@ -43,7 +44,7 @@ def shading_defines(scene: Scene) -> dict[str, int]:
             # alpha mask only where a material cuts parts away.
             **({"METALLIC_ROUGHNESS": 1} if any(isinstance(m, MetallicRoughnessMaterial) for m in scene.materials)
                else {}),
-            **alpha_mask_defines(scene),
+            **alpha_mask_defines(scene, drawn_material),
             **mesh_attribute_defines(scene),
             **environment_lighting_defines(scene),
             **texture_defines(scene)}
@@ -91,19 +92,25 @@ def has_alpha_blend(scene: Scene) -> bool:
     return any(isinstance(m, MetallicRoughnessMaterial) and m.blend for m in scene.materials)
 
 
-def alpha_mask_defines(scene: Scene) -> dict[str, int]:
+def alpha_mask_defines(scene: Scene, drawn_material: bool = False) -> dict[str, int]:
     """What a program that draws surfaces needs to cut masked parts away: ALPHA_MASK, the material
-    table and the textures (none in a scene without a masked or blended material). The depth-only
-    programs (window_depth.frag's shadow maps and back faces, beyond_run.frag) take these alone; the
-    shading programs take them with shading_defines."""
+    table (or the drawn object's record: material_defines) and the textures (none in a scene without
+    a masked or blended material). The depth-only programs (window_depth.frag's shadow maps and back
+    faces, beyond_run.frag) take these alone; the shading programs take them with shading_defines."""
     if not has_alpha_mask(scene):
         return {}
-    return {"ALPHA_MASK": 1, **material_defines(scene), **mesh_attribute_defines(scene), **texture_defines(scene)}
+    return {"ALPHA_MASK": 1, **material_defines(scene, drawn_material), **mesh_attribute_defines(scene),
+            **texture_defines(scene)}
 
 
-def material_defines(scene: Scene) -> dict[str, int]:
-    """The MaterialRecords table's size (MATERIAL_COUNT), and past a uniform block's
-    MATERIAL_BLOCK_RECORDS the storage buffers' extension that lib/shading.glsl then reads it from."""
+def material_defines(scene: Scene, drawn_material: bool = False) -> dict[str, int]:
+    """Where a program reads the materials from: the MaterialRecords table at its size
+    (MATERIAL_COUNT), and past a uniform block's MATERIAL_BLOCK_RECORDS the storage buffers'
+    extension that lib/shading.glsl then reads it from; or (`drawn_material`: a program that draws
+    one object a call, whose pass binds that object's record before each draw: passes/diffuse.py)
+    the DrawnMaterial block of one record (DRAWN_MATERIAL), whatever the table's size."""
+    if drawn_material:
+        return {"DRAWN_MATERIAL": 1}
     count = material_count(scene)
     return {"MATERIAL_COUNT": count, **({"NEEDS_STORAGE_BLOCKS": 1} if materials_in_storage(scene) else {})}
 
@@ -283,3 +290,4 @@ def write_scene_uniforms(program: moderngl.Program, scene: Scene) -> None:
     bind_uniform_block(program, "ShadowMaps", UniformBlock.SHADOW_MAPS)
     bind_uniform_block(program, "TextureRecords", UniformBlock.TEXTURE_RECORDS)
     bind_record_block(program, "MaterialRecords", UniformBlock.MATERIALS, StorageBuffer.MATERIALS)
+    bind_uniform_block(program, "DrawnMaterial", UniformBlock.DRAWN_MATERIAL)

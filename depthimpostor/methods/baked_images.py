@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import builtins
 import math
+from collections.abc import Callable
 from collections import Counter
 from enum import Enum
 from typing import ClassVar, NamedTuple
@@ -25,6 +26,7 @@ from ..constants import (
     MIN_BUDGETED_SIDE,
     STORAGE_GL_VERSION,
     depth_image_capacity,
+    lists_images,
 )
 from ..errors import ContextError
 from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
@@ -36,8 +38,11 @@ from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
 from ..passes.diffuse import DiffusePass, has_checker
 from ..gpu.meshes import GpuMeshes
+from ..gpu.scene_blocks import DrawnMaterials
 from ..gpu.uniforms import alpha_mask_defines, bind_texture, write, write_material_index
 from .colour_mips import ColourMips
+from .entered_images import EnteredImages
+from ..passes.reflectors import Surfaces
 from .atlas import BACK_FACES, BACK_FACE_PROGRAM, BEYOND_PROGRAM, DepthImage, FRONT_FACES, ImpostorAtlas, atlas_grid, bind_image_records, bind_impostors, color_mask, fit_depth_image_camera, fit_depth_image_frusta, image_label, image_records, plural, record_table, record_table_bytes, write_table
 
 
@@ -92,11 +97,13 @@ class BakedImages:
         programs: ProgramCache,
         scene: Scene,
         meshes: GpuMeshes,
+        materials: DrawnMaterials,
         mirrors: list[ObjectGeometry],
         reflected: list[ObjectGeometry],
         image_plans: dict[int, list[ImagePlan]] | None = None,
     ) -> None:
-        """`image_plans`: the plan's images (RenderPlan.image_plans), so that they are not planned
+        """`materials`: the scene's records, of which a bake's draw binds its object's (gpu/scene_blocks.py);
+        `image_plans`: the plan's images (RenderPlan.image_plans), so that they are not planned
         again; planned here when not given."""
         plan = image_plans if image_plans is not None else self.plan_images(scene, mirrors, reflected)
         # The records each mirror's table holds: as the programs of this scene declare them.
@@ -113,9 +120,9 @@ class BakedImages:
         layers = self.second_layer != SecondLayer.NONE
         offsets = triangle_offsets(reflected) if self.keeps_triangle_ids else None
         checker = has_checker(item.object for item in reflected)
-        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=layers, triangle_offsets=offsets,
+        self.diffuse = DiffusePass(programs, scene, meshes, materials, write_depth_image=layers, triangle_offsets=offsets,
                                    checker=checker)
-        self.back_layer = (DiffusePass(programs, scene, meshes, write_depth_image=True, triangle_offsets=offsets,
+        self.back_layer = (DiffusePass(programs, scene, meshes, materials, write_depth_image=True, triangle_offsets=offsets,
                                        back_layer=True, checker=checker) if self.keeps_back_colors else None)
         count = sum(len(images) for images in plan.values())
         # Slots as large as the largest image ("auto" sizes each image apart).
@@ -145,17 +152,63 @@ class BakedImages:
         # Closed solids' back faces culled in the visible-surface pass, as the frame's batch culls
         # them: seen from outside, each back face lies behind a front face of the same solid.
         self.culls_back_faces = True
+        # A frame bakes only the stale images its rays may enter (aim), where that is known exactly.
+        self.lazily = self.bakes_lazily(scene, len(self.depth_images))
+        self.due: set[int] | None = None  # the stale slots the next bake renders (None: every one)
+        self.entered: EnteredImages | None = None  # the pass that finds them (made at the first aim)
+        # What the last aim found them for (the camera, and the moves so far): a frame that sees the
+        # same from the same place needs no new pass (its images are baked, or stale and not entered).
+        self._aimed_at: tuple[bytes, int] | None = None
+        self._moves = 0
+        self._mirrors = mirrors
+
+    @classmethod
+    def bakes_lazily(cls, scene: Scene, images: int) -> bool:
+        """Does a frame bake only the stale images its reflected rays may enter (aim), leaving the
+        others stale? Where a mirror's images are many (found through lists: lists_images), one
+        per object, and every ray that reads them is a mirror pixel's own reflected ray, which the
+        marking pass draws (methods/entered_images.py): no glossy mirror (its cone reads the colour
+        mips of every image), no glass (refracted rays), no images of mirrors in mirrors
+        (render.max_bounces). The frame is then the one of baking them all, bit for bit."""
+        return (cls.per_object and images > 0 and lists_images(depth_image_capacity(len(scene.objects)))
+                and not scene.has_rough_mirrors and not scene.glass and scene.render.max_bounces == 1)
+
+    def aim(self, camera: PPC | None, surfaces: Surfaces | None, occluders: Callable[[], object] | None = None) -> None:
+        """The next bake renders the stale images whose bounds a reflected ray of a frame through
+        `camera` may enter (every stale one where this stand-in does not bake lazily, or without a
+        camera: the sample view, which draws every image); the others stay stale. `occluders`:
+        what the frame draws before its mirrors (EnteredImages.find)."""
+        if not self.lazily or camera is None or surfaces is None or not self.stale:
+            self.due = None
+            self._aimed_at = None
+            return
+        aimed_at = (np.asarray(camera.view_projection, np.float64).tobytes() + np.asarray(camera.C, np.float64).tobytes(),
+                    self._moves)
+        if aimed_at == self._aimed_at and self.due is not None:
+            return  # as the last frame: its images are baked (the stale ones are not entered)
+        self._aimed_at = aimed_at
+        if self.entered is None:
+            self.entered = EnteredImages(self.ctx, self.programs, self.meshes, self.record_capacity,
+                                         len(self._mirrors), self.lists_over_bounds)
+        tables = [(mirror, self.uniform_buffers[mirror.index], self.images_at(mirror.index, self.final_level))
+                  for mirror in self._mirrors]
+        found = self.entered.find(camera, surfaces, [(mirror, buffer, len(images)) for mirror, buffer, images in tables],
+                                  occluders)
+        self.due = {images[int(i)].slot for (_, _, images), entered in zip(tables, found, strict=True) for i in entered}
 
     @property
     def needs_bake(self) -> bool:
-        return bool(self.stale)
+        return bool(self.stale if self.due is None else self.stale & self.due)
 
     def bake_again(self) -> None:
         """Render every image at the next bake, although nothing moved (the benchmark's). The bakes'
         depth buffer is made now if a frame let it go (rest): a timed bake is then the bake alone,
         as an animated scene, which keeps it, pays it every frame. (Making it costs the 8 x 9
-        scene's bake at 1024^2 about a quarter more: tools/bake_cost.py.)"""
+        scene's bake at 1024^2 about a quarter more: tools/bake_cost.py.) Every image, even where
+        a frame bakes only those its rays enter (lazily): the benchmark times the whole bake."""
         self.stale = {image.slot for image in self.depth_images}
+        self.lazily = False
+        self.due = None
         self.atlas.bake_buffer()
 
     def refit(self, image: DepthImage, mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...]) -> PPC:
@@ -166,6 +219,12 @@ class BakedImages:
         """Objects (by index) moved to `geometry`: their images are fitted again and, with every
         image showing an object of `stale_targets` (a light that shades it moved, or a shadow
         that may fall on it), baked at the next bake. Bounce images follow what they show."""
+        self._mirrors = [geometry[mirror.index] for mirror in self._mirrors]
+        self._moves += 1
+        # A world that moves bakes what is stale, every image, as it did: the pass that finds the
+        # entered ones would run at every frame that moves it, and a moved object's images are few.
+        self.lazily = False
+        self.due = None
         for index, images in self.images_by_reflector.items():
             for i, image in enumerate(images):
                 mirror, targets = geometry[index], tuple(geometry[t.index] for t in image.targets)
@@ -298,13 +357,14 @@ class BakedImages:
         number of draw calls. Where every slot is stale (the first bake, `bake_again`), each
         layer's attachments are cleared whole, once, instead of tile by tile (_clears). The depth
         buffer is the bakes' scratch, let go when a frame bakes nothing (rest)."""
-        stale = [image for image in self.depth_images if not image.level and image.slot in self.stale]
+        due = self.stale if self.due is None else self.stale & self.due
+        stale = [image for image in self.depth_images if not image.level and image.slot in due]
         if not stale:
             return 0
         atlas = self.atlas
         atlas.bake_buffer()
         # Every image of every level: those of reflectors are baked after these (the bounce node).
-        whole = self.stale >= {image.slot for image in self.depth_images}
+        whole = due >= {image.slot for image in self.depth_images}
         if whole:
             atlas.unwritten = False  # every attachment is cleared whole below
         else:
@@ -450,6 +510,8 @@ class BakedImages:
         self.use_colour_mips(False)
         for buffer in self.uniform_buffers.values():
             buffer.release()
+        if self.entered is not None:
+            self.entered.release()
         self.atlas.release()
 
 

@@ -15,6 +15,7 @@ import moderngl
 from ..gpu.bindings import TextureUnit
 from ..geometry import ObjectGeometry
 from ..scene.model import Scene
+from ..gpu.scene_blocks import DrawnMaterials
 from ..gpu.shaders import ProgramCache
 from .baked_images import ImagePlan
 from .impostors import ImpostorPass
@@ -34,9 +35,9 @@ class HybridPass(ImpostorPass):
     lists_over_bounds = True
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
-                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
+                 materials: DrawnMaterials, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
                  image_plans: dict[int, list[ImagePlan]] | None = None) -> None:
-        super().__init__(ctx, programs, scene, meshes, mirrors, reflected, image_plans)
+        super().__init__(ctx, programs, scene, meshes, materials, mirrors, reflected, image_plans)
         try:
             self.triangles = TrianglePass(ctx, scene, reflected, places=True)
         except BaseException:

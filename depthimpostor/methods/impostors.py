@@ -24,6 +24,7 @@ from ..geometry import ObjectGeometry
 from ..culling import ReachTable, reachable_targets, reaches
 from ..resolution import scene_view
 from ..scene.model import Scene
+from ..gpu.scene_blocks import DrawnMaterials
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
 from .pyramid import DepthPyramid
@@ -47,9 +48,9 @@ class ImpostorPass(BakedImages):
     bounces: BounceBaker | None = None
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
-                 mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
+                 materials: DrawnMaterials, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
                  image_plans: dict[int, list[ImagePlan]] | None = None) -> None:
-        super().__init__(ctx, programs, scene, meshes, mirrors, reflected, image_plans)
+        super().__init__(ctx, programs, scene, meshes, materials, mirrors, reflected, image_plans)
         if self.final_level > 1 and len(mirrors) > 1:
             from .bounces import BounceBaker  # bounces.py builds on this module's classes
 

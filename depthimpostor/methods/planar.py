@@ -26,6 +26,7 @@ from ..eye import clear_depth, make_depth_buffer, reversed_z
 from ..geometry import ObjectGeometry, scene_geometry
 from ..gpu.bindings import TextureUnit
 from ..gpu.meshes import GpuMeshes
+from ..gpu.scene_blocks import DrawnMaterials
 from ..gpu.shaders import ProgramCache
 from ..gpu.uniforms import bind_texture
 from ..passes.diffuse import DIFFUSE_PROGRAM, DiffusePass, diffuse_defines
@@ -137,10 +138,10 @@ class PlanarPass(SeenFromEye):
                  "planar reflections: the scene through each mirror's plane, with the position and object seen")]
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
-                 reflectors: list[ObjectGeometry]) -> None:
-        super().__init__(ctx, programs, scene, meshes, reflectors)
+                 materials: DrawnMaterials, reflectors: list[ObjectGeometry]) -> None:
+        super().__init__(ctx, programs, scene, meshes, materials, reflectors)
         check_flat_mirrors(scene, reflectors)
-        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=False, write_surface=True)
+        self.diffuse = DiffusePass(programs, scene, meshes, materials, write_depth_image=False, write_surface=True)
         self.mirrors = [item.index for item in reflectors]
         self.targets: dict[int, tuple[moderngl.Texture, moderngl.Texture, moderngl.Renderbuffer,
                                       moderngl.Framebuffer]] = {}

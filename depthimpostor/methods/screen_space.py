@@ -18,6 +18,7 @@ from ..errors import ContextError
 from ..geometry import ObjectGeometry
 from ..gpu.bindings import ImageUnit, TextureUnit
 from ..gpu.meshes import GpuMeshes
+from ..gpu.scene_blocks import DrawnMaterials
 from ..gpu.shaders import ProgramCache
 from ..gpu.uniforms import bind_texture, write, write_matrix
 from ..ppc import PPC
@@ -52,8 +53,8 @@ class ScreenSpacePass(SeenFromEye):
     reads_frame = True
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
-                 reflectors: list[ObjectGeometry]) -> None:
-        super().__init__(ctx, programs, scene, meshes, reflectors)
+                 materials: DrawnMaterials, reflectors: list[ObjectGeometry]) -> None:
+        super().__init__(ctx, programs, scene, meshes, materials, reflectors)
         if ctx.version_code < REQUIRED_GL_VERSION:
             raise ContextError(
                 f"--method ssr builds its min-depth pyramid with compute shaders, which need OpenGL 4.3; this "

@@ -16,6 +16,7 @@ import moderngl
 
 from ..geometry import ObjectGeometry
 from ..gpu.meshes import GpuMeshes
+from ..gpu.scene_blocks import DrawnMaterials
 from ..gpu.shaders import ProgramCache
 from ..node import Frame, GraphFacts, Node, Pass
 from ..ppc import PPC
@@ -39,7 +40,7 @@ class SeenFromEye:
     shades: ClassVar[bool] = False
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
-                 reflectors: list[ObjectGeometry]) -> None:
+                 materials: DrawnMaterials, reflectors: list[ObjectGeometry]) -> None:
         self.ctx, self.programs, self.scene, self.meshes = ctx, programs, scene, meshes
         self.made = 0  # images made so far (stats)
         self.size: tuple[int, int] | None = None  # the frame size its targets have

@@ -23,6 +23,7 @@ from ..gpu.gl_state import raster_state
 from ..methods.atlas import FRONT_FACES
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
+from ..gpu.scene_blocks import DrawnMaterials
 from ..gpu.uniforms import blend_defines, matrix_bytes, packed, shading_defines, write, write_matrix
 from ..node import Frame, GraphFacts, Node, Pass
 
@@ -41,7 +42,8 @@ def diffuse_defines(scene: Scene, write_depth_image: bool, write_triangle_ids: b
     """The variant drawing into the frame, or (`write_depth_image`) into baked images: their
     visible surface, or (`back_layer`) the colour and depth of the nearest back face; and
     (`write_triangle_ids`: the hybrid method's) the triangle seen at each sample too; `instanced`:
-    objects drawn in a batch, their transforms and materials from instance attributes;
+    objects drawn in a batch, their transforms and material indices from instance attributes, the
+    materials from the table (else one object a call, its record bound alone: DRAWN_MATERIAL);
     (`write_surface`: the planar and SSR methods') the world position and object seen; without
     the checker's code (NO_CHECKER) where no object drawn has one (`checker`; by default, none
     of the scene's); `transparent`: the eye's transparent pass (ALPHA_BLEND: the fragment's alpha
@@ -51,7 +53,7 @@ def diffuse_defines(scene: Scene, write_depth_image: bool, write_triangle_ids: b
     return {"WRITE_DEPTH_IMAGE": int(write_depth_image), **({"WRITE_TRIANGLE_ID": 1} if write_triangle_ids else {}),
             **({"BACK_LAYER": 1} if back_layer else {}), **({"INSTANCED": 1} if instanced else {}),
             **({"WRITE_SURFACE": 1} if write_surface else {}), **({} if drawn_checker else {"NO_CHECKER": 1}),
-            **shading_defines(scene),
+            **shading_defines(scene, drawn_material=not instanced),
             **(blend_defines(scene, True) if transparent else blend_defines(scene, False) if write_triangle_ids else {})}
 
 
@@ -68,7 +70,8 @@ def viewer_of(view_projection: np.ndarray) -> np.ndarray:
 
 class DiffusePass:
     def __init__(
-        self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, *, write_depth_image: bool,
+        self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, materials: DrawnMaterials, *,
+        write_depth_image: bool,
         triangle_offsets: dict[int, int] | None = None, back_layer: bool = False, batched: bool = False,
         write_surface: bool = False, checker: bool | None = None, transparent: bool = False,
     ) -> None:
@@ -77,18 +80,22 @@ class DiffusePass:
         `back_layer` the one drawing a depth image's back layer, `write_surface` the one writing the
         world position and object seen, `checker` whether an object it draws has a checker
         material, `transparent` the eye's transparent pass's (see diffuse_defines); `batched` draws the objects that do not move in one call
-        (the context must have batches_supported)."""
+        (the context must have batches_supported); `materials`: the scene's records, of which a draw
+        of one object binds its own (gpu/scene_blocks.py)."""
         self.programs = programs
         self.defines = diffuse_defines(scene, write_depth_image, triangle_offsets is not None, back_layer,
                                        write_surface=write_surface, checker=checker, transparent=transparent)
-        self.instanced = (programs.get(*DIFFUSE_PROGRAM, {**self.defines, "INSTANCED": 1}) if batched else None)
+        batch_defines = diffuse_defines(scene, write_depth_image, triangle_offsets is not None, back_layer, instanced=True,
+                                        write_surface=write_surface, checker=checker, transparent=transparent)
+        self.instanced = programs.get(*DIFFUSE_PROGRAM, batch_defines) if batched else None
+        self.materials = materials
         self.scene = scene  # for its texture slots
         self.meshes = meshes
         self.triangle_offsets = triangle_offsets
         self._batch: ObjectBatch | None = None
         # Each object's uniforms, packed for the program they were packed for (_object_uniforms);
         # an object that moves is another ObjectGeometry at each time, and its old one's entry goes with it.
-        self._packed: weakref.WeakKeyDictionary[ObjectGeometry, tuple[moderngl.Program, list[tuple[moderngl.Uniform, bytes]]]] = \
+        self._packed: weakref.WeakKeyDictionary[ObjectGeometry, tuple[moderngl.Program, int, list[tuple[moderngl.Uniform, bytes]]]] = \
             weakref.WeakKeyDictionary()
 
     @property
@@ -124,27 +131,31 @@ class DiffusePass:
             if viewer is not None:
                 write(program, "u_eye", viewer)
             for item in items:
-                for uniform, data in self._object_uniforms(program, item):
+                material, uniforms = self._object_uniforms(program, item)
+                self.materials.bind(material)
+                for uniform, data in uniforms:
                     uniform.write(data)
                 self.meshes.render(program, item)
         return calls + len(items)
 
-    def _object_uniforms(self, program: moderngl.Program, item: ObjectGeometry) -> list[tuple[moderngl.Uniform, bytes]]:
-        """The uniforms `program` draws `item` with (material, object id, triangle offset,
-        transforms) and their bytes, packed once per object: a bake draws each object into one
-        image per mirror (a cube map, into six faces), and packing them anew each time took most
-        of a thousand-object bake's Python time."""
+    def _object_uniforms(self, program: moderngl.Program,
+                         item: ObjectGeometry) -> tuple[int, list[tuple[moderngl.Uniform, bytes]]]:
+        """`item`'s material index (the record bound for its draw) and the uniforms `program` draws
+        it with (object id, triangle offset, transforms) with their bytes, packed once per object: a
+        bake draws each object into one image per mirror (a cube map, into six faces), and packing
+        them anew each time took most of a thousand-object bake's Python time."""
         kept = self._packed.get(item)
         if kept is not None and kept[0] is program:
-            return kept[1]
-        values: list[tuple[str, float | bytes]] = [
-            ("u_material_index", self.scene.material_index(item.object.material)), ("u_object_id", item.index)]
+            return kept[1], kept[2]
+        material = self.scene.material_index(item.object.material)
+        # u_material_index: absent from a DRAWN_MATERIAL program (present in one reading the table).
+        values: list[tuple[str, float | bytes]] = [("u_material_index", material), ("u_object_id", item.index)]
         if self.triangle_offsets is not None:
             values.append(("u_triangle_offset", self.triangle_offsets[item.index]))
         values += [("u_model", matrix_bytes(item.model_matrix)), ("u_normal_matrix", matrix_bytes(item.normal_matrix))]
         uniforms = [found for name, value in values if (found := packed(program, name, value)) is not None]
-        self._packed[item] = (program, uniforms)
-        return uniforms
+        self._packed[item] = (program, material, uniforms)
+        return material, uniforms
 
     def _batch_of(self, items: list[ObjectGeometry]) -> ObjectBatch:
         """The batch of exactly these objects (made again when the list is another: objects that

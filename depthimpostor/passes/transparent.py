@@ -27,6 +27,7 @@ from ..geometry import ObjectGeometry
 from ..gpu.batches import is_closed
 from ..gpu.gl_state import raster_state
 from ..gpu.meshes import GpuMeshes
+from ..gpu.scene_blocks import DrawnMaterials
 from ..gpu.shaders import ProgramCache
 from ..methods.atlas import BACK_FACES, FRONT_FACES
 from ..node import Frame, GraphFacts, Node, Pass
@@ -49,9 +50,9 @@ def back_to_front(items: list[ObjectGeometry], eye: np.ndarray) -> list[ObjectGe
 class TransparentPass:
     """The blended objects drawn over the frame (the diffuse program's ALPHA_BLEND variant)."""
 
-    def __init__(self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes) -> None:
+    def __init__(self, programs: ProgramCache, scene: Scene, meshes: GpuMeshes, materials: DrawnMaterials) -> None:
         self.ctx = programs.ctx
-        self.diffuse = DiffusePass(programs, scene, meshes, write_depth_image=False, transparent=True)
+        self.diffuse = DiffusePass(programs, scene, meshes, materials, write_depth_image=False, transparent=True)
 
     def draw(self, items: list[ObjectGeometry], framebuffer: moderngl.Framebuffer, view_projection: np.ndarray,
              eye: np.ndarray) -> int:

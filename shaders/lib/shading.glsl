@@ -15,9 +15,18 @@
 #ifndef MATERIAL_COUNT
 #define MATERIAL_COUNT 1
 #endif
+#ifdef DRAWN_MATERIAL
+// A program that draws one object a call (passes/diffuse.py's, the bakes' above all) reads that
+// object's record alone: the pass binds it as this one-record block before each draw (a range of
+// gpu/scene_blocks.DrawnMaterials' padded copy of the table). A uniform block costs llvmpipe a
+// constant load; indexing a storage buffer per fragment cost a 1,000-material scene's bakes
+// two fifths of their time (results/llvmpipe/startup_time.md, fourth pass).
+layout(std140) uniform DrawnMaterial {
+    Material u_materials[1];
+};
 // Past MATERIAL_BLOCK_RECORDS (GL 3.3's guaranteed 16 KiB) the table is a storage buffer (GL 4.3;
 // the prefix enables it for NEEDS_STORAGE_BLOCKS), whose std430 layout of Material is std140's.
-#if MATERIAL_COUNT > MATERIAL_BLOCK_RECORDS
+#elif MATERIAL_COUNT > MATERIAL_BLOCK_RECORDS
 layout(std430) readonly buffer MaterialRecords {
     Material u_materials[MATERIAL_COUNT];
 };

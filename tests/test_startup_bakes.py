@@ -1,0 +1,171 @@
+"""What the bakes of a scene of many objects skip or read more cheaply (issue 32: start 1,000
+objects in under 2 s), held against the way they did it before: each draw of one object binds its
+own material record instead of indexing the scene's table per fragment, and a frame bakes only the
+images its reflected rays may enter (methods/entered_images.py), the others when a later frame's may."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import moderngl
+import numpy as np
+import pytest
+from conftest import scene_from_toml
+from PIL import Image, ImageDraw
+
+from depthimpostor.constants import MATERIAL_BLOCK_RECORDS, Method
+from depthimpostor.methods.baked_images import BakedImages
+from depthimpostor.methods.entered_images import EnteredImages
+from depthimpostor.plan import plan_render
+from depthimpostor.gpu import uniforms
+from depthimpostor.gpu.uniforms import materials_in_storage
+from depthimpostor.passes import diffuse
+from depthimpostor.renderer import Renderer
+from depthimpostor.scene import Scene
+
+HEAD = """
+[render]
+size = [160, 90]
+impostor_resolution = 24
+ambient = 0.3
+[camera]
+eye = [0.0, 2.0, 6.0]
+target = [0.0, 0.5, 0.0]
+[[lights]]
+type = "directional"
+direction = [-0.4, -1.0, -0.3]
+[[objects]]
+name = "mirror"
+shape = { type = "sphere", radius = 0.7 }
+material = { type = "mirror" }
+position = [0.0, 0.8, 0.0]
+"""
+
+
+def textured_ring(folder: Path, count: int) -> Scene:
+    """`count` small objects in rings about a mirror sphere, each checkered in a colour of its own
+    (every record of a table past MATERIAL_BLOCK_RECORDS read: a wrong one shows another colour),
+    every fifth textured with an "F" in a colour factor of its own (a texture seen the wrong way
+    round or not at all shows)."""
+    image = Image.new("RGB", (32, 32), (255, 255, 255))
+    draw = ImageDraw.Draw(image)
+    draw.rectangle([6, 4, 11, 28], fill=(200, 20, 20))
+    draw.rectangle([6, 4, 25, 9], fill=(200, 20, 20))
+    draw.rectangle([6, 14, 20, 18], fill=(200, 20, 20))
+    image.save(folder / "f.png")
+    text = HEAD
+    for k in range(count):
+        angle, ring = 2.0 * math.pi * k / 50, 1.3 + 0.3 * (k // 50)
+        hue = (k * 0.618034) % 1.0
+        colour = ", ".join(f"{0.5 + 0.45 * math.cos(2.0 * math.pi * (hue + c / 3.0)):.4f}" for c in range(3))
+        material = (f'{{ type = "diffuse", color = [{colour}], texture = "f.png" }}' if k % 5 == 0 else
+                    f'{{ type = "checker", color_a = [{colour}], color_b = [0.1, 0.1, 0.1], scale = 0.05 }}')
+        shape = '{ type = "sphere", radius = 0.09 }' if k % 2 else '{ type = "box", size = [0.14, 0.14, 0.14] }'
+        text += (f'[[objects]]\nname = "object {k}"\nshape = {shape}\nmaterial = {material}\n'
+                 f"position = [{ring * math.cos(angle):.4f}, {0.1 + 0.05 * (k % 7):.4f}, {ring * math.sin(angle):.4f}]\n"
+                 f"rotation = [0.0, {(37.0 * k) % 360:.1f}, 0.0]\n")
+    return scene_from_toml(text, str(folder / "ring.toml"), folder)
+
+
+def baked_atlas(ctx: moderngl.Context, scene: Scene, method: Method) -> tuple[list[bytes], np.ndarray, list[str]]:
+    """Every layer of the atlas `method` bakes for `scene`, its first frame, and the uniform blocks
+    its bakes' one-object program reads materials from."""
+    with Renderer(ctx, scene, method=method) as renderer:
+        renderer.render()
+        baked = renderer.graph.baked_images
+        assert baked is not None
+        blocks = [name for name in ("DrawnMaterial", "MaterialRecords") if name in baked.diffuse.program]
+        return [texture.read() for texture in baked.atlas.textures], renderer.read_color_float(), blocks
+
+
+@pytest.mark.parametrize("method", [Method.DEPTH, Method.HYBRID])
+def test_a_bakes_draw_reads_its_own_record_and_bakes_what_the_table_gives(
+        ctx: moderngl.Context, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, method: Method) -> None:
+    """Past a uniform block's records the table is a storage buffer, which llvmpipe reads per
+    fragment at a cost: the bakes bind each object's record as a one-record uniform block instead.
+    The atlas is the one baked by indexing the table, to the bit, in every layer."""
+    scene = textured_ring(tmp_path, 200)
+    assert len(scene.materials) == 200 > MATERIAL_BLOCK_RECORDS and materials_in_storage(scene)
+    atlas, frame, blocks = baked_atlas(ctx, scene, method)
+    assert blocks == ["DrawnMaterial"]
+    # The way before: every program reads the table (the one-object draws write u_material_index).
+    table_defines = uniforms.shading_defines
+    monkeypatch.setattr(diffuse, "shading_defines", lambda scene, drawn_material=False: table_defines(scene))
+    table_atlas, table_frame, table_blocks = baked_atlas(ctx, scene, method)
+    assert table_blocks == ["MaterialRecords"]
+    assert len(atlas) == len(table_atlas) >= 2
+    for layer, table_layer in zip(atlas, table_atlas, strict=True):
+        assert layer == table_layer
+    np.testing.assert_array_equal(frame, table_frame)
+    colours = np.frombuffer(atlas[0], np.uint8).reshape(-1, 4)
+    assert len(np.unique(colours[colours[:, 3] > 0, :3], axis=0)) > 200  # the images show their colours
+
+
+#: Where the eye stands in turn: the scene's view, then round the mirror and nearer (other images'
+#: objects come into its reflection).
+VIEWS = [None, (2.5, 1.2, 5.0), (-3.0, 2.8, 3.5)]
+
+
+def frames_along(ctx: moderngl.Context, scene: Scene, method: Method) -> tuple[list[np.ndarray], list[int], int]:
+    """The frames of `scene` from each of VIEWS, the images baked by the end of each, and how many
+    images there are."""
+    frames, baked_by = [], []
+    with Renderer(ctx, scene, method=method) as renderer:
+        baked = renderer.graph.baked_images
+        assert baked is not None
+        for eye in VIEWS:
+            if eye is not None:
+                renderer.look_at(dataclasses.replace(scene.camera, eye=eye))
+            renderer.render()
+            frames.append(renderer.read_color_float())
+            baked_by.append(baked.bakes)
+        return frames, baked_by, len(baked.depth_images)
+
+
+@pytest.mark.parametrize("method,samples", [(Method.DEPTH, 1), (Method.DEPTH, 4), (Method.HYBRID, 1),
+                                            (Method.BILLBOARD, 1)])
+def test_a_frame_bakes_the_images_its_rays_enter_and_is_the_frame_of_baking_them_all(
+        ctx: moderngl.Context, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, method: Method, samples: int) -> None:
+    """A scene of 300 textured objects about a mirror (its images found through lists): the first
+    frame bakes only the images its mirror pixels' rays may enter; as the eye moves, a frame bakes
+    those its rays come to enter. Every frame (each sub-frame of an anti-aliased one with its own
+    rays) is the one of a renderer that bakes every image at once, to the bit."""
+    scene = textured_ring(tmp_path, 300).with_overrides(samples=samples)
+    assert BakedImages.bakes_lazily(scene, 300)
+    assert any("each baked when a frame's reflected rays may first enter it" in p.reason
+               for p in plan_render(scene, method).passes)
+    lazy, baked_by, images = frames_along(ctx, scene, method)
+    assert baked_by[0] < images and baked_by[0] < baked_by[-1] <= images, baked_by  # the rest as rays come to them
+    monkeypatch.setattr(BakedImages, "bakes_lazily", classmethod(lambda cls, scene, images: False))
+    eager, eager_baked_by, _ = frames_along(ctx, scene, method)
+    assert eager_baked_by == [images] * len(VIEWS)
+    for lazy_frame, eager_frame in zip(lazy, eager, strict=True):
+        assert np.isfinite(lazy_frame).all()
+        np.testing.assert_array_equal(lazy_frame, eager_frame)
+
+
+def test_a_frame_that_sees_what_the_last_saw_runs_no_second_pass(ctx: moderngl.Context, tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """The images a frame's rays enter are found again only where the eye moved: a static scene's
+    next frames (whose stale images no ray enters) cost no pass and bake nothing. Once the world
+    moves, every stale image is baked (the pass would run at every frame)."""
+    scene = textured_ring(tmp_path, 300)
+    calls = []
+    find = EnteredImages.find
+    monkeypatch.setattr(EnteredImages, "find", lambda self, *args: calls.append(1) or find(self, *args))
+    with Renderer(ctx, scene) as renderer:
+        baked = renderer.graph.baked_images
+        assert baked is not None
+        for _ in range(3):
+            renderer.render()
+        assert len(calls) == 1 and 0 < baked.bakes < len(baked.depth_images) and len(renderer.stats.bake_seconds) == 1
+        renderer.look_at(dataclasses.replace(scene.camera, eye=VIEWS[1]))
+        renderer.render()
+        assert len(calls) == 2 and baked.bakes < len(baked.depth_images)
+        # Once the world moves (an object, a light), what is stale is baked whole, with no pass.
+        world = renderer.world
+        baked.move({g.index: g for g in world.geometry}, {world.reflected_objects[0].index}, set())
+        renderer.render()
+        assert len(calls) == 2 and not baked.stale and baked.bakes >= len(baked.depth_images)
