@@ -23,6 +23,7 @@ import moderngl
 from .eye import clear_depth, eye_depth
 from .gpu.context import bind_default_framebuffer
 from .gpu.batches import batches_supported
+from .gpu.deform import GpuDeform
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
 from .gpu.uniforms import mesh_attributes
@@ -89,6 +90,8 @@ class RenderGraph:
         self.world, self.plan = world, plan
         self.meshes = GpuMeshes(ctx, mesh_attributes(world.scene))  # with the glTF attributes the scene reads
         self.meshes.load([g.local_mesh for g in world.geometry])  # the world's meshes in one arena
+        # Deforming glTF parts skinned and morphed into that arena on the GPU (where GL 4.3 is).
+        self.deform = GpuDeform(ctx, programs)
         self.textures = GpuTextures(ctx)  # the scene's image textures, bound for every frame
         self.scene_blocks = SceneBlocks(ctx)  # the lights and analytic planes, bound for every frame
         self.show_samples = False
@@ -287,10 +290,10 @@ class RenderGraph:
         object moved, when a light moved, or when a caster moved whose shadow may fall on its object)."""
         self.world = world
         self.scene_blocks.write(world.lit_scene, world.analytic_planes)
-        # What deforms (a glTF skin, morph targets) has another mesh: uploaded over the one it replaces.
-        self.meshes.replace([(before.local_mesh, now.local_mesh) for before, now in zip(earlier.geometry, world.geometry,
-                                                                                        strict=True)
-                             if now.local_mesh is not before.local_mesh])
+        # What deforms (a glTF skin, morph targets) has another mesh: deformed on the GPU over the
+        # one it replaces, or (what deform.comp cannot make) uploaded over it.
+        self.meshes.replace(self.deform.follow(self.meshes, [(before.local_mesh, now) for before, now in zip(
+            earlier.geometry, world.geometry, strict=True) if now.local_mesh is not before.local_mesh]))
         for node in self.nodes:
             node.follow(earlier, world)
 
@@ -405,6 +408,7 @@ class RenderGraph:
 
     def release(self) -> None:
         self.release_passes()
+        self.deform.release()
         self.meshes.release()
         self.textures.release()
         self.scene_blocks.release()

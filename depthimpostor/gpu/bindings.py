@@ -87,6 +87,15 @@ class StorageBuffer(IntEnum):
     PYRAMID_TILES = 0  # the pyramid build's tile table (methods/pyramid.py, depth_pyramid.comp)
     DEPTH_IMAGES = 1  # one reflector's image records, where they pass a uniform block (methods/atlas.py)
     MATERIALS = 2  # the MaterialRecords table, where it passes a uniform block (gpu/scene_blocks.py)
+    # Deforming glTF parts on the GPU (gpu/deform.py, methods/gpu_refit.py), within GL 4.3's least
+    # of 8 bindings: the mesh arena's vertices (deform.comp writes them, the refit reads them); a
+    # part's rest pose, influences and morph deltas; its pose at a time (joint matrices, morph
+    # weights); what one refit dispatch goes over (triangles' corners, or nodes); the roots' boxes.
+    ARENA = 3
+    DEFORM_PART = 4
+    DEFORM_POSE = 5
+    REFIT_ITEMS = 6
+    REFIT_ROOTS = 7
 
 
 @unique
@@ -94,6 +103,8 @@ class ImageUnit(IntEnum):
     PYRAMID_SOURCE = 0  # the level a pyramid level is built from
     PYRAMID_TARGET = 1  # the level being built
     COLOUR_ATLAS = 2  # the colour mips' first source: the atlas's RGBA8 colour (methods/colour_mips.py)
+    BVH_NODES = 3  # the BVH's node texture, refitted in place (methods/gpu_refit.py)
+    BVH_TRIANGLES = 4  # its triangle texture, the deformed triangles written over the old
 
 
 def glsl_bindings() -> dict[str, str]:
