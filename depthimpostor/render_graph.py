@@ -31,6 +31,8 @@ from .gpu.shaders import ProgramCache
 from .gpu.textures import GpuTextures
 from .graph import Pass, node_class
 from .methods.baked_images import BakedImages
+from .methods.gpu_refit import GpuRefit
+from .methods.hybrid import HybridPass
 from .methods.impostors import ImpostorPass
 from .methods.registry import METHODS
 from .methods.seen_from_eye import SeenFromEye
@@ -205,6 +207,11 @@ class RenderGraph:
             stand_in = kind(self.ctx, self.programs, scene, self.meshes, world.reflectors)
         else:
             stand_in = kind(self.ctx, scene, world.reflected_objects)
+        traced = (stand_in if isinstance(stand_in, TrianglePass)
+                  else stand_in.triangles if isinstance(stand_in, HybridPass) else None)
+        if traced is not None and any(g.object.deforms for g in world.reflected_objects):
+            # Deforming meshes' trees refitted by compute passes (where GL 4.3 is: GpuRefit.usable).
+            traced.gpu = GpuRefit(self.ctx, self.programs, self.meshes, self.deform)
         try:  # its pyramids and colour mips too (a GL without compute shaders refuses them) ...
             self._keep_pyramids(plan, stand_in)
         except BaseException:

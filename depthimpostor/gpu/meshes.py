@@ -124,6 +124,9 @@ class GpuMeshes:
         self.load(fresh)
         return uploaded + self.bytes_for(fresh, self.attributes)
 
+    def holds(self, mesh: Mesh) -> bool:
+        return mesh in self._arena_of
+
     def rekey(self, old: Mesh, new: Mesh) -> bool:
         """`new` (a deformed `old`: the same vertex count and triangles) takes old's place in its
         arena without an upload (gpu/deform.py writes its vertices there); False where it cannot
