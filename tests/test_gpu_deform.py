@@ -107,3 +107,16 @@ def test_what_the_gpu_cannot_make_says_why(name: str, why: str) -> None:
     result, which deform.comp (a vertex an invocation) does not make; the CPU deforms it."""
     for motion in motions(load_quietly(DATA / name)):
         assert motion.gpu_refusal is not None and why in motion.gpu_refusal
+
+
+def test_a_pose_past_the_uniform_block_is_read_from_a_storage_buffer(ctx: moderngl.Context, tmp_path: Path,
+                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same skin with a uniform block of 4 rows: its 2 joints' 8 rows go in a storage buffer."""
+    import depthimpostor.gpu.deform as deform_module
+
+    monkeypatch.setattr(deform_module, "DEFORM_POSE_BLOCK_ROWS", 4)
+    assert "POSE_IN_STORAGE" in deform_module.deform_defines(8) and "POSE_IN_STORAGE" not in deform_module.deform_defines(4)
+    w = GltfWriter()
+    skinned_column(w, w.material("Blue"), rings=4, sides=6)
+    (motion,) = motions(load_quietly(w.write(tmp_path / "c.glb")))
+    assert_gpu_matches_cpu(ctx, motion, (0.5, 1.0))

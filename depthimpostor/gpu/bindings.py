@@ -80,6 +80,7 @@ class UniformBlock(IntEnum):
     ANALYTIC_PLANES = 5  # the floors and walls every reflected ray is intersected with (gpu/scene_blocks.py)
     TEXTURE_RECORDS = 6  # every image texture's array, layer, wraps and atlas rectangle (gpu/textures.py)
     MATERIALS = 7  # every shaded material's record, read by every pass (gpu/scene_blocks.py)
+    DEFORM_POSE = 8  # a deforming glTF part's joint matrices and morph weights at a time (gpu/deform.py)
 
 
 @unique
@@ -93,7 +94,7 @@ class StorageBuffer(IntEnum):
     # weights); what one refit dispatch goes over (triangles' corners, or nodes); the roots' boxes.
     ARENA = 3
     DEFORM_PART = 4
-    DEFORM_POSE = 5
+    DEFORM_POSE = 5  # (where it is past the uniform block's rows: UniformBlock.DEFORM_POSE)
     REFIT_ITEMS = 6
     REFIT_ROOTS = 7
 
@@ -108,8 +109,10 @@ class ImageUnit(IntEnum):
 
 
 def glsl_bindings() -> dict[str, str]:
-    """The storage and image bindings as GLSL defines (STORAGE_PYRAMID_TILES, IMAGE_PYRAMID_SOURCE, ...),
+    """The storage, image and uniform-block bindings as GLSL defines (STORAGE_PYRAMID_TILES,
+    IMAGE_PYRAMID_SOURCE, BLOCK_DEFORM_POSE, ...),
     for the shaders that must name them in a layout qualifier."""
     defines = {f"STORAGE_{member.name}": str(int(member)) for member in StorageBuffer}
     defines.update({f"IMAGE_{member.name}": str(int(member)) for member in ImageUnit})
+    defines.update({f"BLOCK_{member.name}": str(int(member)) for member in UniformBlock})
     return defines

@@ -20,7 +20,7 @@ from ..geometry import ObjectGeometry
 from ..meshes import Mesh
 from ..scene.gltf_deform import PartMotion
 from ..scene.gltf_file import MIN_NORMAL_LENGTH
-from .bindings import StorageBuffer
+from .bindings import StorageBuffer, UniformBlock
 from .meshes import VERTEX_ATTRIBUTES, GpuMeshes
 from .shaders import ProgramCache
 from .uniforms import write, write_matrix
@@ -32,11 +32,16 @@ REQUIRED_GL_VERSION = 430
 DEFORM_GROUP = 64
 #: Work groups an axis at most: GL 4.3's least GL_MAX_COMPUTE_WORK_GROUP_COUNT.
 MAX_GROUPS = 65535
+#: vec4 rows of the pose's uniform block: 16 KiB, GL's least GL_MAX_UNIFORM_BLOCK_SIZE (255 joints
+#: and 16 morph weights, say); a larger pose goes in a storage buffer (POSE_IN_STORAGE).
+DEFORM_POSE_BLOCK_ROWS = 1024
 
 
-def deform_defines() -> dict[str, str]:
-    return {"DEFORM_GROUP": str(DEFORM_GROUP), "ARENA_FLOATS": str(sum(n for _, n in VERTEX_ATTRIBUTES)),
-            "MIN_NORMAL_LENGTH": f"{MIN_NORMAL_LENGTH!r}"}
+def deform_defines(pose_rows: int) -> dict[str, str]:
+    """deform.comp's defines for a pose of `pose_rows` vec4 rows."""
+    defines = {"DEFORM_GROUP": str(DEFORM_GROUP), "ARENA_FLOATS": str(sum(n for _, n in VERTEX_ATTRIBUTES)),
+               "MIN_NORMAL_LENGTH": f"{MIN_NORMAL_LENGTH!r}", "DEFORM_POSE_BLOCK_ROWS": str(DEFORM_POSE_BLOCK_ROWS)}
+    return {**defines, "POSE_IN_STORAGE": "1"} if pose_rows > DEFORM_POSE_BLOCK_ROWS else defines
 
 
 def dispatch(program: moderngl.ComputeShader, items: int, group: int) -> None:
@@ -153,16 +158,21 @@ class GpuDeform:
         part = self.part(motion)
         pose, weight_base = pose_texels(motion, time)
         data = pose.tobytes() or bytes(16)
-        if self._pose is None or self._pose.size < len(data):
+        # The block's whole size is bound (a uniform block must be as large as the shader's).
+        size = max(len(data), 16 * DEFORM_POSE_BLOCK_ROWS)
+        if self._pose is None or self._pose.size < size:
             if self._pose is not None:
                 self._pose.release()
-            self._pose = self.ctx.buffer(reserve=max(len(data), 256))
+            self._pose = self.ctx.buffer(reserve=size)
         self._pose.write(data)
         self.uploaded = len(data)
-        program = self.programs.compute(DEFORM_PROGRAM, deform_defines())
+        program = self.programs.compute(DEFORM_PROGRAM, deform_defines(len(pose)))
         vertices.bind_to_storage_buffer(StorageBuffer.ARENA)
         part.buffer.bind_to_storage_buffer(StorageBuffer.DEFORM_PART)
-        self._pose.bind_to_storage_buffer(StorageBuffer.DEFORM_POSE)
+        if len(pose) > DEFORM_POSE_BLOCK_ROWS:
+            self._pose.bind_to_storage_buffer(StorageBuffer.DEFORM_POSE)
+        else:
+            self._pose.bind_to_uniform_block(UniformBlock.DEFORM_POSE)
         for name, value in (("u_vertex_count", part.vertices), ("u_first_vertex", first_vertex),
                             ("u_influence_groups", part.influence_groups), ("u_influence_base", part.influence_base),
                             ("u_targets", part.targets), ("u_delta_base", part.delta_base),
