@@ -23,7 +23,7 @@ import moderngl
 from .eye import clear_depth, eye_depth
 from .gpu.context import bind_default_framebuffer
 from .gpu.batches import batches_supported
-from .gpu.deform import GpuDeform
+from .gpu.deform import GpuDeform, gpu_supported
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
 from .gpu.uniforms import mesh_attributes
@@ -109,7 +109,10 @@ class RenderGraph:
         """The plan's programs, node by node: the passes then find them in the cache."""
         for node in self.plan.graph:
             for key in node.programs:
-                self.programs.compile(key)
+                # A compute shader needs GL 4.3: without it the deform node and the refit use the
+                # CPU, and a pass that has no CPU path (the pyramids) refuses in its own words.
+                if len(key[0]) == 2 or gpu_supported(self.ctx):
+                    self.programs.compile(key)
 
     def build(self, environment: EnvironmentPass | None = None) -> None:
         """Every node's GL side, from the plan, with the programs of the cache (and `environment`,
@@ -297,10 +300,6 @@ class RenderGraph:
         object moved, when a light moved, or when a caster moved whose shadow may fall on its object)."""
         self.world = world
         self.scene_blocks.write(world.lit_scene, world.analytic_planes)
-        # What deforms (a glTF skin, morph targets) has another mesh: deformed on the GPU over the
-        # one it replaces, or (what deform.comp cannot make) uploaded over it.
-        self.meshes.replace(self.deform.follow(self.meshes, [(before.local_mesh, now) for before, now in zip(
-            earlier.geometry, world.geometry, strict=True) if now.local_mesh is not before.local_mesh]))
         for node in self.nodes:
             node.follow(earlier, world)
 

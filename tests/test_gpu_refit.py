@@ -15,8 +15,10 @@ from depthimpostor.meshes import Mesh
 from depthimpostor.methods.bvh import refit_triangle_forest
 from depthimpostor.methods.instances import NODE_TEXELS
 from depthimpostor.methods.triangles import TrianglePass, triangle_stride
+from depthimpostor.node import Pass
+from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
-from depthimpostor.scene import Scene
+from depthimpostor.scene import Scene, load_scene
 from depthimpostor.world import World
 from gltf_files import bending_scene
 from test_gltf_animation import load_quietly
@@ -113,3 +115,26 @@ def test_the_bent_tube_traced_after_the_gpu_refit_is_the_cpu_paths_picture(ctx: 
         assert differs.sum() <= 4, differs.sum()
     moved = np.abs(gpu[1] - gpu[0]).max(axis=2) > 0.05
     assert moved.sum() > 300
+
+
+@pytest.mark.parametrize(("method", "programs"), [(Method.RAYTRACE, {"deform.comp", "bvh_refit.comp"}),
+                                                  (Method.DEPTH, {"deform.comp"})], ids=lambda v: getattr(v, "option", ""))
+def test_the_deforming_parts_pass_is_planned_with_its_programs_and_only_those_run(
+        ctx: moderngl.Context, tmp_path: Path, method: Method, programs: set[str]) -> None:
+    """Issue 33 item 5: the deform pass (and the refit's program for a traced method) planned for a
+    scene whose parts deform, with its reason; after frames at two times the renderer has compiled
+    the plan's programs and no other; a still scene plans neither."""
+    scene = bent_tube(tmp_path)
+    with Renderer(ctx, scene, method=method) as renderer:
+        for time in (0.0, 1.0):
+            renderer.set_time(time)
+            renderer.render()
+        plan = renderer.plan
+        reason = next(p.reason for p in plan.passes if p.stage is Pass.DEFORM)
+        assert "1 deforming glTF part" in reason and "deform.comp" in reason
+        assert ("bvh_refit.comp" in reason) == (method is Method.RAYTRACE)
+        assert {stages[0] for stages, _ in plan.program_keys if stages[0].endswith(".comp")} == programs
+        assert renderer.programs.keys == plan.program_keys
+    still = load_scene(Path(__file__).parent.parent / "scenes" / "default.toml")
+    assert not plan_render(still, method).runs(Pass.DEFORM)
+    assert not any(stages[0].endswith(".comp") for stages, _ in plan_render(still, method).program_keys)

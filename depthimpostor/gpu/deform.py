@@ -99,6 +99,15 @@ def part_texels(motion: PartMotion) -> tuple[np.ndarray, int, int, int]:
     return np.concatenate(rows), groups, 2 * count, 2 * count + len(rows[1])
 
 
+def part_rows(motion: PartMotion) -> int:
+    """vec4 rows of the part's Part block (part_texels's), from its counts alone."""
+    count = sum(len(item.primitive.positions) for item in motion.primitives)
+    widths = [item.joints.shape[1] for item in motion.primitives if item.joints is not None]
+    groups = math.ceil(max(widths) / 4) if motion.skin is not None and widths else 0
+    targets = len(motion.default_weights) if motion.default_weights is not None else 0
+    return 2 * count * (1 + groups + targets)
+
+
 def pose_texels(motion: PartMotion, time: float) -> tuple[np.ndarray, int]:
     """(vec4 rows of deform.comp's Pose block at `time`, where the morph weights start)."""
     matrices = motion.joint_matrices(time)

@@ -35,6 +35,11 @@ REFIT_GROUP = 64
 _RGBA32F = 0x8814
 
 
+def refit_defines() -> dict[str, str]:
+    return {"REFIT_GROUP": str(REFIT_GROUP), "NODE_TEXELS": str(NODE_TEXELS),
+            "ARENA_FLOATS": str(sum(n for _, n in VERTEX_ATTRIBUTES))}
+
+
 def node_levels(bvh: Bvh) -> tuple[np.ndarray, np.ndarray]:
     """(root: the tree each node is in, by its root's node index; depth below that root) of every
     node of a forest (build_triangle_forest's: the root of tree j is node j)."""
@@ -132,8 +137,7 @@ class GpuRefit:
                 self._roots.release()
             self._roots = self.ctx.buffer(reserve=max(size, 256))
         self._roots.bind_to_storage_buffer(StorageBuffer.REFIT_ROOTS)
-        program = self.programs.compute(REFIT_PROGRAM, {"REFIT_GROUP": str(REFIT_GROUP), "NODE_TEXELS": str(NODE_TEXELS),
-                                                        "ARENA_FLOATS": str(sum(n for _, n in VERTEX_ATTRIBUTES))})
+        program = self.programs.compute(REFIT_PROGRAM, refit_defines())
         write(program, "u_stride", stride)
         write(program, "u_mesh_base", mesh_base)
         write(program, "u_pass", 0)
