@@ -10,7 +10,7 @@ import moderngl
 import numpy as np
 import pytest
 
-from depthimpostor.gpu.deform import GpuDeform
+from depthimpostor.gpu.deform import GpuDeform, part_rows, part_texels
 from depthimpostor.gpu.meshes import MeshArena
 from depthimpostor.gpu.shaders import ProgramCache
 from depthimpostor.scene import Scene
@@ -32,6 +32,7 @@ def assert_gpu_matches_cpu(ctx: moderngl.Context, motion: PartMotion, times: tup
     """deform.comp's vertices at each time, read back from an arena where the part sits after
     another mesh (its first vertex not 0), equal mesh_at's; the other mesh's stay untouched."""
     assert motion.gpu_refusal is None
+    assert len(part_texels(motion)[0]) == part_rows(motion)  # the plan's figure is the upload's
     rest = motion.mesh_at(0.0)
     other = rest.transformed(np.diag([2.0, 2.0, 2.0, 1.0]))
     arena = MeshArena(ctx, [other, rest])

@@ -242,8 +242,8 @@ class TrianglePass:
         """`trees` refitted in the textures by compute passes; their roots' boxes read back into
         `bottom` (its other boxes are left as they were: only the roots are read on the CPU), and
         the front made again over them (what `refit_bytes` counts, with the roots read back)."""
-        roots = gpu.refit(self.bottom, trees, distinct, self.layout.mesh_first_triangles, self.nodes,
-                               self.triangles, triangle_stride(self.scene), self.layout.mesh_base)
+        roots = gpu.refit(self.bottom, trees, distinct, self.layout.mesh_first_triangles, self.nodes, self.triangles,
+                          triangle_stride(self.scene), self.layout.mesh_base)
         lower, upper = self.bottom.lower.copy(), self.bottom.upper.copy()
         lower[trees], upper[trees] = roots[:, 0], roots[:, 1]
         self.bottom = dataclasses.replace(self.bottom, lower=lower, upper=upper)
