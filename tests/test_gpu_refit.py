@@ -19,6 +19,7 @@ from depthimpostor.node import Pass
 from depthimpostor.plan import plan_render
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
+from depthimpostor.scene.gltf_deform import PartMotion
 from depthimpostor.world import World
 from gltf_files import bending_scene
 from test_gltf_animation import load_quietly
@@ -138,3 +139,25 @@ def test_the_deforming_parts_pass_is_planned_with_its_programs_and_only_those_ru
     still = load_scene(Path(__file__).parent.parent / "scenes" / "default.toml")
     assert not plan_render(still, method).runs(Pass.DEFORM)
     assert not any(stages[0].endswith(".comp") for stages, _ in plan_render(still, method).program_keys)
+
+
+def test_a_part_deformed_on_the_cpu_is_refitted_on_the_gpu_as_on_the_cpu(ctx: moderngl.Context, tmp_path: Path,
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """A part deform.comp refuses (here every part, as one without normals would be) is uploaded
+    from the CPU, and the GPU refit reads those vertices: the same picture, bit for bit, as the
+    CPU refit's (the same float32 triangles give the same boxes)."""
+    monkeypatch.setattr(PartMotion, "gpu_refusal", property(lambda self: "refused for the test"))
+    scene = bent_tube(tmp_path)
+    pictures = []
+    for gpu_refit in (True, False):
+        with Renderer(ctx, scene, method=Method.RAYTRACE) as renderer:
+            triangles = traced(renderer)
+            if not gpu_refit:
+                triangles.gpu = None
+            renderer.set_time(1.0)
+            renderer.render()
+            pictures.append(renderer.read_color_float())
+            assert renderer.graph.deform.dispatches == 0 and triangles.refits == 1
+            assert (triangles.gpu is not None and triangles.gpu.refits == 1) == gpu_refit
+    assert_finite(pictures[0])
+    np.testing.assert_array_equal(pictures[0], pictures[1])
