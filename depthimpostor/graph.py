@@ -18,6 +18,7 @@ from .methods.pyramid import PyramidsNode
 from .methods.seen_from_eye import EyeImagesNode
 from .methods.stand_in import StandInNode
 from .node import FRAME, GraphFacts, Node, Pass
+from .passes.deform import DeformNode
 from .passes.diffuse import DiffuseNode
 from .passes.environment import EnvironmentLightingNode, EnvironmentNode
 from .passes.glass import GlassInteriorsNode
@@ -30,6 +31,7 @@ __all__ = ["FRAME", "NODES", "GraphError", "Pass", "RenderNode", "build_graph", 
 
 #: Every node class, in the order a frame runs them: the bakes, then the eye's passes.
 NODES: tuple[type[Node], ...] = (
+    DeformNode,  # as the world moves, before the stand-in follows it (its BVH refit reads the meshes)
     EnvironmentLightingNode,  # before anything that shades a metallic-roughness surface, bakes included
     ShadowMapsNode,  # before anything that shades: the baked images show shadows too
     StandInNode,

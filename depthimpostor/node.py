@@ -37,6 +37,7 @@ class Pass(Enum):
     """The render passes (one `Node` class each); the value names them in plans and stats.
     `graph.NODES` orders them."""
 
+    DEFORM = "deforming parts"  # glTF skins and morph targets at a new time (passes/deform.py)
     ENVIRONMENT_LIGHTING = "environment prefilter"  # an equirect sky's prefiltered specular, once per sky (ibl.py)
     SHADOW_MAPS = "shadow maps"
     STAND_IN = "reflected objects"  # the method's bake: depth images, cube maps, billboards, triangles

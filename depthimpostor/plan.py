@@ -22,6 +22,7 @@ from .constants import (
 )
 from .culling import Reach
 from .geometry import ObjectGeometry
+from .passes.deform import deform_plan, deforming_parts
 from .passes.diffuse import DIFFUSE_PROGRAM, diffuse_defines, has_checker
 from .methods.entered_images import ENTERED_PROGRAM, EnteredImages, entered_defines
 from .passes.environment import ENVIRONMENT_PROGRAM, PREFILTER_PROGRAM, environment_map_bytes
@@ -55,7 +56,7 @@ from .passes.shadows import shadow_map_defines, SHADOW_MAP_PROGRAM, fit_shadow_c
 from .gpu.uniforms import alpha_mask_defines, environment_defines, mesh_attributes
 from .scene.limits import check_method, check_model_reach, check_model_uvs, check_scene
 from .scene.model import GltfShape, MeshShape, MetallicRoughnessMaterial, Scene
-from .gpu.shaders import ProgramKey, program_key
+from .gpu.shaders import Defines, ProgramKey, program_key
 from .graph import Pass, RenderNode, build_graph, format_graph, in_order, node_class
 from .ibl import PREFILTER_SECONDS, level_size, prefilter_reads, uses_environment_lighting
 from .lod import bake_meshes
@@ -309,7 +310,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
     passes: list[PlannedPass] = []
     variants: dict[ProgramKey, tuple[str, Pass]] = {}
 
-    def variant(stage: Pass, stages: tuple[str, ...], defines: dict[str, int] | None, reason: str) -> None:
+    def variant(stage: Pass, stages: tuple[str, ...], defines: Defines | None, reason: str) -> None:
         """A program the `stage` node compiles (and `reason`, what it is for)."""
         variants.setdefault(program_key(stages, defines), (reason, stage))
 
@@ -321,6 +322,13 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         casters = set(scene.shadow_casters)
         for light in scene.shadowed_lights:  # refuses a light among its casters, as the shadow pass would
             fit_shadow_camera(scene, light, [g for g in geometry if g.object in casters], scene.render.shadow_resolution)
+
+    if deforming_parts(scene):
+        deform_reason, deform_programs = deform_plan(scene, METHODS[method].traces is not None and
+                                                     any(g.object.deforms and g.object.moves for g in reflected))
+        passes.append(PlannedPass(Pass.DEFORM, deform_reason))
+        for compute, compute_defines, why in deform_programs:
+            variant(Pass.DEFORM, compute, compute_defines, why)
 
     if uses_environment_lighting(scene):
         passes.append(PlannedPass(Pass.ENVIRONMENT_LIGHTING, environment_lighting_reason(scene)))
@@ -570,9 +578,9 @@ def plan_limits(scene: Scene, method: Method, image_plans: dict[int, list[ImageP
     if deforming:
         refit = "the BVH refitted" if spec.traces is not None else "no BVH to refit"
         rebake = "the images that show them re-baked" if spec.bakes_images else "no images to re-bake"
-        lines.append(f"deforming glTF parts (skins, morph targets): {len(deforming)}, made again on the CPU at every "
-                     f"time that moves them; the mesh buffer rewritten, {rebake}, {refit} "
-                     "(tools/deforming_cost.py measures each)")
+        lines.append(f"deforming glTF parts (skins, morph targets): {len(deforming)}, made again at every time that "
+                     f"moves them (the {Pass.DEFORM.value} pass: on the GPU where it can, on the CPU for the world "
+                     f"too); {rebake}, {refit} (tools/deforming_cost.py measures each)")
     where = (f"a storage buffer (past {MATERIAL_BLOCK_RECORDS}, GL 4.3), within memory" if materials_in_storage(scene)
              else f"a uniform block (a storage buffer past {MATERIAL_BLOCK_RECORDS}), within GL_MAX_UNIFORM_BLOCK_SIZE "
                   "(16 KiB at GL's least), checked at render")

@@ -23,6 +23,7 @@ import moderngl
 from .eye import clear_depth, eye_depth
 from .gpu.context import bind_default_framebuffer
 from .gpu.batches import batches_supported
+from .gpu.deform import GpuDeform, gpu_supported
 from .gpu.meshes import GpuMeshes
 from .gpu.scene_blocks import SceneBlocks
 from .gpu.uniforms import mesh_attributes
@@ -30,6 +31,8 @@ from .gpu.shaders import ProgramCache
 from .gpu.textures import GpuTextures
 from .graph import Pass, node_class
 from .methods.baked_images import BakedImages
+from .methods.gpu_refit import GpuRefit
+from .methods.hybrid import HybridPass
 from .methods.impostors import ImpostorPass
 from .methods.registry import METHODS
 from .methods.seen_from_eye import SeenFromEye
@@ -89,6 +92,8 @@ class RenderGraph:
         self.world, self.plan = world, plan
         self.meshes = GpuMeshes(ctx, mesh_attributes(world.scene))  # with the glTF attributes the scene reads
         self.meshes.load([g.local_mesh for g in world.geometry])  # the world's meshes in one arena
+        # Deforming glTF parts skinned and morphed into that arena on the GPU (where GL 4.3 is).
+        self.deform = GpuDeform(ctx, programs)
         self.textures = GpuTextures(ctx)  # the scene's image textures, bound for every frame
         self.scene_blocks = SceneBlocks(ctx)  # the lights and analytic planes, bound for every frame
         self.show_samples = False
@@ -104,7 +109,10 @@ class RenderGraph:
         """The plan's programs, node by node: the passes then find them in the cache."""
         for node in self.plan.graph:
             for key in node.programs:
-                self.programs.compile(key)
+                # A compute shader needs GL 4.3: without it the deform node and the refit use the
+                # CPU, and a pass that has no CPU path (the pyramids) refuses in its own words.
+                if len(key[0]) == 2 or gpu_supported(self.ctx):
+                    self.programs.compile(key)
 
     def build(self, environment: EnvironmentPass | None = None) -> None:
         """Every node's GL side, from the plan, with the programs of the cache (and `environment`,
@@ -204,6 +212,11 @@ class RenderGraph:
                             world.reflectors)
         else:
             stand_in = kind(self.ctx, scene, world.reflected_objects)
+        traced = (stand_in if isinstance(stand_in, TrianglePass)
+                  else stand_in.triangles if isinstance(stand_in, HybridPass) else None)
+        if traced is not None and any(g.object.deforms for g in world.reflected_objects):
+            # Deforming meshes' trees refitted by compute passes (where GL 4.3 is: GpuRefit.usable).
+            traced.gpu = GpuRefit(self.ctx, self.programs, self.meshes, self.deform)
         try:  # its pyramids and colour mips too (a GL without compute shaders refuses them) ...
             self._keep_pyramids(plan, stand_in)
         except BaseException:
@@ -289,10 +302,6 @@ class RenderGraph:
         object moved, when a light moved, or when a caster moved whose shadow may fall on its object)."""
         self.world = world
         self.scene_blocks.write(world.lit_scene, world.analytic_planes)
-        # What deforms (a glTF skin, morph targets) has another mesh: uploaded over the one it replaces.
-        self.meshes.replace([(before.local_mesh, now.local_mesh) for before, now in zip(earlier.geometry, world.geometry,
-                                                                                        strict=True)
-                             if now.local_mesh is not before.local_mesh])
         for node in self.nodes:
             node.follow(earlier, world)
 
@@ -420,6 +429,7 @@ class RenderGraph:
 
     def release(self) -> None:
         self.release_passes()
+        self.deform.release()
         self.meshes.release()
         self.textures.release()
         self.scene_blocks.release()

@@ -2,13 +2,20 @@
 before a wall mirror (tests/gltf_files.py's bending_scene, at several tessellations), played one
 frame after another as `render --video` plays it, each frame at a new time.
 
-Per method and tube, the medians over the frames of:
+Per method, tube and path (`gpu`: the renderer's, skinning and morphing in deform.comp and the BVH
+refitted by compute passes; `cpu`: the same frames with both on the CPU, GpuDeform.enabled off),
+the medians over the frames of:
 
 - deform: the CPU skinning of the tube's mesh at the new time (numpy: scene/gltf_deform.py), which
-  every method pays the same (World.at calls it once per time);
-- upload: the deformed vertices written over the old ones in the mesh arena (GpuMeshes.replace);
-- refit: the triangle methods' bottom-level BVH refitted on the CPU and its node and triangle
-  textures uploaded whole (TrianglePass._refit); 0 for the methods without a BVH;
+  every method pays the same on either path (World.at calls it once per time: the world's bounds,
+  the images' cameras and the truth read the mesh);
+- upload: the deformed vertices written over the old ones in the mesh arena (GpuMeshes.replace;
+  on the GPU path only what deform.comp cannot make is uploaded);
+- skin: the GPU path's skinning and morphing into the arena (GpuDeform.follow: the joint matrices
+  and weights uploaded, deform.comp dispatched), timed up to a ctx.finish();
+- refit: the triangle methods' bottom-level BVH refitted (TrianglePass._refit): on the CPU, its node
+  and triangle textures then uploaded whole; on the GPU, the compute passes and the roots read
+  back; 0 for the methods without a BVH;
 - set_time: all that the renderer does when the time changes (the three above, the world at the
   new time, the images' cameras fitted again);
 - bake: the next frame's re-bakes (the depth images, cube maps, billboards that show the tube:
@@ -49,6 +56,7 @@ from gltf_files import bending_scene  # noqa: E402
 from depthimpostor.constants import Method  # noqa: E402
 from depthimpostor.errors import SceneWarning  # noqa: E402
 from depthimpostor.gpu.context import create_context, describe  # noqa: E402
+from depthimpostor.gpu.deform import GpuDeform  # noqa: E402
 from depthimpostor.gpu.meshes import GpuMeshes  # noqa: E402
 from depthimpostor.methods.bvh import build_triangle_forest, refit_triangle_forest  # noqa: E402
 from depthimpostor.methods.triangles import TrianglePass  # noqa: E402
@@ -60,12 +68,14 @@ from depthimpostor.scene.gltf_deform import PartMotion  # noqa: E402
 #: Tubes (rings, sides): the tests' 80-triangle column, then about 8k and 66k triangles.
 TUBES = ((8, 4), (64, 64), (256, 128))
 METHODS = (Method.DEPTH, Method.CUBEMAP, Method.BILLBOARD, Method.RAYTRACE, Method.HYBRID, Method.PLANAR)
-COLUMNS = ("deform", "upload", "refit", "set_time", "bake", "frame")
+COLUMNS = ("deform", "upload", "skin", "refit", "set_time", "bake", "frame")
+#: The columns timed per call (a frame's calls summed).
+CALLS = ("deform", "upload", "skin", "refit")
 
 
 @contextmanager
-def timed(owner: Any, name: str, into: list[float]) -> Iterator[None]:
-    """Wrap owner.name so that each call's wall-clock seconds go into `into`."""
+def timed(owner: Any, name: str, into: list[float], finish: Callable[[], None] | None = None) -> Iterator[None]:
+    """Wrap owner.name so that each call's wall-clock seconds (up to `finish()`, given) go into `into`."""
     original: Callable[..., Any] = getattr(owner, name)
 
     def wrapper(*args: Any, **kwargs: Any) -> Any:
@@ -73,6 +83,8 @@ def timed(owner: Any, name: str, into: list[float]) -> Iterator[None]:
         try:
             return original(*args, **kwargs)
         finally:
+            if finish is not None:
+                finish()
             into.append(time.perf_counter() - start)
 
     setattr(owner, name, wrapper)
@@ -82,16 +94,18 @@ def timed(owner: Any, name: str, into: list[float]) -> Iterator[None]:
         setattr(owner, name, original)
 
 
-def measure(ctx: Any, path: Path, method: Method, frames: int, size: tuple[int, int]) -> dict[str, float]:
-    """Median milliseconds of each column over `frames` frames at new times (after two untimed)."""
+def measure(ctx: Any, path: Path, method: Method, frames: int, size: tuple[int, int], gpu: bool) -> dict[str, float]:
+    """Median milliseconds of each column over `frames` frames at new times (after two untimed),
+    on the GPU path (`gpu`) or the CPU's."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SceneWarning)
         scene = load_scene(path).with_overrides(size=size)
     spent: dict[str, list[float]] = {name: [] for name in COLUMNS}
     with Renderer(ctx, scene, method=method) as renderer, \
             timed(PartMotion, "mesh_at", spent["deform"]), timed(GpuMeshes, "replace", spent["upload"]), \
-            timed(TrianglePass, "_refit", spent["refit"]):
-        calls: dict[str, list[float]] = {name: spent[name] for name in ("deform", "upload", "refit")}
+            timed(GpuDeform, "follow", spent["skin"], ctx.finish), timed(TrianglePass, "_refit", spent["refit"]):
+        renderer.graph.deform.enabled = gpu
+        calls: dict[str, list[float]] = {name: spent[name] for name in CALLS}
         per_frame: dict[str, list[float]] = {name: [] for name in calls}
         for frame in range(frames + 2):
             if frame == 2:  # the first frames are cold (programs, first bakes): not counted
@@ -110,6 +124,8 @@ def measure(ctx: Any, path: Path, method: Method, frames: int, size: tuple[int, 
         spent["bake"] = renderer.stats.bake_seconds[baked:]
         spent["frame"] = renderer.stats.draw_seconds[drawn:]
         triangles = sum(len(g.local_mesh.indices) for g in renderer.world.geometry if g.object.deforms)
+        if gpu and not renderer.graph.deform.dispatches:
+            raise SystemExit(f"{path.name}: nothing was deformed on the GPU (GL 4.3? PartMotion.gpu_refusal?)")
     medians = {name: 1000.0 * statistics.median(values) if values else 0.0 for name, values in spent.items()}
     medians["bakes"] = len(spent["bake"])
     medians["triangles"] = triangles
@@ -166,18 +182,20 @@ def main() -> None:
     ctx = create_context()
     lines = [f"tools/deforming_cost.py, {datetime.date.today().isoformat()}, {describe(ctx)}, {args.size}, "
              f"median of {args.frames} frames after 2, each at a new time (ms)", "",
-             "| deforming triangles | method | deform | upload | refit | set_time | bake (frames that baked) | frame |",
-             "|---:|---|---:|---:|---:|---:|---:|---:|"]
+             "| deforming triangles | method | path | deform | upload | skin | refit | set_time | bake (frames that baked) "
+             "| frame |", "|---:|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     with tempfile.TemporaryDirectory() as folder:
         scenes = [bending_scene(Path(folder) / f"tube_{rings}x{sides}.glb", rings, sides) for rings, sides in TUBES]
         for path in scenes + [model_scene(model, Path(folder)) for model in args.model]:
             for method in METHODS:
-                m = measure(ctx, path, method, args.frames, (size[0], size[1]))
-                name = path.stem if path.suffix == ".toml" else "tube"
-                line = (f"| {name} {m['triangles']:,.0f} | {method.option} | {m['deform']:.2f} | {m['upload']:.2f} | "
-                        f"{m['refit']:.2f} | {m['set_time']:.2f} | {m['bake']:.2f} ({m['bakes']:.0f}) | {m['frame']:.2f} |")
-                lines.append(line)
-                print(line, flush=True)
+                for gpu in (False, True):  # interleaved: the machine's load drifts
+                    m = measure(ctx, path, method, args.frames, (size[0], size[1]), gpu)
+                    name = path.stem if path.suffix == ".toml" else "tube"
+                    line = (f"| {name} {m['triangles']:,.0f} | {method.option} | {'gpu' if gpu else 'cpu'} | "
+                            f"{m['deform']:.2f} | {m['upload']:.2f} | {m['skin']:.2f} | {m['refit']:.2f} | "
+                            f"{m['set_time']:.2f} | {m['bake']:.2f} ({m['bakes']:.0f}) | {m['frame']:.2f} |")
+                    lines.append(line)
+                    print(line, flush=True)
         lines += ["", "The bottom level alone, refitted or built anew on the CPU (median of 5, ms):", "",
                   "| tube triangles | refit | build |", "|---:|---:|---:|"]
         for rings, sides in TUBES:

@@ -81,6 +81,7 @@ class UniformBlock(IntEnum):
     TEXTURE_RECORDS = 6  # every image texture's array, layer, wraps and atlas rectangle (gpu/textures.py)
     MATERIALS = 7  # every shaded material's record, read by every pass (gpu/scene_blocks.py)
     DRAWN_MATERIAL = 8  # the drawn object's record alone, bound per draw (gpu/scene_blocks.DrawnMaterials)
+    DEFORM_POSE = 9  # a deforming glTF part's joint matrices and morph weights at a time (gpu/deform.py)
 
 
 @unique
@@ -88,7 +89,23 @@ class StorageBuffer(IntEnum):
     PYRAMID_TILES = 0  # the pyramid build's tile table (methods/pyramid.py, depth_pyramid.comp)
     DEPTH_IMAGES = 1  # one reflector's image records, where they pass a uniform block (methods/atlas.py)
     MATERIALS = 2  # the MaterialRecords table, where it passes a uniform block (gpu/scene_blocks.py)
-    ENTERED_IMAGES = 3  # a bit per baked image a frame's reflected rays may enter (methods/entered_images.py)
+    # Deforming glTF parts on the GPU (gpu/deform.py, methods/gpu_refit.py), within GL 4.3's least
+    # of 8 bindings: the mesh arena's vertices (deform.comp writes them, the refit reads them); a
+    # part's rest pose, influences and morph deltas; its pose at a time (joint matrices, morph
+    # weights); what one refit dispatch goes over (triangles' corners, or nodes); the roots' boxes.
+    ARENA = 3
+    DEFORM_PART = 4
+    DEFORM_POSE = 5  # (where it is past the uniform block's rows: UniformBlock.DEFORM_POSE)
+    REFIT_ITEMS = 6
+    REFIT_ROOTS = 7
+
+
+#: A bit per baked image a frame's reflected rays may enter (methods/entered_images.py). GL 4.3
+#: guarantees 8 storage-buffer bindings, all taken above, so it shares PYRAMID_TILES's: both are
+#: bound just before their own draw or dispatch (the entered-images pass runs before the bake, the
+#: pyramid build after it) and neither pass reads the other's buffer. (Not a member of
+#: StorageBuffer: an enum's second name for a value is an alias its iteration skips.)
+STORAGE_ENTERED_IMAGES = StorageBuffer.PYRAMID_TILES
 
 
 @unique
@@ -96,11 +113,16 @@ class ImageUnit(IntEnum):
     PYRAMID_SOURCE = 0  # the level a pyramid level is built from
     PYRAMID_TARGET = 1  # the level being built
     COLOUR_ATLAS = 2  # the colour mips' first source: the atlas's RGBA8 colour (methods/colour_mips.py)
+    BVH_NODES = 3  # the BVH's node texture, refitted in place (methods/gpu_refit.py)
+    BVH_TRIANGLES = 4  # its triangle texture, the deformed triangles written over the old
 
 
 def glsl_bindings() -> dict[str, str]:
-    """The storage and image bindings as GLSL defines (STORAGE_PYRAMID_TILES, IMAGE_PYRAMID_SOURCE, ...),
+    """The storage, image and uniform-block bindings as GLSL defines (STORAGE_PYRAMID_TILES,
+    IMAGE_PYRAMID_SOURCE, BLOCK_DEFORM_POSE, ...),
     for the shaders that must name them in a layout qualifier."""
     defines = {f"STORAGE_{member.name}": str(int(member)) for member in StorageBuffer}
+    defines["STORAGE_ENTERED_IMAGES"] = str(int(STORAGE_ENTERED_IMAGES))
     defines.update({f"IMAGE_{member.name}": str(int(member)) for member in ImageUnit})
+    defines.update({f"BLOCK_{member.name}": str(int(member)) for member in UniformBlock})
     return defines

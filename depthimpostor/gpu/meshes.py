@@ -114,20 +114,31 @@ class GpuMeshes:
         another topology gets an arena of its own. Returns the bytes uploaded."""
         uploaded, fresh = 0, []
         for old, new in pairs:
-            arena = self._arena_of.get(old)
-            if arena is None or len(old.positions) != len(new.positions) or not np.array_equal(old.indices, new.indices):
+            if not self.rekey(old, new):
                 fresh.append(new)
                 continue
+            arena = self._arena_of[new]
             vertices = new.interleaved()
-            arena.vertices.write(vertices.tobytes(), offset=arena.first_vertex[old] * vertices.strides[0])
-            uploaded += vertices.nbytes
-            arena.ranges[new], arena.first_vertex[new] = arena.ranges.pop(old), arena.first_vertex.pop(old)
-            uploaded += arena.write_extras(new)
-            arena.meshes[arena.meshes.index(old)] = new
-            del self._arena_of[old]
-            self._arena_of[new] = arena
+            arena.vertices.write(vertices.tobytes(), offset=arena.first_vertex[new] * vertices.strides[0])
+            uploaded += vertices.nbytes + arena.write_extras(new)
         self.load(fresh)
         return uploaded + self.bytes_for(fresh, self.attributes)
+
+    def holds(self, mesh: Mesh) -> bool:
+        return mesh in self._arena_of
+
+    def rekey(self, old: Mesh, new: Mesh) -> bool:
+        """`new` (a deformed `old`: the same vertex count and triangles) takes old's place in its
+        arena without an upload (gpu/deform.py writes its vertices there); False where it cannot
+        (old not loaded, or another topology), and nothing changed."""
+        arena = self._arena_of.get(old)
+        if arena is None or len(old.positions) != len(new.positions) or not np.array_equal(old.indices, new.indices):
+            return False
+        arena.ranges[new], arena.first_vertex[new] = arena.ranges.pop(old), arena.first_vertex.pop(old)
+        arena.meshes[arena.meshes.index(old)] = new
+        del self._arena_of[old]
+        self._arena_of[new] = arena
+        return True
 
     def arena(self, mesh: Mesh) -> MeshArena:
         """The arena holding `mesh` (one of its own when it was not loaded)."""

@@ -29,7 +29,7 @@ import numpy as np
 from ..constants import depth_image_defines
 from ..eye import clear_depth, eye_depth, make_depth_buffer
 from ..geometry import ObjectGeometry
-from ..gpu.bindings import StorageBuffer, TextureUnit, UniformBlock
+from ..gpu.bindings import STORAGE_ENTERED_IMAGES, StorageBuffer, TextureUnit, UniformBlock
 from ..gpu.gl_state import NO_DEPTH_TEST, raster_state
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
@@ -115,7 +115,7 @@ class EnteredImages:
         self.marking.use()
         surfaces.use()
         self.bits.clear()
-        self.bits.bind_to_storage_buffer(StorageBuffer.ENTERED_IMAGES)
+        self.bits.bind_to_storage_buffer(STORAGE_ENTERED_IMAGES)
         write(self.program, "u_surface_stamp", stamp)
         write(self.program, "u_eye", tuple(camera.C))
         with raster_state(self.ctx, NO_DEPTH_TEST):

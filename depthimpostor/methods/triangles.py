@@ -11,6 +11,7 @@ storage buffers, and the mirror shader has no sampler unit to spare: gpu/binding
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import moderngl
@@ -24,6 +25,7 @@ from ..gpu.uniforms import bind_texture, mesh_attributes, write
 from ..meshes import Mesh
 from ..scene.model import Scene
 from .atlas import plural
+from .gpu_refit import GpuRefit
 from .bvh import build_triangle_forest, node_count, refit_triangle_forest
 from .instances import (NODE_TEXELS, BvhLayout, front_texels, instance_records, node_texels, nothing_record,
                         with_transforms)
@@ -142,9 +144,8 @@ class TrianglePass:
         nodes[: layout.front_texels] = self._front()
         nodes[NODE_TEXELS * layout.mesh_base:] = node_texels(self.bottom, 0, layout.mesh_base)
         self.nodes = _texture(ctx, nodes, scene.source)
-        # The rows a move rewrites: the front, and the rest of its last row as it is (or as padded).
-        self._front_rows = np.zeros((_rows(layout.front_texels) * BVH_TEXTURE_WIDTH, 4), np.float32)
-        self._front_rows[: len(nodes)] = nodes[: len(self._front_rows)]
+        # Deformed meshes' trees refitted on the GPU (render_graph.py attaches it where it can).
+        self.gpu: GpuRefit | None = None
         made = [self.nodes]
         try:
             self.triangles = _texture(ctx, triangle_texels(list(self.distinct), self.bottom.order,
@@ -193,35 +194,61 @@ class TrianglePass:
         if any(new is not old for new, old in zip(after, before, strict=True)):
             self._refit(before, after)
             return
+        self._write_front()
+
+    def _write_front(self) -> None:
+        """The top level and the records made again and written over the node texture's front:
+        its whole rows, then the texels of its last row, whose rest holds mesh nodes (which a refit
+        on the GPU may have changed)."""
         front = self._front()
-        self._front_rows[: len(front)] = front
-        self.nodes.write(self._front_rows.tobytes(), viewport=(0, 0, BVH_TEXTURE_WIDTH, _rows(len(front))))
+        whole = len(front) // BVH_TEXTURE_WIDTH
+        if whole:
+            self.nodes.write(front[: whole * BVH_TEXTURE_WIDTH].tobytes(), viewport=(0, 0, BVH_TEXTURE_WIDTH, whole))
+        if len(front) % BVH_TEXTURE_WIDTH:
+            self.nodes.write(front[whole * BVH_TEXTURE_WIDTH:].tobytes(),
+                             viewport=(0, whole, len(front) % BVH_TEXTURE_WIDTH, 1))
 
     def _refit(self, before: list[Mesh], after: list[Mesh]) -> None:
         """Deformed meshes take their predecessors' places: the bottom levels are refitted (the same
-        trees and triangle order, every box made again: bvh.refit_triangle_forest) on the CPU, and
-        the node and triangle textures uploaded whole (what `refit_bytes` counts)."""
-        distinct = list(self.distinct)
+        trees and triangle order, every box made again), on the GPU where it can (methods/gpu_refit.py:
+        only the roots' boxes come back, for the top level), else on the CPU
+        (bvh.refit_triangle_forest), the node and triangle textures then uploaded whole."""
+        distinct, trees = list(self.distinct), set()
         for old, new in zip(before, after, strict=True):
             if new is not old:
                 if len(new.indices) != len(old.indices):
                     raise ValueError(f"TrianglePass: a deformed mesh must keep its {len(old.indices)} triangles, "
                                      f"got {len(new.indices)}")
                 distinct[self.distinct[old]] = new
+                trees.add(self.distinct[old])
         self.distinct = {mesh: j for j, mesh in enumerate(distinct)}
+        self.refits += 1
+        if self.gpu is not None and self.gpu.usable([distinct[j] for j in trees]):
+            self._refit_on_gpu(self.gpu, sorted(trees), distinct)
+            return
         self.bottom = refit_triangle_forest(self.bottom, np.concatenate([m.positions[m.indices] for m in distinct]))
         layout = self.layout
         nodes = np.zeros((_rows(layout.node_texels) * BVH_TEXTURE_WIDTH, 4), np.float32)
         nodes[: layout.front_texels] = self._front()
         nodes[NODE_TEXELS * layout.mesh_base: layout.node_texels] = node_texels(self.bottom, 0, layout.mesh_base)
-        self._front_rows[:] = nodes[: len(self._front_rows)]
         triangles = np.zeros((self.triangles.width * self.triangles.height, 4), np.float32)
         texels = triangle_texels(distinct, self.bottom.order, mesh_attributes(self.scene))
         triangles[: len(texels)] = texels
         self.nodes.write(nodes.tobytes())
         self.triangles.write(triangles.tobytes())
-        self.refits += 1
         self.refit_bytes = nodes.nbytes + triangles.nbytes
+
+    def _refit_on_gpu(self, gpu: GpuRefit, trees: list[int], distinct: list[Mesh]) -> None:
+        """`trees` refitted in the textures by compute passes; their roots' boxes read back into
+        `bottom` (its other boxes are left as they were: only the roots are read on the CPU), and
+        the front made again over them (what `refit_bytes` counts, with the roots read back)."""
+        roots = gpu.refit(self.bottom, trees, distinct, self.layout.mesh_first_triangles, self.nodes, self.triangles,
+                          triangle_stride(self.scene), self.layout.mesh_base)
+        lower, upper = self.bottom.lower.copy(), self.bottom.upper.copy()
+        lower[trees], upper[trees] = roots[:, 0], roots[:, 1]
+        self.bottom = dataclasses.replace(self.bottom, lower=lower, upper=upper)
+        self._write_front()
+        self.refit_bytes = self.layout.front_texels * 16 + roots.nbytes
 
     @property
     def textures(self) -> list[moderngl.Texture]:
@@ -253,3 +280,5 @@ class TrianglePass:
     def release(self) -> None:
         for texture in self.textures:
             texture.release()
+        if self.gpu is not None:
+            self.gpu.release()

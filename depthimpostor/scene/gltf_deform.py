@@ -112,14 +112,33 @@ class PartMotion:
         return animated if animated is not None else (self.default_weights if self.default_weights is not None
                                                       else np.zeros(0))
 
+    def joint_matrices(self, time: float) -> np.ndarray | None:
+        """(joints, 4, 4): each joint's world matrix at `time` times its inverse bind matrix, what a
+        skin places its vertices by (None without a skin). The GPU path (gpu/deform.py) uploads these."""
+        if self.skin is None:
+            return None
+        worlds = self.animation.worlds(time) if self.animation is not None else self.rest_worlds
+        return np.stack([worlds[j] for j in self.skin.joints]) @ self.skin.inverse_binds
+
+    def placement(self, time: float) -> np.ndarray:
+        """The node's world matrix at `time`: where a part without a skin is placed after its morph."""
+        worlds = self.animation.worlds(time) if self.animation is not None else self.rest_worlds
+        return worlds[self.node]
+
+    @property
+    def gpu_refusal(self) -> str | None:
+        """Why the renderer deforms this part on the CPU (None: deform.comp can, into the mesh
+        buffer in place: what it cannot make is a per-triangle or per-mesh result)."""
+        if self.tangent_set is not None:
+            return "its normal map's tangents are generated again at each time (MikkTSpace, on the CPU)"
+        if any(item.primitive.normals is None for item in self.primitives):
+            return "a primitive without normals is given flat ones, one per triangle"
+        return None
+
     def mesh_at(self, time: float) -> Mesh:
         """The part's mesh at `time`, in the file's world space."""
-        worlds = self.animation.worlds(time) if self.animation is not None else None
         weights = self.weights_at(time)
-        joint_matrices = None
-        if self.skin is not None:
-            placed = worlds if worlds is not None else self.rest_worlds
-            joint_matrices = np.stack([placed[j] for j in self.skin.joints]) @ self.skin.inverse_binds
+        joint_matrices = self.joint_matrices(time)
         deformed = []
         for item in self.primitives:
             positions, normals = item.morphed(weights) if weights.size else (item.primitive.positions,
@@ -130,7 +149,7 @@ class PartMotion:
         mesh = local_mesh(deformed, self.tangent_set)
         if self.skin is not None:
             return mesh
-        return mesh.transformed((worlds if worlds is not None else self.rest_worlds)[self.node])
+        return mesh.transformed(self.placement(time))
 
 
 def read_skin(data: GltfData, k: int, worlds: Mapping[int, np.ndarray]) -> Skin:

@@ -301,6 +301,11 @@ def _flat_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.where(lengths > 1e-30, normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
 
 
+#: A vertex normal shorter than this (zero in the file, or cancelled by a morph target) has no
+#: direction to normalize: local_mesh gives it +Y instead of 0/0 (and deform.comp does the same).
+MIN_NORMAL_LENGTH = 1e-13
+
+
 def local_mesh(group: list[Primitive], tangent_set: int | None = None) -> Mesh:
     """The primitives of one node and material as one mesh, in the node's space. A primitive with
     the file's normals keeps them (and its shared vertices); one without gets flat normals, as the
@@ -319,7 +324,7 @@ def local_mesh(group: list[Primitive], tangent_set: int | None = None) -> Mesh:
         if p.normals is not None:
             lengths = np.linalg.norm(p.normals, axis=1, keepdims=True)
             corners = np.arange(len(p.positions))
-            normal = np.where(lengths > 1e-13, p.normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
+            normal = np.where(lengths > MIN_NORMAL_LENGTH, p.normals / np.maximum(lengths, 1e-300), (0.0, 1.0, 0.0))
             face = p.faces
         else:
             corners = p.faces.ravel()
