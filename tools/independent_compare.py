@@ -154,7 +154,9 @@ def _material(material: Any, header_material: dict[str, Any] | None, variant: st
     return pyrender.MetallicRoughnessMaterial(
         baseColorFactor=[*material.color, material.alpha], metallicFactor=material.metallic,
         roughnessFactor=material.roughness, emissiveFactor=emissive.tolist(), alphaMode=alpha_mode,
-        alphaCutoff=material.alpha_cutoff if material.alpha_cutoff is not None else 0.5, doubleSided=True,
+        alphaCutoff=material.alpha_cutoff if material.alpha_cutoff is not None else 0.5,
+        # As the file says (ours culls a single-sided material's back faces, as pyrender does).
+        doubleSided=material.double_sided is not False,
         baseColorTexture=_pyrender_texture(material.texture, "RGBA", variant == "Appendix B"),
         metallicRoughnessTexture=_pyrender_texture(material.metallic_roughness_texture, "GB"),
         emissiveTexture=_pyrender_texture(material.emissive_texture, "RGB", variant == "Appendix B"),

@@ -20,7 +20,7 @@ import numpy as np
 from ..geometry import ObjectGeometry
 from ..scene.model import CheckerMaterial, Scene, SceneObject, single_sided
 from ..gpu.batches import ObjectBatch, face_class
-from ..gpu.gl_state import current_state, raster_state
+from ..gpu.gl_state import RasterState, current_state, raster_state
 from ..methods.atlas import BACK_FACES, BAKE_CULLS_FRONT_FACES, FRONT_FACES
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
@@ -94,6 +94,7 @@ class DiffusePass:
         self.meshes = meshes
         self.triangle_offsets = triangle_offsets
         self.culls_single_sided = not back_layer
+        self._mirrored_view = False  # the current draw's (draw's mirrored_view)
         self._batch: ObjectBatch | None = None
         # Each object's uniforms, packed for the program they were packed for (_object_uniforms);
         # an object that moves is another ObjectGeometry at each time, and its old one's entry goes with it.
@@ -110,9 +111,12 @@ class DiffusePass:
         needs it only for objects that move)."""
         return self.programs.get(*DIFFUSE_PROGRAM, self.defines)
 
-    def draw(self, items: list[ObjectGeometry], view_projection: np.ndarray) -> int:
-        """Draw the objects; returns the number of draw calls."""
+    def draw(self, items: list[ObjectGeometry], view_projection: np.ndarray, mirrored_view: bool = False) -> int:
+        """Draw the objects; returns the number of draw calls. `mirrored_view`: `view_projection`
+        reflects the scene (a planar reflection's), which winds every face the other way on the
+        screen."""
         calls = 0
+        self._mirrored_view = mirrored_view
         # Metallic-roughness shading depends on the viewer: the frame's camera, or a baked image's.
         viewer = viewer_of(view_projection) if "METALLIC_ROUGHNESS" in self.defines else None
         if self.instanced is not None:
@@ -121,14 +125,15 @@ class DiffusePass:
                 write_matrix(self.instanced, "u_view_projection", view_projection)
                 if viewer is not None:
                     write(self.instanced, "u_eye", viewer)
+                self._write_view_mirrored(self.instanced)
                 batch = self._batch_of(still)
                 calls += batch.draw(self.instanced, 0, batch.first_closed)
                 # Closed solids seen from outside: their back faces hidden, so culled (half the
                 # triangles); single-sided materials' back faces are not there (face_class).
-                with raster_state(self.programs.ctx, FRONT_FACES):
+                with raster_state(self.programs.ctx, self._keeping(1)):
                     calls += batch.draw(self.instanced, batch.first_closed, batch.first_mirrored - batch.first_closed)
                 if batch.first_mirrored < batch.draw_count:
-                    with raster_state(self.programs.ctx, MIRRORED_FRONT_FACES):
+                    with raster_state(self.programs.ctx, self._keeping(2)):
                         calls += batch.draw(self.instanced, batch.first_mirrored)
             items = [item for item in items if item.object.moves]
         if items:
@@ -136,6 +141,7 @@ class DiffusePass:
             write_matrix(program, "u_view_projection", view_projection)
             if viewer is not None:
                 write(program, "u_eye", viewer)
+            self._write_view_mirrored(program)
             for item in items:
                 for uniform, data in self._object_uniforms(program, item):
                     uniform.write(data)
@@ -152,9 +158,18 @@ class DiffusePass:
         if not self.culls_single_sided or enclosing.cull is not None or not single_sided(item.object.material):
             self.meshes.render(program, item)
             return
-        state = FRONT_FACES if kept == 1 else MIRRORED_FRONT_FACES
-        with raster_state(ctx, dataclasses.replace(enclosing, cull=state.cull)):
+        with raster_state(ctx, dataclasses.replace(enclosing, cull=self._keeping(kept).cull)):
             self.meshes.render(program, item)
+
+    def _keeping(self, kept: int) -> RasterState:
+        """The state that keeps the outward faces of objects of face_class `kept` (1 or 2) in this
+        draw's view (a mirrored view winds them the other way)."""
+        return FRONT_FACES if (kept == 1) != self._mirrored_view else MIRRORED_FRONT_FACES
+
+    def _write_view_mirrored(self, program: moderngl.Program) -> None:
+        """diffuse.frag's u_view_mirrored (DOUBLE_SIDED programs: its test of a back face)."""
+        if "u_view_mirrored" in program:
+            write(program, "u_view_mirrored", int(self._mirrored_view))
 
     def _object_uniforms(self, program: moderngl.Program, item: ObjectGeometry) -> list[tuple[moderngl.Uniform, bytes]]:
         """The uniforms `program` draws `item` with (material, object id, triangle offset,
