@@ -19,8 +19,9 @@ pyrender per model:
   them), our triangles at time 0 (skinned and morphed), UVs (through KHR_texture_transform) and
   decoded textures, so that pyrender is compared on shading rather than on a second loader (ours is
   checked by the tests and the truth);
-- `same inputs`: what our loader lists as ignored (normal maps, BLEND) left out of pyrender's
-  material too, so that what remains is the shading;
+- `same inputs`: what our loader lists as ignored left out of pyrender's material too (today
+  KHR_materials_clearcoat alone, which pyrender does not read either: normal maps and BLEND are
+  read by both), so that what remains is the shading;
 - `Appendix B`: pyrender's shader with its BRDF made the specification's (Smith height-correlated
   visibility on alpha instead of Schlick-GGX on (r + 1)^2 / 8; the diffuse colour not darkened by
   a further 4 %; no 0.04 floor on roughness; no +0.001 in the denominator) and its colour
@@ -134,8 +135,8 @@ def _uvs(mesh_uvs: np.ndarray, texture: Texture | None) -> np.ndarray:
 
 
 def _material(material: Any, header_material: dict[str, Any] | None, variant: str) -> Any:
-    """pyrender's material for one of ours (and the file's JSON material, for what our loader does
-    not read: the normal map and BLEND), as `variant` asks."""
+    """pyrender's material for one of ours (and the file's JSON material, whose normal map and
+    BLEND pyrender is handed as the file writes them), as `variant` asks."""
     import pyrender
 
     if not isinstance(material, MetallicRoughnessMaterial):
@@ -147,10 +148,13 @@ def _material(material: Any, header_material: dict[str, Any] | None, variant: st
     emissive = np.sqrt(np.maximum(np.asarray(material.emissive, np.float64), 0.0) / HEADROOM)  # drawn squared
     alpha_mode = "MASK" if material.alpha_cutoff is not None else "OPAQUE"
     normal = None
-    if header_material is not None and variant == "as written":
-        if header_material.get("alphaMode") == "BLEND":
+    if header_material is not None:
+        # As written: whatever the file says; the other columns: what our loader reads of it too.
+        written = variant == "as written"
+        if header_material.get("alphaMode") == "BLEND" and (written or material.blend):
             alpha_mode = "BLEND"
-        normal = header_material.get("_normal")
+        if written or material.normal_texture is not None:
+            normal = header_material.get("_normal")
     return pyrender.MetallicRoughnessMaterial(
         baseColorFactor=[*material.color, material.alpha], metallicFactor=material.metallic,
         roughnessFactor=material.roughness, emissiveFactor=emissive.tolist(), alphaMode=alpha_mode,
@@ -189,7 +193,7 @@ def render_pyrender(scene: Scene, path: Path, variant: str, renderer: Any) -> tu
 
     header = read_json(path, str(path))
     materials = header.get("materials", [])
-    normals = _normal_maps(path) if variant == "as written" else {}
+    normals = _normal_maps(path)
     world = pyrender.Scene(bg_color=[0.0, 0.0, 0.0, 0.0], ambient_light=[0.0, 0.0, 0.0])
     for geometry in scene_geometry(scene.objects):
         obj, mesh = geometry.object, geometry.world_mesh
@@ -200,9 +204,13 @@ def render_pyrender(scene: Scene, path: Path, variant: str, renderer: Any) -> tu
         material = _material(obj.material, header_material, variant)
         texture = getattr(obj.material, "texture", None)
         uvs = _uvs(mesh.uvs, texture) if mesh.uvs is not None else None
+        # Our tangents where a normal map reads them (the file's, or generated): read by the
+        # Appendix B shader alone (APPENDIX_B: pyrender's own never reads them).
+        tangents = np.asarray(mesh.tangents, np.float32) if mesh.tangents is not None else None
         primitive = pyrender.Primitive(positions=np.asarray(mesh.positions, np.float32),
-                                       normals=np.asarray(mesh.normals, np.float32), texcoord_0=uvs,
-                                       indices=np.asarray(mesh.indices, np.uint32), material=material)
+                                       normals=np.asarray(mesh.normals, np.float32), tangents=tangents,
+                                       texcoord_0=uvs, indices=np.asarray(mesh.indices, np.uint32),
+                                       material=material)
         world.add(pyrender.Mesh([primitive]))
     camera = scene.camera
     eye, target, up = (np.asarray(v, np.float64) for v in (camera.eye, camera.target, camera.up))
@@ -243,6 +251,10 @@ APPENDIX_B = (
     # Colour textures filtered in linear light (handed over decoded: _pyrender_texture), not decoded
     # after filtering their sRGB values.
     ("#ifndef SRGB_CORRECTED", "#ifdef SRGB_DECODED_BEFORE_FILTERING"),
+    # The vertex tangents where the primitive has them (glTF's frame, bitangent w N x T): pyrender's
+    # shader tests HAS_TANGENTS, which pyrender never defines, so it always builds its frame from
+    # screen-space UV derivatives with the bitangent N x T, wrong where the UVs are mirrored.
+    ("#ifndef HAS_TANGENTS", "#ifndef TANGENT_LOC"),
 )
 
 
