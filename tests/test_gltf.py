@@ -257,7 +257,7 @@ scale = 2.0
     scene = load_scene(tmp_path / "s.toml")
     assert [o.name for o in scene.objects] == ["floor", "thing/Ball", "thing/Cube"]
     assert scene.objects[1].material == MirrorMaterial((0.9, 0.9, 0.9))
-    assert scene.objects[2].material == MetallicRoughnessMaterial((0.5, 0.5, 0.5), None, 0.0, 1.0)
+    assert scene.objects[2].material == MetallicRoughnessMaterial((0.5, 0.5, 0.5), None, 0.0, 1.0, double_sided=False)
     ball = scene_geometry(scene.objects)[1].world_mesh
     # The file puts the ball at x = 1; the object scales by 2, turns +X to -Z and lifts by 2.
     assert np.allclose(ball.positions.mean(axis=0), [0.0, 2.0, -2.0], atol=1e-6)
