@@ -6,6 +6,7 @@ from the eye and from the mirror, lit from behind."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import moderngl
@@ -171,3 +172,33 @@ def test_toml_says_double_sided_and_a_wrong_value_is_refused(tmp_path: Path) -> 
     path = w.write(tmp_path / "x.glb")
     with pytest.raises(SceneError, match=r'materials\[0\].doubleSided: expected true or false, got "yes"$'):
         read_gltf(path, "x.glb")
+
+
+@pytest.mark.parametrize("toward", [True, False])
+def test_a_mirroring_placement_turns_which_face_is_the_front(
+        ctx: moderngl.Context, scenes: dict[tuple[bool, bool] | None, Scene], toward: bool) -> None:
+    """The single-sided triangle reflected in its own plane (x -> -2 - x: a model matrix of
+    determinant -1 that leaves it where it was): its winding's front turns with the matrix, on the
+    screen (face_class 2, diffuse.frag's v_mirrored), in the traced instances and in the truth. The
+    one wound away from the eye now faces it (drawn as the one wound toward it, unmirrored), and the
+    one wound toward it is not there (as no sheet at all)."""
+    def triangle_alone(scene: Scene, mirrored: bool) -> Scene:
+        kept = [o for o in scene.objects if not (o.name.startswith("sheets") and isinstance(o.shape, PlaneShape))]
+        if mirrored:
+            kept = [dataclasses.replace(o, position=(-2.0, 0.0, 0.0), scale=(-1.0, 1.0, 1.0))
+                    if o.name.startswith("sheets") else o for o in kept]
+        return dataclasses.replace(scene, objects=tuple(kept))
+
+    folder = Path(scenes[(True, False)].source).parent.parent
+    source = _single_sided(folder / f"wound_{toward}", toward)
+    placed = _frame(ctx, triangle_alone(source, True), Method.RAYTRACE)
+    reference = _frame(ctx, triangle_alone(_single_sided(folder / "reference", True), False) if not toward
+                       else scenes[None], Method.RAYTRACE)
+    for k in range(3):
+        assert _differing(placed[k], reference[k]) == 0, (toward, k, _differing(placed[k], reference[k]))
+
+
+def _single_sided(folder: Path, toward: bool) -> Scene:
+    folder.mkdir(exist_ok=True)
+    _sheets(folder / "sheets.glb", False, toward)
+    return scene_from_toml(SCENE + SHEETS, str(folder / "scene.toml"), folder)
