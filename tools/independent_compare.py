@@ -341,8 +341,9 @@ uses); +0.001 in the specular denominator; it filters sRGB-encoded texels and de
 textures are decoded before filtering (ours: GL_SRGB8_ALPHA8); and it never reads the vertex
 tangents (its shader tests HAS_TANGENTS, which pyrender never defines), building the normal map's
 frame from screen-space UV derivatives with the bitangent N x T, where glTF's is w N x T: wrong
-wherever the UVs are mirrored, which is what NormalTangentMirrorTest tests (0.103 -> 0.030 once
-the column's shader reads our tangents; NormalTangentTest, without mirrored UVs, agreed already).
+wherever the UVs are mirrored, which is what NormalTangentMirrorTest tests (0.103 -> 0.011 once
+the column's shader reads our tangents and floors roughness as ours does; NormalTangentTest, without
+mirrored UVs, 0.024 -> 0.016).
 The `Appendix B` column is pyrender with these lines replaced (APPENDIX_B in
 tools/independent_compare.py): on the models without creases or detail finer than a pixel (the
 boxes, the skins, the morph cube and triangle, the sparse accessor, MorphPrimitivesTest,
@@ -369,7 +370,7 @@ the blend of light).
   and drawn whole by pyrender, whose shader has no alpha test (it takes alphaCutoff and does not use
   it); its BLEND panel is blended by both, ours over the marble wall behind it (the wall shows
   through at the panel's top, where alpha is 0, as glTF's BLEND asks), pyrender's over black (no
-  wall shows through it): the column's 30 %, pyrender's limitations both.
+  wall shows through it): the column's 19.7 %, pyrender's limitations both.
 - *Default material.* SimpleSkin, SimpleMorph and SimpleSparseAccessor have no material: glTF's
   default is a rough white metal (metallic 1, roughness 1), which this comparison showed our loader
   drew as a white *diffuse* material (twice as bright as pyrender); the loader now gives them the
