@@ -93,6 +93,15 @@ class MaterialKind(IntEnum):
     METALLIC_ROUGHNESS = 3  # glTF 2.0's material model (lib/brdf.glsl, oracles/brdf.py)
 
 
+class Sides(IntEnum):
+    """Which faces of a material's surface are there, and how a back face is shaded (a material
+    record's `double_sided`: glTF's doubleSided, and what a TOML scene's surfaces always were)."""
+
+    SINGLE = 0  # doubleSided false: a back face is not there (culled; a ray passes through it)
+    DOUBLE = 1  # doubleSided true: a back face is shaded turned round (its normal and normal map's frame)
+    AS_FRONT = 2  # both faces there, a back face shaded as the front is (TOML's default)
+
+
 class Wrap(IntEnum):
     """A texture's wrap mode along one axis: GL's own enum values, which glTF's samplers use too."""
 
@@ -440,6 +449,7 @@ MATERIAL = Struct("Material", (
     ("normal_texture", "int"),  # the normal map's slot (or -1), and its scale of x and y
     ("normal_scale", "float"),
     ("blend", "int"),  # 1: glTF's alphaMode BLEND (alpha_cutoff is then BLEND_IMAGE_CUTOFF, for the images)
+    ("double_sided", "int"),  # Sides: which faces are there, and how a back face is shaded
 ))
 
 #: Material records a uniform block holds within GL 3.3's guaranteed 16 KiB (146 records of 112 bytes). A scene of more
@@ -606,7 +616,7 @@ def glsl_constants() -> dict[str, str]:
     }
     defines.update(glsl_bindings())
     prefixes = {Algorithm: "ALGORITHM", Method: "METHOD", MaterialKind: "MATERIAL", LightKind: "LIGHT",
-                ShadowKind: "SHADOW", Unseen: "UNSEEN", ToneMapping: "TONE_MAPPING", Wrap: "WRAP"}
+                ShadowKind: "SHADOW", Unseen: "UNSEEN", Sides: "SIDES", ToneMapping: "TONE_MAPPING", Wrap: "WRAP"}
     for enum, prefix in prefixes.items():
         defines.update({f"{prefix}_{member.name}": str(int(member)) for member in enum})
     return defines

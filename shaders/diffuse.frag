@@ -29,6 +29,11 @@ uniform int u_material_index;  // in the MaterialRecords table (lib/shading.glsl
 uniform vec4 u_eye;
 #endif
 
+#ifdef DOUBLE_SIDED
+flat in int v_mirrored;
+uniform int u_view_mirrored;  // 1: the view-projection reflects the scene (a planar reflection's)
+#endif
+
 in vec3 v_world_position;
 in vec3 v_local_position;
 in vec3 v_world_normal;
@@ -68,6 +73,15 @@ void main() {
     if (material_masked(material, point)) discard;  // glTF's alphaMode MASK: the surface is not there
 #endif
     vec3 albedo = material_albedo(material, v_local_position, point);
+#if defined(DOUBLE_SIDED) && !defined(BACK_LAYER)
+    // glTF's doubleSided: a back face seen is shaded turned round. Every PPC projection winds the
+    // outward faces the way GL does not call front (OUTWARD_IS_GL_FRONT 0: passes/reflectors.py's
+    // OUTWARD_FRONT_FACE), a mirroring model matrix or view the other way. (The back layer shows
+    // what a ray from behind it sees: the outward face, as it is. A single-sided material's back
+    // faces are culled: passes/diffuse.py.)
+    bool outward = gl_FrontFacing == ((OUTWARD_IS_GL_FRONT != 0) != (v_mirrored != 0) != (u_view_mirrored != 0));
+    if (!outward && material.double_sided == SIDES_DOUBLE) turn_to_back(normal, point);
+#endif
 #ifdef METALLIC_ROUGHNESS
     vec3 to_viewer = safe_normalize(u_eye.xyz - v_world_position * u_eye.w, normal);
     out_color = vec4(shade_material(material, albedo, point, v_world_position, normal, to_viewer), 1.0);

@@ -35,6 +35,12 @@ in vec4 in_tangent;
 out vec4 v_tangent;
 #endif
 
+#ifdef DOUBLE_SIDED
+// 1 where the model matrix mirrors: its outward faces then reach the window wound the other way
+// (diffuse.frag tells a back face by gl_FrontFacing).
+flat out int v_mirrored;
+#endif
+
 out vec3 v_world_position;
 out vec3 v_local_position;
 out vec3 v_world_normal;
@@ -65,6 +71,9 @@ void main() {
     // its inverse transpose), and a mirroring matrix turns the bitangent's sign (Mesh.transformed).
     mat3 linear = mat3(model);
     v_tangent = vec4(linear * in_tangent.xyz, determinant(linear) < 0.0 ? -in_tangent.w : in_tangent.w);
+#endif
+#ifdef DOUBLE_SIDED
+    v_mirrored = determinant(mat3(model)) < 0.0 ? 1 : 0;
 #endif
     gl_Position = u_view_projection * world;
 }

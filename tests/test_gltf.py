@@ -103,20 +103,20 @@ def test_without_file_normals_each_triangle_is_flat(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("fields", "expected"), [
-    ({"color": (0.2, 0.4, 0.6), "metallic": 0.0, "roughness": 0.5}, MetallicRoughnessMaterial((0.2, 0.4, 0.6), None, 0.0, 0.5)),
+    ({"color": (0.2, 0.4, 0.6), "metallic": 0.0, "roughness": 0.5}, MetallicRoughnessMaterial((0.2, 0.4, 0.6), None, 0.0, 0.5, double_sided=False)),
     ({"color": (0.9, 0.8, 0.7), "metallic": 1.0, "roughness": 0.05}, MirrorMaterial((0.9, 0.8, 0.7))),
     ({"color": (1.0, 1.0, 1.0), "metallic": 0.9, "roughness": 0.1}, MirrorMaterial((1.0, 1.0, 1.0))),
-    ({"color": (0.9, 0.8, 0.7), "metallic": 1.0, "roughness": 0.2}, MetallicRoughnessMaterial((0.9, 0.8, 0.7), None, 1.0, 0.2)),
-    ({"color": (0.9, 0.8, 0.7), "metallic": 0.5, "roughness": 0.0}, MetallicRoughnessMaterial((0.9, 0.8, 0.7), None, 0.5, 0.0)),
+    ({"color": (0.9, 0.8, 0.7), "metallic": 1.0, "roughness": 0.2}, MetallicRoughnessMaterial((0.9, 0.8, 0.7), None, 1.0, 0.2, double_sided=False)),
+    ({"color": (0.9, 0.8, 0.7), "metallic": 0.5, "roughness": 0.0}, MetallicRoughnessMaterial((0.9, 0.8, 0.7), None, 0.5, 0.0, double_sided=False)),
     ({"color": (0.8, 1.0, 0.9), "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
                                                "KHR_materials_ior": {"ior": 1.33}}}, GlassMaterial(1.33, (0.8, 1.0, 0.9))),
     ({"color": (0.8, 1.0, 0.9), "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.6}}},
      GlassMaterial(1.5, (0.8, 1.0, 0.9))),
     ({"color": (0.8, 1.0, 0.9), "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.3}}},
-     MetallicRoughnessMaterial((0.8, 1.0, 0.9), None, 0.0, 1.0)),
+     MetallicRoughnessMaterial((0.8, 1.0, 0.9), None, 0.0, 1.0, double_sided=False)),
     ({"color": (0.5, 0.5, 0.5), "emissiveFactor": [1.0, 0.5, 0.0],
       "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}},
-     MetallicRoughnessMaterial((0.5, 0.5, 0.5), None, 0.0, 1.0, (4.0, 2.0, 0.0))),
+     MetallicRoughnessMaterial((0.5, 0.5, 0.5), None, 0.0, 1.0, (4.0, 2.0, 0.0), double_sided=False)),
 ], ids=["diffuse", "mirror", "mirror_at_the_bounds", "too_rough", "half_metal", "glass", "glass_default_ior",
         "little_transmission", "emissive"])
 def test_materials_map_by_the_documented_rules(tmp_path: Path, fields: dict[str, object], expected: object) -> None:
@@ -126,12 +126,12 @@ def test_materials_map_by_the_documented_rules(tmp_path: Path, fields: dict[str,
 
 
 def test_a_primitive_without_a_material_is_glTFs_default_white_rough_metal(tmp_path: Path) -> None:
-    """glTF 2.0, 3.9.6: white, metallic 1, roughness 1 (it was drawn as a white diffuse material,
-    twice as bright as pyrender draws it: results/llvmpipe/independent.md)."""
+    """glTF 2.0, 3.9.6: white, metallic 1, roughness 1, single-sided (it was drawn as a white
+    diffuse material, twice as bright as pyrender draws it: results/llvmpipe/independent.md)."""
     w = GltfWriter()
     w.node(mesh=w.mesh(w.box()))
     assert load_quietly(w.write(tmp_path / "m.glb")).objects[0].material == MetallicRoughnessMaterial(
-        (1.0, 1.0, 1.0), metallic=1.0, roughness=1.0)
+        (1.0, 1.0, 1.0), metallic=1.0, roughness=1.0, double_sided=False)
 
 
 def test_a_node_with_two_materials_is_two_objects(tmp_path: Path) -> None:
@@ -257,7 +257,7 @@ scale = 2.0
     scene = load_scene(tmp_path / "s.toml")
     assert [o.name for o in scene.objects] == ["floor", "thing/Ball", "thing/Cube"]
     assert scene.objects[1].material == MirrorMaterial((0.9, 0.9, 0.9))
-    assert scene.objects[2].material == MetallicRoughnessMaterial((0.5, 0.5, 0.5), None, 0.0, 1.0)
+    assert scene.objects[2].material == MetallicRoughnessMaterial((0.5, 0.5, 0.5), None, 0.0, 1.0, double_sided=False)
     ball = scene_geometry(scene.objects)[1].world_mesh
     # The file puts the ball at x = 1; the object scales by 2, turns +X to -Z and lifts by 2.
     assert np.allclose(ball.positions.mean(axis=0), [0.0, 2.0, -2.0], atol=1e-6)

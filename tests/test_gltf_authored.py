@@ -173,3 +173,39 @@ def test_render_warns_in_one_line_and_draws(tmp_path: Path) -> None:
     assert code == 0 and out.exists(), stderr
     assert stderr.splitlines() == [f"depthimpostor: warning: {path}: 2 glTF feature(s) this loader does not implement, "
                                    f"drawn as if absent: {IGNORED}"]
+
+
+# --- a texture on a UV set the primitive lacks ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("where", ["occlusionTexture", "transform"])
+def test_a_texture_on_a_uv_set_the_primitive_lacks_is_refused_in_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], where: str) -> None:
+    """A texture reading TEXCOORD_1 (by its texCoord, or KHR_texture_transform's) on a primitive
+    without it: refused naming the file, the primitive, the texture and the material (it read
+    (0, 0) at every vertex, with no message); the same file with TEXCOORD_1 loads."""
+    transform = where == "transform"
+    key, holder = ("baseColorTexture", "pbrMetallicRoughness.") if transform else ("occlusionTexture", "")
+
+    def written(with_set: bool) -> Path:
+        w = GltfWriter()
+        info: dict[str, object] = {"index": w.texture(np.full((2, 2, 4), 200))}
+        info |= {"extensions": {"KHR_texture_transform": {"texCoord": 1}}} if transform else {"texCoord": 1}
+        w.material("Plain")
+        m = w.material("Paint", **({} if transform else {key: info}))
+        if transform:
+            w.json["materials"][m]["pbrMetallicRoughness"][key] = info
+        plain = w.primitive(QUAD, QUAD_FACES, UP, QUAD_UVS, material=0)
+        painted = w.primitive(QUAD + [0, 0, 1], QUAD_FACES, UP, QUAD_UVS, material=m)
+        if with_set:
+            painted["attributes"]["TEXCOORD_1"] = w.accessor(QUAD_UVS, "VEC2")
+        w.node(mesh=w.mesh(plain, painted))
+        return w.write(tmp_path / f"x{int(with_set)}.gltf")
+
+    path = written(False)
+    assert_one_line_error(*run_in_process(["plan", str(path)], capsys),
+                          f"{path}: meshes[0].primitives[1].attributes: expected TEXCOORD_1, which {holder}{key} of "
+                          'material "Paint" (materials[1]) reads (texCoord 1), got none')
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SceneWarning)
+        assert len(read_gltf(written(True), "x1.gltf").parts) == 2

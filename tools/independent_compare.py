@@ -19,11 +19,12 @@ pyrender per model:
   them), our triangles at time 0 (skinned and morphed), UVs (through KHR_texture_transform) and
   decoded textures, so that pyrender is compared on shading rather than on a second loader (ours is
   checked by the tests and the truth);
-- `same inputs`: what our loader lists as ignored (normal maps, BLEND) left out of pyrender's
-  material too, so that what remains is the shading;
+- `same inputs`: what our loader lists as ignored left out of pyrender's material too (today
+  KHR_materials_clearcoat alone, which pyrender does not read either: normal maps and BLEND are
+  read by both), so that what remains is the shading;
 - `Appendix B`: pyrender's shader with its BRDF made the specification's (Smith height-correlated
   visibility on alpha instead of Schlick-GGX on (r + 1)^2 / 8; the diffuse colour not darkened by
-  a further 4 %; no 0.04 floor on roughness; no +0.001 in the denominator) and its colour
+  a further 4 %; the 0.04 floor on roughness ours (MIN_ROUGHNESS); no +0.001 in the denominator) and its colour
   textures filtered in linear light (it filters the sRGB-encoded texels, then decodes): what
   remains is rasterization, mipmap levels, 8-bit storage and readback.
 
@@ -53,7 +54,7 @@ from PIL import Image
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from public_models import CATALOGUE, LARGE, PublicModel, model_path  # noqa: E402
 
-from depthimpostor.constants import Method  # noqa: E402
+from depthimpostor.constants import MIN_ROUGHNESS, Method  # noqa: E402
 from depthimpostor.errors import SceneWarning  # noqa: E402
 from depthimpostor.geometry import scene_geometry  # noqa: E402
 from depthimpostor.plan import ignored_in_files  # noqa: E402
@@ -134,8 +135,8 @@ def _uvs(mesh_uvs: np.ndarray, texture: Texture | None) -> np.ndarray:
 
 
 def _material(material: Any, header_material: dict[str, Any] | None, variant: str) -> Any:
-    """pyrender's material for one of ours (and the file's JSON material, for what our loader does
-    not read: the normal map and BLEND), as `variant` asks."""
+    """pyrender's material for one of ours (and the file's JSON material, whose normal map and
+    BLEND pyrender is handed as the file writes them), as `variant` asks."""
     import pyrender
 
     if not isinstance(material, MetallicRoughnessMaterial):
@@ -147,14 +148,19 @@ def _material(material: Any, header_material: dict[str, Any] | None, variant: st
     emissive = np.sqrt(np.maximum(np.asarray(material.emissive, np.float64), 0.0) / HEADROOM)  # drawn squared
     alpha_mode = "MASK" if material.alpha_cutoff is not None else "OPAQUE"
     normal = None
-    if header_material is not None and variant == "as written":
-        if header_material.get("alphaMode") == "BLEND":
+    if header_material is not None:
+        # As written: whatever the file says; the other columns: what our loader reads of it too.
+        written = variant == "as written"
+        if header_material.get("alphaMode") == "BLEND" and (written or material.blend):
             alpha_mode = "BLEND"
-        normal = header_material.get("_normal")
+        if written or material.normal_texture is not None:
+            normal = header_material.get("_normal")
     return pyrender.MetallicRoughnessMaterial(
         baseColorFactor=[*material.color, material.alpha], metallicFactor=material.metallic,
         roughnessFactor=material.roughness, emissiveFactor=emissive.tolist(), alphaMode=alpha_mode,
-        alphaCutoff=material.alpha_cutoff if material.alpha_cutoff is not None else 0.5, doubleSided=True,
+        alphaCutoff=material.alpha_cutoff if material.alpha_cutoff is not None else 0.5,
+        # As the file says (ours culls a single-sided material's back faces, as pyrender does).
+        doubleSided=material.double_sided is not False,
         baseColorTexture=_pyrender_texture(material.texture, "RGBA", variant == "Appendix B"),
         metallicRoughnessTexture=_pyrender_texture(material.metallic_roughness_texture, "GB"),
         emissiveTexture=_pyrender_texture(material.emissive_texture, "RGB", variant == "Appendix B"),
@@ -187,7 +193,7 @@ def render_pyrender(scene: Scene, path: Path, variant: str, renderer: Any) -> tu
 
     header = read_json(path, str(path))
     materials = header.get("materials", [])
-    normals = _normal_maps(path) if variant == "as written" else {}
+    normals = _normal_maps(path)
     world = pyrender.Scene(bg_color=[0.0, 0.0, 0.0, 0.0], ambient_light=[0.0, 0.0, 0.0])
     for geometry in scene_geometry(scene.objects):
         obj, mesh = geometry.object, geometry.world_mesh
@@ -198,9 +204,13 @@ def render_pyrender(scene: Scene, path: Path, variant: str, renderer: Any) -> tu
         material = _material(obj.material, header_material, variant)
         texture = getattr(obj.material, "texture", None)
         uvs = _uvs(mesh.uvs, texture) if mesh.uvs is not None else None
+        # Our tangents where a normal map reads them (the file's, or generated): read by the
+        # Appendix B shader alone (APPENDIX_B: pyrender's own never reads them).
+        tangents = np.asarray(mesh.tangents, np.float32) if mesh.tangents is not None else None
         primitive = pyrender.Primitive(positions=np.asarray(mesh.positions, np.float32),
-                                       normals=np.asarray(mesh.normals, np.float32), texcoord_0=uvs,
-                                       indices=np.asarray(mesh.indices, np.uint32), material=material)
+                                       normals=np.asarray(mesh.normals, np.float32), tangents=tangents,
+                                       texcoord_0=uvs, indices=np.asarray(mesh.indices, np.uint32),
+                                       material=material)
         world.add(pyrender.Mesh([primitive]))
     camera = scene.camera
     eye, target, up = (np.asarray(v, np.float64) for v in (camera.eye, camera.target, camera.up))
@@ -237,10 +247,16 @@ APPENDIX_B = (
      "    return 4.0 * info.nl * info.nv / (g1 * g2);\n"),
     ("vec3 spec_contrib = F * G * D / (4.0 * nl * nv + 0.001);", "vec3 spec_contrib = F * G * D / (4.0 * nl * nv);"),
     ("base_color.rgb * (1 - min_roughness), 1.0 - metallic)", "base_color.rgb, 1.0 - metallic)"),
-    ("roughness = clamp(roughness, min_roughness, 1.0);", "roughness = clamp(roughness, 0.0, 1.0);"),
+    # Appendix B has no floor; ours evaluates the lights' lobe at MIN_ROUGHNESS at least (a delta
+    # light's highlight on a roughness of 0 is 0 / 0), and so does this shader.
+    ("roughness = clamp(roughness, min_roughness, 1.0);", f"roughness = clamp(roughness, {MIN_ROUGHNESS!r}, 1.0);"),
     # Colour textures filtered in linear light (handed over decoded: _pyrender_texture), not decoded
     # after filtering their sRGB values.
     ("#ifndef SRGB_CORRECTED", "#ifdef SRGB_DECODED_BEFORE_FILTERING"),
+    # The vertex tangents where the primitive has them (glTF's frame, bitangent w N x T): pyrender's
+    # shader tests HAS_TANGENTS, which pyrender never defines, so it always builds its frame from
+    # screen-space UV derivatives with the bitangent N x T, wrong where the UVs are mirrored.
+    ("#ifndef HAS_TANGENTS", "#ifndef TANGENT_LOC"),
 )
 
 
@@ -308,27 +324,31 @@ EXPLAINED = """
 
 Read the columns left to right: each takes one cause out.
 
-**as written -> same inputs: what our loader does not implement yet.** Only the models whose
-`ignored` list is not empty change here: NormalTangentTest and NormalTangentMirrorTest (RMSE 0.10
--> 0.02, 0.09 -> 0.02: their normal maps are their whole point), DamagedHelmet (0.043 -> 0.037: its
-normal map), ClearCoatTest and AlphaBlendModeTest (normal maps and BLEND). Normal maps and BLEND are
-being implemented by other work of issue 33: these columns will meet when it lands (the test of
-tests/test_public_models.py then asks for the models' ignored lists to be updated).
-KHR_materials_clearcoat is read by neither renderer.
+**as written -> same inputs: what our loader does not implement.** Both columns now hand pyrender
+what our loader reads, normal maps and BLEND included, so they differ only where our loader lists
+something as ignored: ClearCoatTest's KHR_materials_clearcoat, which pyrender does not read either
+(equal columns). Both sides take the file's doubleSided: a single-sided material's back faces are
+culled by both (pyrender's GL_CULL_FACE, ours: docs/scene_format.md, "Faces").
 
 **same inputs -> Appendix B: where pyrender departs from the glTF specification.** pyrender's
 shader (pyrender/shaders/mesh.frag in pyrender 0.1.45) has Schlick-GGX geometry on
 k = (r + 1)^2 / 8 of the *perceptual* roughness (UE4's remap for analytic lights) instead of Appendix
 B's height-correlated Smith visibility on alpha = r^2; a diffuse colour darkened by a further 4 %
 (`base * (1 - 0.04) * (1 - metallic)`, the spec: `base * (1 - metallic)`, less the Fresnel term);
-a floor of 0.04 on roughness; +0.001 in the specular denominator; and it filters sRGB-encoded texels
-and decodes the result (the texture is stored as plain RGBA and decoded in the shader), where the
-specification's sRGB textures are decoded before filtering (ours: GL_SRGB8_ALPHA8). The
-`Appendix B` column is pyrender with these lines replaced (APPENDIX_B in tools/independent_compare.py):
-on the models without creases or detail finer than a pixel (the boxes, the skins, the morph cube and
-triangle, the sparse accessor, MorphPrimitivesTest, BoxTextured, ClearCoatTest) the RMSE drops to
-0.001-0.004, the 8-bit gamma-2.2 readback's rounding at HEADROOM = 4 (an RMS of about 0.003 at a
-linear 0.5). That is: our shading is the
+a floor of 0.04 on roughness (ours: 0.0525 for the lights' lobe, MIN_ROUGHNESS, which the column
+uses); +0.001 in the specular denominator; it filters sRGB-encoded texels and decodes the result
+(the texture is stored as plain RGBA and decoded in the shader), where the specification's sRGB
+textures are decoded before filtering (ours: GL_SRGB8_ALPHA8); and it never reads the vertex
+tangents (its shader tests HAS_TANGENTS, which pyrender never defines), building the normal map's
+frame from screen-space UV derivatives with the bitangent N x T, where glTF's is w N x T: wrong
+wherever the UVs are mirrored, which is what NormalTangentMirrorTest tests (0.103 -> 0.011 once
+the column's shader reads our tangents and floors roughness as ours does; NormalTangentTest, without
+mirrored UVs, 0.024 -> 0.016).
+The `Appendix B` column is pyrender with these lines replaced (APPENDIX_B in
+tools/independent_compare.py): on the models without creases or detail finer than a pixel (the
+boxes, the skins, the morph cube and triangle, the sparse accessor, MorphPrimitivesTest,
+BoxTextured, ClearCoatTest) the RMSE drops to 0.001-0.004, the 8-bit gamma-2.2 readback's rounding
+at HEADROOM = 4 (an RMS of about 0.003 at a linear 0.5). That is: our shading is the
 specification's, and pyrender's is the specification's but for these lines. The texture filtering
 term is most of MorphPrimitivesTest's and BoxTextured's difference (a magnified checker and
 logo: edges between texels of very different values, where a blend of encoded values is darker than
@@ -339,31 +359,34 @@ the blend of light).
   one sample a pixel (`render.samples = 1`). Pixels within one of a depth step are left out of the
   figures, but multisampling also blends the two sides of a crease (AnimatedMorphSphere's flat facets,
   DamagedHelmet's panel lines) and of detail thinner than a pixel that is not a depth step of 2 %
-  (2CylinderEngine's cooling fins, 17 % of its pixels; BrainStem's cables and fingers, 7.7 %;
-  CesiumMilkTruck's window frames and wheels, 2.4 %; NormalTangent*'s small spheres; MorphStressTest's
-  bar edges). The difference pictures' fourth panel shows these as outlines and nothing
-  inside the faces.
-- *Mipmaps on minified textures.* TextureTransformTest's marker squares (a few pixels across) differ where the two renderers pick and build their mip levels
-  differently (ours: texture arrays, an image smaller than its group's layer resampled up in linear
-  light: docs/scene_format.md).
+  (2CylinderEngine's cooling fins, 17 % of its pixels; BrainStem's cables and fingers, 7.5 %;
+  CesiumMilkTruck's window frames and wheels, 2.4 %; NormalTangent*'s small spheres and the normal
+  maps' fine relief; MorphStressTest's bar edges). The difference pictures' fourth panel shows
+  these as outlines and nothing inside the faces.
+- *Mipmaps on minified textures.* TextureTransformTest's marker squares (a few pixels across) differ
+  where the two renderers pick and build their mip levels differently (ours: texture arrays, an
+  image smaller than its group's layer resampled up in linear light: docs/scene_format.md).
 - *Alpha.* AlphaBlendModeTest's three MASK panels (cutoffs 0.25, 0.5, 0.75) are cut away by ours
   and drawn whole by pyrender, whose shader has no alpha test (it takes alphaCutoff and does not use
-  it): the column's 19.8 %, pyrender's limitation. Its BLEND panel is blended by pyrender in the
-  `as written` column alone (the next two draw it opaque on both sides, as ours does until BLEND
-  lands).
+  it); its BLEND panel is blended by both, ours over the marble wall behind it (the wall shows
+  through at the panel's top, where alpha is 0, as glTF's BLEND asks), pyrender's over black (no
+  wall shows through it): the column's 19.7 %, pyrender's limitations both.
 - *Default material.* SimpleSkin, SimpleMorph and SimpleSparseAccessor have no material: glTF's
   default is a rough white metal (metallic 1, roughness 1), which this comparison showed our loader
   drew as a white *diffuse* material (twice as bright as pyrender); the loader now gives them the
-  specification's default (scene/gltf.py GLTF_DEFAULT_MATERIAL), and they agree to the readback's
-  rounding.
+  specification's default (scene/gltf.py GLTF_DEFAULT_MATERIAL, single-sided as glTF's default
+  is), and they agree to the readback's rounding.
 
 **Left out of both sides on purpose** (the module docstring): the occlusion map (pyrender darkens
 direct light with it; the specification and ours darken the ambient term alone, 0 here), the
 ambient/IBL term (pyrender has none that is finished: `USE_IBL` is a TODO in its shader; ours is
-`render.ambient`, set to 0; image-based lighting from the environment is being added by other work
-of issue 33, and this comparison would need pyrender's IBL to cover it), vertex colours (none of
-these models draws with them) and the emissive factor's square (pyrender multiplies it in twice; it
-is handed the factor's square root).
+`render.ambient`, set to 0, and this comparison would need pyrender's IBL to cover the sky's),
+vertex colours (none of these models draws with them) and the emissive factor's square (pyrender
+multiplies it in twice; it is handed the factor's square root). Double-sided back faces: ours shades
+them turned round (glTF-Sample-Viewer's and three.js's way), pyrender as it shades a front face;
+none of these models shows one to this camera (every pixel's first hit on AlphaBlendModeTest,
+NormalTangentTest, NormalTangentMirrorTest and MorphStressTest, the double-sided ones, is a front
+face: traced with Embree).
 """
 
 

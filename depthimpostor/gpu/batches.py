@@ -17,7 +17,7 @@ import moderngl
 import numpy as np
 
 from ..geometry import ObjectGeometry
-from ..scene.model import BoxShape, CylinderShape, Scene, SphereShape, TorusKnotShape, TorusShape
+from ..scene.model import BoxShape, CylinderShape, Scene, SphereShape, TorusKnotShape, TorusShape, single_sided
 from .meshes import GpuMeshes, MeshArena, attribute_format, vertex_buffers
 
 #: One object's instance attributes, as mesh.vert's INSTANCED variant reads them: the model
@@ -42,6 +42,16 @@ def is_closed(item: ObjectGeometry) -> bool:
     textured meshes have a seam whose two columns of vertices are rounded apart)."""
     return (isinstance(item.object.shape, CLOSED_SHAPES) and getattr(item.object.material, "texture", None) is None
             and float(np.linalg.det(item.model_matrix[:3, :3])) > 0.0)
+
+
+def face_class(item: ObjectGeometry) -> int:
+    """Which faces of `item` a pass drawing what is seen keeps: 0 both; 1 the outward ones alone
+    (a closed solid, whose inward faces are hidden, or a single-sided material, glTF's doubleSided
+    false, whose inward faces are not there); 2 the outward ones of a single-sided material under
+    a mirroring model matrix, which winds them the other way on the screen."""
+    if single_sided(item.object.material):
+        return 2 if float(np.linalg.det(item.model_matrix[:3, :3])) < 0.0 else 1
+    return int(is_closed(item))
 
 
 def batches_supported(ctx: moderngl.Context) -> bool:
@@ -83,13 +93,15 @@ class ObjectBatch:
         if any(item.local_mesh not in self.arena.ranges for item in self.items):
             raise ValueError("a batch's meshes must be loaded together (GpuMeshes.load)")
         # Objects grouped by mesh, each group in object order, groups in order of first appearance;
-        # the closed solids' groups last (from `first_closed` on: drawn with back faces culled).
-        # Depth ties go to what is drawn first: the open surfaces (floors, on which solids stand)
-        # are drawn first, as they are in a scene's usual order.
-        groups: dict[tuple[bool, int], list[ObjectGeometry]] = {}
-        for item in sorted(self.items, key=is_closed):
-            groups.setdefault((is_closed(item), id(item.local_mesh)), []).append(item)
-        self.first_closed = sum(not closed for closed, _ in groups)
+        # those whose inward faces are culled last (face_class: from `first_closed` on, and those
+        # of a mirroring model matrix from `first_mirrored` on). Depth ties go to what is drawn
+        # first: the open surfaces (floors, on which solids stand) are drawn first, as they are in
+        # a scene's usual order.
+        groups: dict[tuple[int, int], list[ObjectGeometry]] = {}
+        for item in sorted(self.items, key=face_class):
+            groups.setdefault((face_class(item), id(item.local_mesh)), []).append(item)
+        self.first_closed = sum(kept == 0 for kept, _ in groups)
+        self.first_mirrored = sum(kept < 2 for kept, _ in groups)
         ordered = [item for group in groups.values() for item in group]
         commands = np.zeros(len(groups), COMMAND_DTYPE)
         start = 0

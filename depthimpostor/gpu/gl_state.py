@@ -54,6 +54,12 @@ def _apply(ctx: moderngl.Context, state: RasterState) -> None:
         ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
 
 
+def current_state(ctx: moderngl.Context) -> RasterState:
+    """The state of the innermost scope open on `ctx` (BASE outside any)."""
+    scopes = _open.get(ctx)
+    return scopes[-1] if scopes else BASE
+
+
 @contextmanager
 def raster_state(ctx: moderngl.Context, state: RasterState = BASE) -> Iterator[None]:
     """Draw with `state` within the block; the enclosing scope's state (BASE outside any) after it."""

@@ -15,10 +15,10 @@ import moderngl
 import numpy as np
 
 from .bindings import StorageBuffer, TextureUnit, UniformBlock
-from ..constants import (EXTRA_ATTRIBUTES, MATERIAL, MATERIAL_ARRAYS, MATERIAL_BLOCK_RECORDS, MAX_LIGHTS, MaterialKind,
+from ..constants import (EXTRA_ATTRIBUTES, MATERIAL, MATERIAL_ARRAYS, MATERIAL_BLOCK_RECORDS, MAX_LIGHTS, MaterialKind, Sides,
                          triangle_texel_layout)
 from ..scene.model import (
-    CheckerMaterial, DiffuseMaterial, GltfShape, MetallicRoughnessMaterial, Scene, SceneObject,
+    CheckerMaterial, DiffuseMaterial, GltfShape, MetallicRoughnessMaterial, Scene, SceneObject, material_sides,
 )
 from ..ibl import uses_environment_lighting
 from ..texture_layout import texture_defines
@@ -45,6 +45,7 @@ def shading_defines(scene: Scene, drawn_material: bool = False) -> dict[str, int
             **({"METALLIC_ROUGHNESS": 1} if any(isinstance(m, MetallicRoughnessMaterial) for m in scene.materials)
                else {}),
             **alpha_mask_defines(scene, drawn_material),
+            **sides_defines(scene),
             **mesh_attribute_defines(scene),
             **environment_lighting_defines(scene),
             **texture_defines(scene)}
@@ -79,6 +80,16 @@ def environment_lighting_defines(scene: Scene) -> dict[str, int]:
     """Image-based lighting where the scene has an equirect sky and a metallic-roughness material
     (ibl.py's rule): ENVIRONMENT_LIGHTING, with the sky's image (ENVIRONMENT_MAP) it reads."""
     return {"ENVIRONMENT_LIGHTING": 1, "ENVIRONMENT_MAP": 1} if uses_environment_lighting(scene) else {}
+
+
+def sides_defines(scene: Scene) -> dict[str, int]:
+    """glTF's doubleSided, where the scene's shaded materials have it: DOUBLE_SIDED where one is
+    double-sided (its back faces are shaded turned round: lib/mesh_point.glsl's turn_to_back),
+    SINGLE_SIDED where one is not (a traced ray passes through its back faces; the passes that
+    draw what is seen cull them: passes/diffuse.py)."""
+    sides = {material_sides(material) for material in scene.materials}
+    return {**({"DOUBLE_SIDED": 1} if Sides.DOUBLE in sides else {}),
+            **({"SINGLE_SIDED": 1} if Sides.SINGLE in sides else {})}
 
 
 def has_alpha_mask(scene: Scene) -> bool:
@@ -252,6 +263,7 @@ def material_records(scene: Scene) -> np.ndarray:
         else:
             raise TypeError(f"{material!r} is not a material that is shaded")
         record["texture"] = scene.texture_slot(material)
+        record["double_sided"] = material_sides(material)
         if isinstance(material, MetallicRoughnessMaterial):
             record["kind"] = MaterialKind.METALLIC_ROUGHNESS
             record["emissive"], record["metallic"], record["roughness"] = (material.emissive, material.metallic,

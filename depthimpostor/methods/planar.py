@@ -175,7 +175,7 @@ class PlanarPass(SeenFromEye):
             plane = mirror_plane(item)
             matrix = oblique_view_projection(camera, *plane, reversed_) if plane is not None else None
             if matrix is not None:  # else the eye sees the mirror's backing, or not the mirror
-                draws += self.diffuse.draw(diffuse, matrix)
+                draws += self.diffuse.draw(diffuse, matrix, mirrored_view=True)
             self.made += 1
         frame.use()
         return draws

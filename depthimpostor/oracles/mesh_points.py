@@ -61,6 +61,12 @@ class MeshPoints:
         for field in ("uv", "uv1", "color", "tangent"):
             getattr(self, field)[chosen] = getattr(points, field)
 
+    def turn_to_back(self, chosen: Array) -> None:
+        """lib/mesh_point.glsl's turn_to_back for the points `chosen` (a bool mask), the normal's
+        half left to the caller: their tangent frame turned (the tangent and the bitangent's sign),
+        so that a normal map on a back face seen turns whole."""
+        self.tangent[chosen] = -self.tangent[chosen]
+
     def uvs_of(self, texture: Texture) -> Array:
         """The UV set `texture` reads (lib/material_texture.glsl's texture_uv)."""
         return self.uv1 if texture.uv_set == 1 else self.uv

@@ -21,12 +21,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..constants import BLEND_LAYERS, BLEND_RESTART_OFFSET, MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT
+from ..constants import BLEND_LAYERS, BLEND_RESTART_OFFSET, MAX_INTERNAL_REFLECTIONS, MIN_PATH_WEIGHT, NO_OBJECT, Sides
 from ..geometry import ObjectGeometry
 from ..lights import light_sample_points, toward_light
 from ..meshes import plane_uvs
 from ..scene.model import (
     CheckerMaterial, DiffuseMaterial, Environment, GlassMaterial, Material, MetallicRoughnessMaterial, MirrorMaterial, Scene,
+    material_sides, single_sided,
 )
 from .brdf import mapped_normal, shade_metallic_roughness
 from .ibl import SkyLighting, equirect_coordinates, equirect_texels, sky_frame
@@ -198,6 +199,21 @@ def _masked_hits(items: Sequence[ObjectGeometry], geometry_id: Array, primitive_
     return cut
 
 
+def _back_faces_passed(items: Sequence[ObjectGeometry], geometry_id: Array, primitive_id: Array,
+                       directions: Array) -> Array:
+    """Which hits (on items[`geometry_id`], triangle `primitive_id`, along `directions`) are back
+    faces of a single-sided material (glTF's doubleSided false: not there, so passed through), as
+    triangles.glsl's nearest_in_mesh passes them: the ray along the outward face normal."""
+    passed = np.zeros(len(geometry_id), bool)
+    for index, item in enumerate(items):
+        if not single_sided(item.object.material):
+            continue
+        chosen = np.flatnonzero(geometry_id == index)
+        mesh = item.world_mesh
+        passed[chosen] = _dot(directions[chosen], face_normals(mesh.positions, mesh.indices[primitive_id[chosen]])) >= 0.0
+    return passed
+
+
 def nearest_shown(embree: rtcore_scene.EmbreeScene, items: Sequence[ObjectGeometry], origins: Array,
                   directions: Array, dists: Array | None = None, images: bool = False) -> dict[str, Array]:
     """Embree's nearest hits on `items` (its geometries: geomID, primID, u, v, tfar), past the points
@@ -211,13 +227,17 @@ def nearest_shown(embree: rtcore_scene.EmbreeScene, items: Sequence[ObjectGeomet
         return dict(embree.run(o, d, dists=np.ascontiguousarray(bound, np.float32), output=1))
 
     result = {key: np.array(value) for key, value in run(origins, directions, dists).items()}
-    if all(cutoff(i.object.material, images) is None for i in items):
+    sided = not images and any(single_sided(i.object.material) for i in items)
+    if not sided and all(cutoff(i.object.material, images) is None for i in items):
         return result
     start = np.zeros(len(origins))  # where each ray's current query began, as a ray parameter
     for _ in range(MAX_MASKED_LAYERS):
         hits = np.flatnonzero(result["geomID"] != -1)
-        cut = hits[_masked_hits(items, result["geomID"][hits], result["primID"][hits], result["u"][hits],
-                                result["v"][hits], images)]
+        cut = _masked_hits(items, result["geomID"][hits], result["primID"][hits], result["u"][hits],
+                           result["v"][hits], images)
+        if sided:
+            cut |= _back_faces_passed(items, result["geomID"][hits], result["primID"][hits], directions[hits])
+        cut = hits[cut]
         if not len(cut):
             break
         # On from just past the cut point (RAY_START_OFFSET of its distance, as a ray leaving a surface).
@@ -390,6 +410,12 @@ class TruthTracer:
             if isinstance(item.object.material, (DiffuseMaterial, CheckerMaterial)):
                 # As triangles.glsl's triangle_point: the corners' attributes by the hit's barycentrics.
                 found = MeshPoints.on_triangles(mesh, triangles, u[:, 0], v[:, 0])
+                # glTF's doubleSided: a back face met is shaded turned round (triangle_hit), a
+                # single-sided one's never met (nearest_shown passed it).
+                turned = material_sides(item.object.material) == Sides.DOUBLE
+                turn = turned & (_dot(directions[mask], face_normals(mesh.positions, triangles)) > 0.0)
+                normal[mask] = np.where(turn[:, None], -smooth, smooth)
+                found.turn_to_back(turn)
                 points.put(mask, found)
                 albedo[mask] = material_albedo(item.object.material, local, found)
             elif isinstance(item.object.material, MirrorMaterial):
@@ -417,13 +443,21 @@ class TruthTracer:
             if not closer.any():
                 continue
             plane_normal = item.normal_matrix @ np.array([0.0, 1.0, 0.0])
+            # glTF's doubleSided: met from behind, a single-sided plane is not there, a
+            # double-sided one is shaded turned round (the shader's nearest_plane_hit).
+            behind = _dot(directions, np.broadcast_to(plane_normal, directions.shape)) > 0.0
+            sides = material_sides(item.object.material)
+            if sides == Sides.SINGLE:
+                closer &= ~behind
+            behind &= sides == Sides.DOUBLE
             hit[closer] = True
             t[closer] = t_plane[closer]
             object_id[closer] = item.index
             backing[closer] = False  # a plane before a mirror's back hides it
-            normal[closer] = plane_normal / np.linalg.norm(plane_normal)
+            normal[closer] = np.where(behind[closer, None], -1.0, 1.0) * plane_normal / np.linalg.norm(plane_normal)
             found = MeshPoints.of_uvs(plane_uvs(local[closer], *size))
             found.tangent[:] = plane_tangent(item)
+            found.turn_to_back(behind[closer])
             points.put(closer, found)
             albedo[closer] = material_albedo(item.object.material, local[closer], found)
 

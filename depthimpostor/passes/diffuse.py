@@ -10,6 +10,7 @@ multi-draw indirect, one call each with uniforms.
 
 from __future__ import annotations
 
+import dataclasses
 import weakref
 from collections.abc import Iterable
 
@@ -17,10 +18,10 @@ import moderngl
 import numpy as np
 
 from ..geometry import ObjectGeometry
-from ..scene.model import CheckerMaterial, Scene, SceneObject
-from ..gpu.batches import ObjectBatch
-from ..gpu.gl_state import raster_state
-from ..methods.atlas import FRONT_FACES
+from ..scene.model import CheckerMaterial, Scene, SceneObject, single_sided
+from ..gpu.batches import ObjectBatch, face_class
+from ..gpu.gl_state import RasterState, current_state, raster_state
+from ..methods.atlas import BACK_FACES, BAKE_CULLS_FRONT_FACES, FRONT_FACES
 from ..gpu.shaders import ProgramCache
 from ..gpu.meshes import GpuMeshes
 from ..gpu.scene_blocks import DrawnMaterials
@@ -29,6 +30,9 @@ from ..node import Frame, GraphFacts, Node, Pass
 
 
 DIFFUSE_PROGRAM = ("mesh.vert", "diffuse.frag")
+#: The outward faces kept under a mirroring model matrix, which winds them the way GL calls front:
+#: the state that keeps the back faces of an object that does not mirror.
+MIRRORED_FRONT_FACES = BACK_FACES
 
 
 def has_checker(objects: Iterable[SceneObject]) -> bool:
@@ -50,10 +54,14 @@ def diffuse_defines(scene: Scene, write_depth_image: bool, write_triangle_ids: b
     out, passes/transparent.py). The hybrid's images (`write_triangle_ids`) hold blended surfaces
     whole (BLEND_WHOLE): its rays composite them exactly once they meet them there."""
     drawn_checker = has_checker(scene.objects) if checker is None else checker
+    shading = shading_defines(scene, drawn_material=not instanced)
+    # Whether GL calls an outward face front, under the passes' counter-clockwise front_face: it
+    # does not (methods/atlas.py's BAKE_CULLS_FRONT_FACES), diffuse.frag's test of a back face.
+    facing = {"OUTWARD_IS_GL_FRONT": int(BAKE_CULLS_FRONT_FACES == "front")} if "DOUBLE_SIDED" in shading else {}
     return {"WRITE_DEPTH_IMAGE": int(write_depth_image), **({"WRITE_TRIANGLE_ID": 1} if write_triangle_ids else {}),
             **({"BACK_LAYER": 1} if back_layer else {}), **({"INSTANCED": 1} if instanced else {}),
             **({"WRITE_SURFACE": 1} if write_surface else {}), **({} if drawn_checker else {"NO_CHECKER": 1}),
-            **shading_defines(scene, drawn_material=not instanced),
+            **shading, **facing,
             **(blend_defines(scene, True) if transparent else blend_defines(scene, False) if write_triangle_ids else {})}
 
 
@@ -92,6 +100,8 @@ class DiffusePass:
         self.scene = scene  # for its texture slots
         self.meshes = meshes
         self.triangle_offsets = triangle_offsets
+        self.culls_single_sided = not back_layer
+        self._mirrored_view = False  # the current draw's (draw's mirrored_view)
         self._batch: ObjectBatch | None = None
         # Each object's uniforms, packed for the program they were packed for (_object_uniforms);
         # an object that moves is another ObjectGeometry at each time, and its old one's entry goes with it.
@@ -108,9 +118,12 @@ class DiffusePass:
         needs it only for objects that move)."""
         return self.programs.get(*DIFFUSE_PROGRAM, self.defines)
 
-    def draw(self, items: list[ObjectGeometry], view_projection: np.ndarray) -> int:
-        """Draw the objects; returns the number of draw calls."""
+    def draw(self, items: list[ObjectGeometry], view_projection: np.ndarray, mirrored_view: bool = False) -> int:
+        """Draw the objects; returns the number of draw calls. `mirrored_view`: `view_projection`
+        reflects the scene (a planar reflection's), which winds every face the other way on the
+        screen."""
         calls = 0
+        self._mirrored_view = mirrored_view
         # Metallic-roughness shading depends on the viewer: the frame's camera, or a baked image's.
         viewer = viewer_of(view_projection) if "METALLIC_ROUGHNESS" in self.defines else None
         if self.instanced is not None:
@@ -119,24 +132,53 @@ class DiffusePass:
                 write_matrix(self.instanced, "u_view_projection", view_projection)
                 if viewer is not None:
                     write(self.instanced, "u_eye", viewer)
+                self._write_view_mirrored(self.instanced)
                 batch = self._batch_of(still)
                 calls += batch.draw(self.instanced, 0, batch.first_closed)
-                # Closed solids seen from outside: their back faces hidden, so culled (half the triangles).
-                with raster_state(self.programs.ctx, FRONT_FACES):
-                    calls += batch.draw(self.instanced, batch.first_closed)
+                # Closed solids seen from outside: their back faces hidden, so culled (half the
+                # triangles); single-sided materials' back faces are not there (face_class).
+                with raster_state(self.programs.ctx, self._keeping(1)):
+                    calls += batch.draw(self.instanced, batch.first_closed, batch.first_mirrored - batch.first_closed)
+                if batch.first_mirrored < batch.draw_count:
+                    with raster_state(self.programs.ctx, self._keeping(2)):
+                        calls += batch.draw(self.instanced, batch.first_mirrored)
             items = [item for item in items if item.object.moves]
         if items:
             program = self.program
             write_matrix(program, "u_view_projection", view_projection)
             if viewer is not None:
                 write(program, "u_eye", viewer)
+            self._write_view_mirrored(program)
             for item in items:
                 material, uniforms = self._object_uniforms(program, item)
                 self.materials.bind(material)
                 for uniform, data in uniforms:
                     uniform.write(data)
-                self.meshes.render(program, item)
+                self._render(program, item)
         return calls + len(items)
+
+    def _render(self, program: moderngl.Program, item: ObjectGeometry) -> None:
+        """Draw one object: a single-sided material's back faces culled (glTF's doubleSided false:
+        they are not there) in a pass that draws what is seen and culls nothing itself; the back
+        layer keeps them (it holds where a solid ends)."""
+        ctx = self.programs.ctx
+        enclosing = current_state(ctx)
+        kept = face_class(item)
+        if not self.culls_single_sided or enclosing.cull is not None or not single_sided(item.object.material):
+            self.meshes.render(program, item)
+            return
+        with raster_state(ctx, dataclasses.replace(enclosing, cull=self._keeping(kept).cull)):
+            self.meshes.render(program, item)
+
+    def _keeping(self, kept: int) -> RasterState:
+        """The state that keeps the outward faces of objects of face_class `kept` (1 or 2) in this
+        draw's view (a mirrored view winds them the other way)."""
+        return FRONT_FACES if (kept == 1) != self._mirrored_view else MIRRORED_FRONT_FACES
+
+    def _write_view_mirrored(self, program: moderngl.Program) -> None:
+        """diffuse.frag's u_view_mirrored (DOUBLE_SIDED programs: its test of a back face)."""
+        if "u_view_mirrored" in program:
+            write(program, "u_view_mirrored", int(self._mirrored_view))
 
     def _object_uniforms(self, program: moderngl.Program,
                          item: ObjectGeometry) -> tuple[int, list[tuple[moderngl.Uniform, bytes]]]:

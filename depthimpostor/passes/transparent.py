@@ -31,7 +31,7 @@ from ..gpu.scene_blocks import DrawnMaterials
 from ..gpu.shaders import ProgramCache
 from ..methods.atlas import BACK_FACES, FRONT_FACES
 from ..node import Frame, GraphFacts, Node, Pass
-from ..scene.model import Scene
+from ..scene.model import Scene, single_sided
 from .diffuse import DiffusePass
 
 #: Blending over the frame, as glTF's BLEND says (the colour is not premultiplied by alpha).
@@ -61,7 +61,9 @@ class TransparentPass:
         framebuffer.depth_mask = False
         try:
             for item in back_to_front(items, eye):
-                states = (OVER_BACK_FACES, OVER_FRONT_FACES) if is_closed(item) else (OVER_BOTH_FACES,)
+                # (A single-sided material has no back faces: DiffusePass culls them under OVER_BOTH_FACES.)
+                closed = is_closed(item) and not single_sided(item.object.material)
+                states = (OVER_BACK_FACES, OVER_FRONT_FACES) if closed else (OVER_BOTH_FACES,)
                 for state in states:
                     with raster_state(self.ctx, state):
                         calls += self.diffuse.draw([item], view_projection)

@@ -158,6 +158,7 @@ def choice(options: Sequence[str]) -> Reader[str]:
     return Reader(f"one of: {', '.join(options)}", lambda v: v if isinstance(v, str) and v in options else None)
 
 
+BOOLEAN = Reader("true or false", lambda v: v if isinstance(v, bool) else None)
 NAME = Reader("a non-empty string", lambda v: v if isinstance(v, str) and v.strip() else None)
 SIZE = cast(Reader[tuple[int, int]], integers(2, Bounds(1, 16384)))
 RESOLUTION = integer(Bounds(4, 4096))

@@ -9,6 +9,7 @@ it; `gltf_objects` the objects a TOML scene's `shape = { type = "gltf" }` places
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import warnings
 from collections import Counter
@@ -42,7 +43,7 @@ from depthimpostor.scene.model import (
 )
 
 #: What a primitive without a material is drawn with: the specification's default material.
-GLTF_DEFAULT_MATERIAL = MetallicRoughnessMaterial((1.0, 1.0, 1.0), metallic=1.0, roughness=1.0)
+GLTF_DEFAULT_MATERIAL = MetallicRoughnessMaterial((1.0, 1.0, 1.0), metallic=1.0, roughness=1.0, double_sided=False)
 #: The mirror rule: a material at least this metallic and at most this rough is a mirror.
 MIRROR_METALLIC, MIRROR_ROUGHNESS = 0.9, 0.1
 #: The glass rule: a KHR_materials_transmission factor of at least this is glass.
@@ -226,6 +227,7 @@ def _parts(data: GltfData, primitives: dict[tuple[int, int], Primitive], ignored
                 material = value.get("material")
                 if material is not None:
                     index(material, len(materials), At(source, f"meshes[{m}].primitives[{p}].material"))
+                    _check_uv_sets(header, source, m, p, primitives[m, p], material)
                 groups.setdefault(material, []).append((p, primitives[m, p]))
         if abs(np.linalg.det(world[:3, :3])) <= 1e-12 * float(np.linalg.norm(world[:3, :3])) ** 3 \
                 and "skin" not in nodes[i]:  # (a skinned mesh is placed by its joints alone)
@@ -244,6 +246,31 @@ def _parts(data: GltfData, primitives: dict[tuple[int, int], Primitive], ignored
             mesh = local_mesh([primitive for _, primitive in group], tangent_set).transformed(world)
             parts.append(GltfPart(name, origin, material, mesh, find_rectangle(mesh) if motion is None else None, motion))
     return parts
+
+
+#: A material's texture infos (where in the material, the key), in the order messages name them.
+_TEXTURE_INFOS = (("pbrMetallicRoughness", "baseColorTexture"), ("pbrMetallicRoughness", "metallicRoughnessTexture"),
+                  (None, "normalTexture"), (None, "occlusionTexture"), (None, "emissiveTexture"))
+
+
+def _check_uv_sets(header: Mapping[str, Any], source: str, m: int, p: int, primitive: Primitive, k: int) -> None:
+    """Refuses a primitive that lacks TEXCOORD_1 when a texture of its material (materials[k])
+    reads that set: glTF 2.0 (3.9.2's texCoord) says the primitive MUST have it, and the loader
+    would read (0, 0) there for every vertex (as glTF-Sample-Viewer does), one texel over the
+    whole surface, with no message. (A part without TEXCOORD_0 at all is drawn in its textures'
+    mean colour, with a warning: gltf_objects.)"""
+    if primitive.uvs1 is not None:
+        return
+    material = header["materials"][k]
+    for holder_key, key in _TEXTURE_INFOS:
+        holder = material.get(holder_key, {}) if holder_key is not None else material
+        info = holder.get(key) if isinstance(holder, Mapping) else None
+        if isinstance(info, Mapping) and texture_set(info) == 1:
+            where = f"{holder_key}.{key}" if holder_key is not None else key
+            name = _name(material)
+            raise SceneError(source, f"meshes[{m}].primitives[{p}].attributes",
+                             f"expected TEXCOORD_1, which {where} of material "
+                             f"{json.dumps(name) + ' ' if name else ''}(materials[{k}]) reads (texCoord 1), got none")
 
 
 def _normal_map_set(materials: list[Mapping[str, Any]], material: int | None) -> int | None:
@@ -343,7 +370,9 @@ def _material(header: Mapping[str, Any], k: int, value: Mapping[str, Any], data:
                   else None)
         maps = _maps(header, value, data, at, source)
         material = MetallicRoughnessMaterial((r, g, b), texture, metallic, roughness, _emissive(value, at),
-                                             alpha=float(factor[3]), alpha_cutoff=cutoff, blend=mode == "BLEND", **maps)
+                                             alpha=float(factor[3]), alpha_cutoff=cutoff, blend=mode == "BLEND", **maps,
+                                             double_sided=at.key("doubleSided").read(value.get("doubleSided", False),
+                                                                                     f.BOOLEAN))
     return GltfMaterial(_label(header, k), material, texture is not None and not isinstance(material, DiffuseMaterial))
 
 

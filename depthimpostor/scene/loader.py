@@ -133,8 +133,14 @@ def _texture(t: Table) -> Texture:
 def _diffuse(t: Table) -> DiffuseMaterial:
     """A diffuse colour, or an image texture times a colour (white unless given)."""
     if "texture" not in t.data:
-        return DiffuseMaterial(t.req("color", _COLOR))
-    return DiffuseMaterial(t.opt("color", _COLOR, (1.0, 1.0, 1.0)), _texture(t))
+        return DiffuseMaterial(t.req("color", _COLOR), double_sided=_double_sided(t))
+    return DiffuseMaterial(t.opt("color", _COLOR, (1.0, 1.0, 1.0)), _texture(t), double_sided=_double_sided(t))
+
+
+def _double_sided(t: Table) -> bool | None:
+    """glTF's doubleSided written in TOML (scene_format.md, "Faces"); None where it is not written:
+    both faces there, a back face shaded as the front, as a TOML scene's surfaces always were."""
+    return t.opt("double_sided", cast(f.Reader[bool | None], f.BOOLEAN), None)
 
 
 def _metallic_roughness(t: Table) -> MetallicRoughnessMaterial:
@@ -146,7 +152,7 @@ def _metallic_roughness(t: Table) -> MetallicRoughnessMaterial:
     return MetallicRoughnessMaterial(
         t.opt("color", _COLOR, (1.0, 1.0, 1.0) if texture is not None else default.color), texture,
         t.opt("metallic", f.number(f.UNIT), default.metallic), t.opt("roughness", f.number(f.UNIT), default.roughness),
-        t.opt("emissive", _RADIANCE, default.emissive), **_alpha(t))
+        t.opt("emissive", _RADIANCE, default.emissive), **_alpha(t), double_sided=_double_sided(t))
 
 
 def _alpha(t: Table) -> dict[str, Any]:
@@ -160,11 +166,12 @@ def _alpha(t: Table) -> dict[str, Any]:
 
 
 _MATERIALS: dict[str, Variant[Material]] = {
-    "diffuse": Variant(("color", "texture"), _diffuse),
+    "diffuse": Variant(("color", "texture", "double_sided"), _diffuse),
     "metallic_roughness": Variant(("color", "texture", "metallic", "roughness", "emissive", "alpha",
-                                          "alpha_mode", "alpha_cutoff"), _metallic_roughness),
-    "checker": Variant(("color_a", "color_b", "scale"), lambda t: CheckerMaterial(
-        t.req("color_a", _COLOR), t.req("color_b", _COLOR), t.opt("scale", _LENGTH, 1.0))),
+                                          "alpha_mode", "alpha_cutoff", "double_sided"), _metallic_roughness),
+    "checker": Variant(("color_a", "color_b", "scale", "double_sided"), lambda t: CheckerMaterial(
+        t.req("color_a", _COLOR), t.req("color_b", _COLOR), t.opt("scale", _LENGTH, 1.0),
+        double_sided=_double_sided(t))),
     "mirror": Variant(("tint", "roughness"), lambda t: MirrorMaterial(
         t.opt("tint", _COLOR, MirrorMaterial().tint), t.opt("roughness", f.number(f.UNIT), MirrorMaterial().roughness))),
     "glass": Variant(("ior", "tint"), lambda t: GlassMaterial(

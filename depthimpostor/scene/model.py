@@ -18,7 +18,7 @@ from typing import Protocol, TypeVar
 import numpy as np
 
 from depthimpostor.colour import TONE_MAPPINGS
-from depthimpostor.constants import BLEND_IMAGE_CUTOFF, MAX_ANALYTIC_PLANES, SAMPLE_OFFSETS
+from depthimpostor.constants import BLEND_IMAGE_CUTOFF, MAX_ANALYTIC_PLANES, SAMPLE_OFFSETS, Sides
 from depthimpostor.meshes import Mesh
 from depthimpostor.scene.fields import (
     RESOLUTION, SIZE, TRIANGLE_TARGET, UNIT, At, Bounds, Reader, Vec3, choice, number, word_or,
@@ -357,6 +357,12 @@ class DiffuseMaterial:
     # An image texture (the per-vertex UVs are the object's mesh.uvs): the albedo is `color` times
     # its texel. Compared by identity.
     texture: Texture | None = None
+    # glTF's doubleSided (docs/scene_format.md, "Faces"): True, both faces are drawn, a back face
+    # shaded with its normal (and normal map's frame) turned toward the viewer; False, a back face
+    # is not there (the eye's passes and the bakes cull it, a ray meeting it from behind passes
+    # through). A glTF material says (false where it is not written). None (TOML's and code's
+    # default, as their surfaces always were): both faces there, a back face shaded as the front.
+    double_sided: bool | None = dataclasses.field(default=None, kw_only=True)
 
 
 @dataclass(frozen=True)
@@ -425,6 +431,7 @@ class CheckerMaterial:
     color_a: Vec3
     color_b: Vec3
     scale: float = 1.0  # the side of one square, in world units
+    double_sided: bool | None = dataclasses.field(default=None, kw_only=True)  # as DiffuseMaterial's
 
 
 @dataclass(frozen=True)
@@ -451,6 +458,19 @@ class GlassMaterial:
 
 
 Material = DiffuseMaterial | CheckerMaterial | MirrorMaterial | GlassMaterial
+
+
+def material_sides(material: Material) -> Sides:
+    """Which faces of `material`'s surfaces are there and how a back face is shaded (its
+    double_sided). Mirrors and glass: both, as the front (a mirror's back is its backing, shaded
+    by its own rule; glass has an inside)."""
+    sided = material.double_sided if isinstance(material, (DiffuseMaterial, CheckerMaterial)) else None
+    return Sides.AS_FRONT if sided is None else Sides.DOUBLE if sided else Sides.SINGLE
+
+
+def single_sided(material: Material) -> bool:
+    """Is `material` single-sided (glTF's doubleSided false): are its back faces not there?"""
+    return material_sides(material) == Sides.SINGLE
 
 
 def axis_rotation(axis: int, degrees: float) -> np.ndarray:

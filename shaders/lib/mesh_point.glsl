@@ -35,3 +35,16 @@ MeshPoint mesh_point(vec2 uv) {
 #endif
     return point;
 }
+
+#ifdef DOUBLE_SIDED
+// glTF's doubleSided: a back face of a double-sided material is shaded as the front face of the
+// surface turned round: its normal turned, and the normal map's frame with it (the tangent and the
+// bitangent's sign turned too, so that lib/shading.glsl's mapped_normal turns whole, as
+// glTF-Sample-Viewer and three.js turn T, B and N). oracles/mesh_points.py's turned_to_back.
+void turn_to_back(inout vec3 normal, inout MeshPoint point) {
+    normal = -normal;
+#ifdef NORMAL_MAP
+    point.tangent = -point.tangent;
+#endif
+}
+#endif

@@ -222,6 +222,18 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
 #ifdef ALPHA_MASK
             if (material_masked(material, point)) continue;  // cut away: the ray goes on
 #endif
+            // glTF's doubleSided: met from behind, a single-sided plane is not there, a
+            // double-sided one is shaded turned round (its normal: `plane.normal` is outward).
+            vec3 normal = plane.normal;
+#if defined(SINGLE_SIDED) || defined(DOUBLE_SIDED)
+            bool from_behind = dot(plane.normal, direction) > 0.0;
+#endif
+#ifdef SINGLE_SIDED
+            if (from_behind && material.double_sided == SIDES_SINGLE) continue;
+#endif
+#ifdef DOUBLE_SIDED
+            if (from_behind && material.double_sided == SIDES_DOUBLE) turn_to_back(normal, point);
+#endif
             vec3 albedo = material_albedo(material, p, point);
 #ifdef GLOSSY
             // A glossy mirror's cone: the checker box-filtered over its footprint on the plane.
@@ -230,7 +242,7 @@ RayHit nearest_plane_hit(vec3 origin, vec3 direction) {
                 albedo = mix(material.color_a, material.color_b, share);
             }
 #endif
-            best = unlit_hit(t, p.xz, albedo, plane.normal, plane.material, point, float(plane.object_id), 0);
+            best = unlit_hit(t, p.xz, albedo, normal, plane.material, point, float(plane.object_id), 0);
         }
     }
     return best;

@@ -56,7 +56,8 @@ bool ray_meets_box(vec3 origin, vec3 inverse_direction, vec3 lower, vec3 upper, 
 }
 
 // Moller-Trumbore; returns t (or -1) and the barycentrics (u, v) of p1 and p2. Triangles are
-// two-sided: a reflected ray may meet a back face of an open mesh, and Embree's truth does too.
+// two-sided here: a reflected ray may meet a back face of an open mesh, and Embree's truth does
+// too (a single-sided material's are passed by where the traversal meets them: nearest_in_mesh).
 float ray_triangle(vec3 origin, vec3 direction, vec3 p0, vec3 p1, vec3 p2, out vec2 uv) {
     vec3 edge1 = p1 - p0, edge2 = p2 - p0;
     vec3 p = cross(direction, edge2);
@@ -141,6 +142,11 @@ RayHit triangle_hit(vec3 origin, vec3 direction, int slot, int i, float t, vec2 
                          determinant(local_to_world) < 0.0 ? -point.tangent.w : point.tangent.w);
 #endif
     vec3 albedo = material_albedo(material, (object.world_to_local * vec4(position, 1.0)).xyz, point);
+#ifdef DOUBLE_SIDED
+    // glTF's doubleSided: a back face met is shaded turned round (a single-sided one's is never met).
+    if (material.double_sided == SIDES_DOUBLE && dot(triangle_normal(i), mat3(object.world_to_local) * direction) > 0.0)
+        turn_to_back(normal, point);
+#endif
     return unlit_hit(t, uv, albedo, normal, object.ids.x, point, float(object.ids.y), samples);
 }
 
@@ -148,7 +154,8 @@ RayHit triangle_hit(vec3 origin, vec3 direction, int slot, int i, float t, vec2 
 // through the mesh's hierarchy from node `root`: depth-first through the skip links (bvh.py), into
 // an inner node's left child when the ray meets its box, else past its subtree; the root's skip
 // link (-1) ends the walk. A triangle found updates best_* (best_slot: `slot`). ALPHA_MASK: a
-// point the instance's `material` cuts away (glTF's alphaMode MASK) is passed through.
+// point the instance's `material` cuts away (glTF's alphaMode MASK) is passed through; SINGLE_SIDED:
+// so is a back face of a single-sided material (glTF's doubleSided false: it is not there).
 void nearest_in_mesh(int root, int slot, int material, vec3 origin, vec3 direction, inout float best_t,
                      inout vec2 best_uv, inout int best_triangle, inout int best_slot, inout int visited) {
     vec3 inverse_direction = 1.0 / direction;
@@ -172,6 +179,9 @@ void nearest_in_mesh(int root, int slot, int material, vec3 origin, vec3 directi
             vec2 uv;
             float t = intersect_triangle(origin, direction, i, uv);
             if (t > 0.0 && t < best_t) {
+#ifdef SINGLE_SIDED
+                if (u_materials[material].double_sided == SIDES_SINGLE && dot(triangle_normal(i), direction) >= 0.0) continue;
+#endif
 #ifdef ALPHA_MASK
                 if (material_masked(u_materials[material], triangle_point(i, uv))) continue;
 #endif
