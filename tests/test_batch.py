@@ -14,9 +14,7 @@ import math
 import os
 import signal
 import sys
-import time
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +36,7 @@ from depthimpostor.errors import SceneError
 WORKERS = 2
 
 pytestmark = pytest.mark.xdist_group("ray")
-ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # HeldOn, below  # one pytest process holds the Ray (pyproject's --dist loadgroup)
+ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # one pytest process holds the Ray (pyproject's --dist loadgroup)
 
 
 @pytest.fixture(scope="module")
@@ -195,63 +193,6 @@ def test_a_stopped_batch_resumes_where_it_stopped(pool: RayPool, tmp_path: Path)
 
 def _alive_nodes() -> set[str]:
     return {node["NodeID"] for node in ray.nodes() if node["Alive"]}
-
-
-@dataclass(frozen=True)
-class HeldOn:
-    """A frame (worker.Task) that its worker holds, without drawing it, while it runs on `node`:
-    the node is then surely lost with frames in hand. (Sent by value, as the workers cannot
-    import the test module.)"""
-
-    frame: Frame
-    node: str
-
-    def settings(self) -> dict[str, Any]:
-        return self.frame.settings()
-
-    def run(self, worker: FrameWorker) -> dict[str, Any]:
-        while ray.get_runtime_context().get_node_id() == self.node:
-            time.sleep(0.1)  # until the node is killed with this process
-        return worker.render(self.frame)
-
-
-def _once_reachable(actor: Any) -> dict[str, Any]:
-    """The actor's identity once Ray has noticed its node's loss and made it again (seconds)."""
-    deadline = time.monotonic() + 120
-    while True:
-        try:
-            identity: dict[str, Any] = ray.get(actor.identity.remote())
-            return identity
-        except ray.exceptions.ActorUnavailableError:
-            if time.monotonic() > deadline:
-                raise
-            time.sleep(0.5)
-
-
-def test_a_node_lost_mid_batch_loses_nothing(cluster: Cluster, pool: RayPool, serial: dict[str, np.ndarray],
-                                            tmp_path: Path) -> None:
-    """The node of one of the pool's workers is killed (its raylet and every process on it, at
-    once) while the worker holds frames: Ray makes the worker again on a node with room, and the
-    frames it held are drawn there; none is lost or drawn twice. A node joins after the loss, as a
-    replacement would (the module's later tests need its CPUs)."""
-    batch = _batch(tmp_path)
-    [node] = cluster.worker_nodes  # the head node holds the driver: it cannot be lost here
-    before = set(ray.get([actor.pid.remote() for actor in pool.actors]))
-    records = []
-    for record in pool.records([HeldOn(frame, node.node_id) for frame in batch.frames]):
-        if not records:  # drawn on the head node, while the other node's worker holds its frames
-            cluster.remove_node(node, allow_graceful=False)
-            cluster.add_node(num_cpus=WORKERS)
-        records.append(record)
-    assert [r["status"] for r in records] == ["rendered"] * len(batch.frames)
-    assert sorted(r["outputs"][0] for r in records) == sorted(str(f.outputs[0]) for f in batch.frames)  # once each
-    # The frames the lost worker held were drawn by the other one meanwhile (HeldOn draws none on
-    # the lost node); the lost worker is made again on a node with room (a new process).
-    workers = [_once_reachable(actor) for actor in pool.actors]
-    assert len({w["pid"] for w in workers} - before) == 1 and all(w["node"] != node.node_id for w in workers)
-    drawn = _pictures(tmp_path)
-    for name, image in serial.items():
-        assert np.array_equal(drawn[name], image), name
 
 
 def test_a_video_on_two_workers_equals_the_serial_video(cluster: Cluster, tmp_path: Path) -> None:
