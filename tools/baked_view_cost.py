@@ -35,6 +35,7 @@ import dataclasses
 import datetime
 from pathlib import Path
 
+import moderngl
 import numpy as np
 
 from depthimpostor.constants import Method
@@ -67,9 +68,8 @@ def with_metals(scene: Scene) -> Scene | None:
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def measure(name: str, scene: Scene, methods: list[Method]) -> list[str]:
+def measure(ctx: moderngl.Context, name: str, scene: Scene, methods: list[Method]) -> list[str]:
     """The markdown rows of one scene: the two truths against each other, then each method."""
-    ctx = create_context()
     rows: list[str] = []
     truth = centred = None
     for method in methods:
@@ -120,14 +120,15 @@ def main() -> int:
         "colour RMSE, against the truth | ... against the truth seen from the centres |",
         "|---|---|---:|---:|---:|---:|",
     ]
+    ctx = create_context()
     for path in args.scenes:
         # One sample a pixel: the figures compare one set of rays (an anti-aliased frame's truth is
         # traced per sub-frame, which this tool does not need to tell the two views apart).
         scene = load_scene(path).with_overrides(size=(width, height), samples=1)
-        lines += measure(path.name, scene, methods)
+        lines += measure(ctx, path.name, scene, methods)
         metals = with_metals(scene) if args.metals else None
         if metals is not None:
-            lines += measure(f"{path.name}, gold and plastic", metals, methods)
+            lines += measure(ctx, f"{path.name}, gold and plastic", metals, methods)
     table = "\n".join(lines)
     if args.output is None:
         print(table)
