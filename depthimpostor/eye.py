@@ -37,6 +37,10 @@ _GL_LOWER_LEFT = 0x8CA1
 _GL_NEGATIVE_ONE_TO_ONE = 0x935E
 _GL_ZERO_TO_ONE = 0x935F
 _GL_DEPTH_COMPONENT32F = 0x8CAC
+_GL_READ_FRAMEBUFFER = 0x8CA8
+_GL_DRAW_FRAMEBUFFER = 0x8CA9
+_GL_DEPTH_BUFFER_BIT = 0x100
+_GL_NEAREST = 0x2600
 
 #: Without clip control: the near plane is at least this share of the far plane, so that a 24-bit
 #: depth buffer resolves w^2 / (near 2^24), about 1e-3 of the scene's size at its far end.
@@ -113,6 +117,30 @@ def make_depth_buffer(ctx: moderngl.Context, size: tuple[int, int]) -> moderngl.
         # moderngl makes DEPTH_COMPONENT24 alone; the same renderbuffer is given float storage.
         support.renderbuffer_storage(depth.glo, _GL_DEPTH_COMPONENT32F, size[0], size[1])
     return depth
+
+
+_blits: weakref.WeakKeyDictionary[moderngl.Context, tuple[Callable[..., None], Callable[..., None]]] = \
+    weakref.WeakKeyDictionary()
+
+
+def copy_depth(ctx: moderngl.Context, source: moderngl.Framebuffer, target: moderngl.Framebuffer) -> None:
+    """Copy `source`'s depth buffer into `target`'s, texel for texel (both the eye's: the same size
+    and format, as glBlitFramebuffer asks of depth), and leave `target` bound. moderngl's
+    copy_framebuffer copies colour alone, so the blit comes from GL (GL 3.0) through the loader."""
+    if ctx not in _blits:
+        bind_address, blit_address = gl_function(ctx, "glBindFramebuffer"), gl_function(ctx, "glBlitFramebuffer")
+        if not (bind_address and blit_address):
+            raise RuntimeError(f"{ctx.info['GL_RENDERER']} has no glBlitFramebuffer")
+        _blits[ctx] = (ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_uint)(bind_address),
+                       ctypes.CFUNCTYPE(None, *[ctypes.c_int] * 8, ctypes.c_uint, ctypes.c_uint)(blit_address))
+    bind, blit = _blits[ctx]
+    if source.size != target.size:
+        raise ValueError(f"copy_depth: sizes differ ({source.size} and {target.size})")
+    width, height = source.size
+    bind(_GL_READ_FRAMEBUFFER, source.glo)
+    bind(_GL_DRAW_FRAMEBUFFER, target.glo)
+    blit(0, 0, width, height, 0, 0, width, height, _GL_DEPTH_BUFFER_BIT, _GL_NEAREST)
+    target.use()  # both of GL's bindings again, as moderngl believes them
 
 
 def clear_depth(ctx: moderngl.Context) -> float:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -103,6 +103,8 @@ class RenderGraph:
         self._diffuse_key: tuple[bool, bool] | None = None  # what the diffuse pass was made for
         self.nodes: tuple[Node, ...] = ()
         self._gl_queries: tuple[moderngl.Query, ...] = ()  # the mirror pass's GL timers (_gl_timer)
+        self._stand_in_bakes: frozenset[Pass] = frozenset()  # _schedule's
+        self._early_eye = 0
         self.build()
 
     def _compile(self) -> None:
@@ -144,6 +146,7 @@ class RenderGraph:
     def _make_nodes(self) -> None:
         """The plan's nodes, in its order, each bound to this graph."""
         self.nodes = tuple(node_class(planned.stage)(self) for planned in self.plan.graph)
+        self._schedule()
 
     def _diffuse_pass(self) -> DiffusePass | None:
         """The frame's diffuse objects: with the eye's surface beside the colour where SSR reads it.
@@ -337,82 +340,122 @@ class RenderGraph:
     def draw(self, camera: PPC, unjittered: PPC, targets: FrameTargets) -> None:
         """One frame through `camera`, node by node (`unjittered`: the frame's own camera, where
         `camera` is one of its sub-pixel positions). The bakes run only for what is stale, and are
-        timed apart from the eye's passes. Times are wall-clock around `ctx.finish()`: GPU time
-        queries under-report on software rasterizers, and a finish makes the time include all the
-        work the frame queued."""
+        timed apart from the eye's passes: those the eye's first passes read (shadow maps, the
+        sky's prefilter), then those passes (the sky, the diffuse objects: `_schedule`), then the
+        stand-in's bakes, which may bake only the images the frame's rays enter, found against the
+        depth those passes left (BakedImages.aim), then the other eye passes. Times are wall-clock
+        around `ctx.finish()`: GPU time queries under-report on software rasterizers, and a finish
+        makes the time include all the work the frame queued."""
         stats, frame = self.stats, Frame(camera, unjittered, targets)
         self.environment.use()  # an equirect sky's image: bakes see it too
         self.textures.use(self.world.scene)  # the image textures: baked images show them too
         self.scene_blocks.bind()  # the lights and planes: bakes shade with them too
         if self.shadow_maps is not None:  # bound for every pass that shades, bakes included
             self.shadow_maps.use()
-        baked = self.baked_images
-        if baked is not None:  # which stale images this frame's rays may enter (the others wait)
-            baked.aim(None if self.show_samples else camera, targets.surfaces, self._occluders(camera))
-        bakes = [node for node in self.nodes if node.bakes and node.stale()]  # all asked before any runs
-        if bakes:
-            self.ctx.finish()
-            start = time.perf_counter()
-            for node in bakes:
-                self._run(node, frame)
-            self.ctx.finish()
-            stats.bake_seconds.append(time.perf_counter() - start)
-
-        timed = self.options.time_mirror_pass
         eye_nodes = [node for node in self.nodes if not node.bakes]
-        # Where the mirror pass begins (the first node of its time), where it is timed apart.
-        split = next((i for i, node in enumerate(eye_nodes) if node.mirror_time), len(eye_nodes)) if timed \
-            else len(eye_nodes)
+        early, rest = eye_nodes[:self._early_eye], eye_nodes[self._early_eye:]
+        first_bakes = self._bakes([node for node in self.nodes if node.bakes and node.stage not in self._stand_in_bakes],
+                                  frame)
         self.ctx.finish()
         start = time.perf_counter()
         targets.framebuffer.use()
         targets.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=clear_depth(self.ctx))
         targets.color_framebuffer.use()
+        with eye_depth(self.ctx), self._gl_timer(0):
+            for node in early:
+                self._run(node, frame)
+        self.ctx.finish()
+        draw_seconds = time.perf_counter() - start
+        baked = self.baked_images
+        if baked is not None:  # which stale images this frame's rays may enter (the others wait)
+            baked.aim(None if self.show_samples else camera, targets.surfaces, self._behind_frame())
+        stand_in_bakes = self._bakes([node for node in self.nodes if node.stage in self._stand_in_bakes], frame)
+        if first_bakes is not None or stand_in_bakes is not None:  # one entry a frame that baked
+            stats.bake_seconds.append((first_bakes or 0.0) + (stand_in_bakes or 0.0))
+
+        timed = self.options.time_mirror_pass
+        # Where the mirror pass begins (the first node of its time), where it is timed apart.
+        split = next((i for i, node in enumerate(rest) if node.mirror_time), len(rest)) if timed else len(rest)
+        self.ctx.finish()
+        start = time.perf_counter()
+        targets.color_framebuffer.use()
         mirror_start: float | None = None  # when the mirror pass began, where it is timed apart
         with eye_depth(self.ctx):
-            with self._gl_timer(0):
-                for node in eye_nodes[:split]:
+            with self._gl_timer(1):
+                for node in rest[:split]:
                     self._run(node, frame)
-            if split < len(eye_nodes):
+            if split < len(rest):
                 self.ctx.finish()
                 mirror_start = time.perf_counter()
-                with self._gl_timer(1):
-                    for node in eye_nodes[split:]:
+                with self._gl_timer(2):
+                    for node in rest[split:]:
                         self._run(node, frame)
         self.ctx.finish()
         end = time.perf_counter()
-        stats.draw_seconds.append(end - start)
+        stats.draw_seconds.append(draw_seconds + end - start)
         if timed:
             stats.mirror_seconds.append(end - mirror_start if mirror_start is not None else 0.0)
-            eye, mirror = (query.elapsed / 1e9 for query in self._gl_queries)
+            first, before_mirror, mirror = (query.elapsed / 1e9 for query in self._gl_queries)
             mirror = mirror if mirror_start is not None else 0.0
-            stats.gl_draw_seconds.append(eye + mirror)
+            stats.gl_draw_seconds.append(first + before_mirror + mirror)
             stats.gl_mirror_seconds.append(mirror)
         stats.frames += 1
         stats.sub_frames += 1
 
+    def _bakes(self, nodes: list[Node], frame: Frame) -> float | None:
+        """Run the stale ones of `nodes` (bakes; each asked before any runs: a bake may make
+        another fresh); the seconds they took, None where none was stale."""
+        stale = [node for node in nodes if node.stale()]
+        if not stale:
+            return None
+        self.ctx.finish()
+        start = time.perf_counter()
+        for node in stale:
+            self._run(node, frame)
+        self.ctx.finish()
+        return time.perf_counter() - start
+
+    def _schedule(self) -> None:
+        """Which bakes wait for the eye's first passes, and which passes those are: the stand-in's
+        bake and every bake that reads what it writes (bounce images, pyramids, colour mips) run
+        after the frame's first eye passes that read none of it (the sky, the diffuse objects),
+        so that the stand-in may bake only what the frame's rays enter, found against the depth
+        those passes drew (BakedImages.aim), instead of drawing the diffuse objects twice. The
+        order is the plan's reads and writes (graph.py), not a list of passes; the first eye
+        passes end before the mirror pass at the latest."""
+        waiting: set[Pass] = set()
+        written: set[str] = set()
+        for planned in self.plan.graph:
+            if node_class(planned.stage).bakes and (planned.stage is Pass.STAND_IN or written & set(planned.reads)):
+                waiting.add(planned.stage)
+                written.update(planned.writes)
+        eye = [node_class(planned.stage) for planned in self.plan.graph if not node_class(planned.stage).bakes]
+        reads = [set(planned.reads) for planned in self.plan.graph if not node_class(planned.stage).bakes]
+        self._stand_in_bakes = frozenset(waiting)
+        # No further than the mirror pass, whose time (GraphOptions.time_mirror_pass) is its own.
+        self._early_eye = next((i for i, (node, read) in enumerate(zip(eye, reads, strict=True))
+                                if written & read or node.mirror_time), len(eye))
+
     @contextmanager
     def _gl_timer(self, index: int) -> Iterator[None]:
-        """A GL time query around part `index` of the eye's passes (0: before the mirror pass, 1:
-        the mirror pass), where the mirror pass is timed; else nothing. Two queries in turn rather
-        than one around the frame and one inside it: GL runs one time query at a time."""
+        """A GL time query around part `index` of the eye's passes (0: those before the stand-in's
+        bakes, 1: the others before the mirror pass, 2: the mirror pass), where the mirror pass is
+        timed; else nothing. Queries in turn rather than one around the frame and one inside it:
+        GL runs one time query at a time."""
         if not self.options.time_mirror_pass:
             yield
             return
         if not self._gl_queries:  # moderngl's queries live as long as their context: made once
-            self._gl_queries = (self.ctx.query(time=True), self.ctx.query(time=True))
+            self._gl_queries = (self.ctx.query(time=True), self.ctx.query(time=True), self.ctx.query(time=True))
         with self._gl_queries[index]:
             yield
 
-    def _occluders(self, camera: PPC) -> Callable[[], object] | None:
-        """What hides mirror pixels in a frame through `camera`: the diffuse node's draw as it runs
-        it (BakedImages.aim), where the frame's mirror pixels are those it leaves (not the sample
-        view's frame, nor SSR's, whose diffuse pass writes the eye's surface too)."""
-        diffuse = self.diffuse
-        if diffuse is None or self.show_samples or self.seen_from_eye is not None:
-            return None
-        drawn = self.world.opaque_diffuse
-        return lambda: diffuse.draw(drawn, camera.view_projection)
+    def _behind_frame(self) -> bool:
+        """Does the frame's depth, as the eye's first passes left it (`_schedule`), hide the mirror
+        pixels the frame will hide (BakedImages.aim)? Where the diffuse pass drew the frame's
+        objects (not the sample view's samples, nor SSR's frame, whose diffuse pass writes the eye's
+        surface too). The passes after it only draw nearer: no pixel it hides is uncovered."""
+        return self.diffuse is not None and not self.show_samples and self.seen_from_eye is None and self._early_eye > 0
 
     def _run(self, node: Node, frame: Frame) -> None:
         """A node run, and counted in the stats' passes where it did anything."""

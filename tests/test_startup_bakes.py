@@ -44,7 +44,7 @@ position = [0.0, 0.8, 0.0]
 """
 
 
-def textured_ring(folder: Path, count: int) -> Scene:
+def textured_ring(folder: Path, count: int, extra: str = "") -> Scene:
     """`count` small objects in rings about a mirror sphere, each checkered in a colour of its own
     (every record of a table past MATERIAL_BLOCK_RECORDS read: a wrong one shows another colour),
     every fifth textured with an "F" in a colour factor of its own (a texture seen the wrong way
@@ -66,7 +66,7 @@ def textured_ring(folder: Path, count: int) -> Scene:
         text += (f'[[objects]]\nname = "object {k}"\nshape = {shape}\nmaterial = {material}\n'
                  f"position = [{ring * math.cos(angle):.4f}, {0.1 + 0.05 * (k % 7):.4f}, {ring * math.sin(angle):.4f}]\n"
                  f"rotation = [0.0, {(37.0 * k) % 360:.1f}, 0.0]\n")
-    return scene_from_toml(text, str(folder / "ring.toml"), folder)
+    return scene_from_toml(text + extra, str(folder / "ring.toml"), folder)
 
 
 def baked_atlas(ctx: moderngl.Context, scene: Scene, method: Method) -> tuple[list[bytes], np.ndarray, list[str]]:
@@ -169,3 +169,32 @@ def test_a_frame_that_sees_what_the_last_saw_runs_no_second_pass(ctx: moderngl.C
         baked.move({g.index: g for g in world.geometry}, {world.reflected_objects[0].index}, set())
         renderer.render()
         assert len(calls) == 2 and not baked.stale and baked.bakes >= len(baked.depth_images)
+
+
+def test_a_lazy_frame_draws_its_diffuse_objects_once(ctx: moderngl.Context, tmp_path: Path,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """The images a frame's rays enter are found behind the frame's own depth: the render graph
+    runs the eye's diffuse pass before the stand-in's bake (render_graph._schedule), so the
+    diffuse objects are drawn once a frame, not a second time for the finding pass; and the
+    finding pass still sees them: a board between the eye and half the mirror leaves fewer images
+    entered than with every mirror pixel counted."""
+    scene = textured_ring(tmp_path, 300, '[[objects]]\nname = "board"\nshape = { type = "box", size = [0.6, 1.0, 0.05] }\n'
+                                         'material = { type = "diffuse", color = [0.5, 0.5, 0.5] }\n'
+                                         'position = [0.3, 1.3, 3.0]\n')
+    drawn_by: list[object] = []
+    draw = diffuse.DiffusePass.draw
+    monkeypatch.setattr(diffuse.DiffusePass, "draw",
+                        lambda self, *args, **kwargs: drawn_by.append(self) or draw(self, *args, **kwargs))
+    with Renderer(ctx, scene) as renderer:
+        graph, baked = renderer.graph, renderer.graph.baked_images
+        assert baked is not None and baked.lazily
+        renderer.render()
+        assert sum(owner is graph.diffuse for owner in drawn_by) == 1
+        behind = baked.bakes
+    find = EnteredImages.find
+    monkeypatch.setattr(EnteredImages, "find", lambda self, camera, surfaces, mirrors, behind_frame=False:
+                        find(self, camera, surfaces, mirrors, False))
+    with Renderer(ctx, scene) as renderer:
+        renderer.render()
+        assert renderer.graph.baked_images is not None
+        assert behind < renderer.graph.baked_images.bakes, "the frame's diffuse objects hid no mirror pixel"

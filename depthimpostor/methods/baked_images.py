@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import builtins
 import math
-from collections.abc import Callable
 from collections import Counter
 from enum import Enum
 from typing import ClassVar, NamedTuple
@@ -173,11 +172,11 @@ class BakedImages:
         return (cls.per_object and images > 0 and lists_images(depth_image_capacity(len(scene.objects)))
                 and not scene.has_rough_mirrors and not scene.glass and scene.render.max_bounces == 1)
 
-    def aim(self, camera: PPC | None, surfaces: Surfaces | None, occluders: Callable[[], object] | None = None) -> None:
+    def aim(self, camera: PPC | None, surfaces: Surfaces | None, behind_frame: bool = False) -> None:
         """The next bake renders the stale images whose bounds a reflected ray of a frame through
         `camera` may enter (every stale one where this stand-in does not bake lazily, or without a
-        camera: the sample view, which draws every image); the others stay stale. `occluders`:
-        what the frame draws before its mirrors (EnteredImages.find)."""
+        camera: the sample view, which draws every image); the others stay stale. `behind_frame`:
+        the frame's depth holds what it draws before its mirrors (EnteredImages.find)."""
         if not self.lazily or camera is None or surfaces is None or not self.stale:
             self.due = None
             self._aimed_at = None
@@ -193,7 +192,7 @@ class BakedImages:
         tables = [(mirror, self.uniform_buffers[mirror.index], self.images_at(mirror.index, self.final_level))
                   for mirror in self._mirrors]
         found = self.entered.find(camera, surfaces, [(mirror, buffer, len(images)) for mirror, buffer, images in tables],
-                                  occluders)
+                                  behind_frame)
         self.due = {images[int(i)].slot for (_, _, images), entered in zip(tables, found, strict=True) for i in entered}
 
     @property

@@ -21,13 +21,11 @@ anti-aliased frame asks with its own camera.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import moderngl
 import numpy as np
 
 from ..constants import depth_image_defines
-from ..eye import clear_depth, eye_depth, make_depth_buffer
+from ..eye import clear_depth, copy_depth, eye_depth, make_depth_buffer
 from ..geometry import ObjectGeometry
 from ..gpu.bindings import STORAGE_ENTERED_IMAGES, StorageBuffer, TextureUnit, UniformBlock
 from ..gpu.gl_state import NO_DEPTH_TEST, raster_state
@@ -79,7 +77,8 @@ class EnteredImages:
         return 4 * words_for(capacity) * max(mirrors, 1) + 4 * size[0] * size[1]
 
     def _target(self, surfaces: Surfaces) -> moderngl.Framebuffer:
-        """The surface targets with this pass's own depth buffer (the frame's is not drawn yet)."""
+        """The surface targets with this pass's own depth buffer (the mirrors drawn here must not
+        write the frame's, which the mirror pass tests them against)."""
         size = surfaces.framebuffer.size
         if self.framebuffer is None or self.framebuffer.size != size or self.framebuffer.color_attachments[0] is not \
                 surfaces.framebuffer.color_attachments[0]:
@@ -90,28 +89,28 @@ class EnteredImages:
         return self.framebuffer
 
     def find(self, camera: PPC, surfaces: Surfaces, mirrors: list[tuple[ObjectGeometry, moderngl.Buffer, int]],
-             occluders: Callable[[], object] | None = None) -> list[np.ndarray]:
+             behind_frame: bool = False) -> list[np.ndarray]:
         """For each of `mirrors` (the mirror, the buffer of its record table, its image count): the
         indices in its table of the images a pixel's reflected ray through `camera` may enter.
-        `occluders` draws, into the framebuffer bound, what the frame draws before its mirrors (the
-        eye's diffuse pass, as that pass draws it: the same depths), so that a mirror pixel hidden
-        in the frame is hidden here too; without it every pixel a mirror covers counts."""
+        `behind_frame`: the mirrors are drawn behind the frame's depth as it is now (the eye's
+        passes drawn before the mirrors: the render graph runs them before the bake), a copy of
+        it, so that a mirror pixel hidden in the frame is hidden here too; without it every pixel
+        a mirror covers counts."""
         framebuffer = self._target(surfaces)
         assert self.marking is not None
         stamp = surfaces.next_frame()  # the mirror pass's own draw takes the next: these texels read as cleared
+        if behind_frame:  # the frame's depth: surfaces.framebuffer's depth attachment is the frame's
+            copy_depth(self.ctx, surfaces.framebuffer, self.marking)
+        else:
+            self.marking.use()
+            self.marking.clear(depth=clear_depth(self.ctx))
         framebuffer.use()
-        framebuffer.clear(depth=clear_depth(self.ctx))
         write(self.surface_program, "u_surface_stamp", stamp)
         # Drawn as the frame's eye passes draw them (their depth convention): the same fragments.
-        with eye_depth(self.ctx):
-            if occluders is not None:
-                self.marking.use()  # their depth alone
-                occluders()
-                framebuffer.use()
-            with raster_state(self.ctx, REFLECTORS):
-                for item, _, _ in mirrors:
-                    write(self.surface_program, "u_mirror_id", item.index)
-                    self.meshes.draw(self.surface_program, item, camera.view_projection)
+        with eye_depth(self.ctx), raster_state(self.ctx, REFLECTORS):
+            for item, _, _ in mirrors:
+                write(self.surface_program, "u_mirror_id", item.index)
+                self.meshes.draw(self.surface_program, item, camera.view_projection)
         self.marking.use()
         surfaces.use()
         self.bits.clear()
