@@ -111,7 +111,7 @@ LIMITS = [
     ("object around a mirror's centre", lambda _: load_scene(SCENES / "hard" / "surrounds.toml"), Method.DEPTH,
      'object "ring" surrounds or touches the centre of mirror "mirror"'),
     ("object around a cube map's centre", lambda _: load_scene(SCENES / "hard" / "surrounds.toml"), Method.CUBEMAP,
-     'surrounds or touches the centre of mirror "mirror"'),
+     'reaches the centre of mirror "mirror": a cube map taken from there would cut through it'),
     ("light among its casters", lambda _: scene(HEAD.replace('type = "directional"\ndirection = [-0.4, -1.0, -0.3]',
                                                             'type = "point"\nposition = [-3.8, 0.2, 2.0]\nshadows = "hard"')
                                                 + WALL_MIRROR + balls(3, 2.0)),
