@@ -43,6 +43,11 @@ RETRIES = 3
 #: Seconds between questions to a worker that could not be reached (its node lost), while Ray
 #: notices the loss and makes the worker again elsewhere.
 UNREACHABLE_PAUSE = 0.5
+#: Seconds the pool waits with every worker it has left unreachable and no frame drawing before it
+#: fails the frames left ("no worker reachable"): Ray notices a lost node in about half a minute
+#: and makes its workers again on a node with room within seconds of that; a cluster with no room
+#: left, or a worker Ray never makes again, would otherwise keep the batch waiting for ever.
+UNREACHABLE_LIMIT = 300.0
 #: The `batch` extra: what to install when Ray is missing.
 RAY_HINT = 'pip install "depthimpostor[batch]" (Ray); or --workers 0 to render in this process'
 
@@ -151,6 +156,7 @@ class RayPool(FramePool):
         unreachable: dict[Any, Any] = {}  # a call asking an unreachable actor whether it is back: the actor
         load = {id(actor): 0 for actor in self.actors}
         actors = list(self.actors)
+        stalled_since: float | None = None  # since when no frame is drawing and every worker is unreachable
         while waiting or held:
             asked = set(map(id, unreachable.values()))
             for actor in (actor for actor in actors if id(actor) not in asked):
@@ -162,6 +168,12 @@ class RayPool(FramePool):
             if not held and not unreachable:  # every worker died: what is left cannot be drawn
                 for _, frame in waiting:
                     yield {**frame.settings(), "status": FAILED, "error": "no worker left (every one died)"}
+                return
+            stalled_since = None if held else stalled_since if stalled_since is not None else time.monotonic()
+            if stalled_since is not None and time.monotonic() - stalled_since > UNREACHABLE_LIMIT:
+                for _, frame in waiting:
+                    yield {**frame.settings(), "status": FAILED,
+                           "error": f"no worker reachable for {UNREACHABLE_LIMIT:.0f} s (their machines lost)"}
                 return
             [done], _ = ray.wait([*held, *unreachable], num_returns=1)
             if done in unreachable:
