@@ -116,6 +116,13 @@ class ObjectGeometry:
         return np.linalg.inv(self.model_matrix[:3, :3]).T
 
     @cached_property
+    def determinant(self) -> float:
+        """Of the model matrix's linear part: negative where it mirrors (the GPU winds its
+        triangles the other way). Asked by each pass and image that draws the object: a cube
+        map's twelve faces ask it of every object."""
+        return float(np.linalg.det(self.model_matrix[:3, :3]))
+
+    @cached_property
     def world_mesh(self) -> Mesh:
         return self.local_mesh.transformed(self.model_matrix)
 

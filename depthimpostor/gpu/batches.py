@@ -41,7 +41,7 @@ def is_closed(item: ObjectGeometry) -> bool:
     (the GPU draws its triangles wound the other way) nor with a texture (the round shapes'
     textured meshes have a seam whose two columns of vertices are rounded apart)."""
     return (isinstance(item.object.shape, CLOSED_SHAPES) and getattr(item.object.material, "texture", None) is None
-            and float(np.linalg.det(item.model_matrix[:3, :3])) > 0.0)
+            and item.determinant > 0.0)
 
 
 def face_class(item: ObjectGeometry) -> int:
@@ -50,7 +50,7 @@ def face_class(item: ObjectGeometry) -> int:
     false, whose inward faces are not there); 2 the outward ones of a single-sided material under
     a mirroring model matrix, which winds them the other way on the screen."""
     if single_sided(item.object.material):
-        return 2 if float(np.linalg.det(item.model_matrix[:3, :3])) < 0.0 else 1
+        return 2 if item.determinant < 0.0 else 1
     return int(is_closed(item))
 
 
