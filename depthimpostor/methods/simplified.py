@@ -5,7 +5,8 @@ method's two-level BVH and traversal.
 Decimation is fast-simplification's quadric edge collapse (a well-kept wrapper of Sven Forstmann's
 Fast-Quadric-Mesh-Simplification), to at most `render.simplified_triangles` triangles per object.
 Our meshes duplicate vertices along creases and seams (a box has 24), which would cut the surface
-into patches that collapse independently, so positions are welded first (trimesh). The result's
+into patches that collapse independently, so positions are welded first (`welded`: trimesh's
+merge of vertices, done in numpy to spare the import). The result's
 normals are smoothed across edges and split at creases sharper than 30 degrees: smooth where the
 surface was smooth, flat faces staying flat. (trimesh.graph.smooth_shade does the same but needs
 scipy or networkx for its graph search, a heavy dependency for twenty lines of numpy.)
@@ -35,17 +36,41 @@ def simplified_mesh(mesh: Mesh, target_triangles: int) -> Mesh:
     64-sided cylinder (long thin sides, one ring at each end) stays at its 256 triangles."""
     if len(mesh.indices) <= target_triangles:
         return mesh
-    # Imported here: only a scene with meshes to decimate needs them, and trimesh (with scipy and
-    # networkx) takes longer to import than the rest of the package (issue 24, start-up).
+    # Imported here: only a scene with meshes to decimate needs it.
     import fast_simplification
-    import trimesh
 
-    welded = trimesh.Trimesh(mesh.positions, mesh.indices, process=True)
-    points, faces = fast_simplification.simplify(
-        np.asarray(welded.vertices, np.float64), np.asarray(welded.faces, np.int32), target_count=target_triangles
-    )
+    vertices, welded_faces = welded(mesh.positions, mesh.indices)
+    points, faces = fast_simplification.simplify(vertices, welded_faces.astype(np.int32), target_count=target_triangles)
     simplified = crease_shaded(np.asarray(points, np.float64), np.asarray(faces, np.int64))
     return simplified if mesh.uvs is None and not mesh.extra_attributes else with_carried_uvs(mesh, mesh.uvs, simplified)
+
+
+#: Decimal digits of a position that welding compares: trimesh's merge tolerance (tol.merge = 1e-8).
+WELD_DIGITS = 8
+
+
+def welded(positions: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh with its vertices of one position merged: (float64 vertices, int64 faces), the
+    arrays `trimesh.Trimesh(positions, indices, process=True)` makes, to the bit (its
+    merge_vertices: positions times 10^WELD_DIGITS rounded to integers, the referenced vertices
+    kept in the order they first occur). Done here because importing trimesh (with scipy) took
+    longer than the rest of a 1,000-object scene's start-up (issue 32); tests/test_simplified.py
+    holds it against trimesh. Non-finite positions (which trimesh would drop first) are not welded."""
+    points = np.asarray(positions, np.float64)
+    faces = np.asarray(indices, np.int64).reshape(-1, 3)
+    if len(points) == 0 or len(faces) == 0 or not np.isfinite(points).all():
+        return points, faces
+    referenced = np.zeros(len(points), dtype=bool)
+    referenced[faces] = True
+    keys = np.round(points * 10**WELD_DIGITS).astype(np.int64)[referenced]
+    _, first, group = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)  # the groups in the order their first vertex occurs
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    inverse = np.zeros(len(points), dtype=np.int64)
+    inverse[referenced] = rank[group.reshape(-1)]
+    kept = np.flatnonzero(referenced)[first[order]]
+    return points[kept], inverse[faces]
 
 
 def with_carried_uvs(original: Mesh, original_uvs: np.ndarray | None, simplified: Mesh) -> Mesh:
