@@ -2,8 +2,9 @@
 with the named resources it reads and writes, as its node class declares them (node.py). Built
 from the plan, checked (every resource read has been written by an earlier pass, or is the frame's
 own cleared target), printed by `depthimpostor plan`, and run node by node by the render graph
-(render_graph.py), so that what runs is what the plan says. This is not a scheduler: about ten
-nodes in a fixed order, the order of `NODES`.
+(render_graph.py), so that what runs is what the plan says (but for the sample view, whose diffuse
+pass draws the baked images' samples: its frames run the bakes first). This is not a scheduler:
+about ten nodes in a fixed order, the order of `NODES`.
 """
 
 from __future__ import annotations
@@ -29,17 +30,21 @@ from .passes.transparent import TransparentNode
 __all__ = ["FRAME", "NODES", "GraphError", "Pass", "RenderNode", "build_graph", "check_graph", "format_graph",
            "in_order", "node_class"]
 
-#: Every node class, in the order a frame runs them: the bakes, then the eye's passes.
+#: Every node class, in the order a frame runs them. The bakes run only when stale, and are timed
+#: apart from the eye's passes (render_graph.py); the stand-in's bake and those that read what it
+#: writes come after the eye's passes that read none of it (the sky, the diffuse objects), so that
+#: a frame finds the images its reflected rays enter behind its own depth and bakes those alone
+#: (methods/entered_images.py) instead of drawing its diffuse objects a second time to find them.
 NODES: tuple[type[Node], ...] = (
     DeformNode,  # as the world moves, before the stand-in follows it (its BVH refit reads the meshes)
     EnvironmentLightingNode,  # before anything that shades a metallic-roughness surface, bakes included
     ShadowMapsNode,  # before anything that shades: the baked images show shadows too
+    EnvironmentNode,
+    DiffuseNode,
     StandInNode,
     BouncesNode,
     PyramidsNode,
     ColourMipsNode,
-    EnvironmentNode,
-    DiffuseNode,
     EyeImagesNode,
     GlassInteriorsNode,
     ReflectorsNode,

@@ -104,8 +104,9 @@ class Node(ABC):
     stage: ClassVar[Pass]
     #: When it runs, as `depthimpostor plan` says.
     when: ClassVar[str]
-    #: A bake: it runs before the eye's passes, once per frame, and only when `stale`; the eye's
-    #: passes run every frame (every sub-frame with anti-aliasing).
+    #: A bake: it runs before the eye's passes that read what it writes (graph.NODES orders them),
+    #: once per frame, only when `stale`, and timed apart; the eye's passes run every frame (every
+    #: sub-frame with anti-aliasing).
     bakes: ClassVar[bool] = False
     #: Part of the mirror pass's time (GraphOptions.time_mirror_pass): it begins at the first such node.
     mirror_time: ClassVar[bool] = False
@@ -124,7 +125,7 @@ class Node(ABC):
         """The resources it writes (without `facts.made`: see GraphFacts.written)."""
 
     def stale(self) -> bool:
-        """Has a bake anything to do this frame? Asked of every bake before any runs."""
+        """Has a bake anything to do this frame? Asked of each group of bakes (render_graph.draw) before any of it runs."""
         return True
 
     @abstractmethod

@@ -338,24 +338,32 @@ class RenderGraph:
 
     # ------------------------------------------------------------------ a frame
     def draw(self, camera: PPC, unjittered: PPC, targets: FrameTargets) -> None:
-        """One frame through `camera`, node by node (`unjittered`: the frame's own camera, where
-        `camera` is one of its sub-pixel positions). The bakes run only for what is stale, and are
-        timed apart from the eye's passes: those the eye's first passes read (shadow maps, the
-        sky's prefilter), then those passes (the sky, the diffuse objects: `_schedule`), then the
-        stand-in's bakes, which may bake only the images the frame's rays enter, found against the
-        depth those passes left (BakedImages.aim), then the other eye passes. Times are wall-clock
-        around `ctx.finish()`: GPU time queries under-report on software rasterizers, and a finish
-        makes the time include all the work the frame queued."""
+        """One frame through `camera`, node by node in the plan's order (`unjittered`: the frame's
+        own camera, where `camera` is one of its sub-pixel positions): the bakes the eye's first
+        passes read (shadow maps, the sky's prefilter), those passes (the sky, the diffuse objects:
+        `_schedule`), the stand-in's bakes, which may bake only the images the frame's rays enter,
+        found against the depth those passes left (BakedImages.aim), then the other eye passes.
+        The bakes run only for what is stale, and are timed apart from the eye's passes. The sample
+        view's diffuse pass draws the baked images' samples, so its frames bake first. Times are
+        wall-clock around `ctx.finish()`: GPU time queries under-report on software rasterizers,
+        and a finish makes the time include all the work the frame queued."""
         stats, frame = self.stats, Frame(camera, unjittered, targets)
         self.environment.use()  # an equirect sky's image: bakes see it too
         self.textures.use(self.world.scene)  # the image textures: baked images show them too
         self.scene_blocks.bind()  # the lights and planes: bakes shade with them too
         if self.shadow_maps is not None:  # bound for every pass that shades, bakes included
             self.shadow_maps.use()
+        baked = self.baked_images
+        early_count = 0 if self.show_samples else self._early_eye
         eye_nodes = [node for node in self.nodes if not node.bakes]
-        early, rest = eye_nodes[:self._early_eye], eye_nodes[self._early_eye:]
-        first_bakes = self._bakes([node for node in self.nodes if node.bakes and node.stage not in self._stand_in_bakes],
-                                  frame)
+        early, rest = eye_nodes[:early_count], eye_nodes[early_count:]
+        later_bakes = [node for node in self.nodes if node.stage in self._stand_in_bakes] if early else []
+        if not later_bakes and baked is not None:  # every bake first: aimed without the frame's depth
+            baked.aim(None if self.show_samples else camera, targets.surfaces)
+        first_bakes = self._bakes([node for node in self.nodes if node.bakes and node not in later_bakes], frame)
+        # A bake may follow the first eye passes (the finish between them times the two apart).
+        pending = any(node.stale() for node in later_bakes) or (bool(later_bakes) and baked is not None
+                                                                  and bool(baked.stale))
         self.ctx.finish()
         start = time.perf_counter()
         targets.framebuffer.use()
@@ -364,21 +372,23 @@ class RenderGraph:
         with eye_depth(self.ctx), self._gl_timer(0):
             for node in early:
                 self._run(node, frame)
-        self.ctx.finish()
-        draw_seconds = time.perf_counter() - start
-        baked = self.baked_images
-        if baked is not None:  # which stale images this frame's rays may enter (the others wait)
-            baked.aim(None if self.show_samples else camera, targets.surfaces, self._behind_frame())
-        stand_in_bakes = self._bakes([node for node in self.nodes if node.stage in self._stand_in_bakes], frame)
-        if first_bakes is not None or stand_in_bakes is not None:  # one entry a frame that baked
-            stats.bake_seconds.append((first_bakes or 0.0) + (stand_in_bakes or 0.0))
+        draw_seconds = 0.0
+        later: float | None = None
+        if pending:
+            self.ctx.finish()
+            draw_seconds = time.perf_counter() - start
+            if baked is not None:  # which stale images this frame's rays may enter (the others wait)
+                baked.aim(camera, targets.surfaces, self._behind_frame())
+            later = self._bakes(later_bakes, frame)
+            self.ctx.finish()
+            start = time.perf_counter()
+            targets.color_framebuffer.use()
+        if first_bakes is not None or later is not None:  # one entry a frame that baked
+            stats.bake_seconds.append((first_bakes or 0.0) + (later or 0.0))
 
         timed = self.options.time_mirror_pass
         # Where the mirror pass begins (the first node of its time), where it is timed apart.
         split = next((i for i, node in enumerate(rest) if node.mirror_time), len(rest)) if timed else len(rest)
-        self.ctx.finish()
-        start = time.perf_counter()
-        targets.color_framebuffer.use()
         mirror_start: float | None = None  # when the mirror pass began, where it is timed apart
         with eye_depth(self.ctx):
             with self._gl_timer(1):
@@ -395,8 +405,9 @@ class RenderGraph:
         stats.draw_seconds.append(draw_seconds + end - start)
         if timed:
             stats.mirror_seconds.append(end - mirror_start if mirror_start is not None else 0.0)
-            first, before_mirror, mirror = (query.elapsed / 1e9 for query in self._gl_queries)
-            mirror = mirror if mirror_start is not None else 0.0
+            first, before_mirror = (query.elapsed / 1e9 for query in self._gl_queries[:2])
+            # A query never begun is not read (GL_INVALID_OPERATION where a driver checks).
+            mirror = self._gl_queries[2].elapsed / 1e9 if mirror_start is not None else 0.0
             stats.gl_draw_seconds.append(first + before_mirror + mirror)
             stats.gl_mirror_seconds.append(mirror)
         stats.frames += 1
@@ -416,25 +427,18 @@ class RenderGraph:
         return time.perf_counter() - start
 
     def _schedule(self) -> None:
-        """Which bakes wait for the eye's first passes, and which passes those are: the stand-in's
-        bake and every bake that reads what it writes (bounce images, pyramids, colour mips) run
-        after the frame's first eye passes that read none of it (the sky, the diffuse objects),
-        so that the stand-in may bake only what the frame's rays enter, found against the depth
-        those passes drew (BakedImages.aim), instead of drawing the diffuse objects twice. The
-        order is the plan's reads and writes (graph.py), not a list of passes; the first eye
-        passes end before the mirror pass at the latest."""
-        waiting: set[Pass] = set()
-        written: set[str] = set()
-        for planned in self.plan.graph:
-            if node_class(planned.stage).bakes and (planned.stage is Pass.STAND_IN or written & set(planned.reads)):
-                waiting.add(planned.stage)
-                written.update(planned.writes)
-        eye = [node_class(planned.stage) for planned in self.plan.graph if not node_class(planned.stage).bakes]
-        reads = [set(planned.reads) for planned in self.plan.graph if not node_class(planned.stage).bakes]
-        self._stand_in_bakes = frozenset(waiting)
-        # No further than the mirror pass, whose time (GraphOptions.time_mirror_pass) is its own.
-        self._early_eye = next((i for i, (node, read) in enumerate(zip(eye, reads, strict=True))
-                                if written & read or node.mirror_time), len(eye))
+        """Where the plan's order (graph.NODES) interleaves the bakes with the eye's passes: the
+        eye's first passes (the sky, the diffuse objects) come before the stand-in's bake and the
+        bakes that follow it, so that the stand-in may bake only what the frame's rays enter, found
+        against the depth those passes drew (BakedImages.aim)."""
+        order = list(self.plan.graph)
+        first_eye = next((i for i, planned in enumerate(order) if not node_class(planned.stage).bakes), len(order))
+        self._stand_in_bakes = frozenset(planned.stage for planned in order[first_eye:]
+                                         if node_class(planned.stage).bakes)
+        # No further than the mirror pass either, whose time (GraphOptions.time_mirror_pass) is its own.
+        later = next((i for i in range(first_eye, len(order)) if order[i].stage in self._stand_in_bakes
+                      or node_class(order[i].stage).mirror_time), len(order))
+        self._early_eye = later - first_eye
 
     @contextmanager
     def _gl_timer(self, index: int) -> Iterator[None]:

@@ -5,6 +5,7 @@ killing a node there was too slow and flaky for the suite (docs/batch.md)."""
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import SimpleNamespace
@@ -41,12 +42,24 @@ class FakeRay:
                                  RayActorError=RayActorError)
 
     @staticmethod
-    def wait(futures: list[Future], num_returns: int = 1) -> tuple[list[Future], list[Future]]:
-        return futures[:num_returns], futures[num_returns:]
+    def wait(futures: list[Future], num_returns: int = 1, timeout: float | None = None
+             ) -> tuple[list[Future], list[Future]]:
+        silent = [future for future in futures if future.answer is never]
+        answering = [future for future in futures if future.answer is not never]
+        if not answering:  # Ray's wait: none ready before the timeout (for ever without one)
+            assert timeout is not None, "ray.wait would wait for ever"
+            time.sleep(timeout)
+            return [], silent
+        return answering[:num_returns], answering[num_returns:] + silent
 
     @staticmethod
     def get(future: Future) -> Any:
         return future.answer()
+
+
+class Silent:
+    def remote(self, *args: Any) -> Future:
+        return Future(never)
 
 
 class Call:
@@ -61,13 +74,19 @@ def unreachable() -> Any:
     raise ActorUnavailableError("its node cannot be reached")
 
 
+def never() -> Any:
+    raise AssertionError("a call that never answers was read")
+
+
 class Worker:
     """An actor whose node is reachable or lost (`lost`), which records the frames it drew."""
 
-    def __init__(self, name: str, lost: bool) -> None:
+    def __init__(self, name: str, lost: bool, silent: bool = False) -> None:
         self.name, self.drawn = name, []
         self.run = Call(lambda frame: unreachable() if lost else self._draw(frame))
-        self.pid = Call(lambda: unreachable() if lost else 1)
+        # A silent worker's "are you back?" never answers (Ray queues calls to an actor it keeps
+        # making again where no node has room).
+        self.pid = Call(lambda: unreachable() if lost else 1) if not silent else Silent()
 
     def _draw(self, frame: FrameTask) -> dict[str, Any]:
         self.drawn.append(frame.number)
@@ -109,3 +128,13 @@ def test_the_pool_gives_up_when_no_worker_can_be_reached(monkeypatch: pytest.Mon
     assert sorted(record["frame"] for record in records) == list(range(5))
     assert all(record["status"] == FAILED for record in records)
     assert all("no worker reachable for" in record["error"] for record in records)
+
+
+def test_the_deadline_holds_when_a_lost_worker_never_answers(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A worker whose "are you back?" neither answers nor fails (Ray queues it): the pool's wait is
+    bounded by UNREACHABLE_LIMIT, and the frames fail instead of the batch hanging."""
+    monkeypatch.setattr(run, "UNREACHABLE_PAUSE", 0.001)
+    monkeypatch.setattr(run, "UNREACHABLE_LIMIT", 0.05)
+    records = list(pool(Worker("silent", lost=True, silent=True)).records([FrameTask(k) for k in range(3)]))
+    assert sorted(record["frame"] for record in records) == [0, 1, 2]
+    assert all(record["status"] == FAILED and "no worker reachable for" in record["error"] for record in records)

@@ -18,10 +18,20 @@ def test_every_pass_has_exactly_one_node_class_in_its_passs_module() -> None:
         assert node.__module__.split(".")[1] in ("passes", "methods"), node
 
 
-def test_the_bakes_come_first() -> None:
-    """A frame runs every bake before the eye's passes: the order printed is the order run."""
-    bakes = [node.bakes for node in NODES]
-    assert bakes == sorted(bakes, reverse=True) and any(bakes) and not all(bakes)
+def test_the_bakes_come_before_what_reads_them_and_the_stand_in_after_the_diffuse_pass() -> None:
+    """The order printed is the order run (render_graph.RenderGraph.draw): the bakes that shading
+    reads (deforming parts, the sky's prefilter, shadow maps) first; then the eye's passes that
+    read no baked image (the sky, the diffuse objects), whose depth the stand-in's bake finds
+    the images a frame's rays enter behind; then the stand-in and the bakes that read it; then
+    the eye's other passes, the mirror pass among them."""
+    order = [node.stage for node in NODES]
+    bakes = [node.stage for node in NODES if node.bakes]
+    first_eye = next(i for i, node in enumerate(NODES) if not node.bakes)
+    assert order[first_eye:first_eye + 2] == [Pass.ENVIRONMENT, Pass.DIFFUSE]
+    assert order.index(Pass.STAND_IN) == first_eye + 2
+    assert set(bakes) - set(order[:first_eye]) == {Pass.STAND_IN, Pass.BOUNCES, Pass.PYRAMIDS, Pass.COLOUR_MIPS}
+    assert all(not node.bakes for node in NODES[order.index(Pass.COLOUR_MIPS) + 1:])
+    assert order.index(Pass.REFLECTORS) > order.index(Pass.COLOUR_MIPS)
 
 
 @pytest.mark.parametrize("method", list(Method), ids=lambda m: m.option)

@@ -198,3 +198,29 @@ def test_a_lazy_frame_draws_its_diffuse_objects_once(ctx: moderngl.Context, tmp_
         renderer.render()
         assert renderer.graph.baked_images is not None
         assert behind < renderer.graph.baked_images.bakes, "the frame's diffuse objects hid no mirror pixel"
+
+
+def test_the_sample_view_of_a_lazily_baked_scene_shows_every_image_baked(ctx: moderngl.Context, tmp_path: Path,
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """The sample view's diffuse pass draws the baked images' samples, so its frames bake before
+    the eye's passes, every stale image (render_graph.RenderGraph.draw): turned on after a lazy
+    frame, or on from the start, it shows what a renderer that bakes every image at once shows."""
+    scene = textured_ring(tmp_path, 300)
+
+    def sample_views(turned_on_late: bool) -> list[np.ndarray]:
+        with Renderer(ctx, scene) as renderer:
+            if turned_on_late:
+                renderer.render()  # lazily: some images stay stale
+            renderer.set_show_samples(True)
+            frames = []
+            for _ in range(2):
+                renderer.render()
+                frames.append(renderer.read_color_float())
+            return frames
+
+    lazy_late, lazy_first = sample_views(True), sample_views(False)
+    monkeypatch.setattr(BakedImages, "bakes_lazily", classmethod(lambda cls, scene, images: False))
+    (eager, _) = sample_views(False)
+    for frame in (*lazy_late, *lazy_first):
+        assert np.isfinite(frame).all()
+        np.testing.assert_array_equal(frame, eager)

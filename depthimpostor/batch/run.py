@@ -170,12 +170,17 @@ class RayPool(FramePool):
                     yield {**frame.settings(), "status": FAILED, "error": "no worker left (every one died)"}
                 return
             stalled_since = None if held else stalled_since if stalled_since is not None else time.monotonic()
-            if stalled_since is not None and time.monotonic() - stalled_since > UNREACHABLE_LIMIT:
+            if stalled_since is not None and time.monotonic() - stalled_since >= UNREACHABLE_LIMIT:
                 for _, frame in waiting:
                     yield {**frame.settings(), "status": FAILED,
                            "error": f"no worker reachable for {UNREACHABLE_LIMIT:.0f} s (their machines lost)"}
                 return
-            [done], _ = ray.wait([*held, *unreachable], num_returns=1)
+            # While stalled, no longer than the deadline: an unreachable worker's answer may never come.
+            timeout = None if stalled_since is None else max(0.0, stalled_since + UNREACHABLE_LIMIT - time.monotonic())
+            ready, _ = ray.wait([*held, *unreachable], num_returns=1, timeout=timeout)
+            if not ready:
+                continue  # the deadline passed: the check above fails what is left
+            done = ready[0]
             if done in unreachable:
                 self._answered(ray, done, unreachable, actors)
                 continue

@@ -54,7 +54,7 @@ def welded(positions: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.n
     arrays `trimesh.Trimesh(positions, indices, process=True)` makes, to the bit (its
     merge_vertices: positions times 10^WELD_DIGITS rounded to integers, the referenced vertices
     kept in the order they first occur). Done here because importing trimesh (with scipy) took
-    longer than the rest of a 1,000-object scene's start-up (issue 32); tests/test_simplified.py
+    longer than the rest of a 1,000-object scene's start-up (issue 32); tests/test_simplified_weld.py
     holds it against trimesh. Non-finite positions (which trimesh would drop first) are not welded."""
     points = np.asarray(positions, np.float64)
     faces = np.asarray(indices, np.int64).reshape(-1, 3)

@@ -1,5 +1,7 @@
 """The render graph's stand-in node: the method's stand-in for the reflected objects baked (its
-stale images, or its triangles uploaded), before the eye's passes; marked stale as the world moves.
+stale images, or its triangles uploaded), after the eye's sky and diffuse objects (whose depth
+tells which images a frame's rays enter) and before the passes that read it; marked stale as the
+world moves.
 The methods made in the frame from the eye have the eye-images node instead (seen_from_eye.py)."""
 
 from __future__ import annotations
