@@ -294,6 +294,12 @@ STEEP_JOIN_SHARE = 0.5
 #: another surface (the hit's own is within the image's sampling of it: a few texels' footprint,
 #: over the cosine of a steep surface's slope), and without one the ray is traced instead.
 EXACT_SURFACE_WINDOW = 0.05
+#: An image holds the surface its eye sees: the hybrid method's exact hit is held (and the ray not
+#: traced) only if no triangle its samples around the hit show on the same layer lies between the
+#: image's eye and the hit. A triangle met before this share of the way from the eye to the hit
+#: hides it; nearer the hit is the float32 rounding of the hit and of the intersection (about
+#: 1e-6 of the way), which a neighbour sharing an edge with the hit's triangle can show.
+HIDDEN_HIT_MARGIN = 1e-4
 #: The ray counts as touching the surface where their OpenGL depths differ by at most this (8
 #: float32 steps of depths in [0.5, 1]). Both are rounded float32 values: without a tolerance, a
 #: ray lying in a surface sees the sign of (ray - surface) flip at random from pixel to pixel,
@@ -580,6 +586,7 @@ def glsl_constants() -> dict[str, str]:
         "SILHOUETTE_BAND_TEXELS": f"{SILHOUETTE_BAND_TEXELS!r}",
         "STEEP_JOIN_SHARE": f"{STEEP_JOIN_SHARE!r}",
         "EXACT_SURFACE_WINDOW": f"{EXACT_SURFACE_WINDOW!r}",
+        "HIDDEN_HIT_MARGIN": f"{HIDDEN_HIT_MARGIN!r}",
         "CLIP_TOLERANCE_PIXELS": f"{CLIP_TOLERANCE_PIXELS!r}",
         "MIN_LINES_SINE_SQUARED": f"{MIN_LINES_SINE_SQUARED!r}",
         "EMPTY_SPAN_MIN": f"{EMPTY_SPAN_MIN!r}",

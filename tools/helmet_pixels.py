@@ -2,7 +2,9 @@
 results/llvmpipe/public_models.md): for each mirror pixel whose colour is off by more than 1e-3 of
 the truth's luminance where `raytrace` is not, the hybrid's hit (retraced or made exact) and the
 model's triangles along the reflected ray, nearest first, with their ray parameter and facing, and
-which triangle the mirror's centre sees there.
+which triangle the mirror's centre sees there. DamagedHelmet had two such pixels until the hybrid
+traced a ray whose exact hit its image's own triangles hide from the image's eye
+(lib/reflected_scene.glsl's hidden_from_eye); it lists none now.
 
     PYTHONPATH=$PWD python3 tools/helmet_pixels.py /tmp/pm/large/DamagedHelmet.glb
 """

@@ -16,6 +16,7 @@ struct RayHit {
     // the layer it is on (0: the visible surface; 1: the back layer, come in through from behind).
     ivec2 texel;
     int layer;
+    int image;  // and the image it is in (its record in u_depth_images)
     // Depth images: the ray parameter from which the answer rests on what the image does not
     // hold (lib/depth_image.glsl, "What the image does not hold"), and why (an UNSEEN_* kind);
     // UNBOUNDED_RAY and UNSEEN_NONE where it rests on nothing unseen. Other methods: the same.
@@ -32,7 +33,7 @@ struct RayHit {
 };
 
 RayHit make_hit(bool hit, float t, vec2 image_position, vec3 color, float object_id, int samples) {
-    return RayHit(hit, t, image_position, color, object_id, samples, ivec2(0), 0, UNBOUNDED_RAY, UNSEEN_NONE, false,
+    return RayHit(hit, t, image_position, color, object_id, samples, ivec2(0), 0, 0, UNBOUNDED_RAY, UNSEEN_NONE, false,
                   false, vec3(0.0), 0, mesh_point(vec2(0.0)));
 }
 

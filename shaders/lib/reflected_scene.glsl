@@ -163,6 +163,7 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
         after_next_t = UNBOUNDED_RAY;
     }
     best = coloured(best, best_image, origin, direction);
+    best.image = best_image;
     best.samples = samples;
     return with_unseen(best, unseen_t, unseen);
 }
@@ -253,14 +254,19 @@ uniform sampler2D u_impostor_triangles;  // per atlas sample: the triangle it sh
 // per triangle of that list: (its place in the triangle texture, its instance's slot)
 uniform sampler2D u_bvh_places;
 
+// The triangle a window sample shows (`listed`: its place in the list), and its instance's slot.
+int listed_place(float listed, out int slot) {
+    vec4 place = bvh_fetch(u_bvh_places, int(listed));
+    slot = int(place.y);
+    return int(place.x);
+}
+
 // The ray against a triangle a sample shows (`listed`: its place in the list): its place in the
 // triangle texture (and its instance's slot in `slot`), or -1 where the ray meets it no nearer than
 // `best_t` or outside EXACT_SURFACE_WINDOW of the hit's t.
 int listed_triangle(RayHit hit, float listed, vec3 origin, vec3 direction, inout float best_t, inout vec2 best_uv,
                     out int slot) {
-    vec4 place = bvh_fetch(u_bvh_places, int(listed));
-    int triangle = int(place.x);
-    slot = int(place.y);
+    int triangle = listed_place(listed, slot);
     vec3 local_origin, local_direction;
     ray_in_instance(triangle_instance(slot), origin, direction, local_origin, local_direction);
     vec2 uv;
@@ -275,35 +281,64 @@ int listed_triangle(RayHit hit, float listed, vec3 origin, vec3 direction, inout
     return triangle;
 }
 
+// The texel `k` (0 to 8) of the 3 x 3 window around the hit's sample.
+ivec2 window_texel(RayHit hit, int k) {
+    return clamp(hit.texel + ivec2(k % 3 - 1, k / 3 - 1), ivec2(0), textureSize(u_impostor_triangles, 0) - 1);
+}
+
+// Is the exact hit `point`, on triangle `triangle` of instance `slot` (shown on `layer`), hidden
+// from the image's eye by another triangle the window shows on that layer? A layer holds, per
+// sample, the surface its eye meets first (the visible surface; the nearest back face): a point of
+// it that another triangle of the layer hides is not in the image, which then cannot vouch that
+// the ray's way to it is empty. A triangle thinner than a texel can fall between the samples (a
+// fold of a shell seen edge-on, DamagedHelmet's: results/llvmpipe/public_models.md): the ray
+// meets it first, goes on behind the surface beside the fold, and meets a surface the window does
+// show, within the window of t, where the eye does not see it.
+bool hidden_from_eye(RayHit hit, vec3 point, int triangle, int slot, int layer) {
+    vec3 eye = u_depth_images[hit.image].eye.xyz;
+    bool hidden = false;
+    int checks = triangle >= 0 ? 9 : 0;  // as exact_surface's loop, for the same reason
+    for (int k = 0; k < checks; ++k) {
+        int other_slot;
+        int other = listed_place(texelFetch(u_impostor_triangles, window_texel(hit, k), 0)[layer], other_slot);
+        vec3 local_origin, local_direction;
+        ray_in_instance(triangle_instance(other_slot), eye, point - eye, local_origin, local_direction);
+        vec2 uv;
+        float s = intersect_triangle(local_origin, local_direction, other, uv);
+        hidden = hidden || ((other != triangle || other_slot != slot) && s > 0.0 && s < 1.0 - HIDDEN_HIT_MARGIN);
+    }
+    return hidden;
+}
+
 // A certain hit made exact: the ray against the real triangles that the 3 x 3 samples around the
 // hit show on both layers (a triangle smaller than a texel can fall between samples; a hit on one
 // layer can be on the other's triangle, where a box's faces meet), the nearest intersection within
 // EXACT_SURFACE_WINDOW of the hit's t. The nearest, not the first found: a face beyond the true one
 // (the box's bottom, on the floor) also lies within the window. The hit is then shaded as the
 // ray-traced method shades it (the true normal, the material at the true point). -1 when none
-// is there: the ray is traced instead.
+// is there, or when the one found is hidden from the image's eye (hidden_from_eye): the ray is
+// traced instead.
 int exact_surface(RayHit hit, vec3 origin, vec3 direction, out float best_t, out vec2 best_uv, out int best_slot) {
     best_t = UNBOUNDED_RAY;
     best_uv = vec2(0.0);
     best_slot = -1;
-    int best = -1;
-    ivec2 size = textureSize(u_impostor_triangles, 0);
+    int best = -1, best_layer = 0;
     // A loop with no iteration where no ray of a group of pixels needs it (see
     // nearest_depth_image_hit on why not a test around it).
     int candidates = hit.hit ? 9 : 0;
     for (int k = 0; k < candidates; ++k) {
-        ivec2 texel = clamp(hit.texel + ivec2(k % 3 - 1, k / 3 - 1), ivec2(0), size - 1);
-        vec2 listed = texelFetch(u_impostor_triangles, texel, 0).rg;
+        vec2 listed = texelFetch(u_impostor_triangles, window_texel(hit, k), 0).rg;
         for (int layer = 0; layer < 2; ++layer) {
             int slot;
             int triangle = listed_triangle(hit, listed[layer], origin, direction, best_t, best_uv, slot);
             if (triangle >= 0) {
                 best = triangle;
                 best_slot = slot;
+                best_layer = layer;
             }
         }
     }
-    return best;
+    return hidden_from_eye(hit, origin + direction * best_t, best, best_slot, best_layer) ? -1 : best;
 }
 
 // The hybrid method's answer: the depth images' where it rests on nothing they do not hold before
