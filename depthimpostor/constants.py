@@ -295,8 +295,8 @@ STEEP_JOIN_SHARE = 0.5
 #: over the cosine of a steep surface's slope), and without one the ray is traced instead.
 EXACT_SURFACE_WINDOW = 0.05
 #: An image holds the surface its eye sees: the hybrid method's exact hit is held (and the ray not
-#: traced) only if no triangle its samples around the hit show on the same layer lies between the
-#: image's eye and the hit. A triangle met before this share of the way from the eye to the hit
+#: traced) only if no triangle that the samples around the hit's image show on the same layer lies
+#: between the image's eye and the hit. A triangle met before this share of the way from the eye to the hit
 #: hides it; nearer the hit is the float32 rounding of the hit and of the intersection (about
 #: 1e-6 of the way), which a neighbour sharing an edge with the hit's triangle can show.
 HIDDEN_HIT_MARGIN = 1e-4

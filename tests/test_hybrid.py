@@ -224,8 +224,9 @@ def test_a_hit_its_image_hides_is_traced(ctx, tmp_path, height: float, lean: flo
     """A riser thinner than a texel of the image (the fold's, seen almost edge-on from the mirror's
     centre) falls between the samples: no sample of the 3 x 3 window around the images' hit shows
     it. A ray that meets it goes on under the nearer sheet and meets the farther one within
-    EXACT_SURFACE_WINDOW of the hit, where the nearer sheet, which the window shows, hides it from
-    the image's eye: the image does not hold that point, and the ray is traced. Before, the
+    EXACT_SURFACE_WINDOW of the hit, where the nearer sheet, which the samples around that point's
+    image show, hides it from the image's eye: the image does not hold that point, and the ray is
+    traced (hidden_from_eye). Before, the
     hybrid took the farther sheet there: 6 and 4 of these mirror pixels hit it 2 % of t behind
     the riser (DamagedHelmet's two pixels beside a mirror were the same)."""
     (tmp_path / "fold.obj").write_text(_fold_obj(height, lean))

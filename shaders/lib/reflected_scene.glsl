@@ -287,22 +287,29 @@ ivec2 window_texel(RayHit hit, int k) {
 }
 
 // Is the exact hit `point`, on triangle `triangle` of instance `slot` (shown on `layer`), hidden
-// from the image's eye by another triangle the window shows on that layer? A layer holds, per
-// sample, the surface its eye meets first (the visible surface; the nearest back face): a point of
-// it that another triangle of the layer hides is not in the image, which then cannot vouch that
-// the ray's way to it is empty. A triangle thinner than a texel can fall between the samples (a
-// fold of a shell seen edge-on, DamagedHelmet's: results/llvmpipe/public_models.md): the ray
-// meets it first, goes on behind the surface beside the fold, and meets a surface the window does
-// show, within the window of t, where the eye does not see it.
+// from the image's eye by another triangle that the 2 x 2 samples around the point's image show on
+// that layer? A layer holds, per sample, the surface its eye meets first (the visible surface; the
+// nearest back face): a point of it that another triangle of the layer hides is not in the image,
+// which then cannot vouch that the ray's way to it is empty. A triangle thinner than a texel can
+// fall between the samples (a fold of a shell seen edge-on, DamagedHelmet's:
+// results/llvmpipe/public_models.md): the ray meets it first, goes on behind the surface beside
+// the fold, and meets a surface the window does show, within the window of t, where the eye does
+// not see it. (A triangle that hides the point covers its image, so it is what the samples nearest
+// that image show, unless it is thinner than a texel there too.)
 bool hidden_from_eye(RayHit hit, vec3 point, int triangle, int slot, int layer) {
-    vec3 eye = u_depth_images[hit.image].eye.xyz;
+    DepthImage image = u_depth_images[hit.image];
+    vec3 seen = camera_coordinates(image, point - image.eye.xyz);
+    // The block's first sample: the texel whose centre is the nearest above and left of the point.
+    ivec2 corner = ivec2(floor(seen.xy / seen.z - 0.5));
     bool hidden = false;
-    int checks = triangle >= 0 ? 9 : 0;  // as exact_surface's loop, for the same reason
+    int checks = triangle >= 0 ? 4 : 0;  // as exact_surface's loop, for the same reason
     for (int k = 0; k < checks; ++k) {
+        ivec2 texel = image.tile.xy + clamp(corner + ivec2(k % 2, k / 2), ivec2(0), image.tile.zw - 1);
         int other_slot;
-        int other = listed_place(texelFetch(u_impostor_triangles, window_texel(hit, k), 0)[layer], other_slot);
+        int other = listed_place(texelFetch(u_impostor_triangles, texel, 0)[layer], other_slot);
         vec3 local_origin, local_direction;
-        ray_in_instance(triangle_instance(other_slot), eye, point - eye, local_origin, local_direction);
+        ray_in_instance(triangle_instance(other_slot), image.eye.xyz, point - image.eye.xyz, local_origin,
+                        local_direction);
         vec2 uv;
         float s = intersect_triangle(local_origin, local_direction, other, uv);
         hidden = hidden || ((other != triangle || other_slot != slot) && s > 0.0 && s < 1.0 - HIDDEN_HIT_MARGIN);
