@@ -78,17 +78,36 @@ class ShaderLibrary:
     def __init__(self, root: Path | None = None) -> None:
         self.root = root or shaders_dir()
         self.generated = _generated_sources()
+        # Each file read, split and its includes found once per library: a program expands a chunk
+        # wherever it is included (the mirror shader dozens of times), and reading and matching
+        # every line each time took 35 ms a mirror program (4 ms now; 10 ms with a new library, as
+        # each Renderer has). A reload makes a new library, which reads the files again.
+        self._files: dict[str, str] = {}
+        self._parsed: dict[str, tuple[list[str], list[tuple[int, str]]]] = {}
+        self._resolved: dict[tuple[str, str], str] = {}
 
     def read(self, name: str) -> str:
         if name in self.generated:
             return self.generated[name]
-        path = self.root / name
-        if not path.is_file():
-            raise ShaderError(f"shader file {name!r} not found in {self.root}")
-        return path.read_text(encoding="utf-8")
+        text = self._files.get(name)
+        if text is None:
+            path = self.root / name
+            if not path.is_file():
+                raise ShaderError(f"shader file {name!r} not found in {self.root}")
+            text = self._files[name] = path.read_text(encoding="utf-8")
+        return text
+
+    def _lines(self, name: str) -> tuple[list[str], list[tuple[int, str]]]:
+        """The file's lines, and (line index, included name) of each of its #include lines."""
+        parsed = self._parsed.get(name)
+        if parsed is None:
+            lines = self.read(name).splitlines()
+            parsed = (lines, [(i, match.group(1)) for i, line in enumerate(lines) if (match := _INCLUDE.match(line))])
+            self._parsed[name] = parsed
+        return parsed
 
     def preprocess(self, name: str, defines: Defines) -> PreprocessedSource:
-        lines = self.read(name).splitlines()
+        lines = self._lines(name)[0]
         version_index = next((i for i, line in enumerate(lines) if line.strip()), None)
         if version_index is None or not lines[version_index].startswith("#version"):
             raise ShaderError(f"{name}: the first line must be a #version directive")
@@ -99,36 +118,42 @@ class ShaderLibrary:
             # has it). #extension must precede every declaration, so it goes before the defines.
             prefix.append("#extension GL_ARB_shader_storage_buffer_object : require")
         prefix += [f"#define {key} {value}" for key, value in {**glsl_constants(), **defines}.items()]
-        body = self._expand(name, lines[version_index + 1 :], version_index + 2, result, stack=[name])
+        body = self._expand(name, version_index + 1, version_index + 2, result, stack=[name])
         result.text = "\n".join(prefix + [_line_directive(0, version_index + 2)] + body) + "\n"
         return result
 
-    def _expand(
-        self, name: str, lines: list[str], first_line: int, result: PreprocessedSource, stack: list[str]
-    ) -> list[str]:
+    def _expand(self, name: str, start: int, first_line: int, result: PreprocessedSource, stack: list[str]) -> list[str]:
+        """The file's lines from index `start` (numbered from `first_line`), each #include replaced."""
+        lines, includes = self._lines(name)
         file_number = result.files.index(name)
         out: list[str] = []
-        for offset, line in enumerate(lines):
-            match = _INCLUDE.match(line)
-            if not match:
-                out.append(line)
+        position = start
+        for index, included in includes:
+            if index < start:
                 continue
-            target = self._resolve(name, match.group(1))
+            out += lines[position:index]
+            target = self._resolve(name, included)
             if target in stack:
                 raise ShaderError(f"{name}: #include cycle: {' -> '.join([*stack, target])}")
             if target not in result.files:
                 result.files.append(target)
             guard = _include_guard(target)
             out += [f"#ifndef {guard}", f"#define {guard}", _line_directive(result.files.index(target), 1)]
-            out += self._expand(target, self.read(target).splitlines(), 1, result, [*stack, target])
+            out += self._expand(target, 0, 1, result, [*stack, target])
             out.append(f"#endif  // {target}")
-            out.append(_line_directive(file_number, first_line + offset + 1))
+            out.append(_line_directive(file_number, first_line + index - start + 1))
+            position = index + 1
+        out += lines[position:]
         return out
 
     def _resolve(self, including: str, target: str) -> str:
+        found = self._resolved.get((including, target))
+        if found is not None:
+            return found
         relative = posixpath.normpath(posixpath.join(posixpath.dirname(including), target))
         for candidate in (relative, posixpath.normpath(target)):
             if candidate in self.generated or (self.root / candidate).is_file():
+                self._resolved[(including, target)] = candidate
                 return candidate
         raise ShaderError(f"{including}: #include \"{target}\" not found (looked in {Path(including).parent}/ and shaders/)")
 
