@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import posixpath
 import re
+import stat
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -66,6 +67,28 @@ def _generated_sources() -> dict[str, str]:
     }
 
 
+#: A file's lines, and (line index, included name) of each of its #include lines.
+ParsedFile = tuple[list[str], list[tuple[int, str]]]
+
+#: Every shader file read, by path: (modification time, size, text, parsed), shared by every
+#: library (each Renderer makes one: reading and parsing the files again cost a renderer about 10 ms).
+#: A file whose time or size changed is read again, so that a reload sees an edit.
+_FILES: dict[Path, tuple[int, int, str, ParsedFile]] = {}
+
+
+def _parse(text: str) -> ParsedFile:
+    lines = text.splitlines()
+    return lines, [(i, match.group(1)) for i, line in enumerate(lines) if (match := _INCLUDE.match(line))]
+
+
+def _read_file(path: Path, modified: int, size: int) -> tuple[str, ParsedFile]:
+    cached = _FILES.get(path)
+    if cached is None or cached[:2] != (modified, size):
+        text = path.read_text(encoding="utf-8")
+        cached = _FILES[path] = (modified, size, text, _parse(text))
+    return cached[2], cached[3]
+
+
 @dataclass
 class PreprocessedSource:
     text: str
@@ -80,30 +103,29 @@ class ShaderLibrary:
         self.generated = _generated_sources()
         # Each file read, split and its includes found once per library: a program expands a chunk
         # wherever it is included (the mirror shader dozens of times), and reading and matching
-        # every line each time took 35 ms a mirror program (4 ms now; 10 ms with a new library, as
-        # each Renderer has). A reload makes a new library, which reads the files again.
-        self._files: dict[str, str] = {}
-        self._parsed: dict[str, tuple[list[str], list[tuple[int, str]]]] = {}
+        # every line each time took 35 ms a mirror program (4 ms now). A reload makes a new
+        # library, which looks at the files again (_read_file).
+        self._parsed: dict[str, ParsedFile] = {}
         self._resolved: dict[tuple[str, str], str] = {}
 
     def read(self, name: str) -> str:
-        if name in self.generated:
-            return self.generated[name]
-        text = self._files.get(name)
-        if text is None:
-            path = self.root / name
-            if not path.is_file():
-                raise ShaderError(f"shader file {name!r} not found in {self.root}")
-            text = self._files[name] = path.read_text(encoding="utf-8")
-        return text
+        return self.generated[name] if name in self.generated else self._file(name)[0]
 
-    def _lines(self, name: str) -> tuple[list[str], list[tuple[int, str]]]:
+    def _file(self, name: str) -> tuple[str, ParsedFile]:
+        path = self.root / name
+        try:
+            status = path.stat()
+        except OSError:
+            status = None
+        if status is None or not stat.S_ISREG(status.st_mode):
+            raise ShaderError(f"shader file {name!r} not found in {self.root}")
+        return _read_file(path, status.st_mtime_ns, status.st_size)
+
+    def _lines(self, name: str) -> ParsedFile:
         """The file's lines, and (line index, included name) of each of its #include lines."""
         parsed = self._parsed.get(name)
         if parsed is None:
-            lines = self.read(name).splitlines()
-            parsed = (lines, [(i, match.group(1)) for i, line in enumerate(lines) if (match := _INCLUDE.match(line))])
-            self._parsed[name] = parsed
+            parsed = self._parsed[name] = _parse(self.generated[name]) if name in self.generated else self._file(name)[1]
         return parsed
 
     def preprocess(self, name: str, defines: Defines) -> PreprocessedSource:
