@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -54,6 +55,25 @@ def mesh_for_shape(shape: Shape, textured: bool = False, level: int = 0) -> Mesh
     if isinstance(shape, GltfShape):
         return shape.mesh  # read with the scene (scene/gltf.py), in the glTF file's world space
     raise TypeError(f"no mesh for shape {shape!r}")
+
+
+@lru_cache(maxsize=256)
+def _procedural_mesh(shape: Shape, textured: bool, level: int) -> Mesh:
+    return mesh_for_shape(shape, textured, level)
+
+
+def world_mesh(shape: Shape, textured: bool = False, level: int = 0) -> Mesh:
+    """mesh_for_shape's mesh, for one world (scene_geometry). A procedural shape is tessellated and
+    bounded once per (shape, seam, level): each world gets its own Mesh object (renderers key GPU
+    buffers by it, and a rebuilt renderer loads a new world's meshes together) holding the same
+    read-only arrays and bounding sphere. Each renderer, and each world of an edited scene,
+    tessellated its shapes again (a torus knot 15 ms). Model files keep their own cache, which
+    sees an edit on disk (meshes.load_mesh_file)."""
+    if isinstance(shape, (MeshShape, GltfShape)):
+        return mesh_for_shape(shape, textured, level)
+    made = _procedural_mesh(shape, textured, level)
+    made.bounding_sphere()  # computed once, kept in the copies
+    return copy.copy(made)
 
 
 #: The full tessellation of each round shape (meshes.py's defaults: the mirror sphere's 96 x 48 is
@@ -253,6 +273,6 @@ def scene_geometry(objects: tuple[SceneObject, ...], levels: dict[int, int] | No
         level = levels.get(index, 0) if levels else 0
         key = (obj.shape, getattr(obj.material, "texture", None) is not None, level)
         if key not in local:
-            local[key] = mesh_for_shape(*key)
+            local[key] = world_mesh(*key)
         geometry.append(ObjectGeometry(index, obj, local[key]))
     return geometry

@@ -89,16 +89,36 @@ def run_view(args: list[str], cwd: Path, display: str | None) -> subprocess.Comp
                           capture_output=True, text=True, timeout=300)
 
 
-def view_session(display: str, tmp_path: Path, keys: str, frames: int, *extra: str) -> dict[str, Any]:
-    args = [str(DEFAULT_SCENE), "--size", f"{SIZE[0]}x{SIZE[1]}", "--frames", str(frames), "--keys", keys,
+def run_views(sessions: list[tuple[Path, list[str]]], display: str) -> list[tuple[int, str]]:
+    """(exit status, stderr) of each (working folder, `depthimpostor` arguments), run one after
+    another in one process (VIEW_EACH), as run_view would run each in its own: one start-up
+    (imports, no bytecode written here) for several sessions."""
+    env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env.update(DISPLAY=display, PYTHONPATH=str(PROJECT_ROOT))
+    done = subprocess.run([sys.executable, "-c", VIEW_EACH, json.dumps([(str(cwd), args) for cwd, args in sessions])],
+                          cwd=sessions[0][0], env=env, capture_output=True, text=True, timeout=300 * len(sessions))
+    assert done.returncode == 0, f"the viewer process failed ({done.returncode}):\n{done.stderr[-3000:]}"
+    # What the process wrote past sys.stderr (the driver's own messages) counts as each session's.
+    return [(result["code"], result["stderr"] + done.stderr) for result in json.loads(done.stdout.strip().splitlines()[-1])]
+
+
+def session_args(keys: str, frames: int, *extra: str) -> list[str]:
+    return [str(DEFAULT_SCENE), "--size", f"{SIZE[0]}x{SIZE[1]}", "--frames", str(frames), "--keys", keys,
             "--screenshot", "last.png", "--window-screenshot", "window.png", "--report", "report.json", *extra]
-    done = run_view(args, tmp_path, display)
-    assert done.returncode == 0, f"viewer failed ({done.returncode}):\n{done.stdout}\n{done.stderr}"
-    report = json.loads((tmp_path / "report.json").read_text())
+
+
+def session_report(folder: Path, code: int, stdout: str, stderr: str) -> dict[str, Any]:
+    assert code == 0, f"viewer failed ({code}):\n{stdout}\n{stderr}"
+    report = json.loads((folder / "report.json").read_text())
     assert report["gl_errors"] == []
-    assert "GL_" not in done.stderr, done.stderr
-    report["stdout"] = done.stdout
+    assert "GL_" not in stderr, stderr
+    report["stdout"] = stdout
     return report
+
+
+def view_session(display: str, tmp_path: Path, keys: str, frames: int, *extra: str) -> dict[str, Any]:
+    done = run_view(session_args(keys, frames, *extra), tmp_path, display)
+    return session_report(tmp_path, done.returncode, done.stdout, done.stderr)
 
 
 def png(path: Path) -> np.ndarray:
@@ -198,8 +218,10 @@ def test_every_control_runs_without_gl_errors(ctx: moderngl.Context, display: st
 def test_fly_keys_move_the_camera(display: str, tmp_path: Path) -> None:
     (tmp_path / "home").mkdir()
     (tmp_path / "flown").mkdir()
-    view_session(display, tmp_path / "home", "wait", 2)
-    view_session(display, tmp_path / "flown", "f w*4", 5)
+    sessions = [(tmp_path / "home", ["view", *session_args("wait", 2)]),
+                (tmp_path / "flown", ["view", *session_args("f w*4", 5)])]
+    for (folder, _), (code, stderr) in zip(sessions, run_views(sessions, display), strict=True):
+        session_report(folder, code, "", stderr)
     home, flown = png(tmp_path / "home" / "last.png"), png(tmp_path / "flown" / "last.png")
     assert (np.abs(home - flown).max(axis=2) > 8).mean() > 0.2
 
@@ -343,15 +365,9 @@ def every_key_sessions(request: pytest.FixtureRequest, display: str,
     scenes = [item.callspec.params["scene"] for item in request.session.items
               if getattr(item, "originalname", None) == "test_every_key_in_every_project_scene_keeps_the_session"]
     folders = [tmp_path_factory.mktemp("every_key") for _ in scenes]
-    env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    env.update(DISPLAY=display, PYTHONPATH=str(PROJECT_ROOT))
-    sessions = [(str(folder), every_key_args(scene)) for scene, folder in zip(scenes, folders, strict=True)]
-    done = subprocess.run([sys.executable, "-c", VIEW_EACH, json.dumps(sessions)], cwd=folders[0], env=env,
-                          capture_output=True, text=True, timeout=300 * len(scenes))  # a process's 300 s, each
-    assert done.returncode == 0, f"the viewer process failed ({done.returncode}):\n{done.stderr[-3000:]}"
-    results = json.loads(done.stdout.strip().splitlines()[-1])
-    return {scene: (result["code"], result["stderr"] + done.stderr, folder / "report.json")
-            for scene, result, folder in zip(scenes, results, folders, strict=True)}
+    results = run_views([(folder, every_key_args(scene)) for scene, folder in zip(scenes, folders, strict=True)], display)
+    return {scene: (code, stderr, folder / "report.json")
+            for scene, (code, stderr), folder in zip(scenes, results, folders, strict=True)}
 
 
 # All in one worker (pyproject's --dist loadgroup), which runs them in one process (the fixture
@@ -418,14 +434,13 @@ def test_a_resolution_over_the_gl_limits_keeps_the_old_and_says_why(display: str
 
 
 def test_view_takes_a_memory_budget(display: str, tmp_path: Path) -> None:
-    done = run_view([str(DEFAULT_SCENE), "--size", "160x90", "--frames", "1", "--max-memory", "1M"], tmp_path,
-                    display)
-    assert done.returncode == 2 and "Traceback" not in done.stderr
-    assert "over the 1.00 MiB of --max-memory (the most: depth images" in done.stderr
-    assert done.stderr.strip().endswith("lower --impostor-res or raise --max-memory")
-    done = run_view([str(DEFAULT_SCENE), "--size", "160x90", "--frames", "1", "--max-memory", "64M"], tmp_path,
-                    display)
-    assert done.returncode == 0, done.stderr
+    (refused, refusal), (fits, stderr) = run_views(
+        [(tmp_path, ["view", str(DEFAULT_SCENE), "--size", "160x90", "--frames", "1", "--max-memory", budget])
+         for budget in ("1M", "64M")], display)
+    assert refused == 2 and "Traceback" not in refusal
+    assert "over the 1.00 MiB of --max-memory (the most: depth images" in refusal
+    assert refusal.strip().endswith("lower --impostor-res or raise --max-memory")
+    assert fits == 0, stderr
 
 
 #: The panel test's window: tall enough for the panel's views and graphs.

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import posixpath
 import re
+import stat
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -66,6 +67,28 @@ def _generated_sources() -> dict[str, str]:
     }
 
 
+#: A file's lines, and (line index, included name) of each of its #include lines.
+ParsedFile = tuple[list[str], list[tuple[int, str]]]
+
+#: Every shader file read, by path: (modification time, size, text, parsed), shared by every
+#: library (each Renderer makes one: reading and parsing the files again cost a renderer about 10 ms).
+#: A file whose time or size changed is read again, so that a reload sees an edit.
+_FILES: dict[Path, tuple[int, int, str, ParsedFile]] = {}
+
+
+def _parse(text: str) -> ParsedFile:
+    lines = text.splitlines()
+    return lines, [(i, match.group(1)) for i, line in enumerate(lines) if (match := _INCLUDE.match(line))]
+
+
+def _read_file(path: Path, modified: int, size: int) -> tuple[str, ParsedFile]:
+    cached = _FILES.get(path)
+    if cached is None or cached[:2] != (modified, size):
+        text = path.read_text(encoding="utf-8")
+        cached = _FILES[path] = (modified, size, text, _parse(text))
+    return cached[2], cached[3]
+
+
 @dataclass
 class PreprocessedSource:
     text: str
@@ -78,17 +101,35 @@ class ShaderLibrary:
     def __init__(self, root: Path | None = None) -> None:
         self.root = root or shaders_dir()
         self.generated = _generated_sources()
+        # Each file read, split and its includes found once per library: a program expands a chunk
+        # wherever it is included (the mirror shader dozens of times), and reading and matching
+        # every line each time took 35 ms a mirror program (4 ms now). A reload makes a new
+        # library, which looks at the files again (_read_file).
+        self._parsed: dict[str, ParsedFile] = {}
+        self._resolved: dict[tuple[str, str], str] = {}
 
     def read(self, name: str) -> str:
-        if name in self.generated:
-            return self.generated[name]
+        return self.generated[name] if name in self.generated else self._file(name)[0]
+
+    def _file(self, name: str) -> tuple[str, ParsedFile]:
         path = self.root / name
-        if not path.is_file():
+        try:
+            status = path.stat()
+        except OSError:
+            status = None
+        if status is None or not stat.S_ISREG(status.st_mode):
             raise ShaderError(f"shader file {name!r} not found in {self.root}")
-        return path.read_text(encoding="utf-8")
+        return _read_file(path, status.st_mtime_ns, status.st_size)
+
+    def _lines(self, name: str) -> ParsedFile:
+        """The file's lines, and (line index, included name) of each of its #include lines."""
+        parsed = self._parsed.get(name)
+        if parsed is None:
+            parsed = self._parsed[name] = _parse(self.generated[name]) if name in self.generated else self._file(name)[1]
+        return parsed
 
     def preprocess(self, name: str, defines: Defines) -> PreprocessedSource:
-        lines = self.read(name).splitlines()
+        lines = self._lines(name)[0]
         version_index = next((i for i, line in enumerate(lines) if line.strip()), None)
         if version_index is None or not lines[version_index].startswith("#version"):
             raise ShaderError(f"{name}: the first line must be a #version directive")
@@ -99,36 +140,42 @@ class ShaderLibrary:
             # has it). #extension must precede every declaration, so it goes before the defines.
             prefix.append("#extension GL_ARB_shader_storage_buffer_object : require")
         prefix += [f"#define {key} {value}" for key, value in {**glsl_constants(), **defines}.items()]
-        body = self._expand(name, lines[version_index + 1 :], version_index + 2, result, stack=[name])
+        body = self._expand(name, version_index + 1, version_index + 2, result, stack=[name])
         result.text = "\n".join(prefix + [_line_directive(0, version_index + 2)] + body) + "\n"
         return result
 
-    def _expand(
-        self, name: str, lines: list[str], first_line: int, result: PreprocessedSource, stack: list[str]
-    ) -> list[str]:
+    def _expand(self, name: str, start: int, first_line: int, result: PreprocessedSource, stack: list[str]) -> list[str]:
+        """The file's lines from index `start` (numbered from `first_line`), each #include replaced."""
+        lines, includes = self._lines(name)
         file_number = result.files.index(name)
         out: list[str] = []
-        for offset, line in enumerate(lines):
-            match = _INCLUDE.match(line)
-            if not match:
-                out.append(line)
+        position = start
+        for index, included in includes:
+            if index < start:
                 continue
-            target = self._resolve(name, match.group(1))
+            out += lines[position:index]
+            target = self._resolve(name, included)
             if target in stack:
                 raise ShaderError(f"{name}: #include cycle: {' -> '.join([*stack, target])}")
             if target not in result.files:
                 result.files.append(target)
             guard = _include_guard(target)
             out += [f"#ifndef {guard}", f"#define {guard}", _line_directive(result.files.index(target), 1)]
-            out += self._expand(target, self.read(target).splitlines(), 1, result, [*stack, target])
+            out += self._expand(target, 0, 1, result, [*stack, target])
             out.append(f"#endif  // {target}")
-            out.append(_line_directive(file_number, first_line + offset + 1))
+            out.append(_line_directive(file_number, first_line + index - start + 1))
+            position = index + 1
+        out += lines[position:]
         return out
 
     def _resolve(self, including: str, target: str) -> str:
+        found = self._resolved.get((including, target))
+        if found is not None:
+            return found
         relative = posixpath.normpath(posixpath.join(posixpath.dirname(including), target))
         for candidate in (relative, posixpath.normpath(target)):
             if candidate in self.generated or (self.root / candidate).is_file():
+                self._resolved[(including, target)] = candidate
                 return candidate
         raise ShaderError(f"{including}: #include \"{target}\" not found (looked in {Path(including).parent}/ and shaders/)")
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -210,10 +211,22 @@ def silhouette_clear_depth(image: DepthImageData, z: Array, side: float) -> Arra
     return (1.0 / camera.w_near - clear) / (1.0 / camera.w_near - 1.0 / camera.w_far)
 
 
-def texel_block(image: DepthImageData, s: Array) -> tuple[Array, Array, NDArray[np.bool_]]:
-    """Over the texels whose centres lie within one texel of image point s in u and in v (the 2 x 2
-    block a bilinear lookup reads): the nearest visible surface, the farthest back of a solid run
-    (0 where none is covered), and whether the block is one surface (see the GLSL)."""
+class TexelBlock(NamedTuple):
+    """Over the texels whose centres lie within one texel of an image point in u and in v (the
+    2 x 2 block a bilinear lookup reads): the nearest visible surface, the farthest back of a solid
+    run (0 where none is covered), and whether the block is one surface (see the GLSL)."""
+
+    nearest: Array
+    farthest_back: Array
+    one_surface: NDArray[np.bool_]
+
+    def rows(self, keep: NDArray[np.int64]) -> TexelBlock:
+        return TexelBlock(self.nearest[keep], self.farthest_back[keep], self.one_surface[keep])
+
+
+def texel_block(image: DepthImageData, s: Array) -> TexelBlock:
+    """The block of image points s (..., 2). A march reads each sample's once, as the GLSL does:
+    sample 1's block of one step is sample 0's of the next."""
     corner = np.floor(s[..., :2] - 0.5)
     centres = [corner + [du + 0.5, dv + 0.5] for dv in (0.0, 1.0) for du in (0.0, 1.0)]
     layers = [sample_layers(image, centre) for centre in centres]
@@ -222,7 +235,7 @@ def texel_block(image: DepthImageData, s: Array) -> tuple[Array, Array, NDArray[
     one_surface = np.logical_and.reduce([z[..., 0] < BACKGROUND_DEPTH for z in layers])
     for a, b in ((0, 1), (2, 3), (0, 2), (1, 3)):
         one_surface &= samples_connected(image, centres[a], centres[b], layers[a][..., 0], layers[b][..., 0])
-    return nearest, farthest_back, one_surface
+    return TexelBlock(nearest, farthest_back, one_surface)
 
 
 def clip_half_space(value: Array, rate: Array, low: Array, high: Array) -> tuple[Array, Array]:
@@ -265,11 +278,12 @@ def crease_unseen(image: DepthImageData, s0: Array, s1: Array, r0: Array, r1: Ar
     return np.any(texel0 != texel1, axis=1) & (beyond_left | beyond_right)
 
 
-def step_unseen(image: DepthImageData, s0: Array, s1: Array, r0: Array, r1: Array, z0: Array, z1: Array) -> Array:
+def step_unseen(image: DepthImageData, s0: Array, s1: Array, r0: Array, r1: Array, z0: Array, z1: Array,
+                block0: TexelBlock, block1: TexelBlock) -> Array:
     """What a step that did not hit through the visible surface relies on that the image does
-    not hold (an Unseen kind per ray; see the GLSL)."""
-    nearest0, back0, one_surface0 = texel_block(image, s0)
-    nearest1, back1, one_surface1 = texel_block(image, s1)
+    not hold (an Unseen kind per ray; see the GLSL). `block0`, `block1`: the samples' texel blocks."""
+    nearest0, back0, one_surface0 = block0
+    nearest1, back1, one_surface1 = block1
     nearer = np.minimum(nearest0, nearest1)
     farther_back = np.maximum(back0, back1)
     one_surface = one_surface0 & one_surface1 & samples_connected(image, s0, s1, z0[:, 0], z1[:, 0])
@@ -282,11 +296,12 @@ def step_unseen(image: DepthImageData, s0: Array, s1: Array, r0: Array, r1: Arra
     return np.where(inside_solid(r1, z1), int(Unseen.HIDDEN_ENTRY), kind)
 
 
-def hit_unseen(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> NDArray[np.bool_]:
+def hit_unseen(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array, block0: TexelBlock,
+               block1: TexelBlock) -> NDArray[np.bool_]:
     """Is a hit through a step between joined samples (depths z0, z1 of the layer crossed) on a
     silhouette's: a join steeper than STEEP_JOIN_SHARE of the steepest, or within a texel of
-    where the image is not one surface (see the GLSL)?"""
-    return steep_join(image, s0, s1, z0, z1) | ~texel_block(image, s0)[2] | ~texel_block(image, s1)[2]
+    where the image is not one surface (the samples' texel blocks; see the GLSL)?"""
+    return steep_join(image, s0, s1, z0, z1) | ~block0.one_surface | ~block1.one_surface
 
 
 def steep_join(image: DepthImageData, s0: Array, s1: Array, z0: Array, z1: Array) -> NDArray[np.bool_]:
@@ -364,6 +379,7 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
     result.texel_margin[near_miss] = 0.0
     s0 = rays.sa.copy()
     z0 = sample_layers(image, s0[:, :2])
+    block0 = texel_block(image, s0[:, :2])
     _track_margins(result, active, s0, z0)
     note_unseen(result, active, start_unseen(image, s0[:, :2], s0[:, 2], z0), np.zeros(len(origins)), rays)
     starts_inside = active & inside_solid(s0[:, 2], z0)
@@ -383,9 +399,10 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
             result.put(rows, marching)
             keep = np.flatnonzero(active)
             rows, rays, marching, active = rows[keep], rays.rows(keep), marching.rows(keep), active[keep]
-            steps, s0, z0 = steps[keep], s0[keep], z0[keep]
+            steps, s0, z0, block0 = steps[keep], s0[keep], z0[keep], block0.rows(keep)
         s1 = rays.sa + (rays.sb - rays.sa) * ((i + 1) / np.maximum(steps, 1))[:, None]
         z1 = sample_layers(image, s1[:, :2])
+        block1 = texel_block(image, s1[:, :2])
         _track_margins(marching, active, s1, z1)
         slack = connection_slack(image, s0[:, :2], s1[:, :2], z0[:, 0], z1[:, 0])
         _track_connection(marching, active, slack, z0[:, 0], z1[:, 0])
@@ -396,8 +413,8 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
         k = np.where(through_back, k_back, k)
         crossed = np.where(through_back[:, None], z0[:, [1]] * [1, 0] + z1[:, [1]] * [0, 1],
                            z0[:, [0]] * [1, 0] + z1[:, [0]] * [0, 1])
-        kind = step_unseen(image, s0[:, :2], s1[:, :2], s0[:, 2], s1[:, 2], z0, z1)
-        unseen_hit = hit_unseen(image, s0[:, :2], s1[:, :2], crossed[:, 0], crossed[:, 1])
+        kind = step_unseen(image, s0[:, :2], s1[:, :2], s0[:, 2], s1[:, 2], z0, z1, block0, block1)
+        unseen_hit = hit_unseen(image, s0[:, :2], s1[:, :2], crossed[:, 0], crossed[:, 1], block0, block1)
         kind = np.where(through_surface | through_back, np.where(unseen_hit, int(Unseen.SILHOUETTE), int(Unseen.NONE)), kind)
         note_unseen(marching, active, kind, i / np.maximum(steps, 1), rays)
         through = through_surface | through_back
@@ -413,7 +430,7 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
             surface_hit = new_hit & through_surface
             marching.conditioning[surface_hit] = np.abs((s0[:, 2] - z0[:, 0]) - (s1[:, 2] - z1[:, 0]))[surface_hit]
             active &= ~new_hit
-        s0, z0 = s1, z1
+        s0, z0, block0 = s1, z1, block1
     if marching is not result:
         result.put(rows, marching)
     return result
@@ -434,6 +451,7 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
     active = rays.inside.copy()
     s0 = rays.sa[:, :2].copy()
     z0 = sample_layers(image, s0)
+    block0 = texel_block(image, s0)
     note_unseen(result, active, start_unseen(image, s0, rays.sa[:, 2], z0), np.zeros(len(origins)), rays)
     starts_inside = active & inside_solid(rays.sa[:, 2], z0)
     _record(result, starts_inside, rays.t_enter, s0, sample_color(image, s0), image.object_id, 1)
@@ -449,13 +467,14 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
             result.put(rows, marching)
             keep = np.flatnonzero(active)
             rows, rays, marching, active = rows[keep], rays.rows(keep), marching.rows(keep), active[keep]
-            steps, s0, z0, q0 = steps[keep], s0[keep], z0[keep], q0[keep]
+            steps, s0, z0, q0, block0 = steps[keep], s0[keep], z0[keep], q0[keep], block0.rows(keep)
             ray_a, ray_ab, wa, wb = ray_a[keep], ray_ab[keep], wa[keep], wb[keep]
         safe_steps = np.maximum(steps, 1)
         sigma0 = i / safe_steps
         sigma1 = (i + 1) / safe_steps
         s1 = rays.sa[:, :2] + (rays.sb[:, :2] - rays.sa[:, :2]) * sigma1[:, None]
         z1 = sample_layers(image, s1)
+        block1 = texel_block(image, s1)
         q1 = camera.unproject(s1[:, 0], s1[:, 1], camera.w_from_opengl_depth(z1[:, 0]))
         d1, d2, r = q1 - q0, ray_ab, q0 - ray_a
         aa, bb, cc = _dot(d1, d1), _dot(d1, d2), _dot(d2, d2)
@@ -477,7 +496,7 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
             connected & regular & in_front_at_start & (mu >= 0) & (mu <= 1) & (lam >= 0) & (lam <= 1)
         )
         if surface_hit.any():
-            note_unseen(marching, surface_hit & hit_unseen(image, s0, s1, z0[:, 0], z1[:, 0]),
+            note_unseen(marching, surface_hit & hit_unseen(image, s0, s1, z0[:, 0], z1[:, 0], block0, block1),
                         np.full(len(active), int(Unseen.SILHOUETTE)), sigma0, rays)
             lam = np.where(surface_hit, lam, 0.0)
             p = ray_a + ray_ab * lam[:, None]
@@ -492,7 +511,7 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
         cross, k = segments_cross(r0 - z0[:, 0], r1 - z1[:, 0])
         degenerate_hit = active & connected & ~regular & cross
         if degenerate_hit.any():
-            note_unseen(marching, degenerate_hit & hit_unseen(image, s0, s1, z0[:, 0], z1[:, 0]),
+            note_unseen(marching, degenerate_hit & hit_unseen(image, s0, s1, z0[:, 0], z1[:, 0], block0, block1),
                         np.full(len(active), int(Unseen.SILHOUETTE)), sigma0, rays)
             t = ray_parameter(sigma0 + (sigma1 - sigma0) * k, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
             s = s0 + (s1 - s0) * k[:, None]
@@ -501,19 +520,19 @@ def intersect_basic(image: DepthImageData, origins: Array, directions: Array) ->
         through_back, k_back = back_crossing(image, s0, s1, r0, r1, z0, z1)
         back_hit = active & through_back
         if back_hit.any():
-            note_unseen(marching, back_hit & hit_unseen(image, s0, s1, z0[:, 1], z1[:, 1]),
+            note_unseen(marching, back_hit & hit_unseen(image, s0, s1, z0[:, 1], z1[:, 1], block0, block1),
                         np.full(len(active), int(Unseen.SILHOUETTE)), sigma0, rays)
             t = ray_parameter(sigma0 + (sigma1 - sigma0) * k_back, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
             s = s0 + (s1 - s0) * k_back[:, None]
             _record(marching, back_hit, t, s, sample_back_color(image, nearer_sample(k_back, s0, s1)), image.object_id, i + 2)
             active &= ~back_hit
-        note_unseen(marching, active, step_unseen(image, s0, s1, r0, r1, z0, z1), sigma0, rays)
+        note_unseen(marching, active, step_unseen(image, s0, s1, r0, r1, z0, z1, block0, block1), sigma0, rays)
         entered = active & inside_solid(r1, z1)
         if entered.any():
             t = ray_parameter(sigma1, rays.pa[:, 2], rays.pb[:, 2], rays.t_enter, rays.t_exit)
             _record(marching, entered, t, s1, sample_color(image, s1), image.object_id, i + 2)
             active &= ~entered
-        s0, z0, q0 = s1, z1, q1
+        s0, z0, q0, block0 = s1, z1, q1, block1
     if marching is not result:
         result.put(rows, marching)
     return result
