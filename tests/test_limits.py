@@ -7,7 +7,6 @@ from __future__ import annotations
 import dataclasses
 import io
 import re
-import time
 from pathlib import Path
 
 import moderngl
@@ -17,6 +16,7 @@ from PIL import Image
 from conftest import PROJECT_ROOT, SCENES, scene_from_toml
 
 from depthimpostor import culling
+from depthimpostor import world as world_module
 from depthimpostor.constants import (
     MAX_ANALYTIC_PLANES,
     MAX_LIGHTS,
@@ -276,12 +276,18 @@ animation = { type = "orbit", centre = [0.0, 0.0, 0.0], axis = [0.0, 1.0, 0.0], 
     assert set(glass) == set(turning) == {Reach.REACHABLE}
 
 
-def test_two_thousand_objects_plan_in_under_two_seconds() -> None:
-    """They took 39.5 s, 35.5 of them culling one pair at a time; 10,000 were refused after 179 s."""
+def test_two_thousand_objects_are_culled_in_batches_not_pair_by_pair(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Their plan took 39.5 s, 35.5 of them culling one pair at a time; 10,000 were refused after
+    179 s. The world culls a reflector's targets in one call (the full meshes', then again the
+    pairs of objects given a coarser level); the time itself is tools/startup_time.py's to measure,
+    not a test's."""
+    calls: list[tuple[int, int]] = []
+    original = world_module.reaches
+    monkeypatch.setattr(world_module, "reaches",
+                        lambda reflectors, targets: calls.append((len(reflectors), len(targets))) or original(reflectors, targets))
     many = scene(HEAD + WALL_MIRROR.replace("[8.0, 4.0]", "[20.0, 8.0]") + balls(50, 2.0) + balls(1950, -2.0, first=50))
-    start = time.process_time()
     plan = plan_render(many)
-    assert time.process_time() - start < 2.0
+    assert 1 <= len(calls) <= 2 and all(targets >= 1950 for _, targets in calls), calls
     assert len(plan.images) == 50 and len(plan.skipped) == 1950
     # Ten thousand, a hundred of them in front of the mirror: past the 64 records of a uniform
     # block, which was a limit (the records go to a storage buffer: lib/baked_images.glsl).
