@@ -378,7 +378,10 @@ class RenderGraph:
             self.ctx.finish()
             draw_seconds = time.perf_counter() - start
             if baked is not None:  # which stale images this frame's rays may enter (the others wait)
-                baked.aim(camera, targets.surfaces, self._behind_frame())
+                # Behind the frame's depth as the first eye passes left it: the passes after them only
+                # draw nearer, so no mirror pixel it hides is uncovered (the sample view, whose
+                # diffuse pass draws samples, never comes here: it bakes first).
+                baked.aim(camera, targets.surfaces, behind_frame=True)
             later = self._bakes(later_bakes, frame)
             self.ctx.finish()
             start = time.perf_counter()
@@ -453,13 +456,6 @@ class RenderGraph:
             self._gl_queries = (self.ctx.query(time=True), self.ctx.query(time=True), self.ctx.query(time=True))
         with self._gl_queries[index]:
             yield
-
-    def _behind_frame(self) -> bool:
-        """Does the frame's depth, as the eye's first passes left it (`_schedule`), hide the mirror
-        pixels the frame will hide (BakedImages.aim)? Where the diffuse pass drew the frame's
-        objects (not the sample view's samples, nor SSR's frame, whose diffuse pass writes the eye's
-        surface too). The passes after it only draw nearer: no pixel it hides is uncovered."""
-        return self.diffuse is not None and not self.show_samples and self.seen_from_eye is None and self._early_eye > 0
 
     def _run(self, node: Node, frame: Frame) -> None:
         """A node run, and counted in the stats' passes where it did anything."""
