@@ -14,7 +14,10 @@ Kept at the full tessellation, because a coarser mesh would change what they sho
   coarser mirror mesh changes every reflected pixel;
 - objects a reflector can show (culling.reaches): they are traced by the triangle methods (and the
   hybrid method's re-trace, and the truth), whose rays meet them at the size of an image's sample,
-  not of an eye pixel; the images baked of them choose their own levels (below);
+  not of an eye pixel; the images baked of them choose their own levels (below). The eye's own
+  diffuse pass draws them at a level for the eye (World.eye_drawn), at LOD_REFLECTED_PIXEL_ERROR:
+  a thousand small spheres around a mirror are 4.5 M triangles at their full meshes, most of a
+  frame on a CPU rasterizer, for a few pixels each;
 - objects that move (their distance from the camera changes), and, in a scene with shadows,
   shadow casters (their shadow falls elsewhere, at another size on screen).
 
@@ -55,6 +58,11 @@ LOD_PIXEL_ERROR = 0.5
 #: method moved beyond its noise (results/llvmpipe/bake_levels.md), and the cube maps' faces draw
 #: an eighteenth of their triangles (1,000 objects: 3.0 M instead of 54 M).
 LOD_TEXEL_ERROR = 0.125
+#: The same for the eye's view of an object a reflector can show (World.eye_drawn), in pixels of the
+#: scene's frame: an eighth, not half, because the mirror shows its full mesh beside it, and its
+#: highlights and silhouette are then compared across the mirror's edge (the objects near mirrors
+#: in scenes/ are large enough on screen to keep their full meshes at it).
+LOD_REFLECTED_PIXEL_ERROR = 0.125
 
 
 def _sag(radius: float, chords: int) -> float:
@@ -119,10 +127,12 @@ def level_errors(shape: Shape) -> list[float]:
 _ERRORS: dict[Shape, list[float]] = {}  # level_errors of each shape met so far (shapes are frozen)
 
 
-def detail_levels(scene: Scene, geometry: list[ObjectGeometry], keep: Collection[int]) -> dict[int, int]:
+def detail_levels(scene: Scene, geometry: list[ObjectGeometry], keep: Collection[int],
+                  limit: float = LOD_PIXEL_ERROR) -> dict[int, int]:
     """The level of each object (by index) but those in `keep` (their full tessellation: see the
-    module's docstring for which), from its size in the scene camera's frame. The objects'
-    enclosing spheres are found for all of them at once."""
+    module's docstring for which), from its size in the scene camera's frame: the coarsest whose
+    error covers at most `limit` pixels. The objects' enclosing spheres are found for all of them
+    at once."""
     items = [g for g in geometry if g.index not in keep and has_levels(g.object.shape)]
     if not items:
         return {}
@@ -130,7 +140,8 @@ def detail_levels(scene: Scene, geometry: list[ObjectGeometry], keep: Collection
     scales = np.linalg.norm(np.stack([g.model_matrix[:3, :3] for g in items]), 2, axis=(1, 2))  # local to world units, at most
     levels = {}
     for item, centre, radius, scale in zip(items, centres, radii, scales, strict=True):
-        level = detail_level(level_errors(item.object.shape), float(scale) * pixels_per_unit(scene, centre, float(radius)))
+        level = detail_level(level_errors(item.object.shape), float(scale) * pixels_per_unit(scene, centre, float(radius)),
+                             limit)
         if level:
             levels[item.index] = level
     return levels

@@ -91,7 +91,7 @@ class RenderGraph:
         self.ctx, self.programs, self.options, self.stats = ctx, programs, options, stats
         self.world, self.plan = world, plan
         self.meshes = GpuMeshes(ctx, mesh_attributes(world.scene))  # with the glTF attributes the scene reads
-        self.meshes.load([g.local_mesh for g in world.geometry])  # the world's meshes in one arena
+        self.meshes.load(world.meshes)  # the world's meshes in one arena
         # Deforming glTF parts skinned and morphed into that arena on the GPU (where GL 4.3 is).
         self.deform = GpuDeform(ctx, programs)
         self.textures = GpuTextures(ctx)  # the scene's image textures, bound for every frame
@@ -317,7 +317,7 @@ class RenderGraph:
             self.environment = None  # type: ignore[assignment]  # not released with the other passes
         self.release_passes()
         self.plan, self.world = plan, world
-        self.meshes.load([g.local_mesh for g in world.geometry])
+        self.meshes.load(world.meshes)
         self.build(kept)
 
     def set_show_samples(self, show: bool) -> None:

@@ -18,10 +18,11 @@ import numpy as np
 
 from .culling import Reach, reaches
 from .eye import fitted_camera
-from .geometry import ObjectGeometry, bounding_spheres, scene_geometry
-from .lod import detail_levels
+from .geometry import ObjectGeometry, bounding_spheres, scene_geometry, world_mesh
+from .meshes import Mesh
+from .lod import LOD_REFLECTED_PIXEL_ERROR, detail_levels
 from .ppc import PPC
-from .scene.model import Camera, Scene
+from .scene.model import Camera, Scene, Shape
 
 Sphere = tuple[np.ndarray, float]
 T = TypeVar("T")
@@ -65,6 +66,7 @@ class World:
         casters = set(scene.shadow_casters)
         self.shadow_casters = [g for g in geometry if g.object in casters]
         self.__dict__.pop("bounds", None)
+        self.__dict__.pop("eye_drawn", None)
 
     def _detailed(self) -> list[ObjectGeometry]:
         """This world's (full) geometry with each object at its level of detail (lod.py): what a
@@ -83,6 +85,39 @@ class World:
         self._reach = {pair: why for pair, why in self._reach.items() if pair[1] not in levels}
         detailed = scene_geometry(self.scene.objects, levels)
         return [detailed[g.index].at(self.time) if g.index in levels else g for g in self.geometry]
+
+    @cached_property
+    def eye_drawn(self) -> list[ObjectGeometry]:
+        """The opaque diffuse objects as the eye's diffuse pass draws them: those a reflector can
+        show (which keep their full meshes in `geometry`: the rays that meet them, the triangle
+        methods', the truth's, the images' bakes, see them at another size than the eye does) at
+        the coarsest level whose error in the eye's frame stays under LOD_REFLECTED_PIXEL_ERROR
+        (lod.py); the others as `geometry` has them. A mesh is never swapped for a finer one."""
+        keep = {g.index for g in self.geometry if g.object.moves}
+        if self.scene.has_shadows:
+            keep |= {g.index for g in self.shadow_casters}
+        levels = detail_levels(self.scene, self.opaque_diffuse, keep, LOD_REFLECTED_PIXEL_ERROR)
+        meshes: dict[tuple[Shape, bool, int], Mesh] = {}
+        drawn = []
+        for g in self.opaque_diffuse:
+            level = levels.get(g.index, 0)
+            if level:
+                key = (g.object.shape, getattr(g.object.material, "texture", None) is not None, level)
+                if key not in meshes:
+                    meshes[key] = world_mesh(*key)
+                if len(meshes[key].indices) < len(g.local_mesh.indices):
+                    coarse = ObjectGeometry(g.index, g.object, meshes[key], g.time)
+                    coarse.__dict__.update({name: g.__dict__[name] for name in ("model_matrix", "normal_matrix", "determinant")
+                                            if name in g.__dict__})
+                    g = coarse
+            drawn.append(g)
+        return drawn
+
+    @property
+    def meshes(self) -> list[Mesh]:
+        """Every mesh the world's objects are drawn with: theirs, and the eye's levels of them
+        (eye_drawn), loaded together so that one batch draws them."""
+        return [g.local_mesh for g in self.geometry] + [g.local_mesh for g in self.eye_drawn]
 
     @cached_property
     def bounds(self) -> list[Sphere]:

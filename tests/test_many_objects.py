@@ -16,6 +16,7 @@ import depthimpostor.render_graph as render_graph_module
 from depthimpostor.geometry import scene_geometry
 from depthimpostor.gpu.context import bind_default_framebuffer
 from depthimpostor.gpu.gl_state import BASE
+from depthimpostor.constants import Method
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
 from depthimpostor.world import World
@@ -93,6 +94,48 @@ def test_reflectors_and_what_they_show_keep_the_full_tessellation() -> None:
     mirror_ball = scene_from_toml(HEAD + '[[objects]]\nname = "mirror"\nshape = { type = "sphere", radius = 0.05 }\n'
                                   'material = { type = "mirror" }\nposition = [0.0, 0.05, -20.0]\n')
     assert triangles(World(mirror_ball), "mirror") == FULL
+
+
+def test_the_eye_draws_what_a_mirror_shows_at_the_eyes_level() -> None:
+    """An object a mirror can show keeps its full mesh for the rays (World.geometry), and the eye's
+    diffuse pass draws it at its level for the eye's frame (World.eye_drawn): a few pixels across,
+    an eighth of a pixel of error allows far fewer triangles; near the eye, the full mesh."""
+    world = World(spheres((0.05, (0.5, 0.05, -8.0)), (0.05, (0.5, 0.05, 2.0)), (0.8, (0.0, 1.6, 3.0)), mirror=True)
+                  .with_overrides(size=(960, 540)))
+    drawn = {g.object.name: g for g in world.eye_drawn}
+    assert triangles(world, "ball1") == FULL and len(drawn["ball1"].local_mesh.indices) <= FULL // 16
+    assert drawn["ball0"] is next(g for g in world.geometry if g.object.name == "ball0")  # its world level already
+    assert triangles(world, "ball2") == FULL and drawn["ball2"].local_mesh.indices.shape[0] == FULL
+    assert "mirror" not in drawn  # the reflectors are the mirror pass's
+    # Drawn in one batch with the others: the eye's meshes are loaded with the world's.
+    assert all(any(mesh is g.local_mesh for mesh in world.meshes) for g in world.eye_drawn)
+
+
+def test_the_eye_pass_draws_the_eyes_levels(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The frame's diffuse pass draws World.eye_drawn, and a small sphere in front of a mirror drawn
+    at its eye level changes the frame at its silhouette and shading alone (an eighth of a pixel,
+    interpolated normals), while its reflection, traced against the full mesh, does not change."""
+    scene = spheres((0.12, (0.5, 0.12, 2.0)), mirror=True).with_overrides(size=(160, 90))
+    drawn: list[list[str | int]] = []
+    draw = diffuse_module.DiffusePass.draw
+
+    def spy(self: diffuse_module.DiffusePass, items: list, *args: object, **kwargs: object) -> int:
+        drawn.append([len(g.local_mesh.indices) for g in items if g.object.name == "ball0"])
+        return draw(self, items, *args, **kwargs)
+
+    monkeypatch.setattr(diffuse_module.DiffusePass, "draw", spy)
+    with Renderer(ctx, scene, method=Method.RAYTRACE) as renderer:
+        renderer.render()
+        levelled = renderer.read_color_float()
+        assert drawn and drawn[-1] and drawn[-1][0] < FULL  # the eye's level, not the world's full mesh
+        assert triangles(renderer.world, "ball0") == FULL
+    monkeypatch.setattr(World, "eye_drawn", property(lambda world: world.opaque_diffuse))
+    full, _ = _frame(ctx, scene)
+    assert_finite(levelled)
+    difference = np.abs(levelled - full).max(axis=-1)
+    ball = np.abs(full - _frame(ctx, dataclasses.replace(scene, objects=scene.objects[:2]))[0]).max(axis=-1) > 0.0
+    assert 0 < (difference > 1e-6).sum() <= ball.sum()  # the ball's pixels (and its reflection's), or beside them
+    assert (difference > 0.1).sum() <= 0.1 * ball.sum()  # its silhouette
 
 
 def _frame(ctx: moderngl.Context, scene: Scene) -> tuple[np.ndarray, int]:

@@ -159,11 +159,14 @@ def primary_rays(camera: PPC) -> tuple[np.ndarray, np.ndarray]:
 def primary_tracer(renderer: Renderer) -> TruthTracer:
     """A tracer of primary rays against every object the eye can see: the shadow casters (with real
     shadow rays), the others that cast no shadow (the planes drawn as meshes and the flat mirrors,
-    whose backs are seen directly), and the analytic planes (intersected exactly)."""
+    whose backs are seen directly), and the analytic planes (intersected exactly). Each object as
+    the eye's diffuse pass draws it (World.eye_drawn: at its level of detail for the eye), since
+    outside the mirrors the truth is what the rasterizer saw."""
     world = renderer.world
     casters = world.shadow_casters
     apart = {g.index for g in casters} | {g.index for g in world.analytic_planes}
-    seen = [*casters, *(g for g in world.geometry if g.index not in apart)]
+    as_drawn = {g.index: g for g in world.eye_drawn}
+    seen = [*casters, *(as_drawn.get(g.index, g) for g in world.geometry if g.index not in apart)]
     return TruthTracer(renderer.scene, seen, world.analytic_planes, casters, renderer.sky_lighting())
 
 

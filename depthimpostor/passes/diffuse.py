@@ -234,7 +234,7 @@ class DiffuseNode(Node):
         graph, targets = self.graph, frame.targets
         if graph.diffuse is None:
             return False
-        sampled, drawn = graph.sampled, graph.world.opaque_diffuse  # the blended ones: passes/transparent.py
+        sampled, drawn = graph.sampled, graph.world.eye_drawn  # the blended ones: passes/transparent.py
         if graph.show_samples and graph.samples is not None and sampled is not None:
             drawn = graph.world.analytic_planes  # the samples stand for the others
             graph.stats.draw_calls += graph.samples.draw(sampled, frame.camera)
