@@ -371,7 +371,8 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         seen_from_eye = METHODS[method].seen_from_eye
         lazily = issubclass(stand_in, BakedImages) and bool(images) and stand_in.bakes_lazily(scene, len(images))
         when = ("; each baked when a frame's reflected rays may first enter it (a pass over the mirror pixels finds "
-                "which; the frame is the one of baking them all)" if lazily else "")
+                "which; the frame is the one of baking them all), into the atlas's next free tile: the atlas makes "
+                "its rows as they fill, up to the memory below" if lazily else "")
         passes.append(PlannedPass(Pass.STAND_IN if seen_from_eye is None else Pass.EYE_IMAGES,
                                   f"{_names(reflectors)} may reflect {plural(len(reflected), 'object')}, "
                                   f"seen through {noun}{also}{when}"))
@@ -452,7 +453,7 @@ def plan_render(scene: Scene, method: Method = Method.DEPTH, algorithm: Algorith
         variant(Pass.TRANSPARENT, DIFFUSE_PROGRAM, diffuse_defines(scene, False, transparent=True),
                 "blended objects over the frame (ALPHA_BLEND: their alpha out)" + (
                     " (SHADOWS: a light casts shadows)" if scene.has_shadows else ""))
-    memory = plan_memory(scene, method, algorithm, geometry, images, True in shown_in_bounces, reflection_data,
+    memory = plan_memory(scene, method, algorithm, world, images, True in shown_in_bounces, reflection_data,
                          count_samples, image_plans)
     ordered = tuple(sorted(passes, key=lambda p: in_order(p.stage)))
     programs = {stage: tuple(key for key, (_, of) in variants.items() if of is stage) for stage in Pass}
@@ -604,22 +605,23 @@ def frame_surface(method: Method, reflectors: bool) -> bool:
     return reflectors and eye is not None and eye.reads_frame
 
 
-def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, geometry: list[ObjectGeometry],
+def plan_memory(scene: Scene, method: Method, algorithm: Algorithm, world: World,
                 images: Sequence[PlannedImage], bounce_glass: bool = False, reflection_data: bool = False,
                 count_samples: bool = False, image_plans: dict[int, list[ImagePlan]] | None = None) -> dict[str, int]:
     """Bytes of every GL texture, renderbuffer and buffer a Renderer makes for the plan's first
-    frame, by allocation (tests/test_plan_memory.py counts what the renderer really makes):
-    `images` are the plan's baked images (`image_plans` their cameras, by reflector), `bounce_glass`
-    whether one shows glass in a mirror.
+    frame, by allocation (tests/test_plan_memory.py counts what the renderer really makes), for
+    `world`'s objects: `images` are the plan's baked images (`image_plans` their cameras, by
+    reflector), `bounce_glass` whether one shows glass in a mirror.
     The renderer's own options add outputs: `reflection_data` and `count_samples`."""
     width, height = scene.render.size
+    geometry = world.geometry
     memory = {"frame colour and depth": width * height * (16 + 4),
-              "meshes": GpuMeshes.bytes_for([g.local_mesh for g in geometry], mesh_attributes(scene)),
+              "meshes": GpuMeshes.bytes_for(world.meshes, mesh_attributes(scene)),  # the eye's levels too
               "lights and planes": SceneBlocks.BYTES, "materials": materials_bytes(scene),
               "materials, a record a draw": drawn_materials_bytes(scene)}
     # The diffuse pass's batch of the objects that do not move (gpu/batches.py; a context without
-    # OpenGL 4.3 draws them one by one, and makes none).
-    still = [g for g in geometry if not g.object.is_reflector and not g.object.is_blended and not g.object.moves]
+    # OpenGL 4.3 draws them one by one, and makes none), as the eye draws them.
+    still = [g for g in world.eye_drawn if not g.object.moves]
     if still:
         memory["object batch"] = batch_bytes(still)
     if scene.textures:

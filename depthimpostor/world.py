@@ -41,6 +41,14 @@ class World:
         # reflector bakes, by stand-in and settings): kept across settings changes.
         self._planned: dict[Hashable, Any] = {}
         self.reach_pairs_computed = 0  # pairs culling.reaches worked out for this world (tests count them)
+        # The eye's levels (eye_drawn): the meshes by (shape, seam, level), and by index each object
+        # as the eye draws it beside the geometry it stands for. Carried to the world of another
+        # time or other settings (at, with_settings): a still object keeps what it had (its level
+        # chosen once, as the world's own levels are: lod.py), and with it its GPU buffers and the
+        # batch; a new world makes its own, as it makes its own meshes (geometry.world_mesh), so
+        # that they are loaded together (a batch draws one arena's).
+        self._eye_meshes: dict[tuple[Shape, bool, int], Mesh] = {}
+        self._eye_items: dict[int, tuple[ObjectGeometry, ObjectGeometry]] = {}
         if geometry is None:
             self._sort([g.at(time) for g in scene_geometry(scene.objects)])
             geometry = self._detailed()
@@ -97,20 +105,21 @@ class World:
         if self.scene.has_shadows:
             keep |= {g.index for g in self.shadow_casters}
         levels = detail_levels(self.scene, self.opaque_diffuse, keep, LOD_REFLECTED_PIXEL_ERROR)
-        meshes: dict[tuple[Shape, bool, int], Mesh] = {}
+        meshes, kept = self._eye_meshes, self._eye_items
         drawn = []
         for g in self.opaque_diffuse:
-            level = levels.get(g.index, 0)
-            if level:
+            full, coarse = kept.get(g.index, (None, g))
+            if full is not g:  # not drawn by an earlier world of this one's (at, with_settings)
+                level, coarse = levels.get(g.index, 0), g
                 key = (g.object.shape, getattr(g.object.material, "texture", None) is not None, level)
-                if key not in meshes:
+                if level and key not in meshes:
                     meshes[key] = world_mesh(*key)
-                if len(meshes[key].indices) < len(g.local_mesh.indices):
+                if level and len(meshes[key].indices) < len(g.local_mesh.indices):
                     coarse = ObjectGeometry(g.index, g.object, meshes[key], g.time)
                     coarse.__dict__.update({name: g.__dict__[name] for name in ("model_matrix", "normal_matrix", "determinant")
-                                            if name in g.__dict__})
-                    g = coarse
-            drawn.append(g)
+                                            if name in g.__dict__})  # the same transform: its cached properties' slots
+                kept[g.index] = (g, coarse)
+            drawn.append(coarse)
         return drawn
 
     @property
@@ -156,6 +165,7 @@ class World:
         this world's in its render section alone): what can reach what stays, shared."""
         other = World(scene, self.geometry, self.time)
         other._reach, other._planned = self._reach, self._planned
+        other._eye_meshes, other._eye_items = self._eye_meshes, self._eye_items
         return other
 
     def at(self, time: float, scene: Scene | None = None) -> World:
@@ -165,6 +175,7 @@ class World:
         later = World(scene, [g.at(time) for g in self.geometry], time)
         still = {g.index for g in self.geometry if not g.object.moves}
         later._reach = {pair: why for pair, why in self._reach.items() if pair[0] in still and pair[1] in still}
+        later._eye_meshes, later._eye_items = self._eye_meshes, self._eye_items
         return later
 
     def moved(self, earlier: World) -> set[int]:

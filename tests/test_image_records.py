@@ -278,6 +278,8 @@ def hundred_images(ctx: moderngl.Context) -> Iterator[Queried]:
         renderer.render()
         impostors = renderer.graph.impostors
         assert impostors is not None
+        impostors.bake_again()  # every image (the frame baked those its rays enter): all are read below
+        renderer.render()
         images = impostors.images_by_reflector[renderer.world.mirrors[0].index]
         rng = np.random.default_rng(4)
         targets = np.array([image.target.bounding_sphere[0] for image in images])[rng.integers(0, 100, 3000)]

@@ -9,6 +9,7 @@ baked images, the shadow maps and the glass interiors share.
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 import math
 from dataclasses import dataclass
@@ -20,7 +21,7 @@ from numpy.typing import NDArray
 
 from ..gpu.gl_state import Face, RasterState, other_face
 from ..gpu.bindings import StorageBuffer, TextureUnit, UniformBlock
-from ..gpu.context import bind_default_framebuffer
+from ..gpu.context import bind_default_framebuffer, gl_function
 from ..constants import DEPTH_IMAGE_BLOCK_RECORDS, DEPTH_IMAGE_DTYPE, NO_OBJECT, lists_images
 from ..errors import SceneError
 from ..geometry import ObjectGeometry, world_vertex_groups
@@ -58,7 +59,7 @@ class DepthImage:
     tile_origin: tuple[int, int]
     pyramid: tuple[int, int, int] = (0, 0, 0)
     level: int = 0  # see ImagePlan
-    slot: int = 0  # its place in the atlas: what names it while its objects move
+    slot: int = 0  # what names it while its objects move (its tile is its slot's, or BakedImages.place's)
     label: str = ""  # how plans and stats name it (image_label)
 
     def moved(self, mirror: ObjectGeometry, targets: tuple[ObjectGeometry, ...], camera: PPC) -> DepthImage:
@@ -245,7 +246,11 @@ class ImpostorAtlas:
     hybrid method's) the triangles each sample shows on both layers."""
 
     def __init__(self, ctx: moderngl.Context, count: int, resolution: int, layers: bool = True,
-                 triangle_ids: bool = False, back_colors: bool = False, beyond: bool = False) -> None:
+                 triangle_ids: bool = False, back_colors: bool = False, beyond: bool = False,
+                 rows_made: int | None = None) -> None:
+        """`rows_made`: the rows of tiles made now (every row by default); `grow` makes more, up to
+        the grid's, keeping what the rows made hold (a stand-in whose frames bake only the images
+        their rays enter: BakedImages.place)."""
         columns, rows = atlas_grid(count)
         size = (columns * resolution, rows * resolution)
         limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
@@ -259,8 +264,27 @@ class ImpostorAtlas:
         self.ctx = ctx
         self.count = count
         self.columns = columns
+        self.rows = rows  # the grid's; rows_made of them are made
         self.resolution = resolution
         self.pyramid_layout = PyramidLayout.of_grid(columns, rows, resolution)
+        self._kinds = (layers, triangle_ids, back_colors and layers, beyond and layers)
+        self._make_textures((columns * resolution, min(rows, max(1, rows_made or rows)) * resolution))
+        # The depth buffer is the bakes' scratch alone (one float a texel of the atlas):
+        # free_bake_buffer lets it go between bakes of a scene that will not bake again
+        # unless something changes, and bake_buffer makes it again for the next.
+        self._depth_buffer: moderngl.Renderbuffer | None = None
+        self._make_framebuffers(ctx.depth_renderbuffer(self.size))
+        # Nothing written yet (GL leaves a new texture undefined): the first bake clears every
+        # attachment whole (BakedImages.bake), so nothing is cleared here unless tiles are
+        # written otherwise first (clear_unwritten). Clearing here too was a second pass over a
+        # thousand objects' atlas of 600 MB.
+        self.unwritten = True
+
+    def _make_textures(self, size: tuple[int, int]) -> None:
+        """The atlas's textures at `size` (GL leaves them undefined; llvmpipe writes zeros into
+        every byte, about a second for a thousand images of 128^2)."""
+        layers, triangle_ids, back_colors, beyond = self._kinds
+        ctx = self.ctx
         self.color = ctx.texture(size, 4, dtype="f1")
         # (visible surface, second layer): see lib/baked_images.glsl.
         self.depth = ctx.texture(size, 2, dtype="f4") if layers else None
@@ -271,24 +295,39 @@ class ImpostorAtlas:
         if self.triangles is not None:
             self.textures.append(self.triangles)
         # RGBA8: the back layer's colour (alpha 0: none drawn, as the colour atlas).
-        self.back_color = ctx.texture(size, 4, dtype="f1") if back_colors and layers else None
-        for texture in self.textures + ([self.back_color] if self.back_color is not None else []):
-            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.back_color = ctx.texture(size, 4, dtype="f1") if back_colors else None
         # R32F: where a second solid run begins behind the first (beyond_run.frag); 0 where not
         # known (written by hand for tests): everything behind the first run is then unseen.
-        self.beyond = ctx.texture(size, 1, dtype="f4") if beyond and layers else None
-        if self.beyond is not None:
-            self.beyond.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        # The depth buffer is the bakes' scratch alone (one float a texel of the atlas):
-        # free_bake_buffer lets it go between bakes of a scene that will not bake again
-        # unless something changes, and bake_buffer makes it again for the next.
-        self._depth_buffer: moderngl.Renderbuffer | None = None
-        self._make_framebuffers(ctx.depth_renderbuffer(size))
-        # Nothing written yet (GL leaves a new texture undefined): the first bake clears every
-        # attachment whole (BakedImages.bake), so nothing is cleared here unless tiles are
-        # written otherwise first (clear_unwritten). Clearing here too was a second pass over a
-        # thousand objects' atlas of 600 MB.
-        self.unwritten = True
+        self.beyond = ctx.texture(size, 1, dtype="f4") if beyond else None
+        for texture in self._all_textures():
+            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+
+    def _all_textures(self) -> list[moderngl.Texture]:
+        return self.textures + [texture for texture in (self.back_color, self.beyond) if texture is not None]
+
+    @property
+    def rows_made(self) -> int:
+        return self.size[1] // self.resolution
+
+    def grow(self, slots: int) -> None:
+        """Make rows enough for the first `slots` slots, where fewer are made: at least twice the
+        rows made (a camera that flies enters images a few at a time), at most the grid's. The
+        rows made so far are copied into the new textures (glCopyImageSubData, GL 4.3), where the
+        tiles keep their places."""
+        needed = min(self.rows, -(-slots // self.columns))
+        if needed <= self.rows_made:
+            return
+        old, old_size = self._all_textures(), self.size
+        kept_buffer = self._depth_buffer is not None
+        self._release_framebuffers()
+        if self._depth_buffer is not None:
+            self._depth_buffer.release()
+        self._make_textures((self.columns * self.resolution, min(self.rows, max(needed, 2 * old_size[1] // self.resolution))
+                             * self.resolution))
+        for source, target in zip(old, self._all_textures(), strict=True):
+            copy_texture(self.ctx, source, target, old_size)
+            source.release()
+        self._make_framebuffers(self.ctx.depth_renderbuffer(self.size) if kept_buffer else None)
 
     def clear_unwritten(self) -> None:
         """Clear what a tile written by hand (`write`) or a bake of some tiles alone leaves as it
@@ -348,10 +387,11 @@ class ImpostorAtlas:
 
     @property
     def bytes(self) -> int:
-        """GPU memory now: the textures and, while it is kept, the bakes' depth buffer."""
-        textures = self.bytes_for(self.count, self.resolution, self.depth is not None, self.triangles is not None,
-                                  self.back_color is not None, self.beyond is not None, bake_buffer=False)
-        return textures + (self.bake_buffer_bytes(self.count, self.resolution) if self.keeps_bake_buffer else 0)
+        """GPU memory now: the textures of the rows made and, while it is kept, the bakes' depth
+        buffer."""
+        texel = self.bytes_for(1, 1, self.depth is not None, self.triangles is not None, self.back_color is not None,
+                               self.beyond is not None)
+        return self.size[0] * self.size[1] * (texel - (0 if self.keeps_bake_buffer else 4))
 
     @staticmethod
     def bake_buffer_bytes(count: int, resolution: int) -> int:
@@ -439,9 +479,24 @@ class ImpostorAtlas:
         self._release_framebuffers()
         if self._depth_buffer is not None:
             self._depth_buffer.release()
-        for texture in (self.back_color, self.beyond, *self.textures):
-            if texture is not None:
-                texture.release()
+        for texture in self._all_textures():
+            texture.release()
+
+
+_GL_TEXTURE_2D = 0x0DE1
+_copies: dict[moderngl.Context, Any] = {}
+
+
+def copy_texture(ctx: moderngl.Context, source: moderngl.Texture, target: moderngl.Texture, size: tuple[int, int]) -> None:
+    """Copy the `size` texels at the origin of `source` into `target` (of one format), on the GPU:
+    glCopyImageSubData (GL 4.3), which moderngl does not wrap, through the loader."""
+    if ctx not in _copies:
+        address = gl_function(ctx, "glCopyImageSubData") if ctx.version_code >= 430 else 0
+        if not address:
+            raise RuntimeError(f"{ctx.info['GL_RENDERER']} has no glCopyImageSubData (OpenGL 4.3)")
+        _copies[ctx] = ctypes.CFUNCTYPE(None, *([ctypes.c_uint, ctypes.c_uint] + [ctypes.c_int] * 4) * 2,
+                                        *[ctypes.c_int] * 3)(address)
+    _copies[ctx](source.glo, _GL_TEXTURE_2D, 0, 0, 0, 0, target.glo, _GL_TEXTURE_2D, 0, 0, 0, 0, size[0], size[1], 1)
 
 
 def plural(count: int, noun: str) -> str:

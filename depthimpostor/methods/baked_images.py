@@ -7,6 +7,7 @@ Each method plans its own images and keeps its own second layer.
 from __future__ import annotations
 
 import builtins
+import dataclasses
 import math
 from collections import Counter
 from enum import Enum
@@ -124,10 +125,15 @@ class BakedImages:
         self.back_layer = (DiffusePass(programs, scene, meshes, materials, write_depth_image=True, triangle_offsets=offsets,
                                        back_layer=True, checker=checker) if self.keeps_back_colors else None)
         count = sum(len(images) for images in plan.values())
-        # Slots as large as the largest image ("auto" sizes each image apart).
+        # A frame bakes only the stale images its rays may enter (aim), where that is known exactly.
+        self.lazily = self.bakes_lazily(scene, count)
+        # Slots as large as the largest image ("auto" sizes each image apart). Baked lazily, the
+        # images take their tiles at their first bake (place), and the atlas makes the rows they
+        # fill then (a thousand objects' first frame bakes a quarter to a third of their images).
         sides = [max(camera.width, camera.height) for images in plan.values() for _, camera, _ in images]
         self.atlas = ImpostorAtlas(ctx, count, max(sides, default=1), layers, self.keeps_triangle_ids,
-                                   self.keeps_back_colors, self.keeps_beyond)
+                                   self.keeps_back_colors, self.keeps_beyond, rows_made=1 if self.lazily else None)
+        self.placed = not self.lazily  # have the images their tiles (else each its slot's, for now)?
         self.images_by_reflector: dict[int, list[DepthImage]] = {}
         slot = 0
         for mirror in mirrors:
@@ -151,8 +157,6 @@ class BakedImages:
         # Closed solids' back faces culled in the visible-surface pass, as the frame's batch culls
         # them: seen from outside, each back face lies behind a front face of the same solid.
         self.culls_back_faces = True
-        # A frame bakes only the stale images its rays may enter (aim), where that is known exactly.
-        self.lazily = self.bakes_lazily(scene, len(self.depth_images))
         self.due: set[int] | None = None  # the stale slots the next bake renders (None: every one)
         self.entered: EnteredImages | None = None  # the pass that finds them (made at the first aim)
         # What the last aim found them for (the camera, and the moves so far): a frame that sees the
@@ -168,7 +172,8 @@ class BakedImages:
         per object, and every ray that reads them is a mirror pixel's own reflected ray, which the
         marking pass draws (methods/entered_images.py): no glossy mirror (its cone reads the colour
         mips of every image), no glass (refracted rays), no images of mirrors in mirrors
-        (render.max_bounces). The frame is then the one of baking them all, bit for bit."""
+        (render.max_bounces). The frame is then the one of baking them all (but for the rasterizer's
+        rounding of a tile's place: methods/entered_images.py)."""
         return (cls.per_object and images > 0 and lists_images(depth_image_capacity(len(scene.objects)))
                 and not scene.has_rough_mirrors and not scene.glass and scene.render.max_bounces == 1)
 
@@ -303,8 +308,7 @@ class BakedImages:
         """Keep the images' colour mips (a glossy mirror's cone reads them) or free them. New ones
         are built at once from the images already baked."""
         if wanted and self.colour_mips is None:
-            tiles = [image.tile for image in self.depth_images]  # in slot order, as __init__ assigned them
-            self.colour_mips = ColourMips(self.ctx, self.programs, self.atlas.pyramid_layout, tiles)
+            self.colour_mips = ColourMips(self.ctx, self.programs, self.atlas.pyramid_layout, self.tiles_by_place())
             if self.bakes:
                 self.colour_mips.build(self.atlas.color)
         elif not wanted and self.colour_mips is not None:
@@ -357,10 +361,13 @@ class BakedImages:
         layer's attachments are cleared whole, once, instead of tile by tile (_clears). The depth
         buffer is the bakes' scratch, let go when a frame bakes nothing (rest)."""
         due = self.stale if self.due is None else self.stale & self.due
-        stale = [image for image in self.depth_images if not image.level and image.slot in due]
-        if not stale:
+        if not any(not image.level and image.slot in due for image in self.depth_images):
             return 0
+        if not self.placed:
+            self.place(due if self.due is not None else None)
+        stale = [image for image in self.depth_images if not image.level and image.slot in due]
         atlas = self.atlas
+        atlas.grow(1 + max(atlas.slot_of(image.tile) for image in stale))
         atlas.bake_buffer()
         # Every image of every level: those of reflectors are baked after these (the bounce node).
         whole = due >= {image.slot for image in self.depth_images}
@@ -388,6 +395,37 @@ class BakedImages:
         for image in stale:
             self.baked(image)
         return draws
+
+    def place(self, first: set[int] | None = None) -> None:
+        """Give every image its tile, once: the images of the slots in `first` (the first bake's)
+        the atlas's first tiles, in slot order, then the others (each its slot's tile where `first`
+        is None), and write the tiles into the mirrors' records. A frame that bakes a quarter of
+        the images then fills a quarter of the atlas's rows (ImpostorAtlas.grow makes more when
+        later frames bake more)."""
+        if self.placed:
+            return
+        self.placed = True
+        order = sorted(self.depth_images, key=lambda image: (image.slot not in first, image.slot)) if first else []
+        places = {image.slot: place for place, image in enumerate(order)}
+        if all(slot == place for slot, place in places.items()):
+            return  # each in its slot's tile already
+        layout = self.atlas.pyramid_layout
+        for images in self.images_by_reflector.values():
+            images[:] = [dataclasses.replace(image, tile_origin=self.atlas.tile_origin(places[image.slot]),
+                                             pyramid=layout.entry(places[image.slot], image.camera.width, image.camera.height))
+                         for image in images]
+        for index, buffer in self.uniform_buffers.items():
+            buffer.write(self.image_records(self.images_at(index, self.final_level)).tobytes())
+
+    def tiles_by_place(self) -> list[tuple[int, int, int, int]]:
+        """Every image's tile, in the atlas's order of tiles (the pyramids' and colour mips' table,
+        whose k-th entry has the k-th place of their grid), every image placed and its rows made."""
+        self.place()
+        self.atlas.grow(self.atlas.count)
+        tiles: list[tuple[int, int, int, int]] = [(0, 0, 0, 0)] * len(self.depth_images)
+        for image in self.depth_images:
+            tiles[self.atlas.slot_of(image.tile)] = image.tile
+        return tiles
 
     def drawn(self, images: list[DepthImage]) -> list[list[ObjectGeometry]]:
         """The objects of each of `images` (of level 0) as its bake draws them: each at its level

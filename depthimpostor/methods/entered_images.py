@@ -5,7 +5,9 @@ stale until a frame's rays may enter them.
 The mirror shader reads an image's texels only where the ray enters the image's bound
 (lib/reflected_scene.glsl's image_bound; a billboard's quad lies in its bound too), so an image no
 ray of a frame enters cannot change a pixel of it: baking only the entered ones gives the frame of
-baking them all, bit for bit. This pass finds them with the mirror shader's own rays: the
+baking them all (bit for bit where each image sits in the same tile; the entered images take the
+atlas's first tiles, BakedImages.place, and at another tile the rasterizer may round a texel's
+colour one 8-bit level otherwise: tests/test_startup_bakes.py). This pass finds them with the mirror shader's own rays: the
 reflectors' surfaces drawn into the frame's surface targets with a stamp of their own and a depth
 buffer of their own, behind the depth of the eye's diffuse pass drawn as the frame draws it (the
 frame's mirror pixels, no fewer: it is the same draw, and nothing else drawn before the mirrors

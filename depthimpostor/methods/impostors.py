@@ -81,8 +81,7 @@ class ImpostorPass(BakedImages):
         """Keep a depth pyramid (the hierarchical algorithm's) or free it. A new one is built at
         once from the images already baked (the images themselves are not baked again)."""
         if wanted and self.pyramid is None:
-            tiles = [image.tile for image in self.depth_images]  # in slot order, as __init__ assigned them
-            self.pyramid = DepthPyramid(self.ctx, self.programs, self.atlas.pyramid_layout, tiles)
+            self.pyramid = DepthPyramid(self.ctx, self.programs, self.atlas.pyramid_layout, self.tiles_by_place())
             if self.bakes:
                 self.pyramid.build(self.atlas.depth_layers())
         elif not wanted and self.pyramid is not None:
