@@ -300,15 +300,22 @@ def create_window(title: str, size: tuple[int, int]) -> Window:
     return Window(handle, ctx)
 
 
+@functools.cache
+def _library(name: str) -> ctypes.CDLL | None:
+    """The shared library `name` (EGL, GL), or None: looked up once (find_library runs ldconfig,
+    15 ms a call)."""
+    path = ctypes.util.find_library(name)
+    return None if path is None else ctypes.CDLL(path)
+
+
 def _current_context_function(name: str) -> int:
     """`name` from whichever of EGL and GLX has a context current in this thread (a context made
     outside this module, such as an application's that embeds the renderer); 0 if neither."""
     for library, current, get in (("EGL", "eglGetCurrentContext", "eglGetProcAddress"),
                                   ("GL", "glXGetCurrentContext", "glXGetProcAddressARB")):
-        path = ctypes.util.find_library(library)
-        if path is None:
+        lib = _library(library)
+        if lib is None:
             continue
-        lib = ctypes.CDLL(path)
         if not hasattr(lib, current) or not hasattr(lib, get):
             continue
         getattr(lib, current).restype = ctypes.c_void_p
@@ -356,10 +363,10 @@ def _current_context_queries() -> tuple[Any, ...]:
     (find_library runs a program: looked up once)."""
     found = []
     for library, name in (("EGL", "eglGetCurrentContext"), ("GL", "glXGetCurrentContext")):
-        path = ctypes.util.find_library(library)
-        if path is None:
+        lib = _library(library)
+        if lib is None:
             continue
-        function = getattr(ctypes.CDLL(path), name, None)
+        function = getattr(lib, name, None)
         if function is not None:
             function.restype = ctypes.c_void_p
             found.append(function)

@@ -23,6 +23,7 @@ from ..gpu.bindings import TextureUnit
 from ..constants import (
     BACKGROUND_DEPTH,
     DEPTH_IMAGE_BLOCK_RECORDS,
+    DEPTH_IMAGE_DTYPE,
     MIN_BUDGETED_SIDE,
     STORAGE_GL_VERSION,
     depth_image_capacity,
@@ -414,8 +415,13 @@ class BakedImages:
             images[:] = [dataclasses.replace(image, tile_origin=self.atlas.tile_origin(places[image.slot]),
                                              pyramid=layout.entry(places[image.slot], image.camera.width, image.camera.height))
                          for image in images]
-        for index, buffer in self.uniform_buffers.items():
-            buffer.write(self.image_records(self.images_at(index, self.final_level)).tobytes())
+        for index, buffer in self.uniform_buffers.items():  # the records' tile and pyramid fields alone
+            images = self.images_at(index, self.final_level)
+            size = len(images) * DEPTH_IMAGE_DTYPE.itemsize
+            records = np.frombuffer(buffer.read(size=size), DEPTH_IMAGE_DTYPE).copy()
+            records["tile"][:, :2] = [image.tile_origin for image in images]
+            records["pyramid"][:, :3] = [image.pyramid for image in images]
+            buffer.write(records.tobytes())
 
     def tiles_by_place(self) -> list[tuple[int, int, int, int]]:
         """Every image's tile, in the atlas's order of tiles (the pyramids' and colour mips' table,
