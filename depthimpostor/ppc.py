@@ -112,15 +112,24 @@ def fit_frusta(eye: ArrayLike, points: NDArray[np.floating], centres: ArrayLike)
     frames = orthonormal_frames(np.asarray(centres, dtype=np.float64).reshape(-1, 3) - eye_point, np.array([0.0, 1.0, 0.0]))
     right, down, forward = (frame[:, :, None] for frame in frames)
     z = np.matmul(pts, forward)[..., 0]
-    extent = np.sqrt(np.add.reduce(pts * pts, axis=2).max(axis=1))
     z_min, z_max = z.min(axis=1), z.max(axis=1)
-    # Below this the tangent bounds explode (the object wraps around the eye): no image
-    # plane can hold the projection, so refuse instead of producing a degenerate camera.
-    refused = (extent == 0.0) | (z_min <= 1e-3 * extent)
     with np.errstate(divide="ignore", invalid="ignore"):  # the refused sets' tangents are not used
         tan_x = np.matmul(pts, right)[..., 0] / z
         tan_y = np.matmul(pts, down)[..., 0] / z
-    bounds = [np.stack([tan.min(axis=1), tan.max(axis=1)], axis=1).tolist() for tan in (tan_x, tan_y)]
+    ranges = [np.stack([tan.min(axis=1), tan.max(axis=1)], axis=1) for tan in (tan_x, tan_y)]
+    # Below this the tangent bounds explode (the object wraps around the eye): no image
+    # plane can hold the projection, so refuse instead of producing a degenerate camera. The
+    # extent (the farthest point's distance) is measured only where the test is close: in front
+    # of the eye a point's distance is z sqrt(1 + tan_x^2 + tan_y^2), at most the bound below.
+    with np.errstate(invalid="ignore", over="ignore"):  # (NaN where a point is at the eye's plane: not clear)
+        steepest = np.abs(ranges[0]).max(axis=1) ** 2 + np.abs(ranges[1]).max(axis=1) ** 2
+        clear = (z_min > 0.0) & (z_min > 2e-3 * z_max * np.sqrt(1.0 + steepest))
+    refused = np.zeros(len(pts), bool)
+    close = np.flatnonzero(~clear)
+    if len(close):
+        extent = np.sqrt(np.add.reduce(pts[close] * pts[close], axis=2).max(axis=1))
+        refused[close] = (extent == 0.0) | (z_min[close] <= 1e-3 * extent)
+    bounds = [tan_range.tolist() for tan_range in ranges]
     return [None if refused[i] else FrustumFit(eye_point, frames[0][i], frames[1][i], frames[2][i], tuple(bounds[0][i]),
                                                tuple(bounds[1][i]), (float(z_min[i]), float(z_max[i])))
             for i in range(len(pts))]

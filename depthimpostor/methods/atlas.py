@@ -194,7 +194,7 @@ def fit_depth_image_frusta(scene: Scene, shown: list[tuple[ObjectGeometry, list[
     same to the bit as one by one (a thousand objects' took over a second that way)."""
     targets = list({target.index: target for _, items in shown for target in items}.values())
     fits: dict[tuple[int, int], FrustumFit] = {}
-    for part, vertices in world_vertex_groups(targets):
+    for part, vertices in world_vertex_groups(targets, spheres=True):
         centres = np.stack([target.bounding_sphere[0] for target in part])
         for mirror, items in shown:
             wanted = {target.index for target in items}

@@ -596,12 +596,14 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
     (the stand-in's atlas texel: BakedImages.texel_bytes), its side lowered where the images would
     pass render.image_memory (budgeted_side)."""
     view = scene_view(scene)
-    bounding_spheres([*mirrors, *reflected])  # objects of one mesh together: each camera fit reads them
     shown = {mirror.index: [target for target, why in zip(reflected, row, strict=True) if why is Reach.REACHABLE]
              for mirror, row in zip(mirrors, reach(mirrors, reflected), strict=True)}
     largest = (None if texel_bytes is None
                else largest_side(scene, len(mirrors), sum(len(targets) for targets in shown.values()), texel_bytes))
+    # The targets' bounding spheres are found with their fits, from the same placed vertices; the
+    # others' (objects of one mesh together) after: each camera reads its mirror's.
     fits = fit_depth_image_frusta(scene, [(mirror, shown[mirror.index]) for mirror in mirrors])
+    bounding_spheres([*mirrors, *reflected])
     plans = {}
     for mirror in mirrors:
         targets = shown[mirror.index]
