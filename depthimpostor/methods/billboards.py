@@ -28,6 +28,9 @@ class BillboardPass(BakedImages):
         the camera depth w of its object's centre (w is constant on planes parallel to the image
         plane: this one faces the mirror's centre)."""
         records = super().image_records(images)
-        for i, image in enumerate(images):
-            records[i]["a"][3] = image.camera.camera_coordinates(image.target.bounding_sphere[0])[2]
+        if images:  # PPC.camera_coordinates of each centre, all at once (each camera's own matmul, to the bit)
+            cameras = [image.camera for image in images]
+            inverse = np.linalg.inv(np.stack([np.column_stack([camera.a, camera.b, camera.c]) for camera in cameras]))
+            offsets = np.stack([np.asarray(image.target.bounding_sphere[0], np.float64) - image.camera.C for image in images])
+            records["a"][:len(images), 3] = np.matmul(offsets[:, None, :], inverse.transpose(0, 2, 1))[:, 0, 2]
         return records
