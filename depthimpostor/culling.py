@@ -69,7 +69,9 @@ def enclosing_spheres(items: Sequence[ObjectGeometry]) -> tuple[np.ndarray, np.n
     """enclosing_sphere of every item, in arrays ((N, 3) centres, (N,) radii): ten thousand
     objects' in one pass of numpy."""
     models = np.stack([item.model_matrix for item in items]).reshape(-1, 4, 4)
-    local = [item.local_mesh.bounding_sphere() for item in items]
+    spheres = {id(item.local_mesh): item.local_mesh for item in items}  # each mesh's once: objects share them
+    of_mesh = {key: mesh.bounding_sphere() for key, mesh in spheres.items()}
+    local = [of_mesh[id(item.local_mesh)] for item in items]
     linear = models[:, :3, :3]
     centres = (linear @ np.reshape([centre for centre, _ in local], (-1, 3, 1)))[..., 0] + models[:, :3, 3]
     radii = np.array([radius for _, radius in local]) * np.linalg.norm(linear, 2, axis=(1, 2))

@@ -108,7 +108,8 @@ def fit_frusta(eye: ArrayLike, points: NDArray[np.floating], centres: ArrayLike)
     `@` does, and the largest of the norms is the root of the largest square (the rounded
     square root is monotonic)."""
     eye_point = np.asarray(eye, dtype=np.float64)
-    pts = np.asarray(points, dtype=np.float64) - eye_point
+    pts = np.array(points, dtype=np.float64)  # a copy, in place below (the sets are tens of MB)
+    pts -= eye_point
     frames = orthonormal_frames(np.asarray(centres, dtype=np.float64).reshape(-1, 3) - eye_point, np.array([0.0, 1.0, 0.0]))
     right, down, forward = (frame[:, :, None] for frame in frames)
     z = np.matmul(pts, forward)[..., 0]
