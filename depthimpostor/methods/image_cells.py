@@ -82,7 +82,10 @@ def image_cells(spheres: NDArray[np.float64], centre: NDArray[np.float64], radiu
     cell = np.concatenate([*cells, np.full(len(spheres), size.cells)])
     # Sorted by cell, then image (the lists' rising order), as one key: sorting the keys is several
     # times quicker than a stable argsort of the cells.
-    keys = np.sort(cell * count + np.concatenate([*entries, everything]))
+    keys = cell * count + np.concatenate([*entries, everything])
+    if (size.cells + 1) * count <= np.iinfo(np.int32).max:  # 32-bit keys sort in half the time
+        keys = keys.astype(np.int32)
+    keys.sort()
     counts = np.bincount(keys // count, minlength=size.cells + 1)
     header = size.cells + 2
     starts = header + np.concatenate([[0], np.cumsum(counts)])
