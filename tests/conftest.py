@@ -47,7 +47,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
     Afterwards, in a worker, a warning if xdist did not take the groups: it passes a test's group
     on by appending "@group" to the test's id, which pytest 9.2 no longer reads (pytest-xdist
-    issue #1386), and nothing else says so: the suite just took 80 s more CPU."""
+    issue #1386), and nothing else says so: the suite just took 80 to 100 s more CPU."""
     for item in items:
         fixtures = getattr(item, "_fixtureinfo", None)
         if item.get_closest_marker("xdist_group") is not None or fixtures is None:
@@ -63,8 +63,8 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             warnings.warn(pytest.PytestWarning(
                 f"--dist loadgroup did not group: {len(lost)} tests of an xdist_group ({lost[0]} the first) have no "
                 f"@group in their ids (pytest {pytest.__version__} with pytest-xdist {version('pytest-xdist')}: "
-                "pytest-xdist issue #1386), so each group's fixtures, Xvfb and Ray start in both workers (about "
-                "80 s more CPU); pyproject.toml's [test] extra installs a pytest below 9.2"), stacklevel=1)
+                "pytest-xdist issue #1386), so each group's fixtures, Xvfb and Ray start in both workers (80 to "
+                "100 s more CPU); pyproject.toml's [test] extra installs a pytest below 9.2"), stacklevel=1)
 
 
 @pytest.fixture(scope="session")
