@@ -18,7 +18,7 @@ import numpy as np
 
 from .culling import Reach, reaches
 from .eye import fitted_camera
-from .geometry import ObjectGeometry, bounding_spheres, scene_geometry, world_mesh
+from .geometry import ObjectGeometry, bounding_spheres, has_levels, max_level, scene_geometry, world_mesh
 from .meshes import Mesh
 from .lod import LOD_REFLECTED_PIXEL_ERROR, detail_levels
 from .ppc import PPC
@@ -41,14 +41,13 @@ class World:
         # reflector bakes, by stand-in and settings): kept across settings changes.
         self._planned: dict[Hashable, Any] = {}
         self.reach_pairs_computed = 0  # pairs culling.reaches worked out for this world (tests count them)
-        # The eye's levels (eye_drawn): the meshes by (shape, seam, level), and by index each object
-        # as the eye draws it beside the geometry it stands for. Carried to the world of another
-        # time or other settings (at, with_settings): a still object keeps what it had (its level
-        # chosen once, as the world's own levels are: lod.py), and with it its GPU buffers and the
-        # batch; a new world makes its own, as it makes its own meshes (geometry.world_mesh), so
-        # that they are loaded together (a batch draws one arena's).
+        # The eye's levels (eye_drawn): the meshes of every level (eye_meshes), and by (index, level)
+        # each object as the eye draws it beside the geometry it stands for. Carried to the world of
+        # another time or other settings (at, with_settings): a still object at the same level
+        # keeps what it had, and with it its GPU buffers and the batch; a new world makes its own,
+        # as it makes its own meshes (geometry.world_mesh), so that they are loaded together.
         self._eye_meshes: dict[tuple[Shape, bool, int], Mesh] = {}
-        self._eye_items: dict[int, tuple[ObjectGeometry, ObjectGeometry]] = {}
+        self._eye_items: dict[tuple[int, int], tuple[ObjectGeometry, ObjectGeometry]] = {}
         if geometry is None:
             self._sort([g.at(time) for g in scene_geometry(scene.objects)])
             geometry = self._detailed()
@@ -100,33 +99,53 @@ class World:
         show (which keep their full meshes in `geometry`: the rays that meet them, the triangle
         methods', the truth's, the images' bakes, see them at another size than the eye does) at
         the coarsest level whose error in the eye's frame stays under LOD_REFLECTED_PIXEL_ERROR
-        (lod.py); the others as `geometry` has them. A mesh is never swapped for a finer one."""
-        keep = {g.index for g in self.geometry if g.object.moves}
-        if self.scene.has_shadows:
-            keep |= {g.index for g in self.shadow_casters}
-        levels = detail_levels(self.scene, self.opaque_diffuse, keep, LOD_REFLECTED_PIXEL_ERROR)
-        meshes, kept = self._eye_meshes, self._eye_items
+        (lod.py), for this world's render settings (a resized frame chooses again); the others as
+        `geometry` has them. A mesh is never swapped for a finer one."""
+        levels = detail_levels(self.scene, self.opaque_diffuse, self._eye_kept, LOD_REFLECTED_PIXEL_ERROR)
+        meshes, kept = self.eye_meshes, self._eye_items
         drawn = []
         for g in self.opaque_diffuse:
-            full, coarse = kept.get(g.index, (None, g))
-            if full is not g:  # not drawn by an earlier world of this one's (at, with_settings)
-                level, coarse = levels.get(g.index, 0), g
-                key = (g.object.shape, getattr(g.object.material, "texture", None) is not None, level)
-                if level and key not in meshes:
-                    meshes[key] = world_mesh(*key)
-                if level and len(meshes[key].indices) < len(g.local_mesh.indices):
-                    coarse = ObjectGeometry(g.index, g.object, meshes[key], g.time)
+            level = levels.get(g.index, 0)
+            mesh = meshes.get((g.object.shape, getattr(g.object.material, "texture", None) is not None, level))
+            full, coarse = kept.get((g.index, level), (None, g))
+            if full is not g:  # not drawn at this level by an earlier world of this one's (at, with_settings)
+                coarse = g
+                if mesh is not None and len(mesh.indices) < len(g.local_mesh.indices):
+                    coarse = ObjectGeometry(g.index, g.object, mesh, g.time)
                     coarse.__dict__.update({name: g.__dict__[name] for name in ("model_matrix", "normal_matrix", "determinant")
                                             if name in g.__dict__})  # the same transform: its cached properties' slots
-                kept[g.index] = (g, coarse)
+                kept[(g.index, level)] = (g, coarse)
             drawn.append(coarse)
         return drawn
 
     @property
+    def _eye_kept(self) -> set[int]:
+        """The objects the eye draws at their full meshes: those that move, and shadow casters."""
+        keep = {g.index for g in self.geometry if g.object.moves}
+        if self.scene.has_shadows:
+            keep |= {g.index for g in self.shadow_casters}
+        return keep
+
+    @property
+    def eye_meshes(self) -> dict[tuple[Shape, bool, int], Mesh]:
+        """Every coarser level (1 to the coarsest) of the round shapes the eye may draw coarser, by
+        (shape, seam, level), made once for a world and the worlds of its other times and
+        settings: loaded with the world's meshes (one arena, which a batch draws from), so that a
+        resized frame's levels are there already. Each is a quarter of the one before: together
+        a third of the full mesh, once per shape."""
+        if not self._eye_meshes:  # filled in place: the worlds that share the dict see them
+            keep = self._eye_kept
+            shapes = {(g.object.shape, getattr(g.object.material, "texture", None) is not None)
+                      for g in self.opaque_diffuse if g.index not in keep and has_levels(g.object.shape)}
+            self._eye_meshes.update({(shape, textured, level): world_mesh(shape, textured, level)
+                                     for shape, textured in shapes for level in range(1, max_level(shape) + 1)})
+        return self._eye_meshes
+
+    @property
     def meshes(self) -> list[Mesh]:
-        """Every mesh the world's objects are drawn with: theirs, and the eye's levels of them
-        (eye_drawn), loaded together so that one batch draws them."""
-        return [g.local_mesh for g in self.geometry] + [g.local_mesh for g in self.eye_drawn]
+        """Every mesh the world's objects are drawn with: theirs, and every level the eye may draw
+        them at (eye_meshes), loaded together so that one batch draws them."""
+        return [g.local_mesh for g in self.geometry] + list(self.eye_meshes.values())
 
     @cached_property
     def bounds(self) -> list[Sphere]:
