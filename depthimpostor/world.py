@@ -25,6 +25,8 @@ from .ppc import PPC
 from .scene.model import Camera, Scene, Shape
 
 Sphere = tuple[np.ndarray, float]
+#: The most distinct round shapes whose every level the eye's levels make up front (World.eye_meshes).
+EYE_LEVEL_SHAPES = 256
 T = TypeVar("T")
 
 
@@ -74,6 +76,7 @@ class World:
         self.shadow_casters = [g for g in geometry if g.object in casters]
         self.__dict__.pop("bounds", None)
         self.__dict__.pop("eye_drawn", None)
+        self.__dict__.pop("_eye_levels", None)
 
     def _detailed(self) -> list[ObjectGeometry]:
         """This world's (full) geometry with each object at its level of detail (lod.py): what a
@@ -101,7 +104,7 @@ class World:
         the coarsest level whose error in the eye's frame stays under LOD_REFLECTED_PIXEL_ERROR
         (lod.py), for this world's render settings (a resized frame chooses again); the others as
         `geometry` has them. A mesh is never swapped for a finer one."""
-        levels = detail_levels(self.scene, self.opaque_diffuse, self._eye_kept, LOD_REFLECTED_PIXEL_ERROR)
+        levels = self._eye_levels
         meshes, kept = self.eye_meshes, self._eye_items
         drawn = []
         for g in self.opaque_diffuse:
@@ -118,6 +121,11 @@ class World:
             drawn.append(coarse)
         return drawn
 
+    @cached_property
+    def _eye_levels(self) -> dict[int, int]:
+        """The eye's level of each object drawn coarser than its full mesh (eye_drawn), by index."""
+        return detail_levels(self.scene, self.opaque_diffuse, self._eye_kept, LOD_REFLECTED_PIXEL_ERROR)
+
     @property
     def _eye_kept(self) -> set[int]:
         """The objects the eye draws at their full meshes: those that move, and shadow casters."""
@@ -128,15 +136,22 @@ class World:
 
     @property
     def eye_meshes(self) -> dict[tuple[Shape, bool, int], Mesh]:
-        """Every coarser level (1 to the coarsest) of the round shapes the eye may draw coarser, by
+        """Every coarser level (1 to the coarsest) of the round shapes the eye draws coarser, by
         (shape, seam, level), made once for a world and the worlds of its other times and
         settings: loaded with the world's meshes (one arena, which a batch draws from), so that a
-        resized frame's levels are there already. Each is a quarter of the one before: together
-        a third of the full mesh, once per shape."""
+        resized frame's levels of those shapes are there already (each is a quarter of the one
+        before: together a third of the full mesh, once per shape, about 13 ms to make a sphere's).
+        Every round shape the eye may draw, where they are at most EYE_LEVEL_SHAPES; past that
+        (a scene of a thousand spheres of a thousand radii), only those these settings draw
+        coarser: a smaller frame later draws the others at their full meshes, where a renderer made
+        at that size would draw them coarser."""
         if not self._eye_meshes:  # filled in place: the worlds that share the dict see them
-            keep = self._eye_kept
+            levels, keep = self._eye_levels, self._eye_kept
             shapes = {(g.object.shape, getattr(g.object.material, "texture", None) is not None)
                       for g in self.opaque_diffuse if g.index not in keep and has_levels(g.object.shape)}
+            if len(shapes) > EYE_LEVEL_SHAPES:
+                shapes = {(g.object.shape, getattr(g.object.material, "texture", None) is not None)
+                          for g in self.opaque_diffuse if levels.get(g.index, 0)}
             self._eye_meshes.update({(shape, textured, level): world_mesh(shape, textured, level)
                                      for shape, textured in shapes for level in range(1, max_level(shape) + 1)})
         return self._eye_meshes

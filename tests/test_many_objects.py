@@ -201,3 +201,14 @@ def test_a_moving_object_is_drawn_alone_beside_the_batch(ctx: moderngl.Context) 
             assert renderer.graph.diffuse.draw(renderer.world.diffuse_objects, renderer.camera.view_projection) == 2 + len(moving)
         finally:
             bind_default_framebuffer(ctx)
+
+
+def test_the_eye_levels_made_up_front(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every level of every round shape the eye may draw is made with the world (a resized frame
+    finds its levels loaded), unless the shapes are many: then those the first settings draw
+    coarser alone (World.eye_meshes, EYE_LEVEL_SHAPES)."""
+    scene = spheres((0.05, (0.5, 0.05, 2.0)), (0.8, (0.0, 1.6, 3.0)), mirror=True).with_overrides(size=(960, 540))
+    made = {shape.radius for shape, _, _ in World(scene).eye_meshes}
+    assert made == {0.05, 0.8}  # the near sphere is drawn whole now, and may not be at another size
+    monkeypatch.setattr("depthimpostor.world.EYE_LEVEL_SHAPES", 1)
+    assert {shape.radius for shape, _, _ in World(scene).eye_meshes} == {0.05}
