@@ -49,6 +49,7 @@ class World:
         # keeps what it had, and with it its GPU buffers and the batch; a new world makes its own,
         # as it makes its own meshes (geometry.world_mesh), so that they are loaded together.
         self._eye_meshes: dict[tuple[Shape, bool, int], Mesh] = {}
+        self._eye_meshes_made = [False]  # shared with the dict: made once, even where it stays empty
         self._eye_items: dict[tuple[int, int], tuple[ObjectGeometry, ObjectGeometry]] = {}
         if geometry is None:
             self._sort([g.at(time) for g in scene_geometry(scene.objects)])
@@ -145,7 +146,8 @@ class World:
         (a scene of a thousand spheres of a thousand radii), only those these settings draw
         coarser: a smaller frame later draws the others at their full meshes, where a renderer made
         at that size would draw them coarser."""
-        if not self._eye_meshes:  # filled in place: the worlds that share the dict see them
+        if not self._eye_meshes_made[0]:  # filled in place, once: the worlds that share the dict see them
+            self._eye_meshes_made[0] = True
             levels, keep = self._eye_levels, self._eye_kept
             shapes = {(g.object.shape, getattr(g.object.material, "texture", None) is not None)
                       for g in self.opaque_diffuse if g.index not in keep and has_levels(g.object.shape)}
@@ -199,7 +201,7 @@ class World:
         this world's in its render section alone): what can reach what stays, shared."""
         other = World(scene, self.geometry, self.time)
         other._reach, other._planned = self._reach, self._planned
-        other._eye_meshes, other._eye_items = self._eye_meshes, self._eye_items
+        other._eye_meshes, other._eye_items, other._eye_meshes_made = self._eye_meshes, self._eye_items, self._eye_meshes_made
         return other
 
     def at(self, time: float, scene: Scene | None = None) -> World:
@@ -209,7 +211,7 @@ class World:
         later = World(scene, [g.at(time) for g in self.geometry], time)
         still = {g.index for g in self.geometry if not g.object.moves}
         later._reach = {pair: why for pair, why in self._reach.items() if pair[0] in still and pair[1] in still}
-        later._eye_meshes, later._eye_items = self._eye_meshes, self._eye_items
+        later._eye_meshes, later._eye_items, later._eye_meshes_made = self._eye_meshes, self._eye_items, self._eye_meshes_made
         return later
 
     def moved(self, earlier: World) -> set[int]:

@@ -212,3 +212,19 @@ def test_the_eye_levels_made_up_front(monkeypatch: pytest.MonkeyPatch) -> None:
     assert made == {0.05, 0.8}  # the near sphere is drawn whole now, and may not be at another size
     monkeypatch.setattr("depthimpostor.world.EYE_LEVEL_SHAPES", 1)
     assert {shape.radius for shape, _, _ in World(scene).eye_meshes} == {0.05}
+
+
+def test_a_resized_frame_of_many_shapes_draws_what_is_loaded(ctx: moderngl.Context, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Past EYE_LEVEL_SHAPES, a shape the first settings draw whole gets no levels; a smaller frame
+    later draws it whole too (its levels were never loaded with the world's meshes), not coarser
+    from meshes its batch cannot draw (a reviewer's case: it raised)."""
+    monkeypatch.setattr("depthimpostor.world.EYE_LEVEL_SHAPES", 1)
+    scene = spheres((0.3, (0.5, 0.3, 2.0)), (0.8, (0.0, 1.6, 3.0)), mirror=True).with_overrides(size=(960, 540))
+    with Renderer(ctx, scene, method=Method.RAYTRACE) as renderer:
+        renderer.render()
+        assert not renderer.world.eye_meshes
+        renderer.resize((40, 22))
+        renderer.render()
+        assert_finite(renderer.read_color_float())
+        assert all(g.local_mesh is full.local_mesh for g, full in zip(renderer.world.eye_drawn, renderer.world.opaque_diffuse,
+                                                                 strict=True))
