@@ -131,6 +131,14 @@ class ObjectGeometry:
         mesh = motion.mesh_at(time) if motion is not None and motion.deforms else self.local_mesh
         return ObjectGeometry(self.index, self.object, mesh, time)
 
+    def drawn_with(self, mesh: Mesh) -> ObjectGeometry:
+        """The same object at the same time drawn with another local mesh (a coarser level of its
+        shape: lod.BakeDetail, World.eye_drawn), its transform's cached properties shared."""
+        other = ObjectGeometry(self.index, self.object, mesh, self.time)
+        other.__dict__.update({name: self.__dict__[name] for name in ("model_matrix", "normal_matrix", "determinant")
+                               if name in self.__dict__})  # the cached properties' slots
+        return other
+
     @cached_property
     def normal_matrix(self) -> np.ndarray:
         return np.linalg.inv(self.model_matrix[:3, :3]).T

@@ -231,12 +231,7 @@ class BakeDetail:
         if kept is not None and kept[0] is item:
             return kept[1]
         mesh = level_mesh(item.object.shape, getattr(item.object.material, "texture", None) is not None, level)
-        if len(mesh.indices) >= len(item.local_mesh.indices):
-            coarse = item
-        else:
-            coarse = ObjectGeometry(item.index, item.object, mesh, item.time)
-            coarse.__dict__.update({name: item.__dict__[name] for name in ("model_matrix", "normal_matrix")
-                                    if name in item.__dict__})  # the same transform: its cached properties' slots
+        coarse = item if len(mesh.indices) >= len(item.local_mesh.indices) else item.drawn_with(mesh)
         self._items[(item.index, level)] = (item, coarse)
         return coarse
 

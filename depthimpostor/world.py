@@ -115,9 +115,7 @@ class World:
             if full is not g:  # not drawn at this level by an earlier world of this one's (at, with_settings)
                 coarse = g
                 if mesh is not None and len(mesh.indices) < len(g.local_mesh.indices):
-                    coarse = ObjectGeometry(g.index, g.object, mesh, g.time)
-                    coarse.__dict__.update({name: g.__dict__[name] for name in ("model_matrix", "normal_matrix", "determinant")
-                                            if name in g.__dict__})  # the same transform: its cached properties' slots
+                    coarse = g.drawn_with(mesh)
                 kept[(g.index, level)] = (g, coarse)
             drawn.append(coarse)
         return drawn
