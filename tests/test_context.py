@@ -18,7 +18,7 @@ import moderngl
 import pytest
 
 from conftest import PROJECT_ROOT
-from depthimpostor.gpu.context import REQUIRED_GL_VERSION, create_context, describe
+from depthimpostor.gpu.context import REQUESTED_GL_VERSIONS, REQUIRED_GL_VERSION, create_context, describe
 from depthimpostor.errors import ContextError, DepthImpostorError
 
 MISSING_LIBRARY = "/nonexistent/libOSMesa.so.8"
@@ -82,6 +82,32 @@ def test_auto_names_every_backend_tried(monkeypatch: pytest.MonkeyPatch) -> None
     assert "egl: eglGetDisplay failed" in message and "osmesa: " in message
     assert "libegl1" in message and "libosmesa6" in message
     assert "\n" not in message
+
+
+
+@pytest.mark.parametrize("newest", [460, 450, 430, 330])
+def test_egl_asks_for_the_newest_version_first(monkeypatch: pytest.MonkeyPatch, newest: int) -> None:
+    """A driver that gives exactly the version asked for (NVIDIA's EGL, asked for 3.3, gave 3.3 and
+    the compute-shader methods refused to run on an H100): the context is the newest version asked
+    for that the driver has, never 3.3 where it has 4.3 or more."""
+    asked: list[int] = []
+
+    class Given:
+        def __init__(self, version: int) -> None:
+            self.version_code = version
+            self.extra: dict[str, object] | None = None
+
+    def exact_driver(*args: object, require: int, **kwargs: object) -> Given:
+        asked.append(require)
+        if require > newest:
+            raise moderngl.Error("eglCreateContext failed (0x3009)")
+        return Given(require)
+
+    monkeypatch.setattr(moderngl, "create_standalone_context", exact_driver)
+    context = create_context("egl")
+    assert asked[0] == REQUESTED_GL_VERSIONS[0] == 450 and asked[-1] == context.version_code
+    assert context.version_code == max(v for v in REQUESTED_GL_VERSIONS if v <= newest)
+    assert context.version_code >= min(newest, 430)
 
 
 OSMESA_PROBE = """

@@ -23,6 +23,11 @@ Backend = Literal["auto", "egl", "osmesa"]
 
 #: GL 3.3 core is what the shaders are written against (`#version 330 core`).
 REQUIRED_GL_VERSION = 330
+#: The versions asked for, in order, down to REQUIRED_GL_VERSION. Asked for 3.3 core, Mesa gives its
+#: newest core version but NVIDIA's EGL gives 3.3 exactly, and the methods that need compute shaders
+#: (4.3: the hierarchical march's pyramid, screen-space reflections) would refuse to run. 4.5 is the
+#: newest llvmpipe has: asking it 4.6 first would cost a refused context (60 ms) on every start.
+REQUESTED_GL_VERSIONS = (450, 430, REQUIRED_GL_VERSION)
 
 _INSTALL_HINT = (
     "install Mesa's EGL (Debian/Ubuntu: apt-get install -y libegl1 libegl-mesa0) "
@@ -94,11 +99,15 @@ class OSMesaLoader:
 def _egl_context(device: int | None = None) -> moderngl.Context:
     """`device`: the index among EGL's devices (EGL_EXT_device_enumeration, as glcontext enumerates
     them); None: EGL's default display."""
-    if device is None:
-        # moderngl's stub types each **settings value as a dict; glcontext takes strings such as this one.
-        return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL_VERSION)  # type: ignore[arg-type]
-    return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL_VERSION,  # type: ignore[arg-type]
-                                              device_index=device)  # type: ignore[arg-type]
+    settings: dict[str, Any] = {} if device is None else {"device_index": device}
+    for version in REQUESTED_GL_VERSIONS:
+        try:
+            # moderngl's stub types each **settings value as a dict; glcontext takes strings and ints.
+            return moderngl.create_standalone_context(backend="egl", require=version, **settings)  # type: ignore[arg-type]
+        except Exception:  # eglCreateContext refused this version: ask for the next one down
+            if version == REQUIRED_GL_VERSION:
+                raise
+    raise AssertionError("REQUESTED_GL_VERSIONS ends with REQUIRED_GL_VERSION")
 
 
 def _osmesa_context(device: int | None = None) -> moderngl.Context:
@@ -254,7 +263,7 @@ _WINDOW_HINT = (
 
 @dataclass
 class Window:
-    """A glfw window and the moderngl context of its GL 3.3 core context."""
+    """A glfw window and the moderngl context of its GL core context (3.3 or newer)."""
 
     handle: Any  # glfw's window pointer
     ctx: moderngl.Context
@@ -276,12 +285,18 @@ def create_window(title: str, size: tuple[int, int]) -> Window:
     try:
         if not glfw.init():
             raise glfw.GLFWError("glfwInit failed")
-        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, REQUIRED_GL_VERSION // 100)
-        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, REQUIRED_GL_VERSION % 100 // 10)
         glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
         glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
         glfw.window_hint(glfw.SCALE_TO_MONITOR, True)
-        handle = glfw.create_window(size[0], size[1], title, None, None)
+        for version in REQUESTED_GL_VERSIONS:  # the newest first, as for EGL
+            glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, version // 100)
+            glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, version % 100 // 10)
+            try:
+                handle = glfw.create_window(size[0], size[1], title, None, None)
+                break
+            except glfw.GLFWError:  # this version is unavailable: ask for the next one down
+                if version == REQUIRED_GL_VERSION:
+                    raise
         glfw.make_context_current(handle)
     except glfw.GLFWError as error:
         glfw.terminate()
