@@ -20,9 +20,11 @@ uniform vec3 u_tint;  // a mirror's, or the light a glass transmits
 uniform sampler2D u_surface_position;  // (world position, reflector's object id + 1; 0: none)
 uniform sampler2D u_surface_normal;    // (interpolated world normal, 2 stamp + 1 on a front face)
 uniform int u_surface_stamp;           // this frame's (reflector_surface.frag)
-vec3 v_world_position;
-vec3 v_world_normal;
-bool front_facing;
+// Set from the textures at main's start; initialised here as well because Mesa's flow analysis,
+// which does not see that main assigns them before any use, warns "used uninitialized".
+vec3 v_world_position = vec3(0.0);
+vec3 v_world_normal = vec3(0.0, 0.0, 1.0);
+bool front_facing = false;
 #else
 in vec3 v_world_position;
 in vec3 v_local_position;
