@@ -73,3 +73,14 @@ def test_the_committed_reference_covers_every_shipped_scene_and_method() -> None
                 for name, _, method, algorithm in gpu_results.check_configurations(None)}
     assert set(reference["results"]) == expected
     assert all(figures.get("finite", True) for figures in reference["results"].values())
+
+
+def test_only_the_frames_of_failed_configurations_are_kept(tmp_path: Path) -> None:
+    results: dict[str, object] = {"a.toml planar -": {}, "a.toml depth basic": {}, "ab.toml planar -": {}}
+    for key in results:
+        gpu_results.frame_file(tmp_path, key).write_bytes(b"frame")
+    assert gpu_results.frame_file(tmp_path, "a.toml depth basic").name == "a_depth_basic.npy"
+    gpu_results.keep_failed_frames(tmp_path, results, ["a.toml planar -: color_rmse 0.12, reference 0.06"])
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["a_planar_-.npy"]
+    gpu_results.keep_failed_frames(tmp_path, results, [])
+    assert not tmp_path.exists()

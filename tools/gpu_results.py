@@ -20,6 +20,7 @@ The device machine's preparation and its one command: docs/gpu.md.
    broken shader, a wrong binding or a driver's miscompile moves a figure by far more. What the
    driver said compiling each program (warnings too: gpu/compile_logs.py) is kept in
    shader_logs.txt.
+   The frames of the configurations that failed are kept (failed_frames/, float16 linear colour).
 2. The benchmark (`depthimpostor bench`'s rounds): BENCH_SCENES at BENCH_SIZE, every method, the
    optimized and hierarchical marches, BENCH_RESOLUTIONS; bench.csv, bench.md and the plots.
 3. The criteria, from the benchmark's rows (criteria.md): the depth method's mirror pass at 1080p on
@@ -38,11 +39,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import multiprocessing
+import os
 import re
 import sys
 import tempfile
 import time
 from collections.abc import Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -140,13 +144,21 @@ def check_key(scene: str, method: Method, algorithm: Algorithm) -> str:
     return f"{scene} {method.option} {algorithm.name.lower() if METHODS[method].marches_depth_images else '-'}"
 
 
+def frame_file(frames: Path, key: str) -> Path:
+    """Where a configuration's frame is kept: its key with the spaces and ".toml" taken out."""
+    return frames / (key.replace(".toml", "").replace(" ", "_") + ".npy")
+
+
 def measure_frame(ctx: object, scene: Scene, method: Method, algorithm: Algorithm, truth: TruthFrame | None,
-                  logs: dict[str, str]) -> tuple[dict[str, float | int | bool], TruthFrame]:
+                  logs: dict[str, str], frame: Path | None = None) -> tuple[dict[str, float | int | bool], TruthFrame]:
     """One frame's figures against the truth (traced now unless `truth` was traced for its rays),
-    and the driver's words on each program it compiled, into `logs`."""
+    and the driver's words on each program it compiled, into `logs`; its linear colour (float16,
+    row 0 at the bottom) saved to `frame`, where given."""
     with Renderer(ctx, scene, algorithm, reflection_data=True, method=method) as renderer:  # type: ignore[arg-type]
         renderer.render()
         colour = renderer.read_color_float()
+        if frame is not None:
+            np.save(frame, colour.astype(np.float16))
         comparison = compare(renderer, truth)
         for (stages, defines), program in renderer.programs.compiled():
             name = " + ".join(stages) + "".join(f" {k}={v}" for k, v in defines)
@@ -170,22 +182,65 @@ def measure_frame(ctx: object, scene: Scene, method: Method, algorithm: Algorith
     return figures, comparison.truth_frame
 
 
-def run_check(ctx: object, scene_names: Sequence[str] | None, logs: dict[str, str]) -> dict[str, object]:
-    """key -> the frame's figures, or {"refused": message} where the scene or the method refused."""
+def check_scene(ctx: object, name: str, scene: Scene | SceneError, configurations: Sequence[tuple[Method, Algorithm]],
+                logs: dict[str, str], frames: Path | None = None) -> dict[str, object]:
+    """One scene's configurations (its truth traced once, for the first, and shared): key -> the
+    frame's figures, or {"refused": message} where the scene or the method refused."""
     results: dict[str, object] = {}
-    truths: dict[str, TruthFrame] = {}
-    for name, scene, method, algorithm in check_configurations(scene_names):
+    truth: TruthFrame | None = None
+    for method, algorithm in configurations:
         key = check_key(name, method, algorithm)
         if isinstance(scene, SceneError):
             results[key] = {"refused": _portable(str(scene))}
             continue
         try:
-            figures, truths[name] = measure_frame(ctx, scene, method, algorithm, truths.get(name), logs)
+            figures, truth = measure_frame(ctx, scene, method, algorithm, truth, logs,
+                                           None if frames is None else frame_file(frames, key))
         except SceneError as error:
             results[key] = {"refused": _portable(str(error))}
             continue
         results[key] = figures
         print(f"  {key}: " + ", ".join(f"{k} {_short(v)}" for k, v in figures.items()), flush=True)
+    return results
+
+
+_WORKER_CONTEXT: object = None
+
+
+def _check_scene_in_worker(name: str, scene: Scene | SceneError, configurations: Sequence[tuple[Method, Algorithm]],
+                           frames: Path | None) -> tuple[dict[str, object], dict[str, str]]:
+    """check_scene in a worker process, on the worker's own context (made once per process)."""
+    global _WORKER_CONTEXT
+    if _WORKER_CONTEXT is None:
+        _WORKER_CONTEXT = create_context()
+    logs: dict[str, str] = {}
+    return check_scene(_WORKER_CONTEXT, name, scene, configurations, logs, frames), logs
+
+
+def run_check(ctx: object, scene_names: Sequence[str] | None, logs: dict[str, str], jobs: int = 1,
+              frames: Path | None = None) -> dict[str, object]:
+    """Every configuration's figures (check_scene's), in check_configurations' order. With `jobs` > 1
+    the scenes are checked in that many processes at once, each with its own context: most of a
+    configuration's time is the CPU's (loading, baking, building the BVH, tracing the truth), and
+    the device machine has 16 cores for its few minutes (one process took 478 s for the 210
+    configurations on an H100's host; the benchmark then had no time left)."""
+    by_scene: dict[str, tuple[Scene | SceneError, list[tuple[Method, Algorithm]]]] = {}
+    for name, scene, method, algorithm in check_configurations(scene_names):
+        by_scene.setdefault(name, (scene, []))[1].append((method, algorithm))
+    results: dict[str, object] = {}
+    if jobs <= 1 or len(by_scene) <= 1:
+        for name, (scene, configurations) in by_scene.items():
+            results.update(check_scene(ctx, name, scene, configurations, logs, frames))
+        return results
+    # Spawned, not forked: a forked child would share the parent's EGL display and GL state.
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(_check_scene_in_worker, name, scene, configurations, frames)
+                   for name, (scene, configurations) in by_scene.items()]
+        for future in futures:  # in the scenes' order, whichever finishes first
+            scene_results, scene_logs = future.result()
+            results.update(scene_results)
+            for program, text in scene_logs.items():
+                logs.setdefault(program, text)
     return results
 
 
@@ -229,6 +284,17 @@ def judge(results: dict[str, object], reference: dict[str, object]) -> tuple[lis
                     failures.append(f"{key}: {figure} {value:.4g}, reference {wanted:.4g} "
                                     f"(tolerance {tolerance.absolute:g} + {tolerance.relative:g} x reference)")
     return failures, unknown, compared
+
+
+def keep_failed_frames(frames: Path, results: dict[str, object], failures: Sequence[str]) -> None:
+    """Keep the frames of the configurations that failed, to be set beside llvmpipe's (the same
+    configuration rendered there); drop the others, and the folder where none failed."""
+    failed = {key for key in results if any(failure.startswith(f"{key}: ") for failure in failures)}
+    for key in results:
+        if key not in failed:
+            frame_file(frames, key).unlink(missing_ok=True)
+    if not any(frames.iterdir()):
+        frames.rmdir()
 
 
 def check_markdown(results: dict[str, object], failures: Sequence[str], unknown: Sequence[str], compared: int,
@@ -335,6 +401,8 @@ def main() -> int:
     parser.add_argument("-o", "--output", type=Path,
                         help="output folder (default: results/<renderer>/gpu_results, or a temporary one with --quick)")
     parser.add_argument("--reference", type=Path, default=REFERENCE, help=f"the check's reference (default {REFERENCE})")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                        help="processes checking scenes at once, each with its own context (default: one per CPU)")
     parser.add_argument("--require-gpu", action="store_true",
                         help="stop at once (exit 3) on a software renderer: the device machine's run, whose "
                              "minutes a 1080p benchmark on llvmpipe would waste")
@@ -352,9 +420,12 @@ def main() -> int:
 
     logs: dict[str, str] = {}
     print("check: every scene x method x algorithm against the truth", flush=True)
-    results = run_check(ctx, QUICK_SCENES if args.quick else None, logs)
+    frames = output / "failed_frames"
+    frames.mkdir(exist_ok=True)
+    results = run_check(ctx, QUICK_SCENES if args.quick else None, logs, max(1, args.jobs), frames)
     reference = json.loads(args.reference.read_text(encoding="utf-8"))["results"] if args.reference.exists() else {}
     failures, unknown, compared = judge(results, reference)
+    keep_failed_frames(frames, results, failures)
     header = [f"tools/gpu_results.py{' --quick' if args.quick else ''}, {time.strftime('%Y-%m-%d')}", f"GL: {gl}"]
     (output / "check.json").write_text(json.dumps({"gl": gl, "size": CHECK_SIZE, "resolution": CHECK_RESOLUTION,
                                                    "results": results}, indent=1) + "\n", encoding="utf-8")
