@@ -363,6 +363,33 @@ def clip_and_project(image: DepthImageData, origins: Array, directions: Array) -
     return ClippedRays(inside, t_enter, t_exit, pa, pb, sa, sb)
 
 
+#: How far float32 rounding may put a clipped end across the side that sets it, as a share of the
+#: image's larger side: the GPU clips in 3-D and divides, some tens of units in the last place of
+#: the screen coordinate (a ray along the last column of a 64-texel image, whose end this puts
+#: 0.3 px along the segment, moved its float32 hit half a texel: tests/test_fuzz.py).
+SIDE_ROUNDING = 2.0**-19
+
+
+def clipped_end_drift(image: DepthImageData, sa: Array, sb: Array) -> Array:
+    """How far (pixels along the segment) float32 rounding may move an end of the clipped segment
+    that a side of the frustum sets: a ray running nearly along a side (its projection nearly along
+    the image's edge) meets it where a small error across the side moves the end far along the
+    ray, and the march's uniform steps with it. 0 where neither end is on a side."""
+    height, width = image.depth.shape
+    delta = np.abs(sb[:, :2] - sa[:, :2])
+    length = np.maximum(delta.max(axis=1), 1e-300)
+    drift = np.zeros(len(sa))
+    for axis, size in ((0, width), (1, height)):
+        rate = delta[:, axis] / length  # the coordinate's change per pixel along the segment
+        for end in (sa, sb):
+            on_side = np.minimum(np.abs(end[:, axis] + CLIP_TOLERANCE_PIXELS),
+                                 np.abs(end[:, axis] - size - CLIP_TOLERANCE_PIXELS)) < 1e-6
+            with np.errstate(divide="ignore"):
+                moved = np.where(on_side, SIDE_ROUNDING * max(width, height) / rate, 0.0)
+            drift = np.maximum(drift, moved)
+    return drift
+
+
 def intersect_optimized(image: DepthImageData, origins: Array, directions: Array) -> RayHits:
     """The lecture's optimized algorithm: 2-D segments in (screen parameter, OpenGL depth)."""
     origins, directions = np.asarray(origins, float), np.asarray(directions, float)
@@ -377,6 +404,9 @@ def intersect_optimized(image: DepthImageData, origins: Array, directions: Array
     # A ray that passes within rounding of the frustum may be clipped in by float32.
     near_miss = ~rays.inside & image.camera.clip_ray_grown(origins, directions, 1e-3)[0]
     result.texel_margin[near_miss] = 0.0
+    # An end that a side of the frustum sets is a decision too: where float32 may move it along the
+    # segment by more than the margins' 1e-3 px, the steps sample other texels.
+    result.texel_margin[active & (clipped_end_drift(image, rays.sa, rays.sb) > 1e-3)] = 0.0
     s0 = rays.sa.copy()
     z0 = sample_layers(image, s0[:, :2])
     block0 = texel_block(image, s0[:, :2])
