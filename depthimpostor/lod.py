@@ -6,8 +6,12 @@ A level halves the shape's tessellation (geometry.tessellation). An object gets 
 whose chordal error (the largest distance between the true surface and the triangles: a circle of
 radius r cut into n chords sags by r (1 - cos(pi / n))), projected from the scene camera at the
 nearest point of the object's enclosing sphere, stays under LOD_PIXEL_ERROR pixels of the scene's
-frame. The level is chosen once, when the scene's world is made: the camera the scene file names
-and the frame size it renders at; a viewer that flies close to a small object sees its facets.
+frame. The world's level (World.geometry) is chosen once, when the scene's world is made, from the
+camera the scene file names and the frame size it renders at; the eye's diffuse pass draws each
+object at the level for the frame's own camera (World.eye_drawn_for: a viewer, a video's path or a
+dataset's cameras move it), from the levels the world loaded (every level of up to
+world.EYE_LEVEL_SHAPES round shapes; past that, a camera moved close to an object of the others
+sees the scene camera's level).
 
 Kept at the full tessellation, because a coarser mesh would change what they show:
 - reflectors (mirrors and glass): a mirror's normals are interpolated over its triangles, so a
@@ -35,7 +39,8 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Collection, Sequence
+from collections.abc import Callable, Collection, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -98,14 +103,29 @@ def chordal_error(shape: Shape, level: int) -> float:
     return 0.0
 
 
-def pixels_per_unit(scene: Scene, centre: np.ndarray, radius: float) -> float:
-    """Pixels of the scene's frame that a length at the nearest point of the sphere (centre,
-    radius) covers, seen from the scene's camera; infinite where the eye is in the sphere."""
-    distance = float(np.linalg.norm(centre - np.asarray(scene.camera.eye, float))) - radius
-    if distance <= 0.0:
-        return math.inf
-    focal = 0.5 * scene.render.size[1] / math.tan(math.radians(0.5 * scene.camera.fov_y))
-    return focal / distance
+@dataclass(frozen=True)
+class EyeView:
+    """What an object's size on screen depends on: where the eye is, and its focal length in
+    pixels of its frame (pixels across a unit length at unit distance on the optical axis)."""
+
+    eye: tuple[float, float, float]
+    focal: float
+
+    @classmethod
+    def of_scene(cls, scene: Scene) -> EyeView:
+        """The scene file's camera at the scene's frame size."""
+        eye = np.asarray(scene.camera.eye, float)
+        return cls((float(eye[0]), float(eye[1]), float(eye[2])),
+                   0.5 * scene.render.size[1] / math.tan(math.radians(0.5 * scene.camera.fov_y)))
+
+    @classmethod
+    def of_camera(cls, camera: PPC) -> EyeView:
+        """A frame's camera (a viewer's, a video's, a dataset frame's): its pixel's size at unit
+        depth is |b| (PPC's pixels are square)."""
+        forward = np.cross(camera.a, camera.b)
+        forward /= np.linalg.norm(forward)
+        focal = float(np.dot(camera.c, forward) / np.linalg.norm(camera.b))
+        return cls((float(camera.C[0]), float(camera.C[1]), float(camera.C[2])), focal)
 
 
 def detail_level(errors: list[float], pixels: float, limit: float = LOD_PIXEL_ERROR) -> int:
@@ -127,24 +147,56 @@ def level_errors(shape: Shape) -> list[float]:
 _ERRORS: dict[Shape, list[float]] = {}  # level_errors of each shape met so far (shapes are frozen)
 
 
-def detail_levels(scene: Scene, geometry: list[ObjectGeometry], keep: Collection[int],
-                  limit: float = LOD_PIXEL_ERROR) -> dict[int, int]:
+def detail_levels(view: EyeView, geometry: list[ObjectGeometry], keep: Collection[int],
+                  limit: float | Callable[[ObjectGeometry], float] = LOD_PIXEL_ERROR) -> dict[int, int]:
     """The level of each object (by index) but those in `keep` (their full tessellation: see the
-    module's docstring for which), from its size in the scene camera's frame: the coarsest whose
-    error covers at most `limit` pixels. The objects' enclosing spheres are found for all of them
-    at once."""
-    items = [g for g in geometry if g.index not in keep and has_levels(g.object.shape)]
-    if not items:
-        return {}
-    centres, radii = enclosing_spheres(items)
-    scales = np.linalg.norm(np.stack([g.model_matrix[:3, :3] for g in items]), 2, axis=(1, 2))  # local to world units, at most
-    levels = {}
-    for item, centre, radius, scale in zip(items, centres, radii, scales, strict=True):
-        level = detail_level(level_errors(item.object.shape), float(scale) * pixels_per_unit(scene, centre, float(radius)),
-                             limit)
-        if level:
-            levels[item.index] = level
-    return levels
+    module's docstring for which), from its size in the view's frame: the coarsest whose error
+    covers at most `limit` pixels (or `limit(object)`)."""
+    return LevelTable.of(geometry, keep, limit).levels(view)
+
+
+@dataclass(frozen=True, eq=False)
+class LevelTable:
+    """What detail_levels needs of its objects apart from the view (their enclosing spheres, scales,
+    limits and each level's error), worked out once: a viewer's camera moves every frame, and a
+    thousand objects' spheres take longer to find than their levels for a view."""
+
+    indices: np.ndarray  # (n,) the objects' indices
+    centres: np.ndarray  # (n, 3) their enclosing spheres, in the world
+    radii: np.ndarray  # (n,)
+    scales: np.ndarray  # (n,) local to world units, at most
+    limits: np.ndarray  # (n,) pixels
+    errors: np.ndarray  # (n, most levels) each level's chordal error (finest first), inf past the coarsest
+
+    @classmethod
+    def of(cls, geometry: list[ObjectGeometry], keep: Collection[int],
+           limit: float | Callable[[ObjectGeometry], float] = LOD_PIXEL_ERROR) -> LevelTable:
+        items = [g for g in geometry if g.index not in keep and has_levels(g.object.shape)]
+        if not items:
+            empty = np.zeros(0)
+            return cls(np.zeros(0, np.int64), np.zeros((0, 3)), empty, empty, empty, np.zeros((0, 1)))
+        centres, radii = enclosing_spheres(items)
+        scales = np.linalg.norm(np.stack([g.model_matrix[:3, :3] for g in items]), 2, axis=(1, 2))
+        per_item = [level_errors(g.object.shape) for g in items]
+        errors = np.full((len(items), max(len(e) for e in per_item)), np.inf)
+        for row, item_errors in enumerate(per_item):
+            errors[row, :len(item_errors)] = item_errors
+        limits = np.array([limit(g) if callable(limit) else limit for g in items], np.float64)
+        return cls(np.array([g.index for g in items], np.int64), np.asarray(centres, np.float64),
+                   np.asarray(radii, np.float64), scales, limits, errors)
+
+    def levels(self, view: EyeView) -> dict[int, int]:
+        """detail_level of each object from `view`, by index, where it is not 0."""
+        if not len(self.indices):
+            return {}
+        distance = np.sqrt(np.einsum("ij,ij->i", *(self.centres - np.asarray(view.eye, np.float64),) * 2)) - self.radii
+        with np.errstate(divide="ignore"):
+            pixels = self.scales * np.where(distance > 0.0, view.focal / np.where(distance > 0.0, distance, 1.0), np.inf)
+        with np.errstate(invalid="ignore"):  # 0 x inf (an exact level, the eye inside): not within the limit
+            within = self.errors[:, 1:] * pixels[:, None] <= self.limits[:, None]
+        # detail_level's walk: the coarsest level before the first that is not within the limit.
+        level = np.argmin(np.hstack([within, np.zeros((len(within), 1), bool)]), axis=1)
+        return {int(index): int(value) for index, value in zip(self.indices, level, strict=True) if value}
 
 
 def texels_per_unit(cameras: Sequence[PPC], centres: np.ndarray, radii: np.ndarray) -> np.ndarray:

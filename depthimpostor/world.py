@@ -20,7 +20,7 @@ from .culling import Reach, reaches
 from .eye import fitted_camera
 from .geometry import ObjectGeometry, bounding_spheres, has_levels, max_level, scene_geometry, world_mesh
 from .meshes import Mesh
-from .lod import LOD_REFLECTED_PIXEL_ERROR, detail_levels
+from .lod import LOD_PIXEL_ERROR, LOD_REFLECTED_PIXEL_ERROR, EyeView, LevelTable, detail_levels
 from .ppc import PPC
 from .scene.model import Camera, Scene, Shape
 
@@ -51,6 +51,11 @@ class World:
         self._eye_meshes: dict[tuple[Shape, bool, int], Mesh] = {}
         self._eye_meshes_made = [False]  # shared with the dict: made once, even where it stays empty
         self._eye_items: dict[tuple[int, int], tuple[ObjectGeometry, ObjectGeometry]] = {}
+        # The objects kept at their full meshes because a reflector can show them (_detailed): the
+        # eye draws them at LOD_REFLECTED_PIXEL_ERROR, the others at LOD_PIXEL_ERROR. Carried too.
+        self._reached: set[int] = set()
+        self._world_levels: dict[int, int] = {}  # `geometry`'s level of each object not at its full mesh
+        self._eye_drawn_for: tuple[EyeView, list[ObjectGeometry]] | None = None  # the last view's
         if geometry is None:
             self._sort([g.at(time) for g in scene_geometry(scene.objects)])
             geometry = self._detailed()
@@ -76,8 +81,8 @@ class World:
         casters = set(scene.shadow_casters)
         self.shadow_casters = [g for g in geometry if g.object in casters]
         self.__dict__.pop("bounds", None)
-        self.__dict__.pop("eye_drawn", None)
-        self.__dict__.pop("_eye_levels", None)
+        self._eye_drawn_for = None
+        self._eye_level_table: LevelTable | None = None
 
     def _detailed(self) -> list[ObjectGeometry]:
         """This world's (full) geometry with each object at its level of detail (lod.py): what a
@@ -88,8 +93,9 @@ class World:
             keep |= {g.index for g in self.shadow_casters}
         # Every pair at once: culling.reaches works on all of a world's reflectors together.
         for row in self.reaches(self.reflectors, self.reflected_objects):
-            keep |= {g.index for g, why in zip(self.reflected_objects, row, strict=True) if why is Reach.REACHABLE}
-        levels = detail_levels(self.scene, self.geometry, keep)
+            self._reached |= {g.index for g, why in zip(self.reflected_objects, row, strict=True) if why is Reach.REACHABLE}
+        keep |= self._reached
+        levels = self._world_levels = detail_levels(EyeView.of_scene(self.scene), self.geometry, keep)
         if not levels:
             return self.geometry
         # What a reflector can reach was worked out with the full meshes: kept for unchanged objects.
@@ -97,33 +103,56 @@ class World:
         detailed = scene_geometry(self.scene.objects, levels)
         return [detailed[g.index].at(self.time) if g.index in levels else g for g in self.geometry]
 
-    @cached_property
+    @property
     def eye_drawn(self) -> list[ObjectGeometry]:
-        """The opaque diffuse objects as the eye's diffuse pass draws them: those a reflector can
-        show (which keep their full meshes in `geometry`: the rays that meet them, the triangle
-        methods', the truth's, the images' bakes, see them at another size than the eye does) at
-        the coarsest level whose error in the eye's frame stays under LOD_REFLECTED_PIXEL_ERROR
-        (lod.py), for this world's render settings (a resized frame chooses again); the others as
-        `geometry` has them. A mesh is never swapped for a finer one."""
-        levels = self._eye_levels
+        """eye_drawn_for the scene file's camera at the scene's frame size (the plan's estimates)."""
+        return self.eye_drawn_for(EyeView.of_scene(self.scene))
+
+    def eye_drawn_for(self, view: EyeView) -> list[ObjectGeometry]:
+        """The opaque diffuse objects as the eye's diffuse pass draws them from `view` (the frame's
+        camera: a viewer, a video or a dataset frame moves it): each at the coarsest level whose
+        error in the view's frame stays under LOD_REFLECTED_PIXEL_ERROR where a reflector can show
+        it (`geometry` keeps its full mesh: the rays that meet it, the triangle methods', the
+        truth's, the images' bakes, see it at another size than the eye does), under
+        LOD_PIXEL_ERROR where none can (`geometry` holds it at its level for the scene's camera: a
+        view closer to it draws it finer), each at the nearest level the world has loaded that is
+        no coarser (eye_meshes); moving objects and shadow casters as `geometry` has them. The last
+        view's list is kept: a frame drawn again from the same place is the same list, and the
+        diffuse pass keeps its batch."""
+        if self._eye_drawn_for is not None and self._eye_drawn_for[0] == view:
+            return self._eye_drawn_for[1]
+        levels = self._eye_levels(view)
         meshes, kept = self.eye_meshes, self._eye_items
         drawn = []
         for g in self.opaque_diffuse:
-            level = levels.get(g.index, 0)
-            mesh = meshes.get((g.object.shape, getattr(g.object.material, "texture", None) is not None, level))
-            full, coarse = kept.get((g.index, level), (None, g))
-            if full is not g:  # not drawn at this level by an earlier world of this one's (at, with_settings)
-                coarse = g
-                if mesh is not None and len(mesh.indices) < len(g.local_mesh.indices):
-                    coarse = g.drawn_with(mesh)
-                kept[(g.index, level)] = (g, coarse)
-            drawn.append(coarse)
+            wanted = levels.get(g.index, 0)
+            full, as_drawn = kept.get((g.index, wanted), (None, g))
+            if full is not g:  # not drawn at this level by an earlier view or world of this one's
+                as_drawn = g
+                own = self._world_levels.get(g.index, 0)
+                textured = getattr(g.object.material, "texture", None) is not None
+                # The wanted level, else the nearest finer one loaded; `geometry`'s own where it comes
+                # first (or where no finer one is loaded: past EYE_LEVEL_SHAPES shapes).
+                for level in range(wanted, -1, -1):
+                    if level == own:
+                        break
+                    mesh = meshes.get((g.object.shape, textured, level))
+                    if mesh is not None:
+                        as_drawn = g.drawn_with(mesh)
+                        break
+                kept[(g.index, wanted)] = (g, as_drawn)
+            drawn.append(as_drawn)
+        self._eye_drawn_for = (view, drawn)
         return drawn
 
-    @cached_property
-    def _eye_levels(self) -> dict[int, int]:
-        """The eye's level of each object drawn coarser than its full mesh (eye_drawn), by index."""
-        return detail_levels(self.scene, self.opaque_diffuse, self._eye_kept, LOD_REFLECTED_PIXEL_ERROR)
+    def _eye_levels(self, view: EyeView) -> dict[int, int]:
+        """The eye's level of each object drawn from `view` at another level than its full mesh's
+        (eye_drawn_for), by index."""
+        if self._eye_level_table is None:  # the objects' spheres and limits, found once for every view
+            reached = self._reached
+            self._eye_level_table = LevelTable.of(
+                self.opaque_diffuse, self._eye_kept, lambda g: LOD_REFLECTED_PIXEL_ERROR if g.index in reached else LOD_PIXEL_ERROR)
+        return self._eye_level_table.levels(view)
 
     @property
     def _eye_kept(self) -> set[int]:
@@ -135,25 +164,30 @@ class World:
 
     @property
     def eye_meshes(self) -> dict[tuple[Shape, bool, int], Mesh]:
-        """Every coarser level (1 to the coarsest) of the round shapes the eye draws coarser, by
+        """The levels of the round shapes the eye may draw at another level than `geometry`'s, by
         (shape, seam, level), made once for a world and the worlds of its other times and
         settings: loaded with the world's meshes (one arena, which a batch draws from), so that a
-        resized frame's levels of those shapes are there already (each is a quarter of the one
-        before: together a third of the full mesh, once per shape, about 13 ms to make a sphere's).
-        Every round shape the eye may draw, where they are at most EYE_LEVEL_SHAPES; past that
-        (a scene of a thousand spheres of a thousand radii), only those these settings draw
-        coarser: a smaller frame later draws the others at their full meshes, where a renderer made
-        at that size would draw them coarser."""
+        moved camera's or a resized frame's levels are there already (each level is a quarter of
+        the one before: together a third of the full mesh, once per shape, about 13 ms to make a
+        sphere's). Every level of every such shape (the full mesh too, where `geometry` holds its
+        objects coarser), where they are at most EYE_LEVEL_SHAPES; past that (a scene of a
+        thousand spheres of a thousand radii), the coarser levels of those the scene's camera
+        draws coarser alone: a view that wants another level of the others draws them as
+        `geometry` has them (a closer view, then, sees the facets of the scene camera's level)."""
         if not self._eye_meshes_made[0]:  # filled in place, once: the worlds that share the dict see them
             self._eye_meshes_made[0] = True
-            levels, keep = self._eye_levels, self._eye_kept
+            keep = self._eye_kept
             shapes = {(g.object.shape, getattr(g.object.material, "texture", None) is not None)
                       for g in self.opaque_diffuse if g.index not in keep and has_levels(g.object.shape)}
+            coarser = {g.object.shape for g in self.opaque_diffuse if self._world_levels.get(g.index, 0)}
             if len(shapes) > EYE_LEVEL_SHAPES:
+                levels = self._eye_levels(EyeView.of_scene(self.scene))
                 shapes = {(g.object.shape, getattr(g.object.material, "texture", None) is not None)
-                          for g in self.opaque_diffuse if levels.get(g.index, 0)}
+                          for g in self.opaque_diffuse if levels.get(g.index, 0) != self._world_levels.get(g.index, 0)}
+                coarser = set()
             self._eye_meshes.update({(shape, textured, level): world_mesh(shape, textured, level)
-                                     for shape, textured in shapes for level in range(1, max_level(shape) + 1)})
+                                     for shape, textured in shapes
+                                     for level in range(0 if shape in coarser else 1, max_level(shape) + 1)})
         return self._eye_meshes
 
     @property
@@ -200,6 +234,7 @@ class World:
         other = World(scene, self.geometry, self.time)
         other._reach, other._planned = self._reach, self._planned
         other._eye_meshes, other._eye_items, other._eye_meshes_made = self._eye_meshes, self._eye_items, self._eye_meshes_made
+        other._reached, other._world_levels = self._reached, self._world_levels
         return other
 
     def at(self, time: float, scene: Scene | None = None) -> World:
@@ -210,6 +245,7 @@ class World:
         still = {g.index for g in self.geometry if not g.object.moves}
         later._reach = {pair: why for pair, why in self._reach.items() if pair[0] in still and pair[1] in still}
         later._eye_meshes, later._eye_items, later._eye_meshes_made = self._eye_meshes, self._eye_items, self._eye_meshes_made
+        later._reached, later._world_levels = self._reached, self._world_levels
         return later
 
     def moved(self, earlier: World) -> set[int]:

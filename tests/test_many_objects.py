@@ -17,6 +17,8 @@ from depthimpostor.geometry import scene_geometry
 from depthimpostor.gpu.context import bind_default_framebuffer
 from depthimpostor.gpu.gl_state import BASE
 from depthimpostor.constants import Method
+from depthimpostor.lod import EyeView
+from depthimpostor.scene.model import Camera
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import Scene, load_scene
 from depthimpostor.world import World
@@ -228,3 +230,50 @@ def test_a_resized_frame_of_many_shapes_draws_what_is_loaded(ctx: moderngl.Conte
         assert_finite(renderer.read_color_float())
         assert all(g.local_mesh is full.local_mesh for g, full in zip(renderer.world.eye_drawn, renderer.world.opaque_diffuse,
                                                                  strict=True))
+
+
+def _textured_ball(radius: float, position: tuple[float, float, float], mirror: bool = False) -> Scene:
+    """The floor (with, if asked for, the planar mirror facing the eye) and one textured sphere."""
+    text = HEAD + ('[[objects]]\nname = "mirror"\nshape = { type = "plane", size = [3.0, 2.0] }\n'
+                   'material = { type = "mirror" }\nposition = [0.0, 1.0, -1.0]\nrotation = [90.0, 0.0, 0.0]\n'
+                   if mirror else "")
+    text += (f'[[objects]]\nname = "ball0"\nshape = {{ type = "sphere", radius = {radius} }}\n'
+             f'material = {MATERIALS[2]}\nposition = {list(position)}\n')
+    return scene_from_toml(text, base_dir=SCENES).with_overrides(size=(192, 108))
+
+
+def _drawn_triangles(renderer: Renderer, name: str) -> int:
+    drawn = renderer.world.eye_drawn_for(EyeView.of_camera(renderer.camera))
+    return next(len(g.local_mesh.indices) for g in drawn if g.object.name == name)
+
+
+@pytest.mark.parametrize("mirror", [False, True], ids=["seen-by-the-eye-alone", "in-front-of-a-mirror"])
+def test_a_camera_moved_close_draws_the_object_at_its_level_for_that_camera(ctx: moderngl.Context, mirror: bool) -> None:
+    """The eye's levels are chosen for the frame's camera, not the scene file's: a textured ball a
+    few pixels across from the scene's camera is drawn coarse, and once a viewer, a video or a
+    dataset frame moves the camera up to it, at the level a renderer made at that camera draws,
+    with that renderer's picture (its facets would show: a silhouette and texture sliding by
+    pixels). Behind the mirror the world holds it coarse (no ray can meet it); in front of it the
+    world keeps its full mesh for the rays, and the eye drew a coarser one."""
+    position = (0.4, 0.1, 2.0) if mirror else (2.0, 0.1, -30.0)
+    scene = _textured_ball(0.1, position, mirror)
+    close = Camera(eye=(position[0] + 0.15, 0.25, position[2] + 0.3), target=position)
+    with Renderer(ctx, dataclasses.replace(scene, camera=close), method=Method.RAYTRACE) as made_there:
+        made_there.render()
+        there = _drawn_triangles(made_there, "ball0")
+        expected = made_there.read_color_float()
+    with Renderer(ctx, scene, method=Method.RAYTRACE) as renderer:
+        renderer.render()
+        far = _drawn_triangles(renderer, "ball0")
+        assert far <= there // 4
+        renderer.look_at(close)
+        renderer.render()
+        assert _drawn_triangles(renderer, "ball0") == there
+        moved = renderer.read_color_float()
+        renderer.look_at(scene.camera)  # and back: the coarse level again
+        assert _drawn_triangles(renderer, "ball0") == far
+    assert_finite(moved)
+    # The ball fills most of the frame; the two differ at most by rounding (the eye's near and far
+    # planes are fitted to each world's bounds, which the coarse ball's change slightly).
+    assert np.abs(moved - expected).max(axis=-1).mean() < 1e-3
+    assert np.mean(np.abs(moved - expected).max(axis=-1) > 4 / 255) < 0.002

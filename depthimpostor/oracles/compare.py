@@ -38,6 +38,7 @@ from PIL import Image, ImageDraw
 
 from ..constants import NO_OBJECT
 from ..font import load_font
+from ..lod import EyeView
 from ..outputs import Outputs
 from ..colour import display_encode, quantize
 from ..ppc import PPC
@@ -160,12 +161,12 @@ def primary_tracer(renderer: Renderer) -> TruthTracer:
     """A tracer of primary rays against every object the eye can see: the shadow casters (with real
     shadow rays), the others that cast no shadow (the planes drawn as meshes and the flat mirrors,
     whose backs are seen directly), and the analytic planes (intersected exactly). Each object as
-    the eye's diffuse pass draws it (World.eye_drawn: at its level of detail for the eye), since
-    outside the mirrors the truth is what the rasterizer saw."""
+    the eye's diffuse pass draws it (World.eye_drawn_for the renderer's camera: at its level of
+    detail for the eye), since outside the mirrors the truth is what the rasterizer saw."""
     world = renderer.world
     casters = world.shadow_casters
     apart = {g.index for g in casters} | {g.index for g in world.analytic_planes}
-    as_drawn = {g.index: g for g in world.eye_drawn}
+    as_drawn = {g.index: g for g in world.eye_drawn_for(EyeView.of_camera(renderer.camera))}
     seen = [*casters, *(as_drawn.get(g.index, g) for g in world.geometry if g.index not in apart)]
     return TruthTracer(renderer.scene, seen, world.analytic_planes, casters, renderer.sky_lighting())
 

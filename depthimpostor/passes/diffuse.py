@@ -19,6 +19,7 @@ import moderngl
 import numpy as np
 
 from ..geometry import ObjectGeometry
+from ..lod import EyeView
 from ..scene.model import CheckerMaterial, Scene, SceneObject, single_sided
 from ..gpu.batches import ObjectBatch, face_class
 from ..gpu.gl_state import RasterState, current_state, raster_state
@@ -236,7 +237,8 @@ class DiffuseNode(Node):
         graph, targets = self.graph, frame.targets
         if graph.diffuse is None:
             return False
-        sampled, drawn = graph.sampled, graph.world.eye_drawn  # the blended ones: passes/transparent.py
+        # The objects at their levels for this frame's camera; the blended ones: passes/transparent.py.
+        sampled, drawn = graph.sampled, graph.world.eye_drawn_for(EyeView.of_camera(frame.unjittered))
         if graph.show_samples and graph.samples is not None and sampled is not None:
             drawn = graph.world.analytic_planes  # the samples stand for the others
             graph.stats.draw_calls += graph.samples.draw(sampled, frame.camera)
