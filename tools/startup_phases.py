@@ -1,9 +1,10 @@
 """Where a renderer's start-up goes (issue 32: start a scene of 1,000 objects in under 2 s): the
 wall and CPU time of each phase of `Renderer()` and of its first frame, each phase closed by
 `ctx.finish()` so that llvmpipe's queued work is counted where it was asked for. Phases: the
-plan (images planned, camera fits), the passes made (atlas, buffers, records), programs compiled
-(ProgramCache.get, as it is called), and in the first frame the bake's layers (visible surface,
-back layer, where second runs begin), the rest of the frame (the eye's passes and mirror pass).
+plan (images planned, camera fits), the passes made (atlas, buffers, records; the BVH's textures
+apart), programs compiled (ProgramCache.get, as it is called), and in the first frame the atlas's
+rows made for the images baked, the bake's layers (visible surface, back layer, where second runs
+begin), the rest of the frame (the eye's passes and mirror pass).
 Without the finishes a phase's GPU work would land in the next; with them the sum is a little
 more than startup_time.py's figure.
 
@@ -25,7 +26,7 @@ from depthimpostor import renderer as renderer_module
 from depthimpostor.constants import Method
 from depthimpostor.gpu import shaders
 from depthimpostor.gpu.context import create_context
-from depthimpostor.methods import baked_images
+from depthimpostor.methods import atlas, baked_images, triangles
 from depthimpostor.renderer import Renderer
 from depthimpostor import render_graph
 
@@ -78,6 +79,8 @@ def main() -> None:
     timed(ctx, renderer_module, "plan_render", "plan (images planned, cameras fitted)")
     timed(ctx, shaders.ProgramCache, "get", "programs (compiled on first use)")
     timed(ctx, render_graph.RenderGraph, "build", "passes made (atlas, buffers, records)")
+    timed(ctx, triangles.TrianglePass, "__init__", "passes made: the BVH's textures (traced methods, hybrid)")
+    timed(ctx, atlas.ImpostorAtlas, "grow", "bake: the atlas's rows made")
     timed(ctx, baked_images.BakedImages, "drawn", "bake: levels of detail chosen")
     timed(ctx, baked_images.BakedImages, "_bake_surfaces", "bake: visible surfaces")
     timed(ctx, baked_images.BakedImages, "_bake_back_layers", "bake: back layers")

@@ -42,13 +42,24 @@ def _rows(texels: int) -> int:
 
 def _texture(ctx: moderngl.Context, texels: np.ndarray, source: str) -> moderngl.Texture:
     """(n, 4) float32 texels laid out in rows of BVH_TEXTURE_WIDTH; `source` names the scene."""
-    rows = _rows(len(texels))
+    padded = _padded(ctx, len(texels), texels.shape[1], source)
+    padded[: len(texels)] = texels
+    return _upload(ctx, padded)
+
+
+def _padded(ctx: moderngl.Context, count: int, components: int, source: str) -> np.ndarray:
+    """A zeroed (whole rows of BVH_TEXTURE_WIDTH, `components`) float32 array for `count` texels,
+    to be filled in place and uploaded (_upload); refused past this GL's texture size."""
+    rows = _rows(count)
     limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
     if rows > limit:
-        raise SceneError(source, "objects", f"{len(texels)} BVH texels need {rows} rows, over this GL's limit of {limit}")
-    padded = np.zeros((rows * BVH_TEXTURE_WIDTH, 4), np.float32)
-    padded[: len(texels)] = texels
-    texture = ctx.texture((BVH_TEXTURE_WIDTH, rows), 4, padded.tobytes(), dtype="f4")
+        raise SceneError(source, "objects", f"{count} BVH texels need {rows} rows, over this GL's limit of {limit}")
+    return np.zeros((rows * BVH_TEXTURE_WIDTH, components), np.float32)
+
+
+def _upload(ctx: moderngl.Context, padded: np.ndarray) -> moderngl.Texture:
+    """The texture of `padded` (from _padded), read texel by texel (texelFetch)."""
+    texture = ctx.texture((BVH_TEXTURE_WIDTH, len(padded) // BVH_TEXTURE_WIDTH), padded.shape[1], padded, dtype="f4")
     texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
     return texture
 
@@ -117,7 +128,7 @@ class TrianglePass:
     @staticmethod
     def _bytes(layout: BvhLayout, named: int | None, stride: int) -> int:
         rows = _rows(layout.node_texels) + _rows(stride * sum(layout.mesh_triangles))
-        return (rows + (_rows(named) if named is not None else 0)) * BVH_TEXTURE_WIDTH * 16
+        return (rows * 16 + (_rows(named) * 8 if named is not None else 0)) * BVH_TEXTURE_WIDTH  # RGBA32F, RG32F
 
     def __init__(self, ctx: moderngl.Context, scene: Scene, reflected: list[ObjectGeometry], places: bool = False) -> None:
         """`places` (the hybrid method's) also uploads, for each triangle of the list its depth images
@@ -167,18 +178,20 @@ class TrianglePass:
 
     def _places_texture(self, meshes: list[Mesh]) -> moderngl.Texture:
         """Per listed triangle (at most MAX_NAMED_TRIANGLES: scene/limits.py, checked in the plan):
-        (its place in the triangle texture, its instance's slot)."""
+        (its place in the triangle texture, its instance's slot), two floats (RG32F: a thousand
+        spheres list 4.5 million triangles). Built for every instance at once: instance k's
+        triangles are its mesh's, whose places start at its mesh's first triangle."""
         where = np.empty(len(self.bottom.order), np.int64)  # by a triangle's place among the distinct meshes'
         where[self.bottom.order] = np.arange(len(self.bottom.order))
-        firsts = self.layout.mesh_first_triangles
-        place = np.zeros((sum(len(mesh.indices) for mesh in meshes), 4), np.float32)
-        start = 0
-        for slot, (mesh, kind) in enumerate(zip(meshes, self.mesh_of, strict=True)):
-            count = len(mesh.indices)
-            place[start: start + count, 0] = where[firsts[kind]: firsts[kind] + count]
-            place[start: start + count, 1] = slot
-            start += count
-        return _texture(self.ctx, place, self.scene.source)
+        counts = np.array([len(mesh.indices) for mesh in meshes], np.int64)
+        starts = np.cumsum(counts) - counts  # each instance's first listed triangle
+        firsts = np.asarray(self.layout.mesh_first_triangles, np.int64)[self.mesh_of]
+        listed = int(counts.sum())
+        place = _padded(self.ctx, listed, 2, self.scene.source)
+        # A listed triangle i of instance k is triangle i - starts[k] of its mesh.
+        place[:listed, 0] = where[np.arange(listed) + np.repeat(firsts - starts, counts)]
+        place[:listed, 1] = np.repeat(np.arange(len(meshes), dtype=np.float32), counts)
+        return _upload(self.ctx, place)
 
     def move(self, geometry: dict[int, ObjectGeometry]) -> None:
         """The objects are now `geometry` (by object index): their records and the top level are
@@ -256,7 +269,7 @@ class TrianglePass:
 
     @property
     def bytes(self) -> int:
-        return sum(texture.width * texture.height * 16 for texture in self.textures)
+        return sum(texture.width * texture.height * 4 * texture.components for texture in self.textures)
 
     def describe(self) -> str:
         meshes = len(self.distinct) if self.reflected else 0
