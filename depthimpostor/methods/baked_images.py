@@ -10,6 +10,7 @@ import builtins
 import dataclasses
 import math
 from collections import Counter
+from collections.abc import Sequence
 from enum import Enum
 from typing import ClassVar, NamedTuple
 
@@ -82,8 +83,9 @@ class BakedImages:
     keeps_beyond: ClassVar[bool] = False
     #: Are a mirror's lists of candidate images by ray (methods/image_cells.py) over the images'
     #: whole bounds rather than their hit bounds? Where its programs look at more than the hits: the
-    #: hybrid method tracks unseen space anywhere in an image (TRACK_UNSEEN), a billboard's quad
-    #: reaches past its object's sphere.
+    #: hybrid method tracks unseen space anywhere in an image (TRACK_UNSEEN). (A billboard's quad
+    #: reaches past its object's sphere, but its opaque part lies in that sphere's silhouette: its
+    #: hit bound is around that part, billboards.quad_hit_bounds.)
     lists_over_bounds: ClassVar[bool] = False
     #: What one image is called in the CLI's and the viewer's summaries.
     image_noun: ClassVar[str]
@@ -280,10 +282,11 @@ class BakedImages:
         tables = [0, 0]
         for mirror in mirrors:
             mirror_plans = plans.get(mirror.index, [])
-            records = depth_image_records(
-                [plan.camera for plan in mirror_plans], [0] * len(mirror_plans), [(0, 0)] * len(mirror_plans),
-                [(0, 0, 0)] * len(mirror_plans),
-                [plan.targets[0].bounding_sphere if len(plan.targets) == 1 else None for plan in mirror_plans])
+            cameras = [plan.camera for plan in mirror_plans]
+            arounds = [plan.targets[0].bounding_sphere if len(plan.targets) == 1 else None for plan in mirror_plans]
+            records = cls.with_hit_bounds(depth_image_records(
+                cameras, [0] * len(mirror_plans), [(0, 0)] * len(mirror_plans), [(0, 0, 0)] * len(mirror_plans), arounds),
+                cameras, arounds)
             spheres = np.asarray(records["bound" if cls.lists_over_bounds else "hit_bound"], np.float64)
             rays_from = mirror.bounding_sphere if mirror_plans else (np.zeros(3), 0.0)
             for level, kind in [(final, 0), *((level, 1) for level in bounces)]:
@@ -325,6 +328,13 @@ class BakedImages:
         sides = sorted({image.camera.width for image in self.depth_images}) or [self.atlas.resolution]
         sizes = " to ".join(f"{side}x{side}" for side in dict.fromkeys((sides[0], sides[-1])))
         return f"{plural(len(self.depth_images), self.image_noun)} of {sizes}"
+
+    @classmethod
+    def with_hit_bounds(cls, records: NDArray[np.void], cameras: Sequence[PPC],
+                        arounds: Sequence[tuple[NDArray[np.float64], float] | None]) -> NDArray[np.void]:
+        """`records` with the hit bounds this stand-in's rays are tested against (a subclass whose
+        images' hits lie elsewhere than a depth image's rewrites them: billboards)."""
+        return records
 
     def image_records(self, images: list[DepthImage]) -> NDArray[np.void]:
         """The record table of a mirror's `images` (a subclass may add what its shader reads)."""

@@ -11,23 +11,63 @@ kept: the quad is all the geometry a billboard has.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numpy.typing import NDArray
 
+from ..constants import BOUND_MARGIN
+from ..ppc import PPC
 from .atlas import DepthImage
 from .baked_images import BakedImages, SecondLayer
+
+
+def quad_hit_bounds(records: NDArray[np.void], cameras: Sequence[PPC],
+                    arounds: Sequence[tuple[NDArray[np.float64], float] | None]) -> None:
+    """Each billboard's `hit_bound`, in place: a sphere around every point of its quad a ray can
+    find opaque. The quad faces the mirror's centre C through the centre c of its object's bounding
+    sphere (radius r, at distance d from C), and its opaque texels show the object, whose
+    projection from C lies in the cone from C tangent to that sphere: on the quad's plane, within
+    r d / sqrt(d^2 - r^2) of c, and a texel's square (opaque where the object covered its centre)
+    at most a texel's width beyond. Grown by BOUND_MARGIN, as PPC.hit_bound; the frustum's bound
+    where that is smaller. Tighter than the frustum's sphere (whose far corners a quad never
+    reaches), it lists and bakes for each ray only the quads it may see."""
+    rows = [row for row, around in enumerate(arounds) if around is not None]
+    if not rows:
+        return
+    centres = np.stack([np.asarray(arounds[row][0], np.float64) for row in rows])  # type: ignore[index]
+    r = np.array([float(arounds[row][1]) for row in rows])  # type: ignore[index]
+    eyes = np.stack([cameras[row].C for row in rows])
+    a = np.stack([cameras[row].a for row in rows])
+    b = np.stack([cameras[row].b for row in rows])
+    inverses = np.stack([cameras[row].inverse for row in rows])
+    d = np.linalg.norm(centres - eyes, axis=1)
+    quad_w = np.matmul(inverses, (centres - eyes)[:, :, None])[:, 2, 0]  # PPC.camera_coordinates' w
+    texel = (np.linalg.norm(a, axis=1) + np.linalg.norm(b, axis=1)) * quad_w
+    with np.errstate(invalid="ignore", divide="ignore"):  # d <= r: no frustum fits such an object
+        radius = (r * d / np.sqrt(d * d - r * r) + texel) * (1.0 + BOUND_MARGIN)
+    frustum = np.array([records["bound"][row][3] for row in rows])
+    tighter = (d > r) & (radius < frustum)
+    for row, centre, value in zip(np.asarray(rows)[tighter], centres[tighter], radius[tighter], strict=True):
+        records["hit_bound"][row] = (*centre, value)
 
 
 class BillboardPass(BakedImages):
     second_layer = SecondLayer.NONE
     image_noun = "billboard"
-    lists_over_bounds = True
+
+    @classmethod
+    def with_hit_bounds(cls, records: NDArray[np.void], cameras: Sequence[PPC],
+                        arounds: Sequence[tuple[NDArray[np.float64], float] | None]) -> NDArray[np.void]:
+        quad_hit_bounds(records, cameras, arounds)
+        return records
 
     def image_records(self, images: list[DepthImage]) -> NDArray[np.void]:
         """The depth images' records, each with its quad's plane in `a.w` (lib/billboard.glsl):
         the camera depth w of its object's centre (w is constant on planes parallel to the image
-        plane: this one faces the mirror's centre)."""
-        records = super().image_records(images)
+        plane: this one faces the mirror's centre), and its quad's hit bound (quad_hit_bounds)."""
+        records = self.with_hit_bounds(super().image_records(images), [image.camera for image in images],
+                                       [image.hit_bound_around for image in images])
         if images:  # PPC.camera_coordinates of each centre, all at once (each camera's own matmul, to the bit)
             cameras = [image.camera for image in images]
             inverse = np.linalg.inv(np.stack([np.column_stack([camera.a, camera.b, camera.c]) for camera in cameras]))

@@ -9,9 +9,10 @@
 RayHit nearest_billboard_hit(vec3 origin, vec3 direction) {
     RayHit best = no_hit(0);
     int samples = 0;
+    float inverse_square_length = 1.0 / dot(direction, direction);
 #ifdef IMAGE_CELLS
-    // The quads whose images' bounds the ray may enter (their frusta hold the quads), in rising
-    // index: the nearest opaque hit, ties to the lower index, as over every quad.
+    // The quads whose hit bounds the ray may enter, in rising index: the nearest opaque hit, ties
+    // to the lower index, as over every quad.
     ivec2 list = image_list(origin, direction);
     for (int k = 0; k < list.y - list.x; ++k) {
         int i = u_image_cells[list.x + k];
@@ -19,6 +20,10 @@ RayHit nearest_billboard_hit(vec3 origin, vec3 direction) {
     for (int i = 0; i < u_depth_image_count; ++i) {
 #endif
         DepthImage image = u_depth_images[i];
+        // A ray that misses the sphere of the quad's opaque part (its hit bound,
+        // methods/billboards.py's quad_hit_bounds) cannot see it, and the frame's bakes may have
+        // left its texels unmade (the marking pass marks what rays enter: entered_images.frag).
+        if (bound_entry(image.hit_bound, origin, direction, inverse_square_length) == UNBOUNDED_RAY) continue;
         vec3 p0 = camera_coordinates(image, origin - image.eye.xyz);
         vec3 dp = camera_coordinates(image, direction);
         // The camera depth w of the quad's plane (w = const is a plane parallel to the image
