@@ -30,8 +30,9 @@ def quad_hit_bounds(records: NDArray[np.void], cameras: Sequence[PPC],
     projection from C lies in the cone from C tangent to that sphere: on the quad's plane, within
     r d / sqrt(d^2 - r^2) of c, and a texel's square (opaque where the object covered its centre)
     at most a texel's width beyond. Grown by BOUND_MARGIN, as PPC.hit_bound; the frustum's bound
-    where that is smaller. Tighter than the frustum's sphere (whose far corners a quad never
-    reaches), it lists and bakes for each ray only the quads it may see."""
+    where that is smaller, or where the object reaches the mirror's centre (d <= r). Tighter than
+    the frustum's sphere (whose far corners a quad never reaches), it lists and bakes for each ray
+    only the quads it may see."""
     rows = [row for row, around in enumerate(arounds) if around is not None]
     if not rows:
         return
@@ -48,8 +49,11 @@ def quad_hit_bounds(records: NDArray[np.void], cameras: Sequence[PPC],
         radius = (r * d / np.sqrt(d * d - r * r) + texel) * (1.0 + BOUND_MARGIN)
     frustum = np.array([records["bound"][row][3] for row in rows])
     tighter = (d > r) & (radius < frustum)
-    for row, centre, value in zip(np.asarray(rows)[tighter], centres[tighter], radius[tighter], strict=True):
-        records["hit_bound"][row] = (*centre, value)
+    for row, is_tighter, centre, value in zip(rows, tighter, centres, radius, strict=True):
+        # Else the frustum's own bound (which holds the quad): not the depth image's hit bound that
+        # depth_image_records wrote, the object's sphere and a texel, which a thin object's quad
+        # (a rod seen end-on near the mirror's centre) reaches well past.
+        records["hit_bound"][row] = (*centre, value) if is_tighter else records["bound"][row]
 
 
 class BillboardPass(BakedImages):
