@@ -33,11 +33,12 @@ def quad_hit_bounds(records: NDArray[np.void], cameras: Sequence[PPC],
     where that is smaller, or where the object reaches the mirror's centre (d <= r). Tighter than
     the frustum's sphere (whose far corners a quad never reaches), it lists and bakes for each ray
     only the quads it may see."""
-    rows = [row for row, around in enumerate(arounds) if around is not None]
-    if not rows:
+    shown = [(row, around) for row, around in enumerate(arounds) if around is not None]
+    if not shown:
         return
-    centres = np.stack([np.asarray(arounds[row][0], np.float64) for row in rows])  # type: ignore[index]
-    r = np.array([float(arounds[row][1]) for row in rows])  # type: ignore[index]
+    rows = [row for row, _ in shown]
+    centres = np.stack([np.asarray(around[0], np.float64) for _, around in shown])
+    r = np.array([float(around[1]) for _, around in shown])
     eyes = np.stack([cameras[row].C for row in rows])
     a = np.stack([cameras[row].a for row in rows])
     b = np.stack([cameras[row].b for row in rows])
