@@ -279,6 +279,12 @@ def triangle_offsets(objects: list[ObjectGeometry]) -> dict[int, int]:
     return offsets
 
 
+def mesh_key(obj: SceneObject, level: int = 0) -> tuple[Shape, bool, int]:
+    """What an object's local mesh at `level` depends on (world_mesh's arguments): its shape, whether
+    an image texture needs the seam's duplicated vertices, and the level."""
+    return obj.shape, getattr(obj.material, "texture", None) is not None, level
+
+
 def scene_geometry(objects: tuple[SceneObject, ...], levels: dict[int, int] | None = None) -> list[ObjectGeometry]:
     """Every object's geometry, at its level of detail in `levels` (by object index; 0, the full
     tessellation, for objects not in it: lod.py chooses them); objects of one shape and level share
@@ -288,7 +294,7 @@ def scene_geometry(objects: tuple[SceneObject, ...], levels: dict[int, int] | No
     geometry = []
     for index, obj in enumerate(objects):
         level = levels.get(index, 0) if levels else 0
-        key = (obj.shape, getattr(obj.material, "texture", None) is not None, level)
+        key = mesh_key(obj, level)
         if key not in local:
             local[key] = world_mesh(*key)
         geometry.append(ObjectGeometry(index, obj, local[key]))

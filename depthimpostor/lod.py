@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .culling import enclosing_spheres
-from .geometry import ObjectGeometry, bounding_spheres, has_levels, max_level, mesh_for_shape, tessellation
+from .geometry import ObjectGeometry, bounding_spheres, has_levels, max_level, mesh_for_shape, mesh_key, tessellation
 from .meshes import Mesh
 from .ppc import PPC
 from .scene.model import CylinderShape, Scene, Shape, SphereShape, TorusKnotShape, TorusShape
@@ -189,10 +189,11 @@ class LevelTable:
         """detail_level of each object from `view`, by index, where it is not 0."""
         if not len(self.indices):
             return {}
-        distance = np.sqrt(np.einsum("ij,ij->i", *(self.centres - np.asarray(view.eye, np.float64),) * 2)) - self.radii
-        with np.errstate(divide="ignore"):
-            pixels = self.scales * np.where(distance > 0.0, view.focal / np.where(distance > 0.0, distance, 1.0), np.inf)
-        with np.errstate(invalid="ignore"):  # 0 x inf (an exact level, the eye inside): not within the limit
+        offsets = self.centres - np.asarray(view.eye, np.float64)
+        distance = np.sqrt(np.einsum("ij,ij->i", offsets, offsets)) - self.radii
+        # Infinite where the eye is in the sphere; 0 x inf (an exact level there) is not within the limit.
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pixels = self.scales * np.where(distance > 0.0, view.focal / distance, np.inf)
             within = self.errors[:, 1:] * pixels[:, None] <= self.limits[:, None]
         # detail_level's walk: the coarsest level before the first that is not within the limit.
         level = np.argmin(np.hstack([within, np.zeros((len(within), 1), bool)]), axis=1)
@@ -282,7 +283,7 @@ class BakeDetail:
         kept = self._items.get((item.index, level))
         if kept is not None and kept[0] is item:
             return kept[1]
-        mesh = level_mesh(item.object.shape, getattr(item.object.material, "texture", None) is not None, level)
+        mesh = level_mesh(*mesh_key(item.object, level))
         coarse = item if len(mesh.indices) >= len(item.local_mesh.indices) else item.drawn_with(mesh)
         self._items[(item.index, level)] = (item, coarse)
         return coarse

@@ -18,7 +18,7 @@ import numpy as np
 
 from .culling import Reach, reaches
 from .eye import fitted_camera
-from .geometry import ObjectGeometry, bounding_spheres, has_levels, max_level, scene_geometry, world_mesh
+from .geometry import ObjectGeometry, bounding_spheres, has_levels, max_level, mesh_key, scene_geometry, world_mesh
 from .meshes import Mesh
 from .lod import LOD_PIXEL_ERROR, LOD_REFLECTED_PIXEL_ERROR, EyeView, LevelTable, detail_levels
 from .ppc import PPC
@@ -130,13 +130,12 @@ class World:
             if full is not g:  # not drawn at this level by an earlier view or world of this one's
                 as_drawn = g
                 own = self._world_levels.get(g.index, 0)
-                textured = getattr(g.object.material, "texture", None) is not None
                 # The wanted level, else the nearest finer one loaded; `geometry`'s own where it comes
                 # first (or where no finer one is loaded: past EYE_LEVEL_SHAPES shapes).
                 for level in range(wanted, -1, -1):
                     if level == own:
                         break
-                    mesh = meshes.get((g.object.shape, textured, level))
+                    mesh = meshes.get(mesh_key(g.object, level))
                     if mesh is not None:
                         as_drawn = g.drawn_with(mesh)
                         break
@@ -177,13 +176,12 @@ class World:
         if not self._eye_meshes_made[0]:  # filled in place, once: the worlds that share the dict see them
             self._eye_meshes_made[0] = True
             keep = self._eye_kept
-            shapes = {(g.object.shape, getattr(g.object.material, "texture", None) is not None)
-                      for g in self.opaque_diffuse if g.index not in keep and has_levels(g.object.shape)}
+            shapes = {mesh_key(g.object)[:2] for g in self.opaque_diffuse if g.index not in keep and has_levels(g.object.shape)}
             coarser = {g.object.shape for g in self.opaque_diffuse if self._world_levels.get(g.index, 0)}
             if len(shapes) > EYE_LEVEL_SHAPES:
                 levels = self._eye_levels(EyeView.of_scene(self.scene))
-                shapes = {(g.object.shape, getattr(g.object.material, "texture", None) is not None)
-                          for g in self.opaque_diffuse if levels.get(g.index, 0) != self._world_levels.get(g.index, 0)}
+                shapes = {mesh_key(g.object)[:2] for g in self.opaque_diffuse
+                          if levels.get(g.index, 0) != self._world_levels.get(g.index, 0)}
                 coarser = set()
             self._eye_meshes.update({(shape, textured, level): world_mesh(shape, textured, level)
                                      for shape, textured in shapes
@@ -233,8 +231,7 @@ class World:
         this world's in its render section alone): what can reach what stays, shared."""
         other = World(scene, self.geometry, self.time)
         other._reach, other._planned = self._reach, self._planned
-        other._eye_meshes, other._eye_items, other._eye_meshes_made = self._eye_meshes, self._eye_items, self._eye_meshes_made
-        other._reached, other._world_levels = self._reached, self._world_levels
+        self._share_levels(other)
         return other
 
     def at(self, time: float, scene: Scene | None = None) -> World:
@@ -244,9 +241,14 @@ class World:
         later = World(scene, [g.at(time) for g in self.geometry], time)
         still = {g.index for g in self.geometry if not g.object.moves}
         later._reach = {pair: why for pair, why in self._reach.items() if pair[0] in still and pair[1] in still}
-        later._eye_meshes, later._eye_items, later._eye_meshes_made = self._eye_meshes, self._eye_items, self._eye_meshes_made
-        later._reached, later._world_levels = self._reached, self._world_levels
+        self._share_levels(later)
         return later
+
+    def _share_levels(self, other: World) -> None:
+        """Give the world of another time or other settings (the same objects) this one's levels:
+        the world's, what a reflector reaches, and the eye's meshes and objects as drawn."""
+        other._eye_meshes, other._eye_items, other._eye_meshes_made = self._eye_meshes, self._eye_items, self._eye_meshes_made
+        other._reached, other._world_levels = self._reached, self._world_levels
 
     def moved(self, earlier: World) -> set[int]:
         """The objects (by index) that are somewhere else than in `earlier`."""

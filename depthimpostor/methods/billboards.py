@@ -22,6 +22,15 @@ from .atlas import DepthImage
 from .baked_images import BakedImages, SecondLayer
 
 
+def quad_depths(cameras: Sequence[PPC], centres: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The camera depth w of each object's centre ((n, 3)) in its billboard's camera: the plane of
+    its quad (w is constant on planes parallel to the image plane; this one faces the mirror's
+    centre). PPC.camera_coordinates for all at once, each camera's own matmul, to the bit."""
+    inverse = np.linalg.inv(np.stack([np.column_stack([camera.a, camera.b, camera.c]) for camera in cameras]))
+    offsets = centres - np.stack([camera.C for camera in cameras])
+    return np.asarray(np.matmul(offsets[:, None, :], inverse.transpose(0, 2, 1))[:, 0, 2], np.float64)
+
+
 def quad_hit_bounds(records: NDArray[np.void], cameras: Sequence[PPC],
                     arounds: Sequence[tuple[NDArray[np.float64], float] | None]) -> None:
     """Each billboard's `hit_bound`, in place: a sphere around every point of its quad a ray can
@@ -39,13 +48,10 @@ def quad_hit_bounds(records: NDArray[np.void], cameras: Sequence[PPC],
     rows = [row for row, _ in shown]
     centres = np.stack([np.asarray(around[0], np.float64) for _, around in shown])
     r = np.array([float(around[1]) for _, around in shown])
-    eyes = np.stack([cameras[row].C for row in rows])
-    a = np.stack([cameras[row].a for row in rows])
-    b = np.stack([cameras[row].b for row in rows])
-    inverses = np.stack([cameras[row].inverse for row in rows])
-    d = np.linalg.norm(centres - eyes, axis=1)
-    quad_w = np.matmul(inverses, (centres - eyes)[:, :, None])[:, 2, 0]  # PPC.camera_coordinates' w
-    texel = (np.linalg.norm(a, axis=1) + np.linalg.norm(b, axis=1)) * quad_w
+    shown_cameras = [cameras[row] for row in rows]
+    d = np.linalg.norm(centres - np.stack([camera.C for camera in shown_cameras]), axis=1)
+    texel = (np.linalg.norm(np.stack([camera.a for camera in shown_cameras]), axis=1)
+             + np.linalg.norm(np.stack([camera.b for camera in shown_cameras]), axis=1)) * quad_depths(shown_cameras, centres)
     with np.errstate(invalid="ignore", divide="ignore"):  # d <= r: no frustum fits such an object
         radius = (r * d / np.sqrt(d * d - r * r) + texel) * (1.0 + BOUND_MARGIN)
     frustum = np.array([records["bound"][row][3] for row in rows])
@@ -68,14 +74,11 @@ class BillboardPass(BakedImages):
         return records
 
     def image_records(self, images: list[DepthImage]) -> NDArray[np.void]:
-        """The depth images' records, each with its quad's plane in `a.w` (lib/billboard.glsl):
-        the camera depth w of its object's centre (w is constant on planes parallel to the image
-        plane: this one faces the mirror's centre), and its quad's hit bound (quad_hit_bounds)."""
-        records = self.with_hit_bounds(super().image_records(images), [image.camera for image in images],
-                                       [image.hit_bound_around for image in images])
-        if images:  # PPC.camera_coordinates of each centre, all at once (each camera's own matmul, to the bit)
-            cameras = [image.camera for image in images]
-            inverse = np.linalg.inv(np.stack([np.column_stack([camera.a, camera.b, camera.c]) for camera in cameras]))
-            offsets = np.stack([np.asarray(image.target.bounding_sphere[0], np.float64) - image.camera.C for image in images])
-            records["a"][:len(images), 3] = np.matmul(offsets[:, None, :], inverse.transpose(0, 2, 1))[:, 0, 2]
+        """The depth images' records, each with its quad's plane in `a.w` (lib/billboard.glsl,
+        quad_depths) and its quad's hit bound (quad_hit_bounds)."""
+        cameras = [image.camera for image in images]
+        records = self.with_hit_bounds(super().image_records(images), cameras, [image.hit_bound_around for image in images])
+        if images:
+            centres = np.stack([np.asarray(image.target.bounding_sphere[0], np.float64) for image in images])
+            records["a"][:len(images), 3] = quad_depths(cameras, centres)
         return records
