@@ -84,6 +84,8 @@ class Unseen(IntEnum):
     #                 it (an edge between samples), or hit a join steeper than STEEP_JOIN_SHARE of the
     #                 steepest or within a texel of a silhouette: a hit between the samples and a miss
     #                 are both consistent with them
+    PENDING = 4  # the ray entered the bound of an image not baked yet (a bake spread over frames:
+    #              BakedImages.bake_budget): it holds nothing yet; the hybrid method traces the ray
 
 
 class MaterialKind(IntEnum):
@@ -322,11 +324,20 @@ MIN_LINES_SINE_SQUARED = 1e-5
 #: samples beyond the border read the border texel (texel_of clamps).
 CLIP_TOLERANCE_PIXELS = 1e-4
 
+#: Triangles the viewer's frame may draw in bakes where its method can answer the rays of images
+#: not baked yet otherwise (the hybrid traces them; GraphOptions.bake_budget): a thousand objects'
+#: first frame would otherwise wait for all the layers of the images it enters (about 9 M triangles,
+#: 3 s of llvmpipe), where this is a tenth of a second of llvmpipe's and a fraction of a GPU's
+#: millisecond; the images come in over the next frames (tools/startup_time.py --bake-budget;
+#: results/llvmpipe/startup_time.md).
+INTERACTIVE_BAKE_BUDGET = 250_000
+
 #: The std140 record of one depth image, as vec4 / ivec4 rows. `eye.w` holds the object id,
 #: `inverse_row*` are the rows of [a b c]^-1 (projection into the camera's (x, y, w)),
 #: `depth_range` is (w_near, w_far, width, height), `tile` the (x, y) pixel origin of the image
 #: in the atlas and its size; `surface` is (the largest relative change in w per texel of
-#: distance that still joins two samples, 1/w_near, 1/w_near - 1/w_far); `pyramid` the (x, y)
+#: distance that still joins two samples, 1/w_near, 1/w_near - 1/w_far, and 1 while the image waits
+#: for a bake a frame deferred, else 0: BakedImages.bake_budget); `pyramid` the (x, y)
 #: origin of the image's first coarse level in the depth pyramid's texture and its number of
 #: coarse levels (methods/pyramid.py; read by the hierarchical traversal alone); `bound` a sphere
 #: (world centre, radius) around every point the image can answer a ray with (PPC.bound): a ray

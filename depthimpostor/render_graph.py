@@ -83,6 +83,10 @@ class GraphOptions:
     reflection_data: bool = False  # float outputs of each mirror pixel's ray and hit
     count_samples: bool = False  # an output of the samples each reflected ray read (bench)
     time_mirror_pass: bool = False  # the mirror pass timed apart, after a ctx.finish() (bench)
+    # Triangles a frame's bake may draw where the method answers the rays of images not baked yet
+    # otherwise (the hybrid traces them): the rest are baked by the next frames (BakedImages.bake_budget;
+    # the viewer's VIEWER_BAKE_BUDGET). None: a frame waits for every image it enters.
+    bake_budget: int | None = None
 
 
 class RenderGraph:
@@ -210,6 +214,7 @@ class RenderGraph:
         if issubclass(kind, BakedImages):
             stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.scene_blocks.drawn_materials,
                             world.reflectors, world.reflected_objects, plan.image_plans)
+            stand_in.bake_budget = self.options.bake_budget
         elif issubclass(kind, SeenFromEye):
             stand_in = kind(self.ctx, self.programs, scene, self.meshes, self.scene_blocks.drawn_materials,
                             world.reflectors)

@@ -62,7 +62,7 @@ class Renderer:
 
     def __init__(self, ctx: moderngl.Context, scene: Scene, algorithm: Algorithm = Algorithm.OPTIMIZED,
                  reflection_data: bool = False, shaders: ShaderLibrary | None = None, method: Method = Method.DEPTH,
-                 count_samples: bool = False, time_mirror_pass: bool = False) -> None:
+                 count_samples: bool = False, time_mirror_pass: bool = False, bake_budget: int | None = None) -> None:
         """`method` is how reflected objects are stood in for (only its own resources are made);
         `shaders` reads the GLSL from another folder (the viewer's `--shaders`); the other flags
         are GraphOptions' (render_graph.py)."""
@@ -70,7 +70,7 @@ class Renderer:
         self.released = False
         self._sky: tuple[tuple[object, Environment], SkyLighting | None] | None = None  # sky_lighting's, once read
         self.ctx, self.scene, self.method, self.algorithm = ctx, scene, method, algorithm
-        self.options = GraphOptions(reflection_data, count_samples, time_mirror_pass)
+        self.options = GraphOptions(reflection_data, count_samples, time_mirror_pass, bake_budget)
         self.stats = RenderStats()
         self.last_sub_frames: list[SubFrame] = []  # the last supersampled frame's (render.samples > 1)
         # Where each program finds what every frame binds (texture units, block bindings, the

@@ -50,6 +50,11 @@ def textured_ring(folder: Path, count: int, extra: str = "") -> Scene:
     (every record of a table past MATERIAL_BLOCK_RECORDS read: a wrong one shows another colour),
     every fifth textured with an "F" in a colour factor of its own (a texture seen the wrong way
     round or not at all shows)."""
+    return scene_from_toml(textured_ring_toml(folder, count, extra), str(folder / "ring.toml"), folder)
+
+
+def textured_ring_toml(folder: Path, count: int, extra: str = "") -> str:
+    """textured_ring's scene file (its texture written into `folder`)."""
     image = Image.new("RGB", (32, 32), (255, 255, 255))
     draw = ImageDraw.Draw(image)
     draw.rectangle([6, 4, 11, 28], fill=(200, 20, 20))
@@ -67,7 +72,7 @@ def textured_ring(folder: Path, count: int, extra: str = "") -> Scene:
         text += (f'[[objects]]\nname = "object {k}"\nshape = {shape}\nmaterial = {material}\n'
                  f"position = [{ring * math.cos(angle):.4f}, {0.1 + 0.05 * (k % 7):.4f}, {ring * math.sin(angle):.4f}]\n"
                  f"rotation = [0.0, {(37.0 * k) % 360:.1f}, 0.0]\n")
-    return scene_from_toml(text + extra, str(folder / "ring.toml"), folder)
+    return text + extra
 
 
 def baked_atlas(ctx: moderngl.Context, scene: Scene, method: Method) -> tuple[list[bytes], np.ndarray, list[str]]:

@@ -25,6 +25,7 @@ import pytest
 from PIL import Image
 
 from conftest import PROJECT_ROOT, SCENES
+from test_startup_bakes import textured_ring_toml
 from depthimpostor.colour import quantize
 from depthimpostor.oracles.compare import compare, heat_map
 from depthimpostor.constants import NO_OBJECT, Method
@@ -187,6 +188,18 @@ def test_window_shows_the_scene_and_re_bakes_only_for_resolution(
     [numbered] = report["screenshots"]
     assert Path(numbered).name == "default-0001.png"
     assert png(tmp_path / numbered).shape == expected.shape
+
+
+def test_the_hybrid_window_comes_before_its_images_and_bakes_them_over_frames(display: str, tmp_path: Path) -> None:
+    """The viewer's frames bake no more than its budget of triangles (INTERACTIVE_BAKE_BUDGET) where
+    the hybrid method traces the rays of the images not baked yet: 300 objects' images come in
+    over several frames, each frame whole (BakedImages.bake_budget; tests/test_bake_budget.py)."""
+    (tmp_path / "ring.toml").write_text(textured_ring_toml(tmp_path, 300))
+    done = run_view(["ring.toml", "--size", "320x180", "--frames", "6", "--method", "hybrid", "--no-panel",
+                     "--report", "report.json", "--screenshot", "last.png", "--keys", "p"], tmp_path, display)
+    report = session_report(tmp_path, done.returncode, done.stdout, done.stderr)
+    assert all(new_bakes(report, frame) > 0 for frame in range(6)), report["baked_after_frame"]
+    assert report["baked_after_frame"][-1] < 300
 
 
 def test_every_control_runs_without_gl_errors(ctx: moderngl.Context, display: str, tmp_path: Path) -> None:

@@ -8,6 +8,12 @@ machine shared with other work, less disturbed by it than the wall time).
     python3 tools/startup_time.py scenes/lecture_8x9.toml --size 320x180 --resolution 128
     python3 tools/startup_time.py --objects 1000 --method raytrace   # tools/scene_size.py's scene of 1,000
     python3 tools/startup_time.py --objects 1000 --method depth --resolution auto
+    python3 tools/startup_time.py --objects 1000 --method hybrid --bake-budget interactive   # as the viewer starts
+
+`--bake-budget`: the triangles a frame's bake may draw where the method answers the rays of the
+images not baked yet otherwise (the hybrid traces them; Renderer's bake_budget): `interactive` is
+the viewer's (constants.INTERACTIVE_BAKE_BUDGET). Without it a frame waits for every image it
+enters, as the CLI's renders do.
 """
 
 from __future__ import annotations
@@ -17,7 +23,7 @@ import statistics
 import time
 from pathlib import Path
 
-from depthimpostor.constants import Algorithm, Method
+from depthimpostor.constants import INTERACTIVE_BAKE_BUDGET, Algorithm, Method
 from depthimpostor.gpu.context import create_context
 from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
@@ -31,6 +37,7 @@ def main() -> None:
     parser.add_argument("--size", default="320x180")
     parser.add_argument("--resolution", default="128", help="the images' side, or auto (sized by what the view asks)")
     parser.add_argument("--runs", type=int, default=5)
+    parser.add_argument("--bake-budget", help="triangles a frame's bake may draw (an integer, or interactive: the viewer's)")
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.split("x"))
     if (args.scene is None) == (args.objects is None):
@@ -44,11 +51,13 @@ def main() -> None:
     resolution = args.resolution if args.resolution == "auto" else int(args.resolution)
     scene = written.with_overrides(size=(width, height), impostor_resolution=resolution)
     method = Method.from_option(args.method)
+    budget = None if args.bake_budget is None else (
+        INTERACTIVE_BAKE_BUDGET if args.bake_budget == "interactive" else int(args.bake_budget))
     ctx = create_context()
     made, switched, first_frame, started, cpu = [], [], [], [], []
     for _ in range(args.runs):
         start, start_cpu = time.perf_counter(), time.process_time()
-        renderer = Renderer(ctx, scene, method=method)
+        renderer = Renderer(ctx, scene, method=method, bake_budget=budget)
         ctx.finish()
         made.append(time.perf_counter() - start)
         renderer.render()
@@ -63,7 +72,8 @@ def main() -> None:
         renderer.release()
     with open("/proc/loadavg", encoding="ascii") as load:
         loads = " ".join(load.read().split()[:3])
-    print(f"{name}, --method {method.option}, resolution {args.resolution} (load {loads}): Renderer() {1000 * statistics.median(made):.0f} ms, first frame (bakes, compiles) "
+    budgeted = "" if budget is None else f", bake budget {budget:,} triangles a frame"
+    print(f"{name}, --method {method.option}, resolution {args.resolution}{budgeted} (load {loads}): Renderer() {1000 * statistics.median(made):.0f} ms, first frame (bakes, compiles) "
           f"{1000 * statistics.median(first_frame):.0f} ms, set_algorithm {1000 * statistics.median(switched):.0f} ms "
           f"(medians of {args.runs}); Renderer() + first frame {1000 * statistics.median(started):.0f} ms, "
           f"{1000 * statistics.median(cpu):.0f} ms of this process's CPU time (all its threads: llvmpipe's too)")

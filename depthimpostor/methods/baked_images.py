@@ -10,7 +10,7 @@ import builtins
 import dataclasses
 import math
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from enum import Enum
 from typing import ClassVar, NamedTuple
 
@@ -87,6 +87,10 @@ class BakedImages:
     #: reaches past its object's sphere, but its opaque part lies in that sphere's silhouette: its
     #: hit bound is around that part, billboards.quad_hit_bounds.)
     lists_over_bounds: ClassVar[bool] = False
+    #: Can a ray that enters an image not baked yet be answered otherwise (the hybrid method traces
+    #: it: Unseen.PENDING)? Then a frame's bake may stop at bake_budget and leave the rest to the
+    #: next frames.
+    traces_pending: ClassVar[bool] = False
     #: What one image is called in the CLI's and the viewer's summaries.
     image_noun: ClassVar[str]
     #: One image per reflected object (False: faces that show them all).
@@ -167,6 +171,15 @@ class BakedImages:
         self._aimed_at: tuple[bytes, int] | None = None
         self._moves = 0
         self._mirrors = mirrors
+        # Triangles a frame's bake may draw (all its layers' draws together) where a frame bakes
+        # only the images its rays enter and this stand-in can answer the others otherwise
+        # (traces_pending): the images past the budget are baked by the next frames, and until
+        # then their records say so (surface.w). None: every image a frame enters is baked before
+        # it (one picture whatever the frame's number: the CLI's, the benchmark's, the truth's
+        # comparisons). The viewer sets it (GraphOptions.bake_budget): its first frame comes
+        # before a thousand objects' images are baked, and is traced where they are not.
+        self.bake_budget: int | None = None
+        self.pending: set[int] = set()  # slots whose records say "not baked yet" (surface.w = 1)
 
     @classmethod
     def bakes_lazily(cls, scene: Scene, images: int) -> bool:
@@ -202,6 +215,12 @@ class BakedImages:
         found = self.entered.find(camera, surfaces, [(mirror, buffer, len(images)) for mirror, buffer, images in tables],
                                   behind_frame)
         self.due = {images[int(i)].slot for (_, _, images), entered in zip(tables, found, strict=True) for i in entered}
+
+    @property
+    def deferred(self) -> int:
+        """Images the frames' rays enter that a bake budget left to later frames (their rays are
+        traced meanwhile: traces_pending)."""
+        return len(self.stale & self.due) if self.due is not None and self.pending else 0
 
     @property
     def needs_bake(self) -> bool:
@@ -243,6 +262,7 @@ class BakedImages:
         self._spread_staleness()
         for index, buffer in self.uniform_buffers.items():
             write_table(buffer, self.record_table(self.images_at(index, self.final_level)))
+        self.pending = set()  # the tables made again say nothing is (a moving world bakes what is stale)
         self._forget_fits()
 
     def _spread_staleness(self) -> None:
@@ -377,6 +397,10 @@ class BakedImages:
         if not self.placed:
             self.place(due if self.due is not None else None)
         stale = [image for image in self.depth_images if not image.level and image.slot in due]
+        drawn = dict(zip((image.slot for image in stale), self.drawn(stale), strict=True))
+        if self.bake_budget is not None and self.traces_pending and self.due is not None:
+            stale = self.within_budget(stale, drawn)
+            due = {image.slot for image in stale}
         atlas = self.atlas
         atlas.grow(1 + max(atlas.slot_of(image.tile) for image in stale))
         atlas.bake_buffer()
@@ -390,7 +414,6 @@ class BakedImages:
         # Each image's matrix once, all at once (ppc.view_projections), for every layer's pass.
         matrices = dict(zip((image.slot for image in stale), view_projections([image.camera for image in stale]),
                             strict=True))
-        drawn = dict(zip((image.slot for image in stale), self.drawn(stale), strict=True))
         with raster_state(self.ctx):
             draws += self._bake_surfaces(stale, whole, matrices, drawn)
             if self.back_layer is not None:
@@ -405,7 +428,38 @@ class BakedImages:
                     atlas.framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
         for image in stale:
             self.baked(image)
+        if self.traces_pending and (self.pending or self.stale & (self.due or set())):
+            self.mark_pending()
         return draws
+
+    def within_budget(self, stale: list[DepthImage], drawn: dict[int, list[ObjectGeometry]]) -> list[DepthImage]:
+        """The first of `stale` (in slot order, at least one) whose bakes draw no more than
+        bake_budget triangles in all: each image's drawn meshes once per layer pass."""
+        assert self.bake_budget is not None
+        passes = 1 + (self.back_layer is not None) + (self.atlas.beyond is not None)
+        kept: list[DepthImage] = []
+        spent = 0
+        for image in stale:
+            cost = passes * sum(len(item.local_mesh.indices) for item in drawn[image.slot])
+            if kept and spent + cost > self.bake_budget:
+                break
+            kept.append(image)
+            spent += cost
+        return kept
+
+    def mark_pending(self) -> None:
+        """Write into the mirrors' records which images wait for a bake (surface.w: 1 for each
+        stale image, 0 for the others) where that changed: a ray that enters one is traced
+        (Unseen.PENDING) until a later frame bakes it."""
+        pending = set(self.stale)
+        if pending == self.pending:
+            return
+        self.pending = pending
+
+        def marked(records: NDArray[np.void], images: list[DepthImage]) -> None:
+            records["surface"][:, 3] = [float(image.slot in pending) for image in images]
+
+        self.rewrite_records(marked)
 
     def place(self, first: set[int] | None = None) -> None:
         """Give every image its tile, once: the images of the slots in `first` (the first bake's)
@@ -425,12 +479,22 @@ class BakedImages:
             images[:] = [dataclasses.replace(image, tile_origin=self.atlas.tile_origin(places[image.slot]),
                                              pyramid=layout.entry(places[image.slot], image.camera.width, image.camera.height))
                          for image in images]
-        for index, buffer in self.uniform_buffers.items():  # the records' tile and pyramid fields alone
-            images = self.images_at(index, self.final_level)
-            size = len(images) * DEPTH_IMAGE_DTYPE.itemsize
-            records = np.frombuffer(buffer.read(size=size), DEPTH_IMAGE_DTYPE).copy()
+        def placed(records: NDArray[np.void], images: list[DepthImage]) -> None:
             records["tile"][:, :2] = [image.tile_origin for image in images]
             records["pyramid"][:, :3] = [image.pyramid for image in images]
+
+        self.rewrite_records(placed)
+
+    def rewrite_records(self, change: Callable[[NDArray[np.void], list[DepthImage]], None]) -> None:
+        """Change some fields of every mirror's records in place (`change(records, images)`), the
+        rest of its table (the lists past them) as it is: building the table again costs its lists."""
+        for index, buffer in self.uniform_buffers.items():
+            images = self.images_at(index, self.final_level)
+            if not images:
+                continue
+            size = len(images) * DEPTH_IMAGE_DTYPE.itemsize
+            records = np.frombuffer(buffer.read(size=size), DEPTH_IMAGE_DTYPE).copy()
+            change(records, images)
             buffer.write(records.tobytes())
 
     def tiles_by_place(self) -> list[tuple[int, int, int, int]]:

@@ -33,6 +33,7 @@ class HybridPass(ImpostorPass):
     keeps_triangle_ids = True
     keeps_beyond = True
     lists_over_bounds = True
+    traces_pending = True  # a ray entering an image not baked yet is traced (Unseen.PENDING)
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, scene: Scene, meshes: GpuMeshes,
                  materials: DrawnMaterials, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import glfw
 import numpy as np
 
-from ..constants import Algorithm, Method
+from ..constants import INTERACTIVE_BAKE_BUDGET, Algorithm, Method
 from ..methods.registry import METHODS
 from ..gpu.context import Window, bind_default_framebuffer, create_window, describe
 from ..errors import DepthImpostorError, OutputError, SceneError, ShaderError
@@ -174,7 +174,7 @@ class Viewer:
         limit_memory(self.ctx, options.max_memory)
         # The mirror pass timed apart (a finish before it) for the panel's graph of the frame by pass.
         self.renderer = Renderer(self.ctx, scene, options.algorithm, shaders=self.library, method=options.method,
-                                 time_mirror_pass=True)
+                                 time_mirror_pass=True, bake_budget=INTERACTIVE_BAKE_BUDGET)
         # The viewer's own programs (overlay, present): the renderer's are its to replace.
         self.programs = ProgramCache(self.ctx, self.library)
         self.font_pixels = round(FONT_SIZE * max(glfw.get_window_content_scale(window.handle)))
@@ -450,6 +450,8 @@ class Viewer:
             if renderer.graph.baked_images is not None:
                 bake_ms = 1000.0 * renderer.stats.bake_seconds[-1] if renderer.stats.bake_seconds else 0.0
                 line += f" | bake {bake_ms:.0f} ms"
+                if renderer.graph.baked_images.deferred:  # a bake budget's: BakedImages.bake_budget
+                    line += f" | {renderer.graph.baked_images.deferred} to bake, traced meanwhile"
             lines.append(line)
         else:
             lines.append("nothing to reflect (no mirror)")

@@ -153,8 +153,16 @@ RayHit nearest_depth_image_hit(vec3 origin, vec3 direction, float t_limit) {
         // an image left (others have next == u_depth_image_count, up to the array's size): read a
         // real record.
         int image = min(next, DEPTH_IMAGE_CAPACITY - 1);
-        take_candidate(intersect_depth_image(u_depth_images[image], origin, direction, limit), image, t_limit, best,
-                       best_image, samples, unseen_t, unseen);
+#if METHOD == METHOD_HYBRID
+        // An image not baked yet (its bake deferred to a later frame: BakedImages.bake_budget,
+        // surface.w set) holds nothing: what the ray meets from its bound's entry on is traced.
+        RayHit candidate = u_depth_images[image].surface.w != 0.0
+            ? with_unseen(no_hit(0), next_t, UNSEEN_PENDING)
+            : intersect_depth_image(u_depth_images[image], origin, direction, limit);
+#else
+        RayHit candidate = intersect_depth_image(u_depth_images[image], origin, direction, limit);
+#endif
+        take_candidate(candidate, image, t_limit, best, best_image, samples, unseen_t, unseen);
         last = next;
         last_t = next_t;
         next = after_next;
