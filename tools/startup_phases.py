@@ -9,6 +9,7 @@ Without the finishes a phase's GPU work would land in the next; with them the su
 more than startup_time.py's figure.
 
     python3 tools/startup_phases.py --objects 1000 --method depth
+    python3 tools/startup_phases.py --objects 1000 --method hybrid --bake-budget interactive   # as the viewer starts
 """
 
 from __future__ import annotations
@@ -69,8 +70,12 @@ def main() -> None:
     parser.add_argument("--method", default="depth")
     parser.add_argument("--size", default="320x180")
     parser.add_argument("--resolution", default="128")
+    parser.add_argument("--bake-budget", help="triangles a frame's bake may draw (an integer, or interactive: the viewer's)")
     args = parser.parse_args()
     from scene_size import family_scene  # beside this file
+    from startup_time import bake_budget_of
+
+    budget = bake_budget_of(args.bake_budget)
 
     width, height = (int(v) for v in args.size.split("x"))
     resolution = args.resolution if args.resolution == "auto" else int(args.resolution)
@@ -87,13 +92,14 @@ def main() -> None:
     timed(ctx, baked_images.BakedImages, "_bake_beyond", "bake: second runs")
     start, start_cpu = time.perf_counter(), time.process_time()
     with phase(ctx, "Renderer(): the rest"):
-        renderer = Renderer(ctx, scene, method=Method.from_option(args.method))
+        renderer = Renderer(ctx, scene, method=Method.from_option(args.method), bake_budget=budget)
     with phase(ctx, "first frame: the rest (eye's passes, mirror pass, bake's other work)"):
         renderer.render()
     wall, cpu = time.perf_counter() - start, time.process_time() - start_cpu
     with open("/proc/loadavg", encoding="ascii") as load:
         loads = load.read().split()[:3]
-    print(f"{args.objects} objects, --method {args.method}, {args.size}, resolution {args.resolution}: "
+    budgeted = "" if budget is None else f", bake budget {budget:,} triangles a frame"
+    print(f"{args.objects} objects, --method {args.method}, {args.size}, resolution {args.resolution}{budgeted}: "
           f"{wall:.2f} s wall, {cpu:.2f} s CPU (load {' '.join(loads)})")
     for name in WALL:
         print(f"  {name:70s} {WALL[name]:6.2f} s wall {CPU[name]:6.2f} s CPU")

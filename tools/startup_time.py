@@ -29,6 +29,13 @@ from depthimpostor.renderer import Renderer
 from depthimpostor.scene import load_scene
 
 
+def bake_budget_of(option: str | None) -> int | None:
+    """--bake-budget's triangles: an integer, `interactive` (the viewer's), or None (not given)."""
+    if option is None:
+        return None
+    return INTERACTIVE_BAKE_BUDGET if option == "interactive" else int(option)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scene", type=Path, nargs="?", help="a scene file, or --objects")
@@ -51,8 +58,7 @@ def main() -> None:
     resolution = args.resolution if args.resolution == "auto" else int(args.resolution)
     scene = written.with_overrides(size=(width, height), impostor_resolution=resolution)
     method = Method.from_option(args.method)
-    budget = None if args.bake_budget is None else (
-        INTERACTIVE_BAKE_BUDGET if args.bake_budget == "interactive" else int(args.bake_budget))
+    budget = bake_budget_of(args.bake_budget)
     ctx = create_context()
     made, switched, first_frame, started, cpu = [], [], [], [], []
     for _ in range(args.runs):
