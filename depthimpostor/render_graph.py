@@ -85,7 +85,7 @@ class GraphOptions:
     time_mirror_pass: bool = False  # the mirror pass timed apart, after a ctx.finish() (bench)
     # Triangles a frame's bake may draw where the method answers the rays of images not baked yet
     # otherwise (the hybrid traces them): the rest are baked by the next frames (BakedImages.bake_budget;
-    # the viewer's VIEWER_BAKE_BUDGET). None: a frame waits for every image it enters.
+    # the viewer's INTERACTIVE_BAKE_BUDGET). None: a frame waits for every image it enters.
     bake_budget: int | None = None
 
 

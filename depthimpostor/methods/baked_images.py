@@ -171,10 +171,11 @@ class BakedImages:
         self._aimed_at: tuple[bytes, int] | None = None
         self._moves = 0
         self._mirrors = mirrors
-        # Triangles a frame's bake may draw (all its layers' draws together) where a frame bakes
-        # only the images its rays enter and this stand-in can answer the others otherwise
-        # (traces_pending): the images past the budget are baked by the next frames, and until
-        # then their records say so (surface.w). None: every image a frame enters is baked before
+        # Triangles a frame's bake may draw (all its layers' draws together; each sub-frame's of an
+        # anti-aliased frame; at least one image however large) where a frame bakes only the images
+        # its rays enter and this stand-in can answer the others otherwise (traces_pending): the
+        # images past the budget are baked by the next frames, and until then their records say so
+        # (surface.w: every stale image's, mark_pending). None: every image a frame enters is baked before
         # it (one picture whatever the frame's number: the CLI's, the benchmark's, the truth's
         # comparisons). The viewer sets it (GraphOptions.bake_budget): its first frame comes
         # before a thousand objects' images are baked, and is traced where they are not.
@@ -249,7 +250,9 @@ class BakedImages:
         self._moves += 1
         # A world that moves bakes what is stale, every image, as it did: the pass that finds the
         # entered ones would run at every frame that moves it, and a moved object's images are few.
-        self.lazily = False
+        # Not under a bake budget: there the first move would bake every image no frame entered
+        # yet (a thousand objects' 4 s), where the pass costs a few milliseconds a frame.
+        self.lazily = self.lazily and self.budgeted
         self.due = None
         for index, images in self.images_by_reflector.items():
             for i, image in enumerate(images):
@@ -262,7 +265,9 @@ class BakedImages:
         self._spread_staleness()
         for index, buffer in self.uniform_buffers.items():
             write_table(buffer, self.record_table(self.images_at(index, self.final_level)))
-        self.pending = set()  # the tables made again say nothing is (a moving world bakes what is stale)
+        self.pending = set()  # what the tables made again say
+        if self.budgeted:
+            self.mark_pending()
         self._forget_fits()
 
     def _spread_staleness(self) -> None:
@@ -398,7 +403,7 @@ class BakedImages:
             self.place(due if self.due is not None else None)
         stale = [image for image in self.depth_images if not image.level and image.slot in due]
         drawn = dict(zip((image.slot for image in stale), self.drawn(stale), strict=True))
-        if self.bake_budget is not None and self.traces_pending and self.due is not None:
+        if self.budgeted and self.due is not None:  # (not the sample view's, nor bake_again's)
             stale = self.within_budget(stale, drawn)
             due = {image.slot for image in stale}
         atlas = self.atlas
@@ -428,9 +433,14 @@ class BakedImages:
                     atlas.framebuffer.color_mask = atlas.masks(*[(True,) * 4] * len(atlas.textures))
         for image in stale:
             self.baked(image)
-        if self.traces_pending and (self.pending or self.stale & (self.due or set())):
+        if self.budgeted:
             self.mark_pending()
         return draws
+
+    @property
+    def budgeted(self) -> bool:
+        """Does a frame's bake stop at bake_budget, its rays answered otherwise where it did?"""
+        return self.bake_budget is not None and self.traces_pending
 
     def within_budget(self, stale: list[DepthImage], drawn: dict[int, list[ObjectGeometry]]) -> list[DepthImage]:
         """The first of `stale` (in slot order, at least one) whose bakes draw no more than
@@ -450,7 +460,8 @@ class BakedImages:
     def mark_pending(self) -> None:
         """Write into the mirrors' records which images wait for a bake (surface.w: 1 for each
         stale image, 0 for the others) where that changed: a ray that enters one is traced
-        (Unseen.PENDING) until a later frame bakes it."""
+        (Unseen.PENDING) until a later frame bakes it. (A budget bakes lazily, so with one bounce:
+        every stale image is in the records, none a bounce image that the bounce node bakes.)"""
         pending = set(self.stale)
         if pending == self.pending:
             return
