@@ -18,7 +18,9 @@ import numpy as np
 
 from .culling import Reach, reaches
 from .eye import fitted_camera
-from .geometry import ObjectGeometry, bounding_spheres, has_levels, max_level, mesh_key, scene_geometry, world_mesh
+from .geometry import (
+    ObjectGeometry, bounding_spheres, has_levels, linear_transforms, max_level, mesh_key, scene_geometry, world_mesh,
+)
 from .meshes import Mesh
 from .lod import LOD_PIXEL_ERROR, LOD_REFLECTED_PIXEL_ERROR, EyeView, LevelTable, detail_levels
 from .ppc import PPC
@@ -62,8 +64,10 @@ class World:
         self._sort(geometry)
 
     def _sort(self, geometry: list[ObjectGeometry]) -> None:
-        """Sort `geometry` into what each pass draws."""
+        """Sort `geometry` into what each pass draws (each object's normal matrix worked out with
+        the others': the passes draw nearly all of them in the first frame)."""
         self.geometry = geometry
+        linear_transforms(geometry)
         scene = self.scene
         self.mirrors = [g for g in geometry if g.object.is_mirror]
         self.glass = [g for g in geometry if g.object.is_glass]

@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 from depthimpostor import geometry, ppc
 from depthimpostor.geometry import ObjectGeometry, scene_geometry, world_vertex_groups
 from depthimpostor.meshes import ritter_centres
+from depthimpostor.methods import image_cells
 from depthimpostor.ppc import FrustumFit, fit_frusta, orthonormal_frames
 from depthimpostor.scene.model import BoxShape, CheckerMaterial, SceneObject, SphereShape
 
@@ -103,3 +104,60 @@ def test_objects_placed_in_chunks_have_the_whole_array_spheres_to_the_bit(monkey
             assert item.bounding_sphere[0].tolist() == centre.tolist() and item.bounding_sphere[1] == radius
             seen += 1
     assert seen == 70
+
+
+def test_normal_matrices_worked_out_together_are_each_objects_own() -> None:
+    objects = [SceneObject(f"object {i}", SphereShape(0.3), CheckerMaterial((0.9, 0.2, 0.1), (0.1, 0.1, 0.1)),
+                           position=(float(i), 0.0, 0.0), rotation=(10.0 * i, 7.0 * i, 3.0 * i),
+                           scale=(-1.5, 0.5, 1.0) if i == 4 else (0.5 + 0.1 * i, 1.0, 2.0 - 0.05 * i)) for i in range(30)]
+    together, alone = scene_geometry(tuple(objects)), scene_geometry(tuple(objects))
+    geometry.linear_transforms(together)
+    for item, own in zip(together, alone, strict=True):
+        assert "normal_matrix" in item.__dict__ and "determinant" in item.__dict__
+        assert item.normal_matrix.tolist() == own.normal_matrix.tolist() and item.determinant == own.determinant
+    assert together[4].determinant < 0.0
+
+
+def test_a_singular_transform_leaves_every_normal_matrix_to_its_property() -> None:
+    flat = SceneObject("flat", SphereShape(0.3), CheckerMaterial((0.9, 0.2, 0.1), (0.1, 0.1, 0.1)), scale=(1.0, 0.0, 1.0))
+    items = scene_geometry((flat, *(SceneObject(f"ball {i}", SphereShape(0.3), CheckerMaterial((0.9, 0.2, 0.1), (0.1, 0.1, 0.1)),
+                                                position=(float(i), 1.0, 0.0)) for i in range(3))))
+    geometry.linear_transforms(items)
+    assert not any("normal_matrix" in item.__dict__ for item in items)
+    with pytest.raises(np.linalg.LinAlgError):
+        _ = items[0].normal_matrix
+
+
+def lists_as_they_were(spheres: NDArray[np.float64], centre: NDArray[np.float64], radius: float) -> NDArray[np.int32]:
+    """image_cells.image_cells as it was before the keys were made at once: each face's (cell, image)
+    pairs gathered from index arrays, concatenated, sorted as cell * count + image, split by division."""
+    size = image_cells.grid_size(len(spheres))
+    cells, entries = [], []
+    for face in range(6):
+        low1, count1, low2, count2 = image_cells._face_ranges(spheres, centre, radius, size, face)
+        image1, u_cell, q1 = image_cells._rows(count1, low1)
+        image2, v_cell, q2 = image_cells._rows(count2, low2)
+        per_image2 = np.bincount(image2, minlength=len(spheres))
+        start2 = np.concatenate([[0], np.cumsum(per_image2)[:-1]])
+        repeats = per_image2[image1]
+        pair1 = np.repeat(np.arange(len(image1)), repeats)
+        pair2 = start2[image1[pair1]] + np.arange(len(pair1)) - np.repeat(np.cumsum(repeats) - repeats, repeats)
+        d, o = size.directions, size.offsets
+        cells.append((((face * d + u_cell[pair1]) * d + v_cell[pair2]) * o + q1[pair1]) * o + q2[pair2])
+        entries.append(image1[pair1])
+    count = max(len(spheres), 1)
+    keys = np.concatenate([*cells, np.full(len(spheres), size.cells)]) * count + np.concatenate([*entries, np.arange(len(spheres))])
+    keys.sort()
+    starts = size.cells + 2 + np.concatenate([[0], np.cumsum(np.bincount(keys // count, minlength=size.cells + 1))])
+    return np.concatenate([starts, keys % count]).astype(np.int32)
+
+
+@pytest.mark.parametrize("count", [0, 1, 3, 40, 300, 1500])  # (past 256 images, the finer grid)
+def test_the_lists_made_by_keys_at_once_are_those_made_before(count: int) -> None:
+    rng = np.random.default_rng(count)
+    spheres = np.column_stack([rng.normal(size=(count, 3)) * 4.0, rng.uniform(0.01, 1.5, count)])
+    spheres[:count // 10, :3] = rng.normal(size=(count // 10, 3)) * 0.3  # some about the mirror, in reach of every cell
+    centre, radius = rng.normal(size=3) * 0.2, float(rng.uniform(0.2, 1.0))
+    made = image_cells.image_cells(spheres, centre, radius)
+    assert made.dtype == np.int32 and made.tolist() == lists_as_they_were(spheres, centre, radius).tolist()
+    assert len(image_cells.cells_table(spheres, centre, radius)) == image_cells.cells_table_bytes(spheres, centre, radius)
