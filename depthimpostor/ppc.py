@@ -419,8 +419,8 @@ def view_projections(cameras: Sequence[PPC]) -> Array:
     """PPC.view_projection of each camera, (n, 4, 4): view_matrix and projection_matrix worked out
     for all at once by the same steps (a thousand objects' depth images spent 0.6 s a bake in
     them one by one)."""
-    a, b, c, eye = (np.stack([getattr(camera, name) for camera in cameras]).astype(np.float64).reshape(-1, 3)
-                    for name in "abcC")
+    a, b, c, eye = (np.array([getattr(camera, name) for camera in cameras], np.float64).reshape(-1, 3)
+                    for name in "abcC")  # (np.array of a list of vectors: three times quicker than np.stack)
     n = len(a)
     width, height, near, far = (np.array([getattr(camera, name) for camera in cameras], np.float64)
                                 for name in ("width", "height", "near", "far"))
@@ -468,7 +468,7 @@ def depth_image_records(cameras: Sequence[PPC], object_ids: Sequence[int], tile_
     records = np.zeros(n, dtype=DEPTH_IMAGE_DTYPE)
     if n == 0:
         return records
-    eye, a, b, c = (np.stack([getattr(camera, name) for camera in cameras]).astype(np.float64) for name in "Cabc")
+    eye, a, b, c = (np.array([getattr(camera, name) for camera in cameras], np.float64) for name in "Cabc")
     width = np.array([camera.width for camera in cameras], np.float64)
     height = np.array([camera.height for camera in cameras], np.float64)
     near = np.array([camera.near for camera in cameras], np.float64)
@@ -491,8 +491,9 @@ def depth_image_records(cameras: Sequence[PPC], object_ids: Sequence[int], tile_
     step = MAX_SURFACE_SLOPE * (np.maximum(length_a, length_b) / focal)
     records["surface"] = np.column_stack([step, inverse_near, inverse_near - inverse_far, np.zeros(n)])
     # w: `--algorithm auto` traverses this image hierarchically (constants.image_algorithm).
-    hierarchical = [int(image_algorithm(Algorithm.AUTO, camera.width, camera.height) == Algorithm.HIERARCHICAL)
-                    for camera in cameras]
+    sizes = {(camera.width, camera.height) for camera in cameras}  # (a plan's images share a few sizes)
+    traversal = {size: int(image_algorithm(Algorithm.AUTO, *size) == Algorithm.HIERARCHICAL) for size in sizes}
+    hierarchical = [traversal[camera.width, camera.height] for camera in cameras]
     records["pyramid"] = np.column_stack([np.asarray(pyramids, np.int64).reshape(n, 3), hierarchical])
     bound_centre, bound_radius = _frustum_bounds(eye, a, b, c, width, height, w_near, w_far)
     bound = np.column_stack([bound_centre, bound_radius])
@@ -534,6 +535,6 @@ def _hit_bounds(a: Array, b: Array, c: Array, width: Array, height: Array, w_nea
     corner_rays = u[..., None] * a[:, None] + v[..., None] * b[:, None] + c[:, None]
     longest_ray = _norms(corner_rays).max(axis=1)
     depth = CONTACT_DEPTH_TOLERANCE * grown_far * grown_far * (1.0 / w_near - 1.0 / w_far) * longest_ray
-    around_centre = np.stack([np.asarray(centre, np.float64) for centre, _ in arounds])
+    around_centre = np.array([centre for centre, _ in arounds], np.float64)
     radius = (np.array([radius for _, radius in arounds], np.float64) + texel + depth) * (1.0 + BOUND_MARGIN)
     return np.where((radius < frustum[:, 3])[:, None], np.column_stack([around_centre, radius]), frustum)
