@@ -13,7 +13,9 @@ from depthimpostor import geometry, ppc
 from depthimpostor.geometry import ObjectGeometry, scene_geometry, world_vertex_groups
 from depthimpostor.meshes import ritter_centres
 from depthimpostor.methods import image_cells
-from depthimpostor.ppc import FrustumFit, fit_frusta, orthonormal_frames
+from depthimpostor.methods.billboards import quad_hit_bounds
+from depthimpostor.constants import BOUND_MARGIN
+from depthimpostor.ppc import PPC, FrustumFit, depth_image_records, fit_frusta, orthonormal_frames
 from depthimpostor.scene.model import BoxShape, CheckerMaterial, SceneObject, SphereShape
 
 
@@ -161,3 +163,36 @@ def test_the_lists_made_by_keys_at_once_are_those_made_before(count: int) -> Non
     made = image_cells.image_cells(spheres, centre, radius)
     assert made.dtype == np.int32 and made.tolist() == lists_as_they_were(spheres, centre, radius).tolist()
     assert len(image_cells.cells_table(spheres, centre, radius)) == image_cells.cells_table_bytes(spheres, centre, radius)
+
+
+def quad_bounds_one_by_one(records: NDArray[np.void], cameras: list[PPC],
+                           arounds: list[tuple[NDArray[np.float64], float] | None]) -> None:
+    """quad_hit_bounds as it was before its steps took every billboard at once: each row its own."""
+    for row, (camera, around) in enumerate(zip(cameras, arounds, strict=True)):
+        if around is None:
+            continue
+        centre, r = np.asarray(around[0], np.float64), float(around[1])
+        d = float(np.linalg.norm(centre - camera.C))
+        quad_w = float(((centre - camera.C) @ np.linalg.inv(np.column_stack([camera.a, camera.b, camera.c])).T)[2])
+        texel = (np.linalg.norm(camera.a) + np.linalg.norm(camera.b)) * quad_w
+        with np.errstate(invalid="ignore", divide="ignore"):
+            radius = (r * d / np.sqrt(d * d - r * r) + texel) * (1.0 + BOUND_MARGIN)
+        tighter = d > r and radius < records["bound"][row][3]
+        records["hit_bound"][row] = (*centre, radius) if tighter else records["bound"][row]
+
+
+def test_billboards_bounds_taken_together_are_each_ones_own() -> None:
+    rng = np.random.default_rng(12)
+    points, centres = clouds(rng, 60, 40)
+    points[::7] = (centres[::7, None] + rng.normal(size=(len(points[::7]), 40, 3)) * [0.01, 0.01, 2.0]).astype(np.float32)  # rods
+    fits = fit_frusta(np.zeros(3), points, centres)
+    cameras = [fit.camera(64, 64) for fit in fits if fit is not None]
+    arounds: list[tuple[NDArray[np.float64], float] | None] = [
+        None if i % 5 == 3 else (centre, float(np.linalg.norm(cloud - centre, axis=1).max()))
+        for i, (cloud, centre) in enumerate(zip(points, centres, strict=True)) if fits[i] is not None]
+    made = depth_image_records(cameras, [0] * len(cameras), [(0, 0)] * len(cameras), [(0, 0, 0)] * len(cameras), arounds)
+    reference = made.copy()
+    quad_hit_bounds(made, cameras, arounds)
+    quad_bounds_one_by_one(reference, cameras, arounds)
+    assert made.tobytes() == reference.tobytes()
+    assert (made["hit_bound"][:, 3] < made["bound"][:, 3]).sum() > len(cameras) // 2  # (most are the quads' own)
