@@ -130,13 +130,38 @@ def test_a_singular_transform_leaves_every_normal_matrix_to_its_property() -> No
         _ = items[0].normal_matrix
 
 
+def face_ranges_as_they_were(spheres: NDArray[np.float64], centre: NDArray[np.float64], radius: float,
+                             size: image_cells.GridSize, face: int) -> tuple[NDArray[np.int64], ...]:
+    """image_cells._face_ranges of one face, as it was found before the six were found at once."""
+    axis, first, second = image_cells.FACE_AXES[face // 2]
+    margin = image_cells.MARGIN
+    reach = max(radius, 1e-12) * (1.0 + margin)
+    extent = 2.0 * reach
+    offset = spheres[:, :3] - centre
+    r = spheres[:, 3] + margin * (np.linalg.norm(offset, axis=1) + spheres[:, 3] + reach)
+    depth = (-1.0 if face % 2 else 1.0) * offset[:, axis]
+    near, far = np.maximum(depth - r, -reach), depth + r
+    edges = np.linspace(-1.0, 1.0, size.directions + 1)
+    lower, upper = edges[:-1] - margin, edges[1:] + margin
+    corners = np.stack([near[:, None] * lower, near[:, None] * upper, far[:, None] * lower, far[:, None] * upper])
+    ranges = []
+    for along in (offset[:, first], offset[:, second]):
+        cell = size.offsets / (2.0 * extent)
+        low = np.maximum(np.floor(((along - r)[:, None] - corners.max(axis=0) + extent) * cell - margin).astype(np.int64), 0)
+        high = np.minimum(np.floor(((along + r)[:, None] - corners.min(axis=0) + extent) * cell + margin).astype(np.int64),
+                          size.offsets - 1)
+        ranges += [low, np.where((far >= -reach)[:, None], np.maximum(high - low + 1, 0), 0)]
+    return ranges[0], ranges[1], ranges[2], ranges[3]
+
+
 def lists_as_they_were(spheres: NDArray[np.float64], centre: NDArray[np.float64], radius: float) -> NDArray[np.int32]:
-    """image_cells.image_cells as it was before the keys were made at once: each face's (cell, image)
-    pairs gathered from index arrays, concatenated, sorted as cell * count + image, split by division."""
+    """image_cells.image_cells as it was before the keys were made at once: each face's ranges apart,
+    its (cell, image) pairs gathered from index arrays, concatenated, sorted as cell * count + image,
+    split by division."""
     size = image_cells.grid_size(len(spheres))
     cells, entries = [], []
     for face in range(6):
-        low1, count1, low2, count2 = image_cells._face_ranges(spheres, centre, radius, size, face)
+        low1, count1, low2, count2 = face_ranges_as_they_were(spheres, centre, radius, size, face)
         image1, u_cell, q1 = image_cells._rows(count1, low1)
         image2, v_cell, q2 = image_cells._rows(count2, low2)
         per_image2 = np.bincount(image2, minlength=len(spheres))
