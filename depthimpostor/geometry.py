@@ -254,12 +254,12 @@ PLACE_CHUNK_POINTS = 2**15
 def _placed(items: Sequence[ObjectGeometry], spheres: bool) -> tuple[np.ndarray, list[tuple[np.ndarray, float]]]:
     """The world-space vertices of items of one local mesh ((n, V, 3) float32), as Mesh.transformed
     places them (numpy's stacked matmul makes each item's BLAS call as its `@` does) and Mesh
-    stores them, and with `spheres` a bounding sphere of each (none without): as Mesh.bounding_sphere's, the
-    smaller of two candidate centres with the radius measured from the world mesh's float32
-    vertices (so it holds every one of them exactly), but the first candidate is the local mesh's
-    Ritter centre placed by the item's transform rather than Ritter's walk over each world mesh (64
-    passes over every vertex of a thousand objects took 14 s; an affine map of the local sphere's
-    centre is as central, exactly so under turns and uniform scales)."""
+    stores them, and with `spheres` a bounding sphere of each (none without): as
+    Mesh.bounding_sphere's, the smaller of two candidate centres with the radius measured from the
+    world mesh's float32 vertices (so it holds every one of them exactly), but the first candidate
+    is the local mesh's Ritter centre placed by the item's transform rather than Ritter's walk over
+    each world mesh (64 passes over every vertex of a thousand objects took 14 s; an affine map of
+    the local sphere's centre is as central, exactly so under turns and uniform scales)."""
     models = np.stack([item.model_matrix for item in items])
     local = items[0].local_mesh.positions.astype(np.float64)
     count, size = len(items), len(local)
@@ -270,7 +270,8 @@ def _placed(items: Sequence[ObjectGeometry], spheres: bool) -> tuple[np.ndarray,
     # Each coordinate apart, (items, vertices) contiguous: reductions over the vertices of
     # (items, vertices, 3) arrays ran several times slower, and the arithmetic is the same.
     columns = np.empty((5, min(step, count), size))  # x, y, z and _farthest's two arrays
-    ritter = models[:, :3, :3] @ _ritter_centre(items[0].local_mesh) + models[:, :3, 3]
+    # The first candidates: the local Ritter centre placed (unused, and not found, without spheres).
+    ritter = models[:, :3, :3] @ _ritter_centre(items[0].local_mesh) + models[:, :3, 3] if spheres else models[:, :3, 3]
     box, radii = np.empty((count, 3)), np.empty((2, count))
     for first in range(0, count, step):
         rows = slice(first, min(first + step, count))
