@@ -168,7 +168,7 @@ BATCH_POINTS = 2**18
 
 def _batches(items: Sequence[ObjectGeometry]) -> Iterator[list[ObjectGeometry]]:
     """`items` in lists of one local mesh: where at least BATCHED_SPHERES share a placeable mesh,
-    up to BATCH_POINTS vertices' worth at once (placed together: _placed_vertices); otherwise one
+    up to BATCH_POINTS vertices' worth at once (placed together: _placed); otherwise one
     item a list (each alone: its world_mesh property says what is wrong, if anything)."""
     groups: dict[int, list[ObjectGeometry]] = {}
     for item in items:
@@ -181,6 +181,25 @@ def _batches(items: Sequence[ObjectGeometry]) -> Iterator[list[ObjectGeometry]]:
         yield from (group[first:first + chunk] for first in range(0, len(group), chunk))
 
 
+def linear_transforms(items: Sequence[ObjectGeometry]) -> None:
+    """Work out each item's normal_matrix and determinant where not yet, all at once: numpy's stacked
+    inverse and determinant make each matrix's LAPACK calls as one matrix's do, so the same to the
+    bit (a thousand objects' one by one took 0.1 s of their first frame). Where a matrix is singular
+    none is stored: the properties raise for it when asked, as they did."""
+    missing = [item for item in items if "normal_matrix" not in item.__dict__ or "determinant" not in item.__dict__]
+    if len(missing) < 2:
+        return
+    linear = np.stack([item.model_matrix[:3, :3] for item in missing])
+    try:
+        inverses = np.linalg.inv(linear)
+    except np.linalg.LinAlgError:
+        return
+    determinants = np.linalg.det(linear).tolist()
+    for item, inverse, determinant in zip(missing, inverses, determinants, strict=True):
+        item.__dict__.setdefault("normal_matrix", inverse.T)  # the cached properties' slots
+        item.__dict__.setdefault("determinant", determinant)
+
+
 def bounding_spheres(items: Sequence[ObjectGeometry]) -> list[tuple[np.ndarray, float]]:
     """Each item's bounding_sphere. Where many share a local mesh (ten thousand equal spheres, a
     glTF scene's repeated parts) they are worked out together, by the same steps as the property
@@ -188,7 +207,7 @@ def bounding_spheres(items: Sequence[ObjectGeometry]) -> list[tuple[np.ndarray, 
     each world mesh (results/llvmpipe/many_objects.md: a scene of 10,000 small spheres)."""
     for part in _batches([item for item in items if "bounding_sphere" not in item.__dict__]):
         if len(part) > 1:
-            for item, sphere in zip(part, _spheres_of_one_mesh(part), strict=True):
+            for item, sphere in zip(part, _placed(part, spheres=True)[1], strict=True):
                 item.__dict__["bounding_sphere"] = sphere  # the cached property's slot
     return [item.bounding_sphere for item in items]
 
@@ -205,10 +224,10 @@ def world_vertex_groups(items: Sequence[ObjectGeometry], spheres: bool = False
     made = [item for item in items if "world_mesh" in item.__dict__]
     for part in _batches([item for item in items if "world_mesh" not in item.__dict__]):
         if len(part) > 1:
-            vertices = _placed_vertices(part)
-            if spheres and any("bounding_sphere" not in item.__dict__ for item in part):
-                for item, sphere in zip(part, _spheres_of_one_mesh(part, vertices), strict=True):
-                    item.__dict__.setdefault("bounding_sphere", sphere)  # the cached property's slot
+            measured = spheres and any("bounding_sphere" not in item.__dict__ for item in part)
+            vertices, found = _placed(part, measured)
+            for item, sphere in zip(part, found, strict=measured):  # (none found unless measured)
+                item.__dict__.setdefault("bounding_sphere", sphere)  # the cached property's slot
             yield part, vertices
         else:
             made += part
@@ -226,46 +245,76 @@ def _placeable(items: Sequence[ObjectGeometry]) -> bool:
     return bool(np.all(np.abs(np.linalg.det(linear)) > 1e-12 * scale**3))
 
 
-def _spheres_of_one_mesh(items: Sequence[ObjectGeometry], rounded: np.ndarray | None = None
-                         ) -> list[tuple[np.ndarray, float]]:
-    """A bounding sphere of each item's world mesh, for items of one local mesh: as
+#: The vertices _placed works through at once: its float64 arrays (a few hundred kB) stay in cache
+#: and are reused from one batch of items to the next (arrays of a whole part's, made anew for
+#: each, spent most of their time faulting fresh pages in).
+PLACE_CHUNK_POINTS = 2**15
+
+
+def _placed(items: Sequence[ObjectGeometry], spheres: bool) -> tuple[np.ndarray, list[tuple[np.ndarray, float]]]:
+    """The world-space vertices of items of one local mesh ((n, V, 3) float32), as Mesh.transformed
+    places them (numpy's stacked matmul makes each item's BLAS call as its `@` does) and Mesh
+    stores them, and with `spheres` a bounding sphere of each (none without): as
     Mesh.bounding_sphere's, the smaller of two candidate centres with the radius measured from the
     world mesh's float32 vertices (so it holds every one of them exactly), but the first candidate
-    is the local mesh's Ritter centre placed by the item's transform rather than Ritter's walk
-    over each world mesh (64 passes over every vertex of a thousand objects took 14 s; an affine
-    map of the local sphere's centre is as central, exactly so under turns and uniform scales)."""
+    is the local mesh's Ritter centre placed by the item's transform rather than Ritter's walk over
+    each world mesh (64 passes over every vertex of a thousand objects took 14 s; an affine map of
+    the local sphere's centre is as central, exactly so under turns and uniform scales)."""
     models = np.stack([item.model_matrix for item in items])
     local = items[0].local_mesh.positions.astype(np.float64)
+    count, size = len(items), len(local)
+    turns, moves = models[:, :3, :3].transpose(0, 2, 1), models[:, None, :3, 3]
+    step = max(1, PLACE_CHUNK_POINTS // max(size, 1))
+    vertices = np.empty((count, size, 3), np.float32)
+    placed = np.empty((min(step, count), size, 3))
     # Each coordinate apart, (items, vertices) contiguous: reductions over the vertices of
     # (items, vertices, 3) arrays ran several times slower, and the arithmetic is the same.
-    rounded = _placed_vertices(items) if rounded is None else rounded  # (their _placed_vertices, given)
-    columns = [rounded[:, :, axis].astype(np.float64) for axis in range(3)]
-    local_centre = ritter_centres(local[None])[0]
-    placed = models[:, :3, :3] @ local_centre + models[:, :3, 3]
-    box_centre = np.stack([0.5 * (column.min(axis=1) + column.max(axis=1)) for column in columns], axis=1)
-    candidates = [placed, box_centre]
-    radii = [_farthest(columns, centre) for centre in candidates]
+    columns = np.empty((5, min(step, count), size))  # x, y, z and _farthest's two arrays
+    # The first candidates: the local Ritter centre placed (unused, and not found, without spheres).
+    ritter = models[:, :3, :3] @ _ritter_centre(items[0].local_mesh) + models[:, :3, 3] if spheres else models[:, :3, 3]
+    box, radii = np.empty((count, 3)), np.empty((2, count))
+    for first in range(0, count, step):
+        rows = slice(first, min(first + step, count))
+        n = rows.stop - first
+        chunk = np.matmul(local, turns[rows], out=placed[:n])
+        for axis in range(3):  # a coordinate at a time: adding rows of three ran four times slower
+            chunk[..., axis] += moves[rows, :, axis]
+        vertices[rows] = chunk
+        if not spheres:
+            continue
+        for axis in range(3):
+            columns[axis, :n] = vertices[rows, :, axis]
+        for axis in range(3):
+            box[rows, axis] = 0.5 * (columns[axis, :n].min(axis=1) + columns[axis, :n].max(axis=1))
+        for candidate, centres in enumerate((ritter, box)):
+            radii[candidate, rows] = _farthest(columns[:3, :n], centres[rows], columns[3:, :n])
+    if not spheres:
+        return vertices, []
     ritter_wins = radii[0] <= radii[1]  # np.argmin's choice: the first of equals
-    return [(candidates[0][i].copy(), float(radii[0][i])) if ritter_wins[i] else (candidates[1][i].copy(), float(radii[1][i]))
-            for i in range(len(items))]
+    return vertices, [(ritter[i].copy(), float(radii[0][i])) if ritter_wins[i] else (box[i].copy(), float(radii[1][i]))
+                      for i in range(count)]
 
 
-def _placed_vertices(items: Sequence[ObjectGeometry]) -> np.ndarray:
-    """The world-space vertices of items of one local mesh ((n, V, 3) float32), as Mesh.transformed
-    places them (numpy's stacked matmul makes each item's BLAS call as its `@` does) and Mesh stores them."""
-    models = np.stack([item.model_matrix for item in items])
-    points = np.matmul(items[0].local_mesh.positions.astype(np.float64), models[:, :3, :3].transpose(0, 2, 1))
-    points += models[:, None, :3, 3]
-    return points.astype(np.float32)
+def _ritter_centre(mesh: Mesh) -> np.ndarray:
+    """The centre of Ritter's sphere around a local mesh's vertices, found once a mesh (its arrays
+    are read-only; each batch of its objects asked again, 64 passes over its vertices each time)."""
+    cached: np.ndarray | None = mesh.__dict__.get("_ritter_centre")
+    if cached is None:
+        cached = ritter_centres(mesh.positions.astype(np.float64)[None])[0]
+        object.__setattr__(mesh, "_ritter_centre", cached)  # the mesh is frozen; a cache, as its _bounding_sphere
+    return cached
 
 
-def _farthest(columns: list[np.ndarray], centres: np.ndarray) -> np.ndarray:
+def _farthest(columns: np.ndarray, centres: np.ndarray, work: np.ndarray) -> np.ndarray:
     """np.linalg.norm(points - centres[:, None], axis=2).max(axis=1) of the points whose x, y and
-    z are `columns` ((items, vertices) each), to the bit: the squares summed in norm's order, and
+    z are `columns` ((3, items, vertices)), to the bit: the squares summed in norm's order, and
     one square root an item instead of one a point (the largest root is the root of the largest
-    square: the rounded square root is monotonic)."""
-    squares = [np.square(column - centres[:, axis, None]) for axis, column in enumerate(columns)]
-    return np.sqrt((squares[0] + squares[1] + squares[2]).max(axis=1))
+    square: the rounded square root is monotonic), in `work`'s two (items, vertices) arrays."""
+    total, square = work
+    np.square(np.subtract(columns[0], centres[:, 0, None], out=total), out=total)
+    for axis in (1, 2):
+        total += np.square(np.subtract(columns[axis], centres[:, axis, None], out=square), out=square)
+    return np.sqrt(total.max(axis=1))
 
 
 def triangle_offsets(objects: list[ObjectGeometry]) -> dict[int, int]:

@@ -214,7 +214,7 @@ def texels_per_unit(cameras: Sequence[PPC], centres: np.ndarray, radii: np.ndarr
     places: dict[int, int] = {}  # each distinct camera's row (a cube map's six serve every object)
     which = np.array([places.setdefault(id(camera), len(places)) for camera in cameras], np.intp)
     distinct = list({id(camera): camera for camera in cameras}.values())
-    eye, a, b, c = (np.stack([getattr(camera, name) for camera in distinct]) for name in ("C", "a", "b", "c"))
+    eye, a, b, c = (np.array([getattr(camera, name) for camera in distinct]) for name in ("C", "a", "b", "c"))
     sizes = np.array([(camera.width, camera.height) for camera in distinct], np.float64)
     forward = np.cross(a, b)
     forward /= np.linalg.norm(forward, axis=1, keepdims=True)

@@ -274,8 +274,9 @@ def check_stand_in(scene: Scene, method: Method, reflectors: list[ObjectGeometry
 
 def _builds_pyramids(method: Method, algorithm: Algorithm, images: Sequence[PlannedImage]) -> bool:
     """Does a frame march some of `images` hierarchically (and so need their pyramids)?"""
+    sizes = {(image.width, image.height) for image in images}  # (a thousand images share a few sizes)
     return METHODS[method].marches_depth_images and any(
-        image_algorithm(algorithm, image.width, image.height) == Algorithm.HIERARCHICAL for image in images)
+        image_algorithm(algorithm, width, height) == Algorithm.HIERARCHICAL for width, height in sizes)
 
 
 def _builds_colour_mips(scene: Scene, method: Method, images: Sequence[PlannedImage]) -> bool:
