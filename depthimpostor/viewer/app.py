@@ -450,9 +450,10 @@ class Viewer:
             if renderer.graph.baked_images is not None:
                 bake_ms = 1000.0 * renderer.stats.bake_seconds[-1] if renderer.stats.bake_seconds else 0.0
                 line += f" | bake {bake_ms:.0f} ms"
-                if renderer.graph.baked_images.deferred:  # a bake budget's: BakedImages.bake_budget
-                    line += f" | {renderer.graph.baked_images.deferred} to bake, traced meanwhile"
             lines.append(line)
+            waiting = renderer.graph.baked_images.deferred if renderer.graph.baked_images is not None else 0
+            if waiting:  # a bake budget's (BakedImages.bake_budget): on a line of its own, which a long one hides
+                lines.append(f"{waiting} images to bake, their rays traced meanwhile")
         else:
             lines.append("nothing to reflect (no mirror)")
         mode = "fly" if self.navigation.flying else "orbit"
