@@ -1,0 +1,116 @@
+"""Start-up steps worked out for every object or image at once (issue 32: a scene of 1,000 objects
+starts in under 2 s) against the one-at-a-time steps they replaced, kept here as references, to
+the bit: the still objects' model matrices, the depth images' cameras from their frusta.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from depthimpostor.geometry import ObjectGeometry, linear_transforms, scene_geometry
+from depthimpostor.ppc import PPC, FrustumFit, fit_frusta, fitted_cameras
+from depthimpostor.scene.model import Animation, BoxShape, SceneObject, SphereShape, still_model_matrices
+
+
+def model_matrix_one_by_one(obj: SceneObject) -> np.ndarray:
+    """SceneObject.model_matrix at time 0 of an object that does not move, as it was worked out
+    alone: three np.eye turns and np.diag's scale, multiplied in turn."""
+    def turn(axis: int, degrees: float) -> np.ndarray:
+        c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+        i, j = ((1, 2), (2, 0), (0, 1))[axis]
+        r = np.eye(3)
+        r[i, i], r[i, j], r[j, i], r[j, j] = c, -s, s, c
+        return r
+
+    rx, ry, rz = obj.rotation
+    m = np.eye(4)
+    m[:3, :3] = turn(2, rz) @ turn(1, ry) @ turn(0, rx) @ np.diag(obj.scale)
+    m[:3, 3] = obj.position
+    return m
+
+
+def random_objects(count: int, seed: int) -> list[SceneObject]:
+    """Objects turned by any angle (a third of them by round ones: 0, 90, 180, ..., whose sines
+    and cosines are exact or nearly), scaled by any factor (negative ones mirror), anywhere."""
+    rng = np.random.default_rng(seed)
+
+    def angle() -> float:
+        return float(rng.choice([0.0, 90.0, -90.0, 180.0, 270.0, 360.0, 45.0, 30.0])) if rng.random() < 0.3 \
+            else float(rng.uniform(-720.0, 720.0))
+
+    def factor() -> float:
+        return float(rng.choice([1.0, -1.0, 0.5, 1e-3, 3.0]) * rng.uniform(0.1, 10.0)) if rng.random() < 0.7 else 1.0
+
+    return [SceneObject(f"o{i}", SphereShape(1.0) if i % 2 else BoxShape((1.0, 2.0, 0.5)),
+                        position=(float(rng.uniform(-50, 50)), float(rng.uniform(-5, 5)), float(rng.normal(0, 100))),
+                        rotation=(angle(), angle(), angle()), scale=(factor(), factor(), factor()))
+            for i in range(count)]
+
+
+def test_still_model_matrices_are_each_objects_own_to_the_bit() -> None:
+    objects = random_objects(3000, 39)
+    models = still_model_matrices(objects)
+    assert models.shape == (3000, 4, 4) and models.dtype == np.float64
+    for model, obj in zip(models, objects, strict=True):
+        reference = model_matrix_one_by_one(obj)
+        assert model.tobytes() == reference.tobytes()  # signed zeros too
+        assert model.tobytes() == obj.model_matrix().tobytes()
+
+
+def test_still_model_matrices_refuse_an_object_that_moves() -> None:
+    turning = SceneObject("turning", SphereShape(1.0), animation=Animation("rotate", (0.0, 1.0, 0.0), 30.0))
+    with pytest.raises(ValueError, match="moves"):
+        still_model_matrices([*random_objects(2, 1), turning])
+
+
+def test_linear_transforms_give_still_objects_their_own_model_matrices_and_leave_moving_ones() -> None:
+    turning = SceneObject("turning", SphereShape(1.0), position=(3.0, 0.0, 0.0), rotation=(10.0, 20.0, 30.0),
+                          animation=Animation("rotate", (0.0, 1.0, 0.0), 30.0))
+    objects = (*random_objects(40, 2), turning)
+    items = [item.at(0.7) for item in scene_geometry(objects)]
+    linear_transforms(items)
+    for item in items[:-1]:
+        assert item.model_matrix.tobytes() == model_matrix_one_by_one(item.object).tobytes()
+        item.model_matrix[0, 0] = 1e9  # each its own array: writing one leaves the others
+    assert "model_matrix" not in items[-1].__dict__ or items[-1].model_matrix.tobytes() == \
+        turning.model_matrix(0.7).tobytes()
+    fresh = ObjectGeometry(items[-1].index, turning, items[-1].local_mesh, 0.7)
+    assert items[-1].model_matrix.tobytes() == fresh.model_matrix.tobytes()
+    assert all(item.model_matrix[0, 0] == 1e9 for item in items[:-1])
+
+
+def camera_one_by_one(fit: FrustumFit, width: int, height: int) -> PPC:
+    """FrustumFit.camera as it was before fitted_cameras: Python floats and one fit's vectors."""
+    (x0, x1), (y0, y1) = fit.tan_x, fit.tan_y
+    span_x = max(x1 - x0, 1e-9) * (1.0 + 2.0 / width)
+    span_y = max(y1 - y0, 1e-9) * (1.0 + 2.0 / height)
+    x0 -= span_x / width
+    y0 -= span_y / height
+    a = fit.right * (span_x / width)
+    b = fit.down * (span_y / height)
+    c = fit.forward + fit.right * x0 + fit.down * y0
+    return PPC(fit.eye, a, b, c, int(width), int(height), fit.depth[0] * 0.995, fit.depth[1] * 1.005)
+
+
+def test_cameras_made_together_are_those_made_one_by_one_to_the_bit() -> None:
+    rng = np.random.default_rng(32)
+    directions = rng.normal(size=(300, 3))
+    centres = directions / np.linalg.norm(directions, axis=1)[:, None] * rng.uniform(3.0, 8.0, (300, 1))
+    clouds = centres[:, None] + rng.normal(size=(300, 50, 3)) * rng.uniform(0.01, 0.8, (300, 1, 3))
+    clouds[5] = centres[5]  # every point at one place: the 1e-9 spans
+    eye = np.array([0.3, -0.2, 0.1])
+    fits = [fit for fit in fit_frusta(eye, clouds, centres) if fit is not None]
+    assert len(fits) == 300
+    for width, height in ((128, 128), (64, 16), (1, 3)):
+        for camera, fit in zip(fitted_cameras(fits, width, height), fits, strict=True):
+            reference = camera_one_by_one(fit, width, height)
+            for name in ("C", "a", "b", "c"):
+                assert getattr(camera, name).tobytes() == getattr(reference, name).tobytes()
+            assert (camera.width, camera.height, camera.near, camera.far) == \
+                (reference.width, reference.height, reference.near, reference.far)
+            assert type(camera.near) is float and type(camera.width) is int
+            assert fit.camera(width, height).a.tobytes() == reference.a.tobytes()
+    assert fitted_cameras([], 8, 8) == []
