@@ -1,6 +1,7 @@
 """Start-up steps worked out for every object or image at once (issue 32: a scene of 1,000 objects
 starts in under 2 s) against the one-at-a-time steps they replaced, kept here as references, to
-the bit: the still objects' model matrices, the depth images' cameras from their frusta.
+the bit: the still objects' model matrices, the depth images' cameras from their frusta, what
+culling's runs of mirror triangles find.
 """
 
 from __future__ import annotations
@@ -10,9 +11,13 @@ import math
 import numpy as np
 import pytest
 
+from depthimpostor import culling
+from depthimpostor.culling import _cones, _culled, _runs, swept_spheres
 from depthimpostor.geometry import ObjectGeometry, linear_transforms, scene_geometry
 from depthimpostor.ppc import PPC, FrustumFit, fit_frusta, fitted_cameras
-from depthimpostor.scene.model import Animation, BoxShape, SceneObject, SphereShape, still_model_matrices
+from depthimpostor.scene.model import (
+    Animation, BoxShape, MirrorMaterial, PlaneShape, SceneObject, SphereShape, still_model_matrices,
+)
 
 
 def model_matrix_one_by_one(obj: SceneObject) -> np.ndarray:
@@ -114,3 +119,35 @@ def test_cameras_made_together_are_those_made_one_by_one_to_the_bit() -> None:
             assert type(camera.near) is float and type(camera.width) is int
             assert fit.camera(width, height).a.tobytes() == reference.a.tobytes()
     assert fitted_cameras([], 8, 8) == []
+
+
+def test_culling_runs_cover_every_triangle_once_growing_to_the_longest() -> None:
+    for triangles in (0, 1, 3, 4, 5, 60, 61, 9024):
+        runs = _runs(triangles)
+        assert [i for first, last in runs for i in range(first, last)] == list(range(triangles))
+        sizes = [last - first for first, last in runs]
+        assert all(size <= culling._TRIANGLE_RUN for size in sizes)
+        assert sizes[:-1] == [min(culling._FIRST_RUN * 2**k, culling._TRIANGLE_RUN) for k in range(len(sizes) - 1)]
+
+
+@pytest.mark.parametrize("mirror", [SphereShape(1.0), PlaneShape((3.0, 2.0)), BoxShape((1.0, 2.0, 0.5))])
+def test_culling_in_growing_runs_finds_what_every_triangle_at_once_found(monkeypatch: pytest.MonkeyPatch,
+                                                                         mirror: object) -> None:
+    """The runs (few triangles first, then more) cull the spheres that every triangle tested
+    against every sphere in one run culls (what a sphere's tests give does not depend on the
+    run it is in: each is its own element's arithmetic)."""
+    rng = np.random.default_rng(5)
+    objects = [SceneObject("mirror", mirror, MirrorMaterial(), rotation=(20.0, 30.0, 0.0))]  # type: ignore[arg-type]
+    objects += [SceneObject(f"o{i}", SphereShape(float(rng.uniform(0.05, 0.6))), position=tuple(rng.uniform(-4, 4, 3)))
+                for i in range(400)]
+    geometry = scene_geometry(tuple(objects))
+    cones = _cones(geometry[0])
+    assert cones is not None
+    centres, radii = swept_spheres(geometry[1:])
+    culled = _culled([cones], centres, radii)
+    monkeypatch.setattr(culling, "_FIRST_RUN", len(cones.corners))
+    monkeypatch.setattr(culling, "_TRIANGLE_RUN", len(cones.corners))
+    assert _runs(len(cones.corners)) == [(0, len(cones.corners))]
+    np.testing.assert_array_equal(culled, _culled([cones], centres, radii))
+    assert not culled.all()
+    assert culled.any() or isinstance(mirror, BoxShape)  # (a box's faces face every way: it reaches everything)
