@@ -1,23 +1,32 @@
 """Start-up steps worked out for every object or image at once (issue 32: a scene of 1,000 objects
 starts in under 2 s) against the one-at-a-time steps they replaced, kept here as references, to
 the bit: the still objects' model matrices, the depth images' cameras from their frusta, what
-culling's runs of mirror triangles find.
+culling's runs of mirror triangles find, a batch's instance records, the scene's shading defines.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from depthimpostor import culling
 from depthimpostor.culling import _cones, _culled, _runs, swept_spheres
-from depthimpostor.geometry import ObjectGeometry, linear_transforms, scene_geometry
+from depthimpostor.geometry import ObjectGeometry, linear_transforms, scene_geometry, triangle_offsets
+from depthimpostor.gpu import uniforms
+from depthimpostor.gpu.batches import INSTANCE_DTYPE, instance_records
 from depthimpostor.ppc import PPC, FrustumFit, fit_frusta, fitted_cameras
 from depthimpostor.scene.model import (
-    Animation, BoxShape, MirrorMaterial, PlaneShape, SceneObject, SphereShape, still_model_matrices,
+    Animation, BoxShape, CheckerMaterial, DiffuseMaterial, MirrorMaterial, PlaneShape, Scene, SceneObject, SphereShape,
+    still_model_matrices,
 )
+from depthimpostor.scene import load_scene
+
+DEFAULT_SCENE = Path(__file__).resolve().parent.parent / "scenes" / "default.toml"
+
 
 
 def model_matrix_one_by_one(obj: SceneObject) -> np.ndarray:
@@ -151,3 +160,43 @@ def test_culling_in_growing_runs_finds_what_every_triangle_at_once_found(monkeyp
     np.testing.assert_array_equal(culled, _culled([cones], centres, radii))
     assert not culled.all()
     assert culled.any() or isinstance(mirror, BoxShape)  # (a box's faces face every way: it reaches everything)
+
+
+def instance_records_one_by_one(items: list[ObjectGeometry], scene: Scene,
+                                offsets: dict[int, int] | None) -> np.ndarray:
+    """batches.instance_records as it was: a record at a time."""
+    records = np.zeros(len(items), INSTANCE_DTYPE)
+    for record, item in zip(records, items, strict=True):
+        record["model"] = item.model_matrix[:3]
+        record["normal_matrix"] = item.normal_matrix.T
+        offset = offsets[item.index] if offsets is not None else 0
+        record["ids"] = (scene.material_index(item.object.material), item.index, offset, 0)
+    return records
+
+
+@pytest.mark.parametrize("with_offsets", [False, True])
+def test_instance_records_made_together_are_those_made_one_by_one(with_offsets: bool) -> None:
+    objects = tuple(random_objects(60, 7))
+    objects = tuple(o if i % 3 else SceneObject(o.name, o.shape, CheckerMaterial((0.9, 0.2, 0.1), (0.1, 0.1, 0.1)),
+                                                o.position, o.rotation, o.scale) for i, o in enumerate(objects))
+    scene = dataclasses.replace(load_scene(DEFAULT_SCENE), objects=objects)
+    items = scene_geometry(objects)
+    linear_transforms(items)
+    offsets = triangle_offsets(items) if with_offsets else None
+    made = instance_records(items, scene, offsets)
+    assert made.tobytes() == instance_records_one_by_one(items, scene, offsets).tobytes()
+    assert instance_records([], scene).shape == (0,)
+
+
+def test_shading_defines_are_worked_out_once_a_scene_and_given_as_copies() -> None:
+    objects = (SceneObject("a", SphereShape(1.0), DiffuseMaterial((0.5, 0.5, 0.5), double_sided=True)),
+               SceneObject("b", BoxShape((1.0, 1.0, 1.0))))
+    scene = dataclasses.replace(load_scene(DEFAULT_SCENE), objects=objects)
+    for drawn in (False, True):
+        first = uniforms.shading_defines(scene, drawn)
+        assert first == uniforms._scene_shading_defines(scene, drawn)
+        first["EXTRA"] = 1  # a caller's own copy
+        assert uniforms.shading_defines(scene, drawn) == uniforms._scene_shading_defines(scene, drawn)
+    other = dataclasses.replace(scene, objects=objects[1:], lights=())  # another scene: its own defines
+    assert uniforms.shading_defines(other) == uniforms._scene_shading_defines(other)
+    assert uniforms.shading_defines(other) != uniforms.shading_defines(scene)
