@@ -1,7 +1,8 @@
 """Start-up steps worked out for every object or image at once (issue 32: a scene of 1,000 objects
 starts in under 2 s) against the one-at-a-time steps they replaced, kept here as references, to
 the bit: the still objects' model matrices, the depth images' cameras from their frusta, what
-culling's runs of mirror triangles find, a batch's instance records, the scene's shading defines.
+culling's runs of mirror triangles find, a batch's instance records, the scene's shading defines,
+the objects' reach checks, the material records.
 """
 
 from __future__ import annotations
@@ -20,10 +21,12 @@ from depthimpostor.gpu import uniforms
 from depthimpostor.gpu.batches import INSTANCE_DTYPE, instance_records
 from depthimpostor.ppc import PPC, FrustumFit, fit_frusta, fitted_cameras
 from depthimpostor.scene.model import (
-    Animation, BoxShape, CheckerMaterial, DiffuseMaterial, MirrorMaterial, PlaneShape, Scene, SceneObject, SphereShape,
-    still_model_matrices,
+    Animation, BoxShape, CheckerMaterial, DiffuseMaterial, MetallicRoughnessMaterial, MirrorMaterial, PlaneShape, Scene,
+    SceneObject, SphereShape, material_sides, still_model_matrices,
 )
-from depthimpostor.scene import load_scene
+from depthimpostor.constants import MATERIAL, MaterialKind
+from depthimpostor.errors import SceneError
+from depthimpostor.scene import limits, load_scene
 
 DEFAULT_SCENE = Path(__file__).resolve().parent.parent / "scenes" / "default.toml"
 
@@ -200,3 +203,81 @@ def test_shading_defines_are_worked_out_once_a_scene_and_given_as_copies() -> No
     other = dataclasses.replace(scene, objects=objects[1:], lights=())  # another scene: its own defines
     assert uniforms.shading_defines(other) == uniforms._scene_shading_defines(other)
     assert uniforms.shading_defines(other) != uniforms.shading_defines(scene)
+
+
+def check_reaches_one_by_one(scene: Scene) -> None:
+    """check_scene's reach checks as they were: every object's _check_reach in turn."""
+    for index, obj in enumerate(scene.objects):
+        local_reach = limits.shape_reach(obj.shape)
+        if local_reach is not None:
+            limits._check_reach(scene, index, local_reach)
+
+
+@pytest.mark.parametrize("far", [0.0, 1e18 - 5.0, 1e18 - 1e3, 1e18 + 1e3, 0.7e18, 1e300, math.inf])
+def test_reach_checks_screened_at_once_refuse_what_one_by_one_refused(far: float) -> None:
+    """Objects at, below and past MAX_COORDINATE (one orbiting a far centre): the same object is
+    refused with the same message, or none."""
+    rng = np.random.default_rng(8)
+    objects = [SceneObject(f"o{i}", SphereShape(float(rng.uniform(0.1, 2.0))), position=tuple(rng.uniform(-9, 9, 3)),
+                           scale=(float(rng.uniform(0.5, 2.0)),) * 3) for i in range(30)]
+    objects[7] = dataclasses.replace(objects[7], position=(far, 0.0, 0.0))
+    objects[9] = dataclasses.replace(objects[9], position=(0.0, far * 0.6, 0.0),
+                                     animation=Animation("orbit", (0.0, 1.0, 0.0), 10.0, (0.0, 0.0, far * 0.8)))
+    objects[11] = dataclasses.replace(objects[11], position=(0.0, 0.0, 0.0), scale=(far / 2.0, 1.0, 1.0))
+    scene = dataclasses.replace(load_scene(DEFAULT_SCENE), objects=tuple(objects))
+    expected: str | None = None
+    try:
+        check_reaches_one_by_one(scene)
+    except SceneError as error:
+        expected = str(error)
+    if expected is None:
+        limits.check_scene(scene)
+    else:
+        with pytest.raises(SceneError) as raised:
+            limits.check_scene(scene)
+        assert str(raised.value) == expected
+    assert (expected is None) == (far < 0.7e18)
+
+
+def material_records_one_by_one(scene: Scene) -> np.ndarray:
+    """uniforms.material_records as it was: a record at a time."""
+    records = np.zeros(uniforms.material_count(scene), MATERIAL.dtype)
+    records["metallic_roughness_texture"] = records["occlusion_texture"] = records["emissive_texture"] = -1
+    records["normal_texture"] = -1
+    records["alpha_cutoff"], records["alpha"] = -1.0, 1.0
+    for record, material in zip(records, scene.materials, strict=False):
+        if isinstance(material, CheckerMaterial):
+            record["kind"], record["color_a"], record["color_b"] = MaterialKind.CHECKER, material.color_a, material.color_b
+            record["scale"] = material.scale
+        elif isinstance(material, DiffuseMaterial):
+            record["kind"], record["color_a"], record["color_b"] = MaterialKind.DIFFUSE, material.color, material.color
+            record["scale"] = 1.0
+        record["texture"] = scene.texture_slot(material)
+        record["double_sided"] = material_sides(material)
+        if isinstance(material, MetallicRoughnessMaterial):
+            record["kind"] = MaterialKind.METALLIC_ROUGHNESS
+            record["emissive"], record["metallic"], record["roughness"] = (material.emissive, material.metallic,
+                                                                           material.roughness)
+            (record["metallic_roughness_texture"], record["occlusion_texture"], record["emissive_texture"],
+             record["normal_texture"]) = (scene.slot_of(texture) for texture in material.maps)
+            record["normal_scale"] = material.normal_scale
+            record["occlusion_strength"] = material.occlusion_strength
+            if material.image_cutoff is not None:
+                record["alpha_cutoff"], record["alpha"] = material.image_cutoff, material.alpha
+            record["blend"] = int(material.blend)
+    return records
+
+
+@pytest.mark.parametrize("name", ["default.toml", "showcase.toml", "textured_near_mirror.toml", "blend_near_mirror.toml",
+                                  "checker_near_mirror.toml", "two_mirrors.toml"])
+def test_material_records_made_a_field_at_a_time_are_those_made_a_record_at_a_time(name: str) -> None:
+    scene = load_scene(DEFAULT_SCENE.parent / name)
+    assert uniforms.material_records(scene).tobytes() == material_records_one_by_one(scene).tobytes()
+
+
+def test_material_records_of_many_materials_are_those_made_a_record_at_a_time() -> None:
+    objects = tuple(SceneObject(o.name, o.shape, CheckerMaterial((0.9, 0.2, 0.1), (0.1, 0.1, float(i) / 7.0), scale=2.5)
+                                if i % 3 == 0 else DiffuseMaterial((float(i) / 60.0, 0.3, 1.0 / 3.0), double_sided=i % 2 == 0),
+                                o.position) for i, o in enumerate(random_objects(60, 3)))
+    scene = dataclasses.replace(load_scene(DEFAULT_SCENE), objects=objects)
+    assert uniforms.material_records(scene).tobytes() == material_records_one_by_one(scene).tobytes()
