@@ -164,7 +164,7 @@ def blend_defines(scene: Scene, composite: bool) -> dict[str, int]:
 def write_material_index(program: moderngl.Program, scene: Scene, obj: SceneObject) -> None:
     """Where a program that cuts masked parts away (alpha_mask_defines) finds the object's material:
     its index in the MaterialRecords table, or -1 for a mirror or glass (never masked)."""
-    if "u_material_index" in program:
+    if program.get("u_material_index", None) is not None:  # (a dict look-up: `in` walks every member)
         write(program, "u_material_index", -1 if obj.is_reflector else scene.material_index(obj.material))
 
 
