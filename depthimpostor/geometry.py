@@ -24,6 +24,7 @@ from .scene.model import (
     SphereShape,
     TorusKnotShape,
     TorusShape,
+    still_model_matrices,
 )
 
 
@@ -181,11 +182,24 @@ def _batches(items: Sequence[ObjectGeometry]) -> Iterator[list[ObjectGeometry]]:
         yield from (group[first:first + chunk] for first in range(0, len(group), chunk))
 
 
+def model_matrices(items: Sequence[ObjectGeometry]) -> None:
+    """Work out the model_matrix of each item whose object does not move, where not yet, all at
+    once (scene.model.still_model_matrices: the same to the bit). A moving object's is its
+    animation's at the item's time, worked out when asked."""
+    still = [item for item in items if "model_matrix" not in item.__dict__ and not item.object.moves]
+    if len(still) < 2:
+        return
+    for item, model in zip(still, still_model_matrices([item.object for item in still]), strict=True):
+        item.__dict__["model_matrix"] = model.copy()  # the cached property's slot (an array of its own, as asked alone)
+
+
 def linear_transforms(items: Sequence[ObjectGeometry]) -> None:
     """Work out each item's normal_matrix and determinant where not yet, all at once: numpy's stacked
     inverse and determinant make each matrix's LAPACK calls as one matrix's do, so the same to the
     bit (a thousand objects' one by one took 0.1 s of their first frame). Where a matrix is singular
-    none is stored: the properties raise for it when asked, as they did."""
+    none is stored: the properties raise for it when asked, as they did. The model matrices first,
+    where not yet (model_matrices)."""
+    model_matrices(items)
     missing = [item for item in items if "normal_matrix" not in item.__dict__ or "determinant" not in item.__dict__]
     if len(missing) < 2:
         return

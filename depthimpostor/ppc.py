@@ -87,17 +87,30 @@ class FrustumFit:
     depth: tuple[float, float]  # (nearest, farthest) along forward
 
     def camera(self, width: int, height: int) -> PPC:
-        # One pixel of margin on each side so that silhouette samples are rasterized in full.
-        (x0, x1), (y0, y1) = self.tan_x, self.tan_y
-        span_x = max(x1 - x0, 1e-9) * (1.0 + 2.0 / width)
-        span_y = max(y1 - y0, 1e-9) * (1.0 + 2.0 / height)
-        x0 -= span_x / width
-        y0 -= span_y / height
-        a = self.right * (span_x / width)
-        b = self.down * (span_y / height)
-        c = self.forward + self.right * x0 + self.down * y0
-        # The near/far margins keep the closest and farthest vertices off the clip planes.
-        return PPC(self.eye, a, b, c, int(width), int(height), self.depth[0] * 0.995, self.depth[1] * 1.005)
+        """The PPC of this frustum at `width` x `height` (fitted_cameras, of one)."""
+        return fitted_cameras([self], width, height)[0]
+
+
+def fitted_cameras(fits: Sequence[FrustumFit], width: int, height: int) -> list[PPC]:
+    """The PPC of each of `fits` at `width` x `height` (FrustumFit.camera), all at once: numpy's
+    float64 arithmetic, element by element, rounds as Python's floats do, so each camera is the
+    one alone (a thousand objects' two thousand one by one took 30 ms of a start)."""
+    if not fits:
+        return []
+    # (x0, x1, y0, y1, nearest, farthest) of each fit, and its frame's vectors.
+    bounds = np.array([(*fit.tan_x, *fit.tan_y, *fit.depth) for fit in fits], np.float64)
+    right, down, forward = (np.array([getattr(fit, name) for fit in fits], np.float64) for name in ("right", "down", "forward"))
+    # One pixel of margin on each side so that silhouette samples are rasterized in full.
+    span_x = np.maximum(bounds[:, 1] - bounds[:, 0], 1e-9) * (1.0 + 2.0 / width)
+    span_y = np.maximum(bounds[:, 3] - bounds[:, 2], 1e-9) * (1.0 + 2.0 / height)
+    x0 = bounds[:, 0] - span_x / width
+    y0 = bounds[:, 2] - span_y / height
+    a = right * (span_x / width)[:, None]
+    b = down * (span_y / height)[:, None]
+    c = forward + right * x0[:, None] + down * y0[:, None]
+    # The near/far margins keep the closest and farthest vertices off the clip planes.
+    near, far = (bounds[:, 4] * 0.995).tolist(), (bounds[:, 5] * 1.005).tolist()
+    return [PPC(fit.eye, a[i], b[i], c[i], int(width), int(height), near[i], far[i]) for i, fit in enumerate(fits)]
 
 
 #: The points fit_frusta works through at once: its arrays (a few hundred kB) stay in cache and are

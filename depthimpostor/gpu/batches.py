@@ -67,14 +67,16 @@ def batch_bytes(items: Sequence[ObjectGeometry]) -> int:
 
 def instance_records(items: Sequence[ObjectGeometry], scene: Scene,
                      triangle_offsets: dict[int, int] | None = None) -> np.ndarray:
-    """The instance attributes of `items`, in their order."""
+    """The instance attributes of `items`, in their order (each field of all of them at once: a
+    record at a time took 7 ms of a thousand objects' first frame)."""
     records = np.zeros(len(items), INSTANCE_DTYPE)
-    for record, item in zip(records, items, strict=True):
-        record["model"] = item.model_matrix[:3]
-        # Columns, as mat3(c0, c1, c2) builds them (uniforms.write_matrix writes the same matrix).
-        record["normal_matrix"] = item.normal_matrix.T
-        offset = triangle_offsets[item.index] if triangle_offsets is not None else 0
-        record["ids"] = (scene.material_index(item.object.material), item.index, offset, 0)
+    if not items:
+        return records
+    records["model"] = np.stack([item.model_matrix[:3] for item in items])
+    # Columns, as mat3(c0, c1, c2) builds them (uniforms.write_matrix writes the same matrix).
+    records["normal_matrix"] = np.stack([item.normal_matrix.T for item in items])
+    records["ids"] = [(scene.material_index(item.object.material), item.index,
+                       triangle_offsets[item.index] if triangle_offsets is not None else 0, 0) for item in items]
     return records
 
 

@@ -8,6 +8,7 @@ each write checks membership first instead of catching errors.
 from __future__ import annotations
 
 import struct
+import weakref
 from collections.abc import Sequence
 from typing import Any, cast
 
@@ -20,13 +21,31 @@ from ..constants import (EXTRA_ATTRIBUTES, MATERIAL, MATERIAL_ARRAYS, MATERIAL_B
 from ..scene.model import (
     CheckerMaterial, DiffuseMaterial, GltfShape, MetallicRoughnessMaterial, Scene, SceneObject, material_sides,
 )
+from ..scene.fields import Vec3
 from ..ibl import uses_environment_lighting
 from ..texture_layout import texture_defines
 from ..textures import SRGB_TABLE
 from .textures import array_unit
 
 
+#: shading_defines of each scene asked for, by identity (a Scene is frozen, and hashing one hashes
+#: every object), while the scene lives: a renderer's passes and plan ask 11 times, and each answer
+#: scans every object and material (1 ms at a thousand objects).
+_SHADING: dict[int, tuple[weakref.ref[Scene], dict[bool, dict[str, int]]]] = {}
+
+
 def shading_defines(scene: Scene, drawn_material: bool = False) -> dict[str, int]:
+    """_scene_shading_defines, worked out once per scene (a copy each time: callers may extend it)."""
+    key = id(scene)
+    kept = _SHADING.get(key)
+    if kept is None or kept[0]() is not scene:
+        kept = _SHADING[key] = (weakref.ref(scene, lambda _: _SHADING.pop(key, None)), {})
+    if drawn_material not in kept[1]:
+        kept[1][drawn_material] = _scene_shading_defines(scene, drawn_material)
+    return dict(kept[1][drawn_material])
+
+
+def _scene_shading_defines(scene: Scene, drawn_material: bool = False) -> dict[str, int]:
     """The variant of every shading program that the scene's lights and materials call for: its
     number of lights (more than MAX_LIGHTS is refused when the lights are written), the point
     lights' code only in scenes with one (DIRECTIONAL_LIGHTS: none), shadow rays only in scenes
@@ -145,7 +164,7 @@ def blend_defines(scene: Scene, composite: bool) -> dict[str, int]:
 def write_material_index(program: moderngl.Program, scene: Scene, obj: SceneObject) -> None:
     """Where a program that cuts masked parts away (alpha_mask_defines) finds the object's material:
     its index in the MaterialRecords table, or -1 for a mirror or glass (never masked)."""
-    if "u_material_index" in program:
+    if program.get("u_material_index", None) is not None:  # (a dict look-up: `in` walks every member)
         write(program, "u_material_index", -1 if obj.is_reflector else scene.material_index(obj.material))
 
 
@@ -253,17 +272,27 @@ def material_records(scene: Scene) -> np.ndarray:
     records["metallic_roughness_texture"] = records["occlusion_texture"] = records["emissive_texture"] = -1
     records["normal_texture"] = -1
     records["alpha_cutoff"], records["alpha"] = -1.0, 1.0
-    for record, material in zip(records, scene.materials, strict=False):
+    materials = scene.materials
+    if not materials:
+        return records
+    # What every material has, a field of all of them at once (a record at a time took 10 ms of a
+    # thousand materials' start); then what a metallic-roughness one adds, record by record.
+    rows: list[tuple[int, Vec3, Vec3, float]] = []
+    for material in materials:
         if isinstance(material, CheckerMaterial):
-            record["kind"], record["color_a"], record["color_b"] = MaterialKind.CHECKER, material.color_a, material.color_b
-            record["scale"] = material.scale
+            rows.append((MaterialKind.CHECKER, material.color_a, material.color_b, material.scale))
         elif isinstance(material, DiffuseMaterial):
-            record["kind"], record["color_a"], record["color_b"] = MaterialKind.DIFFUSE, material.color, material.color
-            record["scale"] = 1.0
+            rows.append((MaterialKind.DIFFUSE, material.color, material.color, 1.0))
         else:
             raise TypeError(f"{material!r} is not a material that is shaded")
-        record["texture"] = scene.texture_slot(material)
-        record["double_sided"] = material_sides(material)
+    shaded = records[:len(materials)]
+    shaded["kind"] = [int(kind) for kind, _, _, _ in rows]
+    shaded["color_a"] = [color_a for _, color_a, _, _ in rows]
+    shaded["color_b"] = [color_b for _, _, color_b, _ in rows]
+    shaded["scale"] = [scale for _, _, _, scale in rows]
+    shaded["texture"] = [scene.texture_slot(material) for material in materials]
+    shaded["double_sided"] = [int(material_sides(material)) for material in materials]
+    for record, material in zip(shaded, materials, strict=True):
         if isinstance(material, MetallicRoughnessMaterial):
             record["kind"] = MaterialKind.METALLIC_ROUGHNESS
             record["emissive"], record["metallic"], record["roughness"] = (material.emissive, material.metallic,

@@ -34,7 +34,7 @@ from ..errors import ContextError
 from ..geometry import ObjectGeometry, bounding_spheres, triangle_offsets
 from ..lod import BakeDetail
 from ..culling import Reach, ReachTable, reaches
-from ..ppc import PPC, FrustumFit, depth_image_records, view_projections
+from ..ppc import PPC, FrustumFit, depth_image_records, fitted_cameras, view_projections
 from ..resolution import MAX_AUTO_RESOLUTION, MIN_AUTO_RESOLUTION, MirrorDensity, auto_resolution, scene_view
 from ..scene.model import Scene
 from ..gpu.shaders import ProgramCache
@@ -668,10 +668,27 @@ def image_camera(scene: Scene, view: PPC, mirror: ObjectGeometry, target: Object
     worked out already with its other images (MirrorDensity)."""
     cap = largest if largest is not None else MAX_AUTO_RESOLUTION
     if not scene.render.auto_resolution:
-        return fit_depth_image_camera(scene, mirror, target, min(int(scene.render.impostor_resolution), cap), fit)
+        return fit_depth_image_camera(scene, mirror, target, _fixed_side(scene, largest), fit)
     probe = fit_depth_image_camera(scene, mirror, target, min(MIN_AUTO_RESOLUTION, cap), fit)
     side = auto_resolution(view, mirror, target, probe, pixels_per_radian)
     return fit_depth_image_camera(scene, mirror, target, min(side, cap), fit)
+
+
+def _fixed_side(scene: Scene, largest: int | None) -> int:
+    """The side of every image where render.impostor_resolution is a number: it, at most `largest`."""
+    return min(int(scene.render.impostor_resolution), largest if largest is not None else MAX_AUTO_RESOLUTION)
+
+
+def image_cameras(scene: Scene, view: PPC, mirror: ObjectGeometry, targets: Sequence[ObjectGeometry], largest: int | None,
+                  fits: Sequence[FrustumFit], pixels_per_radian: Sequence[float | None]) -> list[PPC]:
+    """image_camera of each of `targets` (`fits`: their frusta; `pixels_per_radian`: the mirror's
+    reflected pixels toward each, or None each): at a fixed resolution, all at once (ppc.fitted_cameras:
+    the same cameras)."""
+    if not scene.render.auto_resolution:
+        side = _fixed_side(scene, largest)
+        return fitted_cameras(fits, side, side)
+    return [image_camera(scene, view, mirror, target, largest, fit, pixels)
+            for target, fit, pixels in zip(targets, fits, pixels_per_radian, strict=True)]
 
 
 def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list[ObjectGeometry],
@@ -695,7 +712,7 @@ def per_object_plan(scene: Scene, mirrors: list[ObjectGeometry], reflected: list
         # The mirror's reflected pixels toward each object, all at once ("auto" alone reads them).
         rho: list[float | None] = (list(MirrorDensity(view, mirror).pixels_per_radian_of(targets))
                                    if scene.render.auto_resolution and targets else [None] * len(targets))
-        plans[mirror.index] = [ImagePlan((target,), image_camera(scene, view, mirror, target, largest,
-                                                                 fits[(mirror.index, target.index)], pixels))
-                               for target, pixels in zip(targets, rho, strict=True)]
+        cameras = image_cameras(scene, view, mirror, targets, largest, [fits[(mirror.index, target.index)] for target in targets],
+                                rho)
+        plans[mirror.index] = [ImagePlan((target,), camera) for target, camera in zip(targets, cameras, strict=True)]
     return plans

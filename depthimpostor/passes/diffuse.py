@@ -180,8 +180,7 @@ class DiffusePass:
 
     def _write_view_mirrored(self, program: moderngl.Program) -> None:
         """diffuse.frag's u_view_mirrored (DOUBLE_SIDED programs: its test of a back face)."""
-        if "u_view_mirrored" in program:
-            write(program, "u_view_mirrored", int(self._mirrored_view))
+        write(program, "u_view_mirrored", int(self._mirrored_view))  # (where the program has it: write looks it up)
 
     def _object_uniforms(self, program: moderngl.Program,
                          item: ObjectGeometry) -> tuple[int, list[tuple[moderngl.Uniform, bytes]]]:

@@ -558,6 +558,32 @@ class SceneObject:
         return self.animation.matrix(time, self.animation.pivot_of(self.position)) @ m
 
 
+def still_model_matrices(objects: Sequence[SceneObject]) -> np.ndarray:
+    """model_matrix() of each of `objects` (none of which moves: SceneObject.moves), all at once
+    ((n, 4, 4)): the same steps to the bit (each turn's cosine and sine by `math`, as axis_rotation
+    takes them; numpy's stacked matmul makes each matrix's BLAS call as one matrix's `@` does),
+    without three np.eye and three products an object (a thousand objects' took 40 ms of a start)."""
+    if any(o.moves for o in objects):
+        raise ValueError("still_model_matrices: an object that moves has a model matrix at each time")
+    count = len(objects)
+    # turns[axis]: axis_rotation(axis, the object's degrees about it) of every object.
+    turns = np.zeros((3, count, 3, 3))
+    for axis in range(3):
+        radians = [math.radians(o.rotation[axis]) for o in objects]
+        c = np.array([math.cos(r) for r in radians], np.float64)
+        s = np.array([math.sin(r) for r in radians], np.float64)
+        i, j = ((1, 2), (2, 0), (0, 1))[axis]
+        turns[axis, :, axis, axis] = 1.0
+        turns[axis, :, i, i], turns[axis, :, i, j], turns[axis, :, j, i], turns[axis, :, j, j] = c, -s, s, c
+    scales = np.zeros((count, 3, 3))
+    scales[:, [0, 1, 2], [0, 1, 2]] = np.array([o.scale for o in objects], np.float64).reshape(count, 3)
+    models = np.zeros((count, 4, 4))
+    models[:, 3, 3] = 1.0
+    models[:, :3, :3] = turns[2] @ turns[1] @ turns[0] @ scales
+    models[:, :3, 3] = np.array([o.position for o in objects], np.float64).reshape(count, 3)
+    return models
+
+
 @dataclass(frozen=True)
 class Scene:
     source: str  # the file it came from, for messages
