@@ -87,7 +87,8 @@ def _check_reach(scene: Scene, index: int, local_reach: float) -> None:
     position = np.asarray(obj.position, np.float64)
     orbit = obj.animation.centre if obj.animation is not None else None
     centre = position if orbit is None else np.asarray(orbit, np.float64)
-    reach = float(np.linalg.norm(centre) + np.linalg.norm(position - centre)) + stretch
+    with np.errstate(over="ignore", invalid="ignore"):  # a scene built in code may hold inf: refused below
+        reach = float(np.linalg.norm(centre) + np.linalg.norm(position - centre)) + stretch
     if not reach <= MAX_COORDINATE:
         raise SceneError(scene.source, scene.object_label(index),
                          f"expected an object within {MAX_COORDINATE:g} of the origin (float32 geometry squares "
