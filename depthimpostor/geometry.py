@@ -24,7 +24,7 @@ from .scene.model import (
     SphereShape,
     TorusKnotShape,
     TorusShape,
-    still_model_matrices,
+    placement_matrices,
 )
 
 
@@ -184,12 +184,12 @@ def _batches(items: Sequence[ObjectGeometry]) -> Iterator[list[ObjectGeometry]]:
 
 def model_matrices(items: Sequence[ObjectGeometry]) -> None:
     """Work out the model_matrix of each item whose object does not move, where not yet, all at
-    once (scene.model.still_model_matrices: the same to the bit). A moving object's is its
+    once (scene.model.placement_matrices, a still object's model matrix: the same to the bit). A moving object's is its
     animation's at the item's time, worked out when asked."""
     still = [item for item in items if "model_matrix" not in item.__dict__ and not item.object.moves]
     if len(still) < 2:
         return
-    for item, model in zip(still, still_model_matrices([item.object for item in still]), strict=True):
+    for item, model in zip(still, placement_matrices([item.object for item in still]), strict=True):
         item.__dict__["model_matrix"] = model.copy()  # the cached property's slot (an array of its own, as asked alone)
 
 

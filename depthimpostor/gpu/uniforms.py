@@ -8,7 +8,6 @@ each write checks membership first instead of catching errors.
 from __future__ import annotations
 
 import struct
-import weakref
 from collections.abc import Sequence
 from typing import Any, cast
 
@@ -28,24 +27,7 @@ from ..textures import SRGB_TABLE
 from .textures import array_unit
 
 
-#: shading_defines of each scene asked for, by identity (a Scene is frozen, and hashing one hashes
-#: every object), while the scene lives: a renderer's passes and plan ask 11 times, and each answer
-#: scans every object and material (1 ms at a thousand objects).
-_SHADING: dict[int, tuple[weakref.ref[Scene], dict[bool, dict[str, int]]]] = {}
-
-
 def shading_defines(scene: Scene, drawn_material: bool = False) -> dict[str, int]:
-    """_scene_shading_defines, worked out once per scene (a copy each time: callers may extend it)."""
-    key = id(scene)
-    kept = _SHADING.get(key)
-    if kept is None or kept[0]() is not scene:
-        kept = _SHADING[key] = (weakref.ref(scene, lambda _: _SHADING.pop(key, None)), {})
-    if drawn_material not in kept[1]:
-        kept[1][drawn_material] = _scene_shading_defines(scene, drawn_material)
-    return dict(kept[1][drawn_material])
-
-
-def _scene_shading_defines(scene: Scene, drawn_material: bool = False) -> dict[str, int]:
     """The variant of every shading program that the scene's lights and materials call for: its
     number of lights (more than MAX_LIGHTS is refused when the lights are written), the point
     lights' code only in scenes with one (DIRECTIONAL_LIGHTS: none), shadow rays only in scenes

@@ -101,36 +101,10 @@ def check_scene(scene: Scene) -> None:
     if len(scene.lights) > MAX_LIGHTS:
         raise SceneError(scene.source, "lights", f"expected at most {MAX_LIGHTS} [[lights]] tables, got {len(scene.lights)}")
     _check_textured_shapes(scene)
-    reaches = [(index, local_reach) for index, obj in enumerate(scene.objects)
-               if (local_reach := shape_reach(obj.shape)) is not None]
-    for index, local_reach in _near_the_limit(scene, reaches):
-        _check_reach(scene, index, local_reach)
-
-
-#: The share of MAX_COORDINATE under which _near_the_limit's estimate of an object's reach clears
-#: it: the estimate's norms are rounded otherwise than _check_reach's (a few units of the last
-#: place, 1e-16 of them), so an object it clears by this much _check_reach clears too.
-_REACH_CLEARANCE = 1.0 - 1e-9
-
-
-def _near_the_limit(scene: Scene, reaches: list[tuple[int, float]]) -> list[tuple[int, float]]:
-    """Of `reaches` ((object index, local reach)), in order, those whose reach _check_reach must
-    work out: every object's estimated at once, in numpy (one by one, a thousand objects' norms
-    took 10 ms of each plan), and those it does not clear by far checked exactly, so that the
-    same objects are refused with the same message."""
-    if not reaches:
-        return []
-    objects = [scene.objects[index] for index, _ in reaches]
-    stretch = np.array([max(obj.scale) * local_reach for obj, (_, local_reach) in zip(objects, reaches, strict=True)],
-                       np.float64)
-    position = np.array([obj.position for obj in objects], np.float64).reshape(-1, 3)
-    centre = np.array([obj.animation.centre if obj.animation is not None and obj.animation.centre is not None
-                       else obj.position for obj in objects], np.float64).reshape(-1, 3)
-    with np.errstate(over="ignore", invalid="ignore"):
-        estimate = (np.sqrt(np.einsum("ij,ij->i", centre, centre))
-                    + np.sqrt(np.einsum("ij,ij->i", position - centre, position - centre)) + stretch)
-        cleared = estimate <= MAX_COORDINATE * _REACH_CLEARANCE  # (NaN clears nothing: checked exactly)
-    return [pair for pair, clear in zip(reaches, cleared.tolist(), strict=True) if not clear]
+    for index, obj in enumerate(scene.objects):
+        local_reach = shape_reach(obj.shape)
+        if local_reach is not None:
+            _check_reach(scene, index, local_reach)
 
 
 #: The shapes whose meshes carry UVs (meshes.py, textured_meshes.py); a glTF part has them where the

@@ -546,10 +546,7 @@ class SceneObject:
         """Local to world at `time` seconds, 4x4 float64 for column vectors: A(time) @ T @ Rz @ Ry @ Rx @ S
         (@ G(time) for a glTF part its file moves rigidly: GltfShape.motion), so the file's motion acts
         first, then scale, and the animation A (the identity without one, or at time 0) last."""
-        rx, ry, rz = self.rotation
-        m = np.eye(4)
-        m[:3, :3] = axis_rotation(2, rz) @ axis_rotation(1, ry) @ axis_rotation(0, rx) @ np.diag(self.scale)
-        m[:3, 3] = self.position
+        m = placement_matrices([self])[0]
         motion = self.motion
         if motion is not None and not motion.deforms:
             m = m @ motion.matrix(time)
@@ -558,15 +555,14 @@ class SceneObject:
         return self.animation.matrix(time, self.animation.pivot_of(self.position)) @ m
 
 
-def still_model_matrices(objects: Sequence[SceneObject]) -> np.ndarray:
-    """model_matrix() of each of `objects` (none of which moves: SceneObject.moves), all at once
-    ((n, 4, 4)): the same steps to the bit (each turn's cosine and sine by `math`, as axis_rotation
-    takes them; numpy's stacked matmul makes each matrix's BLAS call as one matrix's `@` does),
-    without three np.eye and three products an object (a thousand objects' took 40 ms of a start)."""
-    if any(o.moves for o in objects):
-        raise ValueError("still_model_matrices: an object that moves has a model matrix at each time")
+def placement_matrices(objects: Sequence[SceneObject]) -> np.ndarray:
+    """T @ Rz @ Ry @ Rx @ S of each of `objects`, (n, 4, 4) float64: where its position, rotation and
+    scale put it, before what moves it (SceneObject.model_matrix, the one object's case, and a still
+    object's whole model matrix). All at once: numpy's stacked matmul makes each matrix's BLAS call
+    as one matrix's `@` does, so an object's matrix is the same to the bit in any company (a thousand
+    objects' one by one, three np.eye and three products each, took 40 ms of a start)."""
     count = len(objects)
-    # turns[axis]: axis_rotation(axis, the object's degrees about it) of every object.
+    # turns[axis]: the turn about that axis (as axis_rotation makes one) of every object.
     turns = np.zeros((3, count, 3, 3))
     for axis in range(3):
         radians = [math.radians(o.rotation[axis]) for o in objects]
